@@ -1,0 +1,8 @@
+//! Collision queries between instruments and tissue surfaces. Detection produces contacts and
+//! hits; the models consume them.
+
+mod ray_mesh;
+mod sphere_vertices;
+
+pub use ray_mesh::{RayHit, cast_ray};
+pub use sphere_vertices::nearest_within;

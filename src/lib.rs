@@ -1,0 +1,13 @@
+//! Vesalius: a virtual-reality trainer for minimally invasive surgery.
+#![forbid(unsafe_code)]
+
+pub mod assess;
+pub mod bench;
+pub mod collision;
+pub mod mesh;
+pub mod models;
+pub mod procedures;
+pub mod scenario;
+pub mod session;
+pub mod sim;
+pub mod trace;

@@ -1,0 +1,9 @@
+//! Tissue models. Each implements [`crate::sim::TissueModel`].
+
+pub mod forces;
+mod simplex;
+mod softbody;
+pub mod xpbd;
+
+pub use simplex::{RenderVertex, SimplexMesh};
+pub use softbody::{Fnv, SoftBody, SoftBodyParams, Tie};

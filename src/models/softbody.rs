@@ -1,0 +1,1037 @@
+//! The force-based soft body on a 2-simplex mesh (nephrectomy paper): per-point spring,
+//! damping, pressure and offset forces integrated explicitly with unit mass, then XPBD stretch
+//! and dihedral bending constraints, and breakable ties between regions.
+//!
+//! Points at rest sleep: a point whose speed stayed below `sleep_speed_m_per_s` for
+//! `SLEEP_STEPS` steps at its rest position is skipped until a contact, a constraint or a cut
+//! wakes it. A sleeping point is exactly at rest, so skipping it changes nothing.
+
+use super::forces;
+use super::simplex::SimplexMesh;
+use super::xpbd::{self, Bend, Stretch};
+use crate::sim::{
+    Contact, ContactKind, CutStroke, EventKind, ModelOutput, ModelSizes, ModelSnapshot,
+    SurfaceView, TissueModel, ToolId,
+};
+use glam::{Quat, Vec3};
+use parry3d::bounding_volume::Aabb;
+use parry3d::partitioning::{Bvh, BvhBuildStrategy, BvhLeafUpdateStatus, BvhWorkspace};
+use serde::{Deserialize, Serialize};
+
+const SLEEP_STEPS: u16 = 30;
+/// A sleeping anchored point must be this close to rest, metres.
+const SLEEP_DISTANCE_M: f32 = 2e-5;
+/// A sleeping point nudged less than this by a constraint is put back and stays asleep, m.
+const WAKE_DISTANCE_M: f32 = 1e-5;
+/// BVH leaves are enlarged by this margin so that small motions need no refit, metres.
+const BVH_MARGIN_M: f32 = 5e-4;
+
+/// Parameters of the force-based soft body. Every field has its unit in its name.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SoftBodyParams {
+    /// Spring pulling each anchored point to its rest position, N/m per unit-mass point.
+    pub spring_n_per_m: f32,
+    /// Velocity damping d in v (1 - d dt), 1/s.
+    pub damping_per_s: f32,
+    /// Pressure a pressing tool applies, Pa.
+    pub pressure_pa: f32,
+    /// Area over which a pressing tool applies its pressure, m^2.
+    pub contact_area_m2: f32,
+    /// Lift of the force origin above the contact point along the normal, m.
+    pub offset_m: f32,
+    /// Distance scale of the falloff F / (1 + (d / l)^2), m.
+    pub falloff_m: f32,
+    /// Internal pressure per unit relative volume loss, Pa.
+    pub volume_stiffness_pa: f32,
+    /// XPBD compliance of the stretch constraints (eq 11), m/N.
+    pub stretch_compliance_m_per_n: f32,
+    /// XPBD compliance of the dihedral bending constraints (eq 12), rad/(N m).
+    pub bend_compliance_per_n_m: f32,
+    /// XPBD compliance of the ties, m/N.
+    pub tie_compliance_m_per_n: f32,
+    /// A tie breaks when its constraint force exceeds this, N.
+    pub tie_break_force_n: f32,
+    /// Constraint projections per step.
+    pub solver_iterations: u32,
+    /// Speed under which a point counts as still, m/s.
+    pub sleep_speed_m_per_s: f32,
+}
+
+impl Default for SoftBodyParams {
+    fn default() -> Self {
+        Self {
+            spring_n_per_m: 40.0,
+            damping_per_s: 8.0,
+            pressure_pa: 1500.0,
+            contact_area_m2: 1e-4,
+            offset_m: 0.002,
+            falloff_m: 0.006,
+            volume_stiffness_pa: 2000.0,
+            stretch_compliance_m_per_n: 1e-5,
+            bend_compliance_per_n_m: 1e-3,
+            tie_compliance_m_per_n: 1e-4,
+            tie_break_force_n: 2.0,
+            solver_iterations: 1,
+            sleep_speed_m_per_s: 1e-4,
+        }
+    }
+}
+
+/// A breakable distance constraint between two points (tumour to kidney bed).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tie {
+    pub a: u32,
+    pub b: u32,
+    pub rest_m: f32,
+    pub alive: bool,
+}
+
+#[derive(Debug, Clone)]
+struct Held {
+    tool: ToolId,
+    points: Vec<(u32, Vec3)>,
+    rotation: Quat,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Constraint {
+    Stretch(u32),
+    Bend(u32),
+    Tie(u32),
+}
+
+pub struct SoftBody {
+    name: String,
+    pub params: SoftBodyParams,
+    mesh: SimplexMesh,
+    region: Vec<u8>,
+    /// Region whose largest connected part is anchored to the body.
+    anchor_region: u8,
+    x: Vec<Vec3>,
+    v: Vec<Vec3>,
+    normal: Vec<Vec3>,
+    area: Vec<f32>,
+    volume_term: Vec<f32>,
+    alive: Vec<bool>,
+    anchored: Vec<bool>,
+    kinematic: Vec<bool>,
+    inv_mass: Vec<f32>,
+    stretch: Vec<Stretch>,
+    stretch_alive: Vec<bool>,
+    bend: Vec<Bend>,
+    bend_alive: Vec<bool>,
+    ties: Vec<Tie>,
+    /// Constraints touching each point (CSR).
+    adj_start: Vec<u32>,
+    adj: Vec<Constraint>,
+    awake: Vec<bool>,
+    /// Where each sleeping point sleeps.
+    sleep_at: Vec<Vec3>,
+    still: Vec<u16>,
+    active: Vec<u32>,
+    rest_volume: Vec<f32>,
+    held: Vec<Held>,
+    bvh: Bvh,
+    bvh_ws: BvhWorkspace,
+    leaf_pad: Vec<f32>,
+    topology_dirty: bool,
+    render_dirty: bool,
+    component: Vec<u32>,
+    checkpoint: (Vec<Vec3>, Vec<Vec3>),
+    // Scratch, reused every step.
+    stamp: Vec<u32>,
+    stamp_now: u32,
+    force: Vec<Vec3>,
+    touched: Vec<u32>,
+    constraints_now: Vec<Constraint>,
+    moved: Vec<u32>,
+    before: Vec<Vec3>,
+    lambda: Vec<f32>,
+    contacting: [bool; 2],
+}
+
+impl SoftBody {
+    /// Builds a body from a simplex mesh and a region per face.
+    pub fn new(name: &str, mesh: SimplexMesh, region: Vec<u8>, params: SoftBodyParams) -> Self {
+        let n = mesh.len();
+        let x = mesh.rest.clone();
+        let mut stretch = Vec::with_capacity(n * 3 / 2);
+        let mut bend = Vec::with_capacity(n * 3 / 2);
+        for i in 0..n {
+            for k in 0..3 {
+                let j = mesh.neighbors[i][k] as usize;
+                if i < j {
+                    stretch.push(Stretch {
+                        a: i as u32,
+                        b: j as u32,
+                        rest_m: (x[i] - x[j]).length(),
+                    });
+                    // Wings: the next neighbour of each end, turning the same way round.
+                    let c = mesh.neighbors[i][(k + 1) % 3];
+                    let kj = mesh.neighbors[j]
+                        .iter()
+                        .position(|&q| q as usize == i)
+                        .unwrap_or(0);
+                    let d = mesh.neighbors[j][(kj + 1) % 3];
+                    let mut b = Bend {
+                        a: i as u32,
+                        b: j as u32,
+                        c,
+                        d,
+                        rest_rad: 0.0,
+                    };
+                    b.rest_rad = xpbd::dihedral(&x, &b);
+                    bend.push(b);
+                }
+            }
+        }
+        let mut body = SoftBody {
+            name: name.to_string(),
+            params,
+            region,
+            anchor_region: 0,
+            v: vec![Vec3::ZERO; n],
+            normal: vec![Vec3::ZERO; n],
+            area: vec![0.0; n],
+            volume_term: vec![0.0; n],
+            alive: vec![true; n],
+            anchored: vec![true; n],
+            kinematic: vec![false; n],
+            inv_mass: vec![1.0; n],
+            stretch_alive: vec![true; stretch.len()],
+            bend_alive: vec![true; bend.len()],
+            stretch,
+            bend,
+            ties: Vec::new(),
+            adj_start: Vec::new(),
+            adj: Vec::new(),
+            awake: vec![false; n],
+            sleep_at: x.clone(),
+            still: vec![0; n],
+            active: Vec::new(),
+            rest_volume: Vec::new(),
+            held: Vec::new(),
+            bvh: Bvh::new(),
+            bvh_ws: BvhWorkspace::default(),
+            leaf_pad: vec![0.0; n],
+            topology_dirty: true,
+            render_dirty: false,
+            component: vec![0; n],
+            checkpoint: (x.clone(), vec![Vec3::ZERO; n]),
+            stamp: vec![0; n],
+            stamp_now: 0,
+            force: vec![Vec3::ZERO; n],
+            touched: Vec::new(),
+            constraints_now: Vec::new(),
+            moved: Vec::new(),
+            before: Vec::new(),
+            lambda: Vec::new(),
+            contacting: [false; 2],
+            x,
+            mesh,
+        };
+        for i in 0..n {
+            body.refresh_normal(i);
+        }
+        body.rest_volume = body.region_volumes();
+        // Pad each leaf by the distance from the simplex point to its face's corners at rest.
+        for f in 0..n {
+            let c = body.mesh.faces[f].map(|v| body.mesh.tri_rest[v as usize]);
+            body.leaf_pad[f] = c
+                .iter()
+                .map(|p| (*p - body.x[f]).length())
+                .fold(0.0, f32::max);
+        }
+        let leaves: Vec<Aabb> = (0..n).map(|f| body.leaf_aabb(f)).collect();
+        body.bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &leaves);
+        body.rebuild_adjacency();
+        body
+    }
+
+    /// Adds breakable ties (e.g. tumour to its bed).
+    pub fn set_ties(&mut self, ties: Vec<Tie>) {
+        self.ties = ties;
+        self.rebuild_adjacency();
+        self.topology_dirty = true;
+    }
+
+    pub fn ties(&self) -> &[Tie] {
+        &self.ties
+    }
+
+    pub fn mesh(&self) -> &SimplexMesh {
+        &self.mesh
+    }
+
+    pub fn positions(&self) -> &[Vec3] {
+        &self.x
+    }
+
+    pub fn regions(&self) -> &[u8] {
+        &self.region
+    }
+
+    pub fn alive(&self) -> &[bool] {
+        &self.alive
+    }
+
+    /// Connected part of each point (after the last topology update).
+    pub fn components(&self) -> &[u32] {
+        &self.component
+    }
+
+    /// Brings connected parts and anchoring up to date after cuts or torn ties.
+    pub fn refresh_topology(&mut self) {
+        if self.topology_dirty {
+            self.update_topology();
+        }
+    }
+
+    pub fn is_anchored(&self, i: usize) -> bool {
+        self.anchored[i]
+    }
+
+    /// Overwrites a point's position (tests inject faults with this).
+    pub fn set_position(&mut self, i: usize, p: Vec3) {
+        self.x[i] = p;
+        self.wake(i);
+    }
+
+    /// Number of points awake after the last step.
+    pub fn awake_count(&self) -> usize {
+        self.active.len()
+    }
+
+    /// Rest area of face `f`, m^2.
+    pub fn rest_face_area(&self, f: usize) -> f32 {
+        let [a, b, c] = self.mesh.faces[f].map(|v| self.mesh.tri_rest[v as usize]);
+        0.5 * (b - a).cross(c - a).length()
+    }
+
+    fn rebuild_adjacency(&mut self) {
+        let n = self.x.len();
+        let mut count = vec![0u32; n + 1];
+        let each = |c: Constraint, s: &Self, f: &mut dyn FnMut(u32)| match c {
+            Constraint::Stretch(k) => {
+                let q = s.stretch[k as usize];
+                f(q.a);
+                f(q.b);
+            }
+            Constraint::Bend(k) => {
+                let q = s.bend[k as usize];
+                for p in [q.a, q.b, q.c, q.d] {
+                    f(p);
+                }
+            }
+            Constraint::Tie(k) => {
+                let q = s.ties[k as usize];
+                f(q.a);
+                f(q.b);
+            }
+        };
+        let all: Vec<Constraint> = (0..self.stretch.len() as u32)
+            .map(Constraint::Stretch)
+            .chain((0..self.bend.len() as u32).map(Constraint::Bend))
+            .chain((0..self.ties.len() as u32).map(Constraint::Tie))
+            .collect();
+        for &c in &all {
+            each(c, self, &mut |p| count[p as usize + 1] += 1);
+        }
+        for i in 0..n {
+            count[i + 1] += count[i];
+        }
+        let mut fill = count.clone();
+        let mut adj = vec![Constraint::Stretch(0); count[n] as usize];
+        for &c in &all {
+            each(c, self, &mut |p| {
+                adj[fill[p as usize] as usize] = c;
+                fill[p as usize] += 1;
+            });
+        }
+        self.adj_start = count;
+        self.adj = adj;
+        self.lambda = vec![0.0; all.len()];
+    }
+
+    fn constraint_index(&self, c: Constraint) -> usize {
+        match c {
+            Constraint::Stretch(k) => k as usize,
+            Constraint::Bend(k) => self.stretch.len() + k as usize,
+            Constraint::Tie(k) => self.stretch.len() + self.bend.len() + k as usize,
+        }
+    }
+
+    fn leaf_aabb(&self, f: usize) -> Aabb {
+        let p = self.x[f];
+        let pad = Vec3::splat(self.leaf_pad[f] * 1.25);
+        let mut lo = p - pad;
+        let mut hi = p + pad;
+        for &n in &self.mesh.neighbors[f] {
+            lo = lo.min(self.x[n as usize]);
+            hi = hi.max(self.x[n as usize]);
+        }
+        Aabb::new(lo, hi)
+    }
+
+    fn refresh_normal(&mut self, i: usize) {
+        let (n, a) = self.mesh.normal_area(&self.x, &self.alive, i);
+        self.normal[i] = n;
+        self.area[i] = a;
+        self.volume_term[i] = if self.alive[i] {
+            self.x[i].dot(n) * a / 3.0
+        } else {
+            0.0
+        };
+    }
+
+    fn region_volumes(&self) -> Vec<f32> {
+        let regions = self
+            .region
+            .iter()
+            .copied()
+            .max()
+            .map_or(0, |r| r as usize + 1);
+        let mut v = vec![0.0f32; regions];
+        for (i, t) in self.volume_term.iter().enumerate() {
+            v[self.region[i] as usize] += t;
+        }
+        v
+    }
+
+    fn wake(&mut self, i: usize) {
+        if !self.awake[i] && self.alive[i] {
+            self.awake[i] = true;
+            self.active.push(i as u32);
+        }
+        self.still[i] = 0;
+    }
+
+    /// Recomputes connected parts over live springs and ties; the largest part of the anchor
+    /// region keeps its anchor springs, every other part floats free.
+    fn update_topology(&mut self) {
+        let n = self.x.len();
+        let mut parent: Vec<u32> = (0..n as u32).collect();
+        fn find(p: &mut [u32], mut i: u32) -> u32 {
+            while p[i as usize] != i {
+                p[i as usize] = p[p[i as usize] as usize];
+                i = p[i as usize];
+            }
+            i
+        }
+        let union = |p: &mut Vec<u32>, a: u32, b: u32| {
+            let (ra, rb) = (find(p, a), find(p, b));
+            if ra != rb {
+                let (lo, hi) = (ra.min(rb), ra.max(rb));
+                p[hi as usize] = lo;
+            }
+        };
+        for (k, s) in self.stretch.iter().enumerate() {
+            if self.stretch_alive[k] {
+                union(&mut parent, s.a, s.b);
+            }
+        }
+        for t in &self.ties {
+            if t.alive {
+                union(&mut parent, t.a, t.b);
+            }
+        }
+        let mut count = vec![0u32; n];
+        for i in 0..n {
+            let r = find(&mut parent, i as u32);
+            self.component[i] = r;
+            if self.alive[i] && self.region[i] == self.anchor_region {
+                count[r as usize] += 1;
+            }
+        }
+        let main = (0..n)
+            .max_by_key(|&r| (count[r], std::cmp::Reverse(r)))
+            .unwrap_or(0) as u32;
+        for i in 0..n {
+            let anchored = self.alive[i] && self.component[i] == main;
+            if self.anchored[i] && !anchored {
+                self.wake(i);
+            }
+            self.anchored[i] = anchored;
+        }
+        // Volume at rest of what is left, so the internal pressure starts from zero.
+        let mut rest_volume = vec![0.0f32; self.rest_volume.len()];
+        let rest = &self.mesh.rest;
+        for i in 0..n {
+            if self.alive[i] {
+                let (nn, a) = self.mesh.normal_area(rest, &self.alive, i);
+                rest_volume[self.region[i] as usize] += rest[i].dot(nn) * a / 3.0;
+            }
+        }
+        self.rest_volume = rest_volume;
+        self.topology_dirty = false;
+    }
+
+    fn next_stamp(&mut self) -> u32 {
+        self.stamp_now = self.stamp_now.wrapping_add(1);
+        if self.stamp_now == 0 {
+            self.stamp.fill(0);
+            self.stamp_now = 1;
+        }
+        self.stamp_now
+    }
+
+    fn apply_contacts(&mut self, contacts: &[Contact], out: &mut ModelOutput) {
+        let p = self.params;
+        let mut seen = [false; 2];
+        for c in contacts {
+            seen[c.tool.index()] = true;
+            match c.kind {
+                ContactKind::Press {
+                    pressure_pa,
+                    area_m2,
+                } => {
+                    let pressed = pressure_pa * area_m2;
+                    let from = forces::offset_point(c.point, c.normal, p.offset_m);
+                    // Beyond 3 falloff lengths the force is under a tenth: ignored.
+                    let reach = 3.0 * p.falloff_m;
+                    let q = Aabb::new(from - Vec3::splat(reach), from + Vec3::splat(reach));
+                    let found: Vec<u32> = self.bvh.intersect_aabb(&q).collect();
+                    let mut total = Vec3::ZERO;
+                    for f in found {
+                        let i = f as usize;
+                        if !self.alive[i] || (self.x[i] - from).length() > reach {
+                            continue;
+                        }
+                        self.wake(i);
+                        self.refresh_normal(i);
+                        let cf = forces::contact_force(
+                            self.x[i],
+                            self.normal[i],
+                            from,
+                            pressed,
+                            p.falloff_m,
+                        );
+                        self.force[i] += cf.pressure + cf.offset;
+                        total += cf.pressure + cf.offset;
+                        self.touched.push(i as u32);
+                    }
+                    out.reactions.push((c.tool, -total));
+                }
+                ContactKind::Sphere { radius_m } => {
+                    let q = Aabb::new(
+                        c.point - Vec3::splat(radius_m * 2.0),
+                        c.point + Vec3::splat(radius_m * 2.0),
+                    );
+                    let found: Vec<u32> = self.bvh.intersect_aabb(&q).collect();
+                    for f in found {
+                        if (self.x[f as usize] - c.point).length() < radius_m * 1.5 {
+                            self.wake(f as usize);
+                        }
+                    }
+                }
+                ContactKind::Grasp { rotation, radius_m } => {
+                    if let Some(h) = self.held.iter_mut().find(|h| h.tool == c.tool) {
+                        h.rotation = rotation;
+                        let (rot, pts) = (h.rotation, h.points.clone());
+                        for (i, local) in pts {
+                            let target = c.point + rot * local;
+                            let i = i as usize;
+                            self.wake(i);
+                            self.x[i] = target;
+                        }
+                        continue;
+                    }
+                    let q = Aabb::new(
+                        c.point - Vec3::splat(radius_m),
+                        c.point + Vec3::splat(radius_m),
+                    );
+                    let mut found: Vec<(f32, u32)> = self
+                        .bvh
+                        .intersect_aabb(&q)
+                        .filter(|&f| self.alive[f as usize])
+                        .map(|f| ((self.x[f as usize] - c.point).length(), f))
+                        .filter(|&(d, _)| d <= radius_m)
+                        .collect();
+                    found.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+                    found.truncate(24);
+                    if found.is_empty() {
+                        continue;
+                    }
+                    let inv = rotation.inverse();
+                    let points: Vec<(u32, Vec3)> = found
+                        .iter()
+                        .map(|&(_, f)| (f, inv * (self.x[f as usize] - c.point)))
+                        .collect();
+                    for &(f, _) in &points {
+                        self.kinematic[f as usize] = true;
+                        self.inv_mass[f as usize] = 0.0;
+                        self.wake(f as usize);
+                    }
+                    out.events.push(EventKind::Grasp {
+                        tool: c.tool.name().to_string(),
+                        model: self.name.clone(),
+                        vertices: points.len() as u32,
+                    });
+                    self.held.push(Held {
+                        tool: c.tool,
+                        points,
+                        rotation,
+                    });
+                }
+            }
+        }
+        // Release grasps whose tool sent no grasp this step.
+        let mut k = 0;
+        while k < self.held.len() {
+            let tool = self.held[k].tool;
+            let still = contacts
+                .iter()
+                .any(|c| c.tool == tool && matches!(c.kind, ContactKind::Grasp { .. }));
+            if still {
+                k += 1;
+                continue;
+            }
+            let h = self.held.remove(k);
+            for (i, _) in h.points {
+                self.kinematic[i as usize] = false;
+                self.inv_mass[i as usize] = if self.alive[i as usize] { 1.0 } else { 0.0 };
+                self.wake(i as usize);
+            }
+            out.events.push(EventKind::Release {
+                tool: tool.name().to_string(),
+            });
+        }
+        for h in 0..2 {
+            if seen[h] && !self.contacting[h] {
+                out.events.push(EventKind::Contact {
+                    tool: ToolId::BOTH[h].name().to_string(),
+                    model: self.name.clone(),
+                });
+            }
+            self.contacting[h] = seen[h];
+        }
+    }
+
+    fn collect_constraints(&mut self) {
+        self.constraints_now.clear();
+        // Gather, sort, dedup: a fixed order whatever the order points woke in.
+        for &i in &self.active {
+            let (s, e) = (
+                self.adj_start[i as usize] as usize,
+                self.adj_start[i as usize + 1] as usize,
+            );
+            self.constraints_now.extend_from_slice(&self.adj[s..e]);
+        }
+        let key = |c: &Constraint| match *c {
+            Constraint::Stretch(k) => (0u8, k),
+            Constraint::Bend(k) => (1, k),
+            Constraint::Tie(k) => (2, k),
+        };
+        self.constraints_now.sort_unstable_by_key(key);
+        self.constraints_now.dedup();
+        let (sa, ba, ties) = (&self.stretch_alive, &self.bend_alive, &self.ties);
+        self.constraints_now.retain(|c| match *c {
+            Constraint::Stretch(k) => sa[k as usize],
+            Constraint::Bend(k) => ba[k as usize],
+            Constraint::Tie(k) => ties[k as usize].alive,
+        });
+    }
+
+    fn project(&mut self, dt: f32, out: &mut ModelOutput) {
+        let p = self.params;
+        let list = std::mem::take(&mut self.constraints_now);
+        for &c in &list {
+            let li = self.constraint_index(c);
+            self.lambda[li] = 0.0;
+        }
+        for _ in 0..p.solver_iterations.max(1) {
+            for &c in &list {
+                let li = self.constraint_index(c);
+                let l = self.lambda[li];
+                let dl = match c {
+                    Constraint::Stretch(k) => xpbd::project_stretch(
+                        &mut self.x,
+                        &self.inv_mass,
+                        &self.stretch[k as usize],
+                        p.stretch_compliance_m_per_n,
+                        dt,
+                        l,
+                    ),
+                    Constraint::Bend(k) => xpbd::project_bend(
+                        &mut self.x,
+                        &self.inv_mass,
+                        &self.bend[k as usize],
+                        p.bend_compliance_per_n_m,
+                        dt,
+                        l,
+                    ),
+                    Constraint::Tie(k) => {
+                        let t = self.ties[k as usize];
+                        xpbd::project_stretch(
+                            &mut self.x,
+                            &self.inv_mass,
+                            &Stretch {
+                                a: t.a,
+                                b: t.b,
+                                rest_m: t.rest_m,
+                            },
+                            p.tie_compliance_m_per_n,
+                            dt,
+                            l,
+                        )
+                    }
+                };
+                self.lambda[li] = l + dl;
+            }
+        }
+        // Ties whose force exceeds the threshold tear.
+        for &c in &list {
+            if let Constraint::Tie(k) = c {
+                let force = self.lambda[self.constraint_index(c)].abs() / (dt * dt);
+                if force > p.tie_break_force_n {
+                    self.ties[k as usize].alive = false;
+                    self.topology_dirty = true;
+                    out.events.push(EventKind::TieBroken {
+                        model: self.name.clone(),
+                        force_n: force,
+                    });
+                }
+            }
+        }
+        self.constraints_now = list;
+    }
+}
+
+impl TissueModel for SoftBody {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn kind(&self) -> &'static str {
+        "simplex_soft_body"
+    }
+
+    fn sizes(&self) -> ModelSizes {
+        ModelSizes {
+            vertices: self.x.len(),
+            triangles: self.mesh.faces.len(),
+            constraints: self.stretch.len() + self.bend.len() + self.ties.len(),
+        }
+    }
+
+    fn step(&mut self, dt: f32, contacts: &[Contact], out: &mut ModelOutput) {
+        if self.topology_dirty {
+            self.update_topology();
+        }
+        let p = self.params;
+        self.apply_contacts(contacts, out);
+        // Normals and areas of every point whose neighbourhood may move (eq 3 needs them).
+        self.active.sort_unstable();
+        self.active.dedup();
+        let stamp = self.next_stamp();
+        self.moved.clear();
+        for k in 0..self.active.len() {
+            let i = self.active[k] as usize;
+            for j in std::iter::once(i as u32).chain(self.mesh.neighbors[i]) {
+                if self.stamp[j as usize] != stamp {
+                    self.stamp[j as usize] = stamp;
+                    self.moved.push(j);
+                }
+            }
+        }
+        let moved = std::mem::take(&mut self.moved);
+        for &i in &moved {
+            self.refresh_normal(i as usize);
+        }
+        let volumes = self.region_volumes();
+        let pressure: Vec<f32> = volumes
+            .iter()
+            .zip(&self.rest_volume)
+            .map(|(&v, &v0)| forces::volume_pressure(p.volume_stiffness_pa, v0, v))
+            .collect();
+        // Forces and explicit integration (eqs 1, 4, 5, 7, 8).
+        self.before.clear();
+        for k in 0..self.active.len() {
+            let i = self.active[k] as usize;
+            self.before.push(self.x[i]);
+            if self.kinematic[i] || !self.alive[i] {
+                self.v[i] = Vec3::ZERO;
+                continue;
+            }
+            let mut f = self.force[i];
+            if self.anchored[i] {
+                f += forces::spring_force(p.spring_n_per_m, self.x[i], self.mesh.rest[i]);
+            }
+            f += forces::pressure_force(
+                pressure[self.region[i] as usize],
+                self.normal[i],
+                self.area[i],
+            );
+            let (x, v) = forces::integrate(self.x[i], self.v[i], f, p.damping_per_s, dt);
+            self.x[i] = x;
+            self.v[i] = v;
+        }
+        for &i in &self.touched {
+            self.force[i as usize] = Vec3::ZERO;
+        }
+        self.touched.clear();
+        // Constraints (Algorithm 2), then the instrument tips as inequality constraints.
+        self.collect_constraints();
+        let n_active = self.active.len();
+        self.project(dt, out);
+        for c in contacts {
+            if let ContactKind::Sphere { radius_m } = c.kind {
+                let mut push = Vec3::ZERO;
+                let q = Aabb::new(
+                    c.point - Vec3::splat(radius_m * 2.0),
+                    c.point + Vec3::splat(radius_m * 2.0),
+                );
+                let found: Vec<u32> = self.bvh.intersect_aabb(&q).collect();
+                for f in found {
+                    let i = f as usize;
+                    let d = self.x[i] - c.point;
+                    let len = d.length();
+                    if self.alive[i] && !self.kinematic[i] && len < radius_m {
+                        let dir = if len > 1e-9 { d / len } else { c.normal };
+                        let corr = dir * (radius_m - len);
+                        self.x[i] += corr;
+                        push += corr;
+                        self.wake(i);
+                    }
+                }
+                out.reactions.push((c.tool, -push / (dt * dt)));
+            }
+        }
+        // Constraint corrections become velocity; points moved by neighbours wake up.
+        for k in 0..n_active {
+            let i = self.active[k] as usize;
+            if self.alive[i] && !self.kinematic[i] {
+                self.v[i] = (self.x[i] - self.before[k]) / dt;
+            }
+        }
+        let stamp2 = self.next_stamp();
+        let list = std::mem::take(&mut self.constraints_now);
+        for &c in &list {
+            let pts: [u32; 4] = match c {
+                Constraint::Stretch(k) => {
+                    let s = self.stretch[k as usize];
+                    [s.a, s.b, s.a, s.b]
+                }
+                Constraint::Bend(k) => {
+                    let b = self.bend[k as usize];
+                    [b.a, b.b, b.c, b.d]
+                }
+                Constraint::Tie(k) => {
+                    let t = self.ties[k as usize];
+                    [t.a, t.b, t.a, t.b]
+                }
+            };
+            for q in pts {
+                let q = q as usize;
+                if !self.awake[q] && self.stamp[q] != stamp2 && self.alive[q] {
+                    self.stamp[q] = stamp2;
+                    if (self.x[q] - self.sleep_at[q]).length() > WAKE_DISTANCE_M {
+                        self.wake(q);
+                    } else {
+                        self.x[q] = self.sleep_at[q];
+                    }
+                }
+            }
+        }
+        self.constraints_now = list;
+        // Sleep bookkeeping and velocity from the projected positions.
+        let v_sleep = p.sleep_speed_m_per_s;
+        let mut k = 0;
+        while k < self.active.len() {
+            let i = self.active[k] as usize;
+            let resting =
+                !self.anchored[i] || (self.x[i] - self.mesh.rest[i]).length() < SLEEP_DISTANCE_M;
+            if !self.kinematic[i] && self.v[i].length() < v_sleep && resting {
+                self.still[i] += 1;
+            } else {
+                self.still[i] = 0;
+            }
+            if self.still[i] >= SLEEP_STEPS || !self.alive[i] {
+                self.awake[i] = false;
+                self.v[i] = Vec3::ZERO;
+                if self.anchored[i] {
+                    self.x[i] = self.mesh.rest[i];
+                }
+                self.sleep_at[i] = self.x[i];
+                self.still[i] = 0;
+                self.active.swap_remove(k);
+                continue;
+            }
+            k += 1;
+        }
+        // Refit the BVH where anything moved.
+        let mut changed = false;
+        for &i in &moved {
+            let f = i as usize;
+            if !self.alive[f] {
+                continue;
+            }
+            let aabb = self.leaf_aabb(f);
+            if let Some(s) = self.bvh.update_partially_if_present(aabb, i, BVH_MARGIN_M) {
+                changed |= s != BvhLeafUpdateStatus::Unchanged;
+            }
+        }
+        for &i in &self.active {
+            let f = i as usize;
+            let aabb = self.leaf_aabb(f);
+            if let Some(s) = self.bvh.update_partially_if_present(aabb, i, BVH_MARGIN_M) {
+                changed |= s != BvhLeafUpdateStatus::Unchanged;
+            }
+        }
+        if changed {
+            self.bvh.refit(&mut self.bvh_ws);
+        }
+        self.moved = moved;
+    }
+
+    fn cut(&mut self, stroke: &CutStroke, out: &mut ModelOutput) {
+        let mut severed = 0u32;
+        let mut removed = 0u32;
+        for &f in &stroke.faces {
+            let i = f as usize;
+            if i >= self.alive.len() || !self.alive[i] {
+                continue;
+            }
+            removed += 1;
+            self.alive[i] = false;
+            self.inv_mass[i] = 0.0;
+            self.volume_term[i] = 0.0;
+            self.bvh.remove(f);
+            let (s, e) = (self.adj_start[i] as usize, self.adj_start[i + 1] as usize);
+            for k in s..e {
+                match self.adj[k] {
+                    Constraint::Stretch(c) => self.stretch_alive[c as usize] = false,
+                    Constraint::Bend(c) => self.bend_alive[c as usize] = false,
+                    Constraint::Tie(c) => {
+                        if self.ties[c as usize].alive {
+                            self.ties[c as usize].alive = false;
+                            severed += 1;
+                        }
+                    }
+                }
+            }
+            for n in self.mesh.neighbors[i] {
+                self.wake(n as usize);
+            }
+        }
+        if removed > 0 {
+            self.topology_dirty = true;
+            self.render_dirty = true;
+        }
+        if severed > 0 {
+            out.events.push(EventKind::TiesSevered {
+                model: self.name.clone(),
+                count: severed,
+            });
+        }
+    }
+
+    fn surface(&self) -> SurfaceView<'_> {
+        SurfaceView {
+            mesh: &self.mesh,
+            positions: &self.x,
+            normals: &self.normal,
+            alive: &self.alive,
+            regions: &self.region,
+            bvh: &self.bvh,
+        }
+    }
+
+    fn render_mesh(&mut self) -> ModelSnapshot {
+        if self.render_dirty {
+            let rest = &self.mesh.rest;
+            let normals: Vec<Vec3> = (0..rest.len())
+                .map(|i| self.mesh.normal_area(rest, &self.alive, i).0)
+                .collect();
+            let alive = self.alive.clone();
+            self.mesh.rebuild_render(&alive, &normals);
+            self.render_dirty = false;
+        }
+        let mut normals = vec![Vec3::ZERO; self.x.len()];
+        self.mesh.vertex_normals(&self.x, &self.alive, &mut normals);
+        let positions: Vec<Vec3> = (0..self.mesh.render.len())
+            .map(|r| self.mesh.render_position(r, &self.x, &normals))
+            .collect();
+        let mut indices = Vec::with_capacity(self.mesh.faces.len() * 3);
+        let mut regions = Vec::with_capacity(self.mesh.faces.len());
+        for f in 0..self.mesh.faces.len() {
+            if self.alive[f] {
+                indices.extend_from_slice(&self.mesh.corners[f]);
+                regions.push(self.region[f]);
+            }
+        }
+        // Smooth render normals from the triangles.
+        let mut rn = vec![Vec3::ZERO; positions.len()];
+        for t in indices.chunks_exact(3) {
+            let [a, b, c] = [t[0], t[1], t[2]].map(|i| positions[i as usize]);
+            let n = (b - a).cross(c - a);
+            for &i in t {
+                rn[i as usize] += n;
+            }
+        }
+        ModelSnapshot {
+            name: self.name.clone(),
+            positions,
+            normals: rn.into_iter().map(Vec3::normalize_or_zero).collect(),
+            indices,
+            regions,
+        }
+    }
+
+    fn checkpoint(&mut self) {
+        self.checkpoint.0.clone_from(&self.x);
+        self.checkpoint.1.clone_from(&self.v);
+    }
+
+    fn restore(&mut self) {
+        self.x.clone_from(&self.checkpoint.0);
+        self.v.clone_from(&self.checkpoint.1);
+        for i in 0..self.x.len() {
+            self.refresh_normal(i);
+        }
+        self.active.clear();
+        self.awake.fill(false);
+    }
+
+    fn state_is_finite(&self) -> bool {
+        self.moved
+            .iter()
+            .chain(self.active.iter())
+            .all(|&i| self.x[i as usize].is_finite() && self.v[i as usize].is_finite())
+    }
+
+    fn state_hash(&self) -> u64 {
+        let mut h = Fnv::default();
+        for (x, v) in self.x.iter().zip(&self.v) {
+            for c in x.to_array().into_iter().chain(v.to_array()) {
+                h.write(c.to_bits());
+            }
+        }
+        for (i, a) in self.alive.iter().enumerate() {
+            if !a {
+                h.write(i as u32);
+            }
+        }
+        h.0
+    }
+}
+
+/// FNV-1a over 32-bit words: stable across platforms and runs.
+#[derive(Clone, Copy)]
+pub struct Fnv(pub u64);
+
+impl Default for Fnv {
+    fn default() -> Self {
+        Fnv(0xcbf2_9ce4_8422_2325)
+    }
+}
+
+impl Fnv {
+    pub fn write(&mut self, w: u32) {
+        for b in w.to_le_bytes() {
+            self.0 ^= b as u64;
+            self.0 = self.0.wrapping_mul(0x100_0000_01b3);
+        }
+    }
+}

@@ -1,0 +1,5 @@
+//! Procedures: anatomy, models, tools and task steps composed from a scenario.
+
+pub mod nephrectomy;
+
+pub use nephrectomy::Nephrectomy;

@@ -1,0 +1,619 @@
+//! Laparoscopic partial nephrectomy (the HTC Vive paper): a left kidney with an exophytic
+//! tumour tied to its bed, renal artery, renal vein and ureter. The right controller is a
+//! laser pointer that identifies, marks and cuts; the left is a grasper that lifts the tumour.
+
+use crate::collision::{RayHit, cast_ray, nearest_within};
+use crate::mesh::{KidneyShape, TriMesh, TubeSpec, icosphere, kidney, tube};
+use crate::models::{SimplexMesh, SoftBody, Tie};
+use crate::scenario::Scenario;
+use crate::sim::{
+    Contact, ContactKind, CutStroke, EventKind, Hand, InputFrame, ModelOutput, ModelSnapshot,
+    Quarantine, SimEvent, Snapshot, TissueModel, ToolSnapshot,
+};
+use glam::Vec3;
+use rayon::prelude::*;
+use serde::Serialize;
+
+pub const REGION_PARENCHYMA: u8 = 0;
+pub const REGION_TUMOUR: u8 = 1;
+const KIDNEY: usize = 0;
+/// Cut samples along the laser's sweep between steps, metres apart.
+const SWEEP_SPACING_M: f32 = 5e-4;
+/// A laser hit this much deeper than the surface it was on went through a gap (a groove it
+/// cut itself): it does not cut there.
+const CUT_CONTINUITY_M: f32 = 3e-3;
+
+/// Running metrics of one session.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct Metrics {
+    pub completion_time_s: Option<f64>,
+    pub path_length_left_m: f32,
+    pub path_length_right_m: f32,
+    pub cut_length_m: f32,
+    pub cut_faces: u32,
+    /// Mean distance of cut faces (at rest) from the intended margin surface, metres.
+    pub cut_deviation_mean_m: f32,
+    pub cut_into_tumour_faces: u32,
+    /// Healthy parenchyma removed with the specimen or by the cut, m^2 (at rest).
+    pub healthy_removed_m2: f32,
+    /// Healthy area the intended margin removes, m^2.
+    pub healthy_planned_m2: f32,
+    pub vessel_contacts: u32,
+    pub ties_torn: u32,
+    pub marks: u32,
+    pub marks_on_margin: u32,
+    pub steps_done: Vec<String>,
+}
+
+pub struct Nephrectomy {
+    pub scenario: Scenario,
+    models: Vec<SoftBody>,
+    guards: Vec<Quarantine>,
+    outputs: Vec<ModelOutput>,
+    contacts: Vec<Vec<Contact>>,
+    vulnerable: Vec<bool>,
+    tumour_center: Vec3,
+    tumour_rest_centroid: Vec3,
+    tumour_radius: f32,
+    pub metrics: Metrics,
+    cut_deviation_sum: f64,
+    identified: bool,
+    freed: bool,
+    removed: bool,
+    last_cut_point: Option<Vec3>,
+    /// Depth along the beam of the surface the laser was last on, metres.
+    surface_depth_m: Option<f32>,
+    prev_input: Option<InputFrame>,
+    vessel_touch: [bool; 2],
+    grasp_model: Option<usize>,
+    tools: [ToolSnapshot; 2],
+    reactions: [Vec3; 2],
+    /// Wall-clock seconds each model has spent stepping (for benchmarks; not in reports).
+    pub model_time_s: Vec<f64>,
+}
+
+/// Builds the anatomy meshes: kidney + tumour as one mesh with regions, and the three tubes.
+pub fn anatomy(s: &Scenario) -> (TriMesh, Vec<u8>, Vec<(String, TriMesh)>, Vec3) {
+    let a = &s.anatomy;
+    let shape = KidneyShape {
+        half_length_m: a.kidney_half_length_m,
+        half_width_m: a.kidney_half_width_m,
+        half_thickness_m: a.kidney_half_thickness_m,
+        hilum_depth_m: a.hilum_depth_m,
+    };
+    let mut organ = kidney(&shape, a.level);
+    let dir = Vec3::from(a.tumour_direction).normalize();
+    let site = shape.surface(dir);
+    let normal = Vec3::new(
+        site.x / shape.half_width_m.powi(2),
+        site.y / shape.half_length_m.powi(2),
+        site.z / shape.half_thickness_m.powi(2),
+    )
+    .normalize();
+    let center = site + normal * (a.tumour_protrusion * a.tumour_radius_m);
+    let mut tumour = icosphere(a.level);
+    for p in &mut tumour.positions {
+        *p = center + *p * a.tumour_radius_m;
+    }
+    let mut regions = vec![REGION_PARENCHYMA; organ.triangle_count()];
+    regions.extend(std::iter::repeat_n(REGION_TUMOUR, tumour.triangle_count()));
+    organ.append(&tumour);
+    let hilum = Vec3::new(-shape.half_width_m + shape.hilum_depth_m * 0.8, 0.0, 0.0);
+    let seg = a.vessel_segments;
+    let rings = a.vessel_rings;
+    let vessel = |path: Vec<Vec3>, r: f32| {
+        tube(&TubeSpec {
+            path,
+            radius_m: r,
+            segments: seg,
+            rings,
+        })
+    };
+    let vessels = vec![
+        (
+            "renal_artery".to_string(),
+            vessel(
+                vec![
+                    hilum + Vec3::new(0.004, 0.006, -0.004),
+                    hilum + Vec3::new(-0.03, 0.01, -0.008),
+                    hilum + Vec3::new(-0.07, 0.012, -0.01),
+                ],
+                a.renal_artery_radius_m,
+            ),
+        ),
+        (
+            "renal_vein".to_string(),
+            vessel(
+                vec![
+                    hilum + Vec3::new(0.004, 0.0, 0.006),
+                    hilum + Vec3::new(-0.03, -0.002, 0.01),
+                    hilum + Vec3::new(-0.07, -0.004, 0.012),
+                ],
+                a.renal_vein_radius_m,
+            ),
+        ),
+        (
+            "ureter".to_string(),
+            vessel(
+                vec![
+                    hilum + Vec3::new(0.004, -0.01, 0.0),
+                    hilum + Vec3::new(-0.012, -0.035, -0.004),
+                    hilum + Vec3::new(-0.02, -0.1, -0.008),
+                ],
+                a.ureter_radius_m,
+            ),
+        ),
+    ];
+    (organ, regions, vessels, center)
+}
+
+impl Nephrectomy {
+    pub fn new(scenario: Scenario) -> Result<Self, crate::mesh::MeshError> {
+        let (organ, regions, vessels, tumour_center) = anatomy(&scenario);
+        let r_t = scenario.anatomy.tumour_radius_m;
+        let a = &scenario.anatomy;
+        let mesh = SimplexMesh::dual(&organ)?;
+        let rest = mesh.rest.clone();
+        let mut body = SoftBody::new("kidney", mesh, regions.clone(), scenario.kidney);
+        // Ties: every tumour point buried in the kidney to its nearest bed point, and every
+        // bed point under the tumour to its nearest tumour point.
+        let inside_kidney = |p: Vec3| {
+            (p.x / a.kidney_half_width_m).powi(2)
+                + (p.y / a.kidney_half_length_m).powi(2)
+                + (p.z / a.kidney_half_thickness_m).powi(2)
+                < 1.0
+        };
+        let tumour_pts: Vec<usize> = (0..rest.len())
+            .filter(|&i| regions[i] == REGION_TUMOUR)
+            .collect();
+        let bed: Vec<usize> = (0..rest.len())
+            .filter(|&i| {
+                regions[i] == REGION_PARENCHYMA && (rest[i] - tumour_center).length() < r_t
+            })
+            .collect();
+        let nearest = |p: Vec3, among: &[usize]| {
+            among
+                .iter()
+                .map(|&j| ((rest[j] - p).length(), j))
+                .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+        };
+        let mut ties: Vec<Tie> = Vec::new();
+        for &i in tumour_pts.iter().filter(|&&i| inside_kidney(rest[i])) {
+            if let Some((d, j)) = nearest(rest[i], &bed) {
+                ties.push(Tie {
+                    a: i as u32,
+                    b: j as u32,
+                    rest_m: d,
+                    alive: true,
+                });
+            }
+        }
+        for &j in &bed {
+            if let Some((d, i)) = nearest(rest[j], &tumour_pts) {
+                ties.push(Tie {
+                    a: i as u32,
+                    b: j as u32,
+                    rest_m: d,
+                    alive: true,
+                });
+            }
+        }
+        ties.sort_by_key(|t| (t.a, t.b));
+        ties.dedup_by_key(|t| (t.a, t.b));
+        body.set_ties(ties);
+        let tumour_rest_centroid =
+            tumour_pts.iter().map(|&i| rest[i]).sum::<Vec3>() / tumour_pts.len().max(1) as f32;
+        let mut models = vec![body];
+        for (name, m) in vessels {
+            let s = SimplexMesh::dual(&m)?;
+            let n = s.len();
+            models.push(SoftBody::new(&name, s, vec![0; n], scenario.vessels));
+        }
+        let vulnerable = models
+            .iter()
+            .map(|m| scenario.vulnerable.iter().any(|v| v.model == m.name()))
+            .collect();
+        // Healthy area inside the intended margin (what a perfect excision takes).
+        let reach = r_t + scenario.task.margin_m;
+        let k = &models[KIDNEY];
+        let planned: f32 = (0..k.mesh().len())
+            .filter(|&f| {
+                k.regions()[f] == REGION_PARENCHYMA
+                    && (k.mesh().rest[f] - tumour_center).length() < reach
+            })
+            .map(|f| k.rest_face_area(f))
+            .sum();
+        let n = models.len();
+        Ok(Self {
+            metrics: Metrics {
+                healthy_planned_m2: planned,
+                ..Default::default()
+            },
+            scenario,
+            guards: (0..n).map(|_| Quarantine::new(16)).collect(),
+            outputs: (0..n).map(|_| ModelOutput::default()).collect(),
+            contacts: vec![Vec::new(); n],
+            models,
+            vulnerable,
+            tumour_center,
+            tumour_rest_centroid,
+            tumour_radius: r_t,
+            cut_deviation_sum: 0.0,
+            identified: false,
+            freed: false,
+            removed: false,
+            last_cut_point: None,
+            surface_depth_m: None,
+            prev_input: None,
+            vessel_touch: [false; 2],
+            grasp_model: None,
+            tools: [ToolSnapshot::default(); 2],
+            reactions: [Vec3::ZERO; 2],
+            model_time_s: vec![0.0; n],
+        })
+    }
+
+    pub fn models(&self) -> &[SoftBody] {
+        &self.models
+    }
+
+    pub fn models_mut(&mut self) -> &mut [SoftBody] {
+        &mut self.models
+    }
+
+    pub fn is_completed(&self) -> bool {
+        self.removed
+    }
+
+    pub fn tumour_center(&self) -> Vec3 {
+        self.tumour_center
+    }
+
+    /// Distance of a rest point from the intended margin surface (sphere of radius r + margin).
+    pub fn margin_error(&self, p: Vec3) -> f32 {
+        ((p - self.tumour_center).length() - (self.tumour_radius + self.scenario.task.margin_m))
+            .abs()
+    }
+
+    fn cast_all(&self, origin: Vec3, dir: Vec3) -> Option<(usize, RayHit)> {
+        let range = self.scenario.tools.laser_range_m;
+        let mut best: Option<(usize, RayHit)> = None;
+        for (m, model) in self.models.iter().enumerate() {
+            if let Some(h) = cast_ray(&model.surface(), origin, dir, range)
+                && best.is_none_or(|(_, b)| h.distance_m < b.distance_m)
+            {
+                best = Some((m, h));
+            }
+        }
+        best
+    }
+
+    fn task_step(&mut self, name: &str, events: &mut Vec<EventKind>) {
+        self.metrics.steps_done.push(name.to_string());
+        events.push(EventKind::TaskStep {
+            name: name.to_string(),
+        });
+    }
+
+    /// Advances the procedure one step.
+    pub fn step(&mut self, input: &InputFrame, step: u64, events: &mut Vec<SimEvent>) {
+        let dt = self.scenario.dt_s;
+        let tools = self.scenario.tools.clone();
+        let mut ev: Vec<EventKind> = Vec::new();
+        for c in &mut self.contacts {
+            c.clear();
+        }
+        if let Some(prev) = &self.prev_input {
+            self.metrics.path_length_left_m += prev.hands[0]
+                .pose
+                .position
+                .distance(input.hands[0].pose.position);
+            self.metrics.path_length_right_m += prev.hands[1]
+                .pose
+                .position
+                .distance(input.hands[1].pose.position);
+        }
+        let mark_pressed = input.hand(Hand::Right).buttons.mark
+            && !self
+                .prev_input
+                .is_some_and(|p| p.hand(Hand::Right).buttons.mark);
+
+        // Laser pointer (right hand).
+        let laser = input.hand(Hand::Right);
+        let origin = laser.pose.position;
+        let dir = laser.pose.forward();
+        let hit = self.cast_all(origin, dir);
+        let cutting = laser.buttons.trigger >= tools.cut_threshold;
+        self.tools[1] = ToolSnapshot {
+            tip: origin,
+            direction: dir,
+            beam_end: hit.map(|(_, h)| h.point),
+            active: cutting,
+        };
+        let mut strokes: Vec<(usize, CutStroke, f32)> = Vec::new();
+        let mut touching_vessel = [false; 2];
+        if let Some((m, h)) = hit {
+            let region = self.models[m].regions()[h.face as usize];
+            if m == KIDNEY && region == REGION_TUMOUR && !self.identified {
+                self.identified = true;
+                ev.push(EventKind::TumourIdentified);
+                self.task_step("identify", &mut ev);
+            }
+            if mark_pressed && m == KIDNEY && region == REGION_PARENCHYMA {
+                let rest = self.models[KIDNEY].mesh().rest[h.face as usize];
+                let err = self.margin_error(rest);
+                self.metrics.marks += 1;
+                if err <= self.scenario.task.mark_tolerance_m {
+                    self.metrics.marks_on_margin += 1;
+                    if self.metrics.marks_on_margin == self.scenario.task.marks_required {
+                        self.task_step("mark", &mut ev);
+                    }
+                }
+                ev.push(EventKind::marked(h.point, err));
+            }
+            if cutting {
+                if self.vulnerable[m] {
+                    touching_vessel[1] = true;
+                } else if m == KIDNEY {
+                    self.contacts[m].push(Contact {
+                        tool: Hand::Right,
+                        point: h.point,
+                        normal: h.normal,
+                        kind: ContactKind::Press {
+                            pressure_pa: tools.laser_pressure_pa,
+                            area_m2: self.scenario.kidney.contact_area_m2,
+                        },
+                    });
+                    let on_surface = self
+                        .surface_depth_m
+                        .is_none_or(|d| h.distance_m < d + CUT_CONTINUITY_M);
+                    if on_surface {
+                        self.surface_depth_m = Some(h.distance_m);
+                    }
+                    let continuous = on_surface
+                        && self
+                            .last_cut_point
+                            .is_none_or(|p| p.distance(h.point) < 4.0 * CUT_CONTINUITY_M);
+                    if continuous {
+                        let from = self.last_cut_point.unwrap_or(h.point);
+                        let faces = self.sweep(origin, from, h.point, h.face);
+                        let length = from.distance(h.point);
+                        self.metrics.cut_length_m += length;
+                        self.last_cut_point = Some(h.point);
+                        strokes.push((m, CutStroke { faces }, length));
+                    }
+                }
+            } else {
+                self.last_cut_point = None;
+                self.surface_depth_m = None;
+            }
+        } else if !cutting {
+            self.last_cut_point = None;
+            self.surface_depth_m = None;
+        }
+
+        // Grasper (left hand).
+        let grasper = input.hand(Hand::Left);
+        let tip = grasper.pose.position;
+        self.tools[0] = ToolSnapshot {
+            tip,
+            direction: grasper.pose.forward(),
+            beam_end: None,
+            active: grasper.buttons.grip >= tools.grip_threshold,
+        };
+        if grasper.buttons.grip >= tools.grip_threshold {
+            if self.grasp_model.is_none() {
+                self.grasp_model = self
+                    .models
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(m, b)| {
+                        nearest_within(&b.surface(), tip, tools.grasp_radius_m)
+                            .first()
+                            .map(|&(d, _)| (d, m))
+                    })
+                    .min_by(|a, b| a.0.total_cmp(&b.0))
+                    .map(|(_, m)| m);
+            }
+            if let Some(m) = self.grasp_model {
+                if self.vulnerable[m] {
+                    touching_vessel[0] = true;
+                }
+                self.contacts[m].push(Contact {
+                    tool: Hand::Left,
+                    point: tip,
+                    normal: -grasper.pose.forward(),
+                    kind: ContactKind::Grasp {
+                        rotation: grasper.pose.orientation,
+                        radius_m: tools.grasp_radius_m,
+                    },
+                });
+            }
+        } else {
+            self.grasp_model = None;
+            for (m, b) in self.models.iter().enumerate() {
+                if !nearest_within(&b.surface(), tip, tools.grasper_tip_radius_m * 1.5).is_empty() {
+                    if self.vulnerable[m] {
+                        touching_vessel[0] = true;
+                    }
+                    self.contacts[m].push(Contact {
+                        tool: Hand::Left,
+                        point: tip,
+                        normal: -grasper.pose.forward(),
+                        kind: ContactKind::Sphere {
+                            radius_m: tools.grasper_tip_radius_m,
+                        },
+                    });
+                }
+            }
+        }
+        for h in 0..2 {
+            if touching_vessel[h] && !self.vessel_touch[h] {
+                self.metrics.vessel_contacts += 1;
+                ev.push(EventKind::VesselContact {
+                    tool: Hand::BOTH[h].name().to_string(),
+                    model: "vessel".to_string(),
+                });
+            }
+            self.vessel_touch[h] = touching_vessel[h];
+        }
+
+        // Cuts, then every model steps (in parallel: models are independent).
+        let mut topology_changed = false;
+        for (m, stroke, length) in strokes {
+            let out = &mut self.outputs[m];
+            out.clear();
+            let before = self.models[m].alive().iter().filter(|a| !**a).count();
+            self.models[m].cut(&stroke, out);
+            let removed = self.models[m].alive().iter().filter(|a| !**a).count() - before;
+            if removed > 0 {
+                topology_changed = true;
+                let k = &self.models[m];
+                let mut into_tumour = 0;
+                for &f in &stroke.faces {
+                    if k.regions()[f as usize] == REGION_TUMOUR {
+                        into_tumour += 1;
+                    } else {
+                        self.cut_deviation_sum +=
+                            self.margin_error(k.mesh().rest[f as usize]) as f64;
+                    }
+                }
+                self.metrics.cut_faces += removed as u32;
+                self.metrics.cut_into_tumour_faces += into_tumour;
+                ev.push(EventKind::Cut {
+                    model: self.models[m].name().to_string(),
+                    faces: removed as u32,
+                    length_m: length,
+                });
+            }
+            ev.append(&mut self.outputs[m].events);
+        }
+        let contacts = &self.contacts;
+        self.models
+            .par_iter_mut()
+            .zip(self.outputs.par_iter_mut())
+            .zip(self.guards.par_iter_mut())
+            .zip(self.model_time_s.par_iter_mut())
+            .enumerate()
+            .for_each(|(m, (((model, out), guard), time))| {
+                out.clear();
+                if guard.is_frozen() {
+                    return;
+                }
+                let t0 = std::time::Instant::now();
+                model.step(dt, &contacts[m], out);
+                *time += t0.elapsed().as_secs_f64();
+                if let Some(e) = guard.after_step(model, step) {
+                    out.events.push(e);
+                }
+            });
+        self.reactions = [Vec3::ZERO; 2];
+        for out in &mut self.outputs {
+            for (tool, f) in &out.reactions {
+                self.reactions[tool.index()] += *f;
+            }
+            for e in &out.events {
+                if matches!(e, EventKind::TieBroken { .. }) {
+                    self.metrics.ties_torn += 1;
+                    topology_changed = true;
+                }
+            }
+            ev.append(&mut out.events);
+        }
+
+        // Is the tumour free, and has it been lifted out?
+        if topology_changed && !self.freed {
+            let k = &mut self.models[KIDNEY];
+            k.refresh_topology();
+            let still_held =
+                (0..k.mesh().len()).any(|i| k.regions()[i] == REGION_TUMOUR && k.is_anchored(i));
+            if !still_held {
+                self.freed = true;
+                ev.push(EventKind::TumourFreed);
+                self.task_step("cut", &mut ev);
+            }
+        }
+        if self.freed && !self.removed {
+            let k = &self.models[KIDNEY];
+            let (mut sum, mut n) = (Vec3::ZERO, 0);
+            for i in 0..k.mesh().len() {
+                if k.regions()[i] == REGION_TUMOUR && k.alive()[i] {
+                    sum += k.positions()[i];
+                    n += 1;
+                }
+            }
+            if n > 0
+                && (sum / n as f32).distance(self.tumour_rest_centroid)
+                    > self.scenario.task.removal_distance_m
+            {
+                self.removed = true;
+                self.metrics.completion_time_s = Some((step + 1) as f64 * dt as f64);
+                self.metrics.healthy_removed_m2 = self.healthy_removed();
+                ev.push(EventKind::TumourRemoved);
+                self.task_step("remove", &mut ev);
+            }
+        }
+        self.metrics.cut_deviation_mean_m =
+            if self.metrics.cut_faces > self.metrics.cut_into_tumour_faces {
+                (self.cut_deviation_sum
+                    / (self.metrics.cut_faces - self.metrics.cut_into_tumour_faces) as f64)
+                    as f32
+            } else {
+                0.0
+            };
+        self.prev_input = Some(*input);
+        events.extend(ev.into_iter().map(|kind| SimEvent { step, kind }));
+    }
+
+    /// Faces along the laser's sweep from `from` to `to` (both surface points).
+    fn sweep(&self, origin: Vec3, from: Vec3, to: Vec3, face: u32) -> Vec<u32> {
+        let mut faces = vec![face];
+        let n = (from.distance(to) / SWEEP_SPACING_M).ceil() as usize;
+        let k = &self.models[KIDNEY];
+        for s in 1..n {
+            let p = from.lerp(to, s as f32 / n as f32);
+            let d = (p - origin).normalize_or_zero();
+            if let Some(h) = cast_ray(&k.surface(), origin, d, self.scenario.tools.laser_range_m)
+                && h.point.distance(p) < CUT_CONTINUITY_M
+            {
+                faces.push(h.face);
+            }
+        }
+        faces.sort_unstable();
+        faces.dedup();
+        faces
+    }
+
+    /// Healthy parenchyma area (at rest) cut away or carried off with the specimen, m^2.
+    pub fn healthy_removed(&self) -> f32 {
+        let k = &self.models[KIDNEY];
+        (0..k.mesh().len())
+            .filter(|&f| {
+                k.regions()[f] == REGION_PARENCHYMA && (!k.alive()[f] || !k.is_anchored(f))
+            })
+            .map(|f| k.rest_face_area(f))
+            .sum()
+    }
+
+    pub fn snapshot(&mut self, step: u64) -> Snapshot {
+        let models: Vec<ModelSnapshot> = self.models.iter_mut().map(|m| m.render_mesh()).collect();
+        Snapshot {
+            step,
+            time_s: step as f64 * self.scenario.dt_s as f64,
+            models,
+            tools: self.tools,
+            reactions: self.reactions,
+        }
+    }
+
+    /// Digest of every model's state.
+    pub fn state_hash(&self) -> u64 {
+        let mut h = crate::models::Fnv::default();
+        for m in &self.models {
+            let v = m.state_hash();
+            h.write(v as u32);
+            h.write((v >> 32) as u32);
+        }
+        h.0
+    }
+}

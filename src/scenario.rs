@@ -1,0 +1,412 @@
+//! Scenario files (`assets/scenarios/*.toml`): anatomy, model parameters with units, tools,
+//! task, vulnerable structures and metric weights. Every value is range-checked; an error names
+//! the file, the key and what is expected.
+
+use crate::models::SoftBodyParams;
+use serde::Deserialize;
+use std::path::Path;
+
+/// The five procedures the product covers, and which ones run today.
+pub const PROCEDURES: [&str; 5] = [
+    "nephrectomy",
+    "rectum",
+    "cholecystectomy",
+    "myotomy",
+    "catheter",
+];
+pub const IMPLEMENTED: [&str; 1] = ["nephrectomy"];
+
+/// An input-file problem, for people: which file, which key or line, what was expected.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{file}: {key}: {message}")]
+pub struct InputError {
+    pub file: String,
+    pub key: String,
+    pub message: String,
+}
+
+impl InputError {
+    pub fn new(file: &str, key: &str, message: impl Into<String>) -> Self {
+        Self {
+            file: file.to_string(),
+            key: key.to_string(),
+            message: message.into(),
+        }
+    }
+
+    /// Wraps a TOML error, keeping its line and column.
+    pub fn toml(file: &str, e: &toml::de::Error) -> Self {
+        let key = match e.span() {
+            Some(_) => "toml".to_string(),
+            None => "file".to_string(),
+        };
+        Self::new(file, &key, e.to_string().trim_end().replace('\n', " | "))
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// One of [`PROCEDURES`].
+    pub procedure: String,
+    /// Simulation step, seconds (1e-4 to 0.01).
+    pub dt_s: f32,
+    /// Snapshot publication rate for renderers, Hz.
+    pub publish_hz: f32,
+    pub anatomy: Anatomy,
+    pub kidney: SoftBodyParams,
+    pub vessels: SoftBodyParams,
+    pub tools: Tools,
+    pub task: Task,
+    pub vulnerable: Vec<Vulnerable>,
+    pub weights: Weights,
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Anatomy {
+    /// Icosphere subdivision level of kidney and tumour (5 = full scene, 3 = coarse).
+    pub level: u32,
+    pub kidney_half_length_m: f32,
+    pub kidney_half_width_m: f32,
+    pub kidney_half_thickness_m: f32,
+    pub hilum_depth_m: f32,
+    /// Tumour radius, m (the paper's case: a 3-5 cm mass).
+    pub tumour_radius_m: f32,
+    /// Direction from the kidney centre to the tumour site (normalised on load).
+    pub tumour_direction: [f32; 3],
+    /// How far the tumour centre stands out of the surface, in tumour radii (exophytic > 0).
+    pub tumour_protrusion: f32,
+    /// Points around each vessel.
+    pub vessel_segments: u32,
+    /// Rings along each vessel.
+    pub vessel_rings: u32,
+    pub renal_artery_radius_m: f32,
+    pub renal_vein_radius_m: f32,
+    pub ureter_radius_m: f32,
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Tools {
+    /// Laser pointer range, m.
+    pub laser_range_m: f32,
+    /// Trigger value above which the laser cuts, 0..1.
+    pub cut_threshold: f32,
+    /// Pressure the laser applies where it cuts, Pa.
+    pub laser_pressure_pa: f32,
+    /// Grasper tip radius (collision sphere), m.
+    pub grasper_tip_radius_m: f32,
+    /// Reach of the closing jaws, m.
+    pub grasp_radius_m: f32,
+    /// Grip value above which the jaws close, 0..1.
+    pub grip_threshold: f32,
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Task {
+    /// Intended margin of healthy tissue around the tumour, m.
+    pub margin_m: f32,
+    /// Margin marks needed before cutting counts as planned.
+    pub marks_required: u32,
+    /// A mark counts if it lies within this distance of the intended margin, m.
+    pub mark_tolerance_m: f32,
+    /// The freed tumour counts as removed once lifted this far, m.
+    pub removal_distance_m: f32,
+    /// Time an expert needs, s (efficiency is full at or below it).
+    pub target_time_s: f32,
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Vulnerable {
+    pub model: String,
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Weights {
+    pub completion: f32,
+    pub margin: f32,
+    pub preservation: f32,
+    pub safety: f32,
+    pub efficiency: f32,
+}
+
+/// The scenario shipped for a procedure.
+pub fn builtin(procedure: &str) -> Option<&'static str> {
+    match procedure {
+        "nephrectomy" => Some(include_str!("../assets/scenarios/nephrectomy.toml")),
+        _ => None,
+    }
+}
+
+pub fn check_procedure(file: &str, key: &str, name: &str) -> Result<(), InputError> {
+    if !PROCEDURES.contains(&name) {
+        return Err(InputError::new(
+            file,
+            key,
+            format!(
+                "unknown procedure '{name}', expected one of {}",
+                PROCEDURES.join(", ")
+            ),
+        ));
+    }
+    if !IMPLEMENTED.contains(&name) {
+        return Err(InputError::new(
+            file,
+            key,
+            format!(
+                "procedure '{name}' is not implemented yet (available: {})",
+                IMPLEMENTED.join(", ")
+            ),
+        ));
+    }
+    Ok(())
+}
+
+struct Ranges<'a> {
+    file: &'a str,
+}
+
+impl Ranges<'_> {
+    fn num(&self, key: &str, v: f32, lo: f32, hi: f32, unit: &str) -> Result<(), InputError> {
+        if !v.is_finite() {
+            return Err(InputError::new(
+                self.file,
+                key,
+                format!("must be a finite number, got {v}"),
+            ));
+        }
+        if v < lo || v > hi {
+            return Err(InputError::new(
+                self.file,
+                key,
+                format!("must be between {lo} and {hi} {unit}, got {v}"),
+            ));
+        }
+        Ok(())
+    }
+
+    fn params(&self, section: &str, p: &SoftBodyParams) -> Result<(), InputError> {
+        let k = |name: &str| format!("{section}.{name}");
+        self.num(&k("spring_n_per_m"), p.spring_n_per_m, 0.0, 1e5, "N/m")?;
+        self.num(&k("damping_per_s"), p.damping_per_s, 0.0, 1e3, "1/s")?;
+        self.num(&k("pressure_pa"), p.pressure_pa, 0.0, 1e6, "Pa")?;
+        self.num(&k("contact_area_m2"), p.contact_area_m2, 1e-8, 1e-2, "m^2")?;
+        self.num(&k("offset_m"), p.offset_m, 0.0, 0.05, "m")?;
+        self.num(&k("falloff_m"), p.falloff_m, 1e-4, 0.1, "m")?;
+        self.num(
+            &k("volume_stiffness_pa"),
+            p.volume_stiffness_pa,
+            0.0,
+            1e6,
+            "Pa",
+        )?;
+        self.num(
+            &k("stretch_compliance_m_per_n"),
+            p.stretch_compliance_m_per_n,
+            0.0,
+            1.0,
+            "m/N",
+        )?;
+        self.num(
+            &k("bend_compliance_per_n_m"),
+            p.bend_compliance_per_n_m,
+            0.0,
+            10.0,
+            "rad/(N m)",
+        )?;
+        self.num(
+            &k("tie_compliance_m_per_n"),
+            p.tie_compliance_m_per_n,
+            0.0,
+            1.0,
+            "m/N",
+        )?;
+        self.num(&k("tie_break_force_n"), p.tie_break_force_n, 1e-3, 1e3, "N")?;
+        self.num(
+            &k("sleep_speed_m_per_s"),
+            p.sleep_speed_m_per_s,
+            0.0,
+            0.1,
+            "m/s",
+        )?;
+        if p.solver_iterations == 0 || p.solver_iterations > 100 {
+            return Err(InputError::new(
+                self.file,
+                &k("solver_iterations"),
+                format!("must be between 1 and 100, got {}", p.solver_iterations),
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl Scenario {
+    /// Parses and validates scenario text; `file` names it in errors.
+    pub fn parse(file: &str, text: &str) -> Result<Self, InputError> {
+        let s: Scenario = toml::from_str(text).map_err(|e| InputError::toml(file, &e))?;
+        s.validate(file)?;
+        Ok(s)
+    }
+
+    pub fn load(path: &Path) -> Result<Self, InputError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| InputError::new(&file, "file", format!("cannot read: {e}")))?;
+        Self::parse(&file, &text)
+    }
+
+    pub fn validate(&self, file: &str) -> Result<(), InputError> {
+        check_procedure(file, "procedure", &self.procedure)?;
+        let r = Ranges { file };
+        r.num("dt_s", self.dt_s, 1e-4, 0.01, "s")?;
+        r.num("publish_hz", self.publish_hz, 1.0, 1000.0, "Hz")?;
+        let a = &self.anatomy;
+        if !(1..=7).contains(&a.level) {
+            return Err(InputError::new(
+                file,
+                "anatomy.level",
+                format!("must be 1 to 7, got {}", a.level),
+            ));
+        }
+        r.num(
+            "anatomy.kidney_half_length_m",
+            a.kidney_half_length_m,
+            0.01,
+            0.2,
+            "m",
+        )?;
+        r.num(
+            "anatomy.kidney_half_width_m",
+            a.kidney_half_width_m,
+            0.005,
+            0.2,
+            "m",
+        )?;
+        r.num(
+            "anatomy.kidney_half_thickness_m",
+            a.kidney_half_thickness_m,
+            0.005,
+            0.2,
+            "m",
+        )?;
+        r.num("anatomy.hilum_depth_m", a.hilum_depth_m, 0.0, 0.05, "m")?;
+        r.num(
+            "anatomy.tumour_radius_m",
+            a.tumour_radius_m,
+            0.005,
+            0.05,
+            "m",
+        )?;
+        r.num(
+            "anatomy.tumour_protrusion",
+            a.tumour_protrusion,
+            0.0,
+            0.95,
+            "radii",
+        )?;
+        for (i, c) in a.tumour_direction.iter().enumerate() {
+            r.num(&format!("anatomy.tumour_direction[{i}]"), *c, -1e3, 1e3, "")?;
+        }
+        if a.tumour_direction.iter().all(|c| *c == 0.0) {
+            return Err(InputError::new(
+                file,
+                "anatomy.tumour_direction",
+                "must not be the zero vector",
+            ));
+        }
+        if !(3..=256).contains(&a.vessel_segments) || !(2..=1024).contains(&a.vessel_rings) {
+            return Err(InputError::new(
+                file,
+                "anatomy.vessel_segments",
+                "vessel_segments must be 3..256 and vessel_rings 2..1024",
+            ));
+        }
+        r.num(
+            "anatomy.renal_artery_radius_m",
+            a.renal_artery_radius_m,
+            5e-4,
+            0.02,
+            "m",
+        )?;
+        r.num(
+            "anatomy.renal_vein_radius_m",
+            a.renal_vein_radius_m,
+            5e-4,
+            0.02,
+            "m",
+        )?;
+        r.num(
+            "anatomy.ureter_radius_m",
+            a.ureter_radius_m,
+            5e-4,
+            0.02,
+            "m",
+        )?;
+        r.params("kidney", &self.kidney)?;
+        r.params("vessels", &self.vessels)?;
+        let t = &self.tools;
+        r.num("tools.laser_range_m", t.laser_range_m, 0.01, 5.0, "m")?;
+        r.num("tools.cut_threshold", t.cut_threshold, 0.01, 1.0, "")?;
+        r.num(
+            "tools.laser_pressure_pa",
+            t.laser_pressure_pa,
+            0.0,
+            1e5,
+            "Pa",
+        )?;
+        r.num(
+            "tools.grasper_tip_radius_m",
+            t.grasper_tip_radius_m,
+            1e-4,
+            0.02,
+            "m",
+        )?;
+        r.num("tools.grasp_radius_m", t.grasp_radius_m, 1e-4, 0.05, "m")?;
+        r.num("tools.grip_threshold", t.grip_threshold, 0.01, 1.0, "")?;
+        let k = &self.task;
+        r.num("task.margin_m", k.margin_m, 0.0, 0.03, "m")?;
+        r.num("task.mark_tolerance_m", k.mark_tolerance_m, 1e-4, 0.03, "m")?;
+        r.num(
+            "task.removal_distance_m",
+            k.removal_distance_m,
+            1e-3,
+            0.3,
+            "m",
+        )?;
+        r.num("task.target_time_s", k.target_time_s, 1.0, 7200.0, "s")?;
+        let w = &self.weights;
+        for (name, v) in [
+            ("completion", w.completion),
+            ("margin", w.margin),
+            ("preservation", w.preservation),
+            ("safety", w.safety),
+            ("efficiency", w.efficiency),
+        ] {
+            r.num(&format!("weights.{name}"), v, 0.0, 1e3, "")?;
+        }
+        if w.completion + w.margin + w.preservation + w.safety + w.efficiency <= 0.0 {
+            return Err(InputError::new(
+                file,
+                "weights",
+                "at least one weight must be positive",
+            ));
+        }
+        for (i, v) in self.vulnerable.iter().enumerate() {
+            if !["renal_artery", "renal_vein", "ureter"].contains(&v.model.as_str()) {
+                return Err(InputError::new(
+                    file,
+                    &format!("vulnerable[{i}].model"),
+                    format!(
+                        "unknown model '{}', expected renal_artery, renal_vein or ureter",
+                        v.model
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,190 @@
+//! A headless session: a procedure driven by a trace at a fixed step, recorded, and reported.
+
+use crate::assess;
+use crate::procedures::Nephrectomy;
+use crate::scenario::{InputError, Scenario};
+use crate::sim::{Clock, InputFrame, Pacing, SimEvent, SnapshotBus, TissueModel};
+use crate::trace::{KeyTrace, Recording};
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::Path;
+use std::time::Instant;
+
+/// Where the inputs come from.
+pub enum Input {
+    Keys(KeyTrace),
+    Recorded(Vec<InputFrame>),
+}
+
+/// Extra simulated time after the trace ends, seconds, so that motion settles.
+const SETTLE_S: f64 = 0.25;
+
+#[derive(Debug, Serialize)]
+pub struct ModelReport {
+    pub name: String,
+    pub kind: String,
+    pub vertices: usize,
+    pub triangles: usize,
+    pub constraints: usize,
+}
+
+#[derive(Debug, Serialize)]
+pub struct Report {
+    pub procedure: String,
+    pub completed: bool,
+    pub dt_s: f32,
+    pub steps: u64,
+    pub simulated_s: f64,
+    pub models: Vec<ModelReport>,
+    pub events: BTreeMap<String, u64>,
+    pub metrics: crate::procedures::nephrectomy::Metrics,
+    pub score_parts: assess::ScoreParts,
+    pub score: f32,
+    /// FNV-1a digest of the final simulation state.
+    pub state_hash: String,
+}
+
+pub struct Outcome {
+    pub report: Report,
+    pub events: Vec<SimEvent>,
+    pub recording: Recording,
+    pub wall_s: f64,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum SessionError {
+    #[error(transparent)]
+    Input(#[from] InputError),
+    #[error("building the anatomy: {0}")]
+    Mesh(#[from] crate::mesh::MeshError),
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+}
+
+fn io(path: &Path) -> impl FnOnce(std::io::Error) -> SessionError + '_ {
+    move |source| SessionError::Io {
+        path: path.display().to_string(),
+        source,
+    }
+}
+
+/// Runs a session to the end of its input.
+pub fn run(
+    scenario_text: &str,
+    scenario_file: &str,
+    input: Input,
+    pacing: Pacing,
+    bus: Option<&SnapshotBus>,
+) -> Result<Outcome, SessionError> {
+    let scenario = Scenario::parse(scenario_file, scenario_text)?;
+    let dt = scenario.dt_s;
+    let publish_every = ((1.0 / scenario.publish_hz) / dt).round().max(1.0) as u64;
+    let mut proc_ = Nephrectomy::new(scenario.clone())?;
+    let mut clock = Clock::new(dt, pacing);
+    let total_steps = match &input {
+        Input::Keys(k) => ((k.duration_s() + SETTLE_S) / dt as f64).ceil() as u64,
+        Input::Recorded(f) => f.len() as u64,
+    };
+    let mut frames = Vec::with_capacity(total_steps as usize);
+    let mut events = Vec::new();
+    let start = Instant::now();
+    while clock.step() < total_steps {
+        let step = clock.step();
+        let frame = match &input {
+            Input::Keys(k) => k.sample(clock.time_s()),
+            Input::Recorded(f) => f[step as usize],
+        };
+        proc_.step(&frame, step, &mut events);
+        frames.push(frame);
+        if let Some(bus) = bus
+            && step % publish_every == 0
+        {
+            bus.publish(proc_.snapshot(step));
+        }
+        clock.tick();
+    }
+    let wall_s = start.elapsed().as_secs_f64();
+    let mut counts: BTreeMap<String, u64> = BTreeMap::new();
+    for e in &events {
+        *counts.entry(e.kind.name().to_string()).or_default() += 1;
+    }
+    let mut metrics = proc_.metrics.clone();
+    if !proc_.is_completed() {
+        metrics.healthy_removed_m2 = proc_.healthy_removed();
+    }
+    let (score, parts) = assess::score(&scenario, &metrics);
+    let report = Report {
+        procedure: scenario.procedure.clone(),
+        completed: proc_.is_completed(),
+        dt_s: dt,
+        steps: clock.step(),
+        simulated_s: clock.time_s(),
+        models: proc_
+            .models()
+            .iter()
+            .map(|m| {
+                let s = m.sizes();
+                ModelReport {
+                    name: m.name().to_string(),
+                    kind: m.kind().to_string(),
+                    vertices: s.vertices,
+                    triangles: s.triangles,
+                    constraints: s.constraints,
+                }
+            })
+            .collect(),
+        events: counts,
+        metrics,
+        score_parts: parts,
+        score,
+        state_hash: format!("{:016x}", proc_.state_hash()),
+    };
+    Ok(Outcome {
+        report,
+        events,
+        recording: Recording {
+            procedure: scenario.procedure,
+            dt_s: dt,
+            scenario: scenario_text.to_string(),
+            frames,
+        },
+        wall_s,
+    })
+}
+
+/// Writes report.json, events.jsonl, input.vtrace and timing.json into `dir`.
+pub fn write_outputs(o: &Outcome, dir: &Path) -> Result<(), SessionError> {
+    std::fs::create_dir_all(dir).map_err(io(dir))?;
+    let write = |name: &str, bytes: &[u8]| -> Result<(), SessionError> {
+        let path = dir.join(name);
+        let tmp = dir.join(format!(".{name}.partial"));
+        let mut f = std::fs::File::create(&tmp).map_err(io(&tmp))?;
+        f.write_all(bytes).map_err(io(&tmp))?;
+        std::fs::rename(&tmp, &path).map_err(io(&path))
+    };
+    let report = serde_json::to_string_pretty(&o.report).unwrap_or_default() + "\n";
+    write("report.json", report.as_bytes())?;
+    let mut lines = String::new();
+    for e in &o.events {
+        lines += &serde_json::to_string(e).unwrap_or_default();
+        lines.push('\n');
+    }
+    write("events.jsonl", lines.as_bytes())?;
+    let trace = dir.join("input.vtrace");
+    o.recording.write(&trace).map_err(io(&trace))?;
+    let steps_per_s = o.report.steps as f64 / o.wall_s.max(1e-9);
+    let timing = serde_json::json!({
+        "wall_s": o.wall_s,
+        "steps_per_s": steps_per_s,
+        "realtime_factor": steps_per_s * o.report.dt_s as f64,
+        "threads": rayon::current_num_threads(),
+    });
+    write(
+        "timing.json",
+        (serde_json::to_string_pretty(&timing).unwrap_or_default() + "\n").as_bytes(),
+    )
+}

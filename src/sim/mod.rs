@@ -1,0 +1,18 @@
+//! The simulation core: fixed-step clock, per-step input, the tissue-model trait, contacts,
+//! events, snapshots, and the NaN quarantine.
+
+mod clock;
+mod events;
+mod input;
+mod model;
+mod quarantine;
+mod snapshot;
+
+pub use clock::{Clock, Pacing};
+pub use events::{EventKind, SimEvent};
+pub use input::{Buttons, Hand, HandInput, InputFrame, Pose};
+pub use model::{
+    Contact, ContactKind, CutStroke, ModelOutput, ModelSizes, SurfaceView, TissueModel, ToolId,
+};
+pub use quarantine::Quarantine;
+pub use snapshot::{ModelSnapshot, Snapshot, SnapshotBus, ToolSnapshot};

@@ -1,0 +1,82 @@
+use arc_swap::ArcSwap;
+use glam::Vec3;
+use std::sync::Arc;
+
+/// What a renderer needs of one model at one instant.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ModelSnapshot {
+    pub name: String,
+    pub positions: Vec<Vec3>,
+    pub normals: Vec<Vec3>,
+    pub indices: Vec<u32>,
+    /// Region index per triangle.
+    pub regions: Vec<u8>,
+}
+
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ToolSnapshot {
+    pub tip: Vec3,
+    pub direction: Vec3,
+    /// Laser hit point, if the beam hits tissue.
+    pub beam_end: Option<Vec3>,
+    pub active: bool,
+}
+
+/// An immutable picture of the simulation, published for renderer and haptic threads.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Snapshot {
+    pub step: u64,
+    pub time_s: f64,
+    pub models: Vec<ModelSnapshot>,
+    pub tools: [ToolSnapshot; 2],
+    /// Reaction force on each tool, newtons.
+    pub reactions: [Vec3; 2],
+}
+
+/// Publishes snapshots without blocking: readers load the newest `Arc`, the simulation swaps in
+/// a new one.
+#[derive(Default)]
+pub struct SnapshotBus {
+    current: ArcSwap<Snapshot>,
+}
+
+impl SnapshotBus {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    pub fn publish(&self, s: Snapshot) {
+        self.current.store(Arc::new(s));
+    }
+
+    pub fn latest(&self) -> Arc<Snapshot> {
+        self.current.load_full()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn readers_keep_their_snapshot_while_a_new_one_is_published() {
+        let bus = SnapshotBus::new();
+        bus.publish(Snapshot {
+            step: 1,
+            ..Default::default()
+        });
+        let held = bus.latest();
+        let reader = std::thread::scope(|s| {
+            s.spawn(|| {
+                bus.publish(Snapshot {
+                    step: 2,
+                    ..Default::default()
+                })
+            });
+            s.spawn(|| bus.latest().step).join().unwrap_or(0)
+        });
+        assert_eq!(held.step, 1);
+        assert!(reader == 1 || reader == 2);
+        assert_eq!(bus.latest().step, 2);
+    }
+}

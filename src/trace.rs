@@ -1,0 +1,335 @@
+//! Input traces. A keyframed TOML trace is written by hand and sampled once per step; every
+//! session records what it sampled in a compact binary file that replays bit for bit.
+
+use crate::scenario::{InputError, check_procedure};
+use crate::sim::{Buttons, Hand, HandInput, InputFrame, Pose};
+use glam::{Quat, Vec3};
+use serde::Deserialize;
+use std::io::{Read, Write};
+use std::path::Path;
+
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TraceFile {
+    procedure: String,
+    #[serde(default)]
+    left: Vec<Key>,
+    #[serde(default)]
+    right: Vec<Key>,
+}
+
+/// One keyframe of one hand. Position and target are linearly interpolated; the instrument
+/// points from position to target; `mark` holds until the next keyframe.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Key {
+    pub t_s: f64,
+    pub position: [f32; 3],
+    pub target: [f32; 3],
+    #[serde(default)]
+    pub trigger: f32,
+    #[serde(default)]
+    pub grip: f32,
+    #[serde(default)]
+    pub mark: bool,
+}
+
+/// A validated keyframed trace.
+#[derive(Debug, Clone, PartialEq)]
+pub struct KeyTrace {
+    pub procedure: String,
+    pub keys: [Vec<Key>; 2],
+}
+
+impl KeyTrace {
+    pub fn parse(file: &str, text: &str) -> Result<Self, InputError> {
+        let t: TraceFile = toml::from_str(text).map_err(|e| InputError::toml(file, &e))?;
+        check_procedure(file, "procedure", &t.procedure)?;
+        for (name, keys) in [("left", &t.left), ("right", &t.right)] {
+            if keys.is_empty() {
+                return Err(InputError::new(
+                    file,
+                    name,
+                    "needs at least one [[".to_string() + name + "]] keyframe",
+                ));
+            }
+            let mut last = f64::NEG_INFINITY;
+            for (i, k) in keys.iter().enumerate() {
+                let key = |f: &str| format!("{name}[{i}].{f}");
+                if !k.t_s.is_finite() || k.t_s < 0.0 {
+                    return Err(InputError::new(
+                        file,
+                        &key("t_s"),
+                        format!("must be a finite time >= 0 s, got {}", k.t_s),
+                    ));
+                }
+                if k.t_s < last {
+                    return Err(InputError::new(
+                        file,
+                        &key("t_s"),
+                        format!("time goes backwards: {} s after {} s", k.t_s, last),
+                    ));
+                }
+                last = k.t_s;
+                for (f, v) in [("position", k.position), ("target", k.target)] {
+                    if v.iter().any(|c| !c.is_finite() || c.abs() > 10.0) {
+                        return Err(InputError::new(
+                            file,
+                            &key(f),
+                            format!("must be finite metres within 10 m, got {v:?}"),
+                        ));
+                    }
+                }
+                if Vec3::from(k.position).distance(Vec3::from(k.target)) < 1e-6 {
+                    return Err(InputError::new(
+                        file,
+                        &key("target"),
+                        "must differ from position (it sets the pointing direction)",
+                    ));
+                }
+                for (f, v) in [("trigger", k.trigger), ("grip", k.grip)] {
+                    if !v.is_finite() || !(0.0..=1.0).contains(&v) {
+                        return Err(InputError::new(
+                            file,
+                            &key(f),
+                            format!("must be between 0 and 1, got {v}"),
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(Self {
+            procedure: t.procedure,
+            keys: [t.left, t.right],
+        })
+    }
+
+    pub fn load(path: &Path) -> Result<Self, InputError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| InputError::new(&file, "file", format!("cannot read: {e}")))?;
+        Self::parse(&file, &text)
+    }
+
+    /// Time of the last keyframe, seconds.
+    pub fn duration_s(&self) -> f64 {
+        self.keys
+            .iter()
+            .filter_map(|k| k.last())
+            .map(|k| k.t_s)
+            .fold(0.0, f64::max)
+    }
+
+    /// The input at time `t_s`.
+    pub fn sample(&self, t_s: f64) -> InputFrame {
+        let mut frame = InputFrame::default();
+        for hand in Hand::BOTH {
+            frame.hands[hand.index()] = sample_hand(&self.keys[hand.index()], t_s);
+        }
+        frame
+    }
+}
+
+fn sample_hand(keys: &[Key], t: f64) -> HandInput {
+    let i = keys.partition_point(|k| k.t_s <= t);
+    let (a, b) = match i {
+        0 => (keys[0], keys[0]),
+        i if i >= keys.len() => (keys[keys.len() - 1], keys[keys.len() - 1]),
+        i => (keys[i - 1], keys[i]),
+    };
+    let s = if b.t_s > a.t_s {
+        ((t - a.t_s) / (b.t_s - a.t_s)).clamp(0.0, 1.0) as f32
+    } else {
+        0.0
+    };
+    let pos = Vec3::from(a.position).lerp(Vec3::from(b.position), s);
+    let target = Vec3::from(a.target).lerp(Vec3::from(b.target), s);
+    HandInput {
+        pose: Pose::looking_at(pos, target),
+        buttons: Buttons {
+            trigger: a.trigger + (b.trigger - a.trigger) * s,
+            grip: a.grip + (b.grip - a.grip) * s,
+            mark: a.mark,
+        },
+    }
+}
+
+const MAGIC: &[u8; 8] = b"VSLTRACE";
+const VERSION: u32 = 1;
+/// Bytes per hand per step: 3 + 4 + 2 floats, one flag byte.
+const HAND_BYTES: usize = 9 * 4 + 1;
+
+/// A recorded session input: the scenario text it ran with and every sampled frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Recording {
+    pub procedure: String,
+    pub dt_s: f32,
+    pub scenario: String,
+    pub frames: Vec<InputFrame>,
+}
+
+impl Recording {
+    pub fn write(&self, path: &Path) -> std::io::Result<()> {
+        let mut buf =
+            Vec::with_capacity(64 + self.scenario.len() + self.frames.len() * 2 * HAND_BYTES);
+        buf.extend_from_slice(MAGIC);
+        buf.extend_from_slice(&VERSION.to_le_bytes());
+        for s in [self.procedure.as_bytes(), self.scenario.as_bytes()] {
+            buf.extend_from_slice(&(s.len() as u32).to_le_bytes());
+            buf.extend_from_slice(s);
+        }
+        buf.extend_from_slice(&self.dt_s.to_le_bytes());
+        buf.extend_from_slice(&(self.frames.len() as u64).to_le_bytes());
+        for f in &self.frames {
+            for h in &f.hands {
+                let p = h.pose.position.to_array();
+                let q = h.pose.orientation.to_array();
+                for v in p
+                    .into_iter()
+                    .chain(q)
+                    .chain([h.buttons.trigger, h.buttons.grip])
+                {
+                    buf.extend_from_slice(&v.to_le_bytes());
+                }
+                buf.push(h.buttons.mark as u8);
+            }
+        }
+        // Write to a temporary file and rename, so a crash never leaves half a recording.
+        let tmp = path.with_extension("partial");
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(&buf)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    }
+
+    pub fn read(path: &Path) -> Result<Self, InputError> {
+        let file = path.display().to_string();
+        let mut bytes = Vec::new();
+        std::fs::File::open(path)
+            .and_then(|mut f| f.read_to_end(&mut bytes))
+            .map_err(|e| InputError::new(&file, "file", format!("cannot read: {e}")))?;
+        Self::decode(&file, &bytes)
+    }
+
+    pub fn is_recording(bytes: &[u8]) -> bool {
+        bytes.starts_with(MAGIC)
+    }
+
+    pub fn decode(file: &str, bytes: &[u8]) -> Result<Self, InputError> {
+        let mut r = Reader {
+            b: bytes,
+            at: 0,
+            file,
+        };
+        if r.take(8, "header")? != MAGIC {
+            return Err(InputError::new(
+                file,
+                "header",
+                "not a Vesalius recording (magic VSLTRACE missing)",
+            ));
+        }
+        let version = r.u32("version")?;
+        if version != VERSION {
+            return Err(InputError::new(
+                file,
+                "version",
+                format!("unsupported version {version}, expected {VERSION}"),
+            ));
+        }
+        let procedure = r.string("procedure")?;
+        check_procedure(file, "procedure", &procedure)?;
+        let scenario = r.string("scenario")?;
+        let dt_s = r.f32("dt_s")?;
+        if !dt_s.is_finite() || !(1e-4..=0.01).contains(&dt_s) {
+            return Err(InputError::new(
+                file,
+                "dt_s",
+                format!("must be 1e-4..0.01 s, got {dt_s}"),
+            ));
+        }
+        let n = r.u64("frames")? as usize;
+        if r.b.len() - r.at != n * 2 * HAND_BYTES {
+            return Err(InputError::new(
+                file,
+                "frames",
+                format!(
+                    "expected {} bytes of frames for {n} frames, found {}",
+                    n * 2 * HAND_BYTES,
+                    r.b.len() - r.at
+                ),
+            ));
+        }
+        let mut frames = Vec::with_capacity(n);
+        for step in 0..n {
+            let mut frame = InputFrame::default();
+            for h in 0..2 {
+                let mut v = [0f32; 9];
+                for c in &mut v {
+                    *c = r.f32("frame")?;
+                }
+                let mark = r.take(1, "frame")?[0] != 0;
+                frame.hands[h] = HandInput {
+                    pose: Pose {
+                        position: Vec3::new(v[0], v[1], v[2]),
+                        orientation: Quat::from_xyzw(v[3], v[4], v[5], v[6]),
+                    },
+                    buttons: Buttons {
+                        trigger: v[7],
+                        grip: v[8],
+                        mark,
+                    },
+                };
+            }
+            if !frame.is_finite() {
+                return Err(InputError::new(
+                    file,
+                    &format!("frame {step}"),
+                    "pose or button is not a finite number",
+                ));
+            }
+            frames.push(frame);
+        }
+        Ok(Self {
+            procedure,
+            dt_s,
+            scenario,
+            frames,
+        })
+    }
+}
+
+struct Reader<'a> {
+    b: &'a [u8],
+    at: usize,
+    file: &'a str,
+}
+
+impl<'a> Reader<'a> {
+    fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8], InputError> {
+        if self.at + n > self.b.len() {
+            return Err(InputError::new(
+                self.file,
+                what,
+                "file ends early (truncated recording)",
+            ));
+        }
+        let s = &self.b[self.at..self.at + n];
+        self.at += n;
+        Ok(s)
+    }
+    fn u32(&mut self, what: &str) -> Result<u32, InputError> {
+        let s = self.take(4, what)?;
+        Ok(u32::from_le_bytes([s[0], s[1], s[2], s[3]]))
+    }
+    fn u64(&mut self, what: &str) -> Result<u64, InputError> {
+        Ok(self.u32(what)? as u64 | (self.u32(what)? as u64) << 32)
+    }
+    fn f32(&mut self, what: &str) -> Result<f32, InputError> {
+        Ok(f32::from_bits(self.u32(what)?))
+    }
+    fn string(&mut self, what: &str) -> Result<String, InputError> {
+        let n = self.u32(what)? as usize;
+        let s = self.take(n, what)?;
+        String::from_utf8(s.to_vec()).map_err(|_| InputError::new(self.file, what, "is not UTF-8"))
+    }
+}
