@@ -101,7 +101,7 @@ pub fn run(
         proc_.step(&frame, step, &mut events);
         frames.push(frame);
         if let Some(bus) = bus
-            && step % publish_every == 0
+            && step.is_multiple_of(publish_every)
         {
             bus.publish(proc_.snapshot(step));
         }

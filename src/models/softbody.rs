@@ -24,7 +24,7 @@ const SLEEP_DISTANCE_M: f32 = 2e-5;
 /// A sleeping point nudged less than this by a constraint is put back and stays asleep, m.
 const WAKE_DISTANCE_M: f32 = 1e-5;
 /// BVH leaves are enlarged by this margin so that small motions need no refit, metres.
-const BVH_MARGIN_M: f32 = 5e-4;
+const BVH_MARGIN_M: f32 = 1e-3;
 
 /// Parameters of the force-based soft body. Every field has its unit in its name.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -68,8 +68,8 @@ impl Default for SoftBodyParams {
             offset_m: 0.002,
             falloff_m: 0.006,
             volume_stiffness_pa: 2000.0,
-            stretch_compliance_m_per_n: 1e-5,
-            bend_compliance_per_n_m: 1e-3,
+            stretch_compliance_m_per_n: 1e-3,
+            bend_compliance_per_n_m: 0.1,
             tie_compliance_m_per_n: 1e-4,
             tie_break_force_n: 2.0,
             solver_iterations: 1,
@@ -136,7 +136,6 @@ pub struct SoftBody {
     bvh_ws: BvhWorkspace,
     leaf_pad: Vec<f32>,
     topology_dirty: bool,
-    render_dirty: bool,
     component: Vec<u32>,
     checkpoint: (Vec<Vec3>, Vec<Vec3>),
     // Scratch, reused every step.
@@ -148,6 +147,11 @@ pub struct SoftBody {
     moved: Vec<u32>,
     before: Vec<Vec3>,
     lambda: Vec<f32>,
+    /// Per constraint: the stamp of the step that last listed it.
+    listed: Vec<u32>,
+    /// Per region: the running sum of volume terms.
+    volume: Vec<f64>,
+    steps_since_resum: u32,
     contacting: [bool; 2],
 }
 
@@ -216,7 +220,6 @@ impl SoftBody {
             bvh_ws: BvhWorkspace::default(),
             leaf_pad: vec![0.0; n],
             topology_dirty: true,
-            render_dirty: false,
             component: vec![0; n],
             checkpoint: (x.clone(), vec![Vec3::ZERO; n]),
             stamp: vec![0; n],
@@ -227,6 +230,9 @@ impl SoftBody {
             moved: Vec::new(),
             before: Vec::new(),
             lambda: Vec::new(),
+            listed: Vec::new(),
+            volume: Vec::new(),
+            steps_since_resum: 0,
             contacting: [false; 2],
             x,
             mesh,
@@ -279,6 +285,15 @@ impl SoftBody {
     /// Connected part of each point (after the last topology update).
     pub fn components(&self) -> &[u32] {
         &self.component
+    }
+
+    fn rebuild_render_runs(&mut self) {
+        let rest = &self.mesh.rest;
+        let normals: Vec<Vec3> = (0..rest.len())
+            .map(|i| self.mesh.normal_area(rest, &self.alive, i).0)
+            .collect();
+        let alive = self.alive.clone();
+        self.mesh.rebuild_render(&alive, &normals);
     }
 
     /// Brings connected parts and anchoring up to date after cuts or torn ties.
@@ -352,6 +367,7 @@ impl SoftBody {
         self.adj_start = count;
         self.adj = adj;
         self.lambda = vec![0.0; all.len()];
+        self.listed = vec![0; all.len()];
     }
 
     fn constraint_index(&self, c: Constraint) -> usize {
@@ -378,25 +394,39 @@ impl SoftBody {
         let (n, a) = self.mesh.normal_area(&self.x, &self.alive, i);
         self.normal[i] = n;
         self.area[i] = a;
-        self.volume_term[i] = if self.alive[i] {
+        let term = if self.alive[i] {
             self.x[i].dot(n) * a / 3.0
         } else {
             0.0
         };
+        if let Some(v) = self.volume.get_mut(self.region[i] as usize) {
+            *v += (term - self.volume_term[i]) as f64;
+        }
+        self.volume_term[i] = term;
     }
 
-    fn region_volumes(&self) -> Vec<f32> {
+    /// Sums the volume terms from scratch (also done periodically against rounding drift).
+    fn resum_volumes(&mut self) {
         let regions = self
             .region
             .iter()
             .copied()
             .max()
             .map_or(0, |r| r as usize + 1);
-        let mut v = vec![0.0f32; regions];
+        let mut v = vec![0.0f64; regions];
         for (i, t) in self.volume_term.iter().enumerate() {
-            v[self.region[i] as usize] += t;
+            v[self.region[i] as usize] += *t as f64;
         }
-        v
+        self.volume = v;
+        self.steps_since_resum = 0;
+    }
+
+    fn region_volumes(&mut self) -> Vec<f32> {
+        self.steps_since_resum += 1;
+        if self.volume.is_empty() || self.steps_since_resum >= 1024 {
+            self.resum_volumes();
+        }
+        self.volume.iter().map(|&v| v as f32).collect()
     }
 
     fn wake(&mut self, i: usize) {
@@ -488,8 +518,8 @@ impl SoftBody {
                 } => {
                     let pressed = pressure_pa * area_m2;
                     let from = forces::offset_point(c.point, c.normal, p.offset_m);
-                    // Beyond 3 falloff lengths the force is under a tenth: ignored.
-                    let reach = 3.0 * p.falloff_m;
+                    // Beyond 2 falloff lengths the force is under a fifth of the peak: ignored.
+                    let reach = 2.0 * p.falloff_m;
                     let q = Aabb::new(from - Vec3::splat(reach), from + Vec3::splat(reach));
                     let found: Vec<u32> = self.bvh.intersect_aabb(&q).collect();
                     let mut total = Vec3::ZERO;
@@ -610,27 +640,30 @@ impl SoftBody {
 
     fn collect_constraints(&mut self) {
         self.constraints_now.clear();
-        // Gather, sort, dedup: a fixed order whatever the order points woke in.
+        // Walk the awake points in index order (the active list is sorted) and list each live
+        // constraint once: a fixed order whatever the order points woke in.
+        let stamp = self.next_stamp();
+        let n_stretch = self.stretch.len();
+        let n_bend = self.bend.len();
         for &i in &self.active {
             let (s, e) = (
                 self.adj_start[i as usize] as usize,
                 self.adj_start[i as usize + 1] as usize,
             );
-            self.constraints_now.extend_from_slice(&self.adj[s..e]);
+            for &c in &self.adj[s..e] {
+                let (li, live) = match c {
+                    Constraint::Stretch(k) => (k as usize, self.stretch_alive[k as usize]),
+                    Constraint::Bend(k) => (n_stretch + k as usize, self.bend_alive[k as usize]),
+                    Constraint::Tie(k) => {
+                        (n_stretch + n_bend + k as usize, self.ties[k as usize].alive)
+                    }
+                };
+                if live && self.listed[li] != stamp {
+                    self.listed[li] = stamp;
+                    self.constraints_now.push(c);
+                }
+            }
         }
-        let key = |c: &Constraint| match *c {
-            Constraint::Stretch(k) => (0u8, k),
-            Constraint::Bend(k) => (1, k),
-            Constraint::Tie(k) => (2, k),
-        };
-        self.constraints_now.sort_unstable_by_key(key);
-        self.constraints_now.dedup();
-        let (sa, ba, ties) = (&self.stretch_alive, &self.bend_alive, &self.ties);
-        self.constraints_now.retain(|c| match *c {
-            Constraint::Stretch(k) => sa[k as usize],
-            Constraint::Bend(k) => ba[k as usize],
-            Constraint::Tie(k) => ties[k as usize].alive,
-        });
     }
 
     fn project(&mut self, dt: f32, out: &mut ModelOutput) {
@@ -862,7 +895,15 @@ impl TissueModel for SoftBody {
         }
         // Refit the BVH where anything moved.
         let mut changed = false;
-        for &i in &moved {
+        let stamp3 = self.next_stamp();
+        let mut leaves = std::mem::take(&mut self.touched);
+        for &i in moved.iter().chain(self.active.iter()) {
+            if self.stamp[i as usize] != stamp3 {
+                self.stamp[i as usize] = stamp3;
+                leaves.push(i);
+            }
+        }
+        for &i in &leaves {
             let f = i as usize;
             if !self.alive[f] {
                 continue;
@@ -872,13 +913,8 @@ impl TissueModel for SoftBody {
                 changed |= s != BvhLeafUpdateStatus::Unchanged;
             }
         }
-        for &i in &self.active {
-            let f = i as usize;
-            let aabb = self.leaf_aabb(f);
-            if let Some(s) = self.bvh.update_partially_if_present(aabb, i, BVH_MARGIN_M) {
-                changed |= s != BvhLeafUpdateStatus::Unchanged;
-            }
-        }
+        leaves.clear();
+        self.touched = leaves;
         if changed {
             self.bvh.refit(&mut self.bvh_ws);
         }
@@ -896,6 +932,9 @@ impl TissueModel for SoftBody {
             removed += 1;
             self.alive[i] = false;
             self.inv_mass[i] = 0.0;
+            if let Some(v) = self.volume.get_mut(self.region[i] as usize) {
+                *v -= self.volume_term[i] as f64;
+            }
             self.volume_term[i] = 0.0;
             self.bvh.remove(f);
             let (s, e) = (self.adj_start[i] as usize, self.adj_start[i + 1] as usize);
@@ -917,7 +956,9 @@ impl TissueModel for SoftBody {
         }
         if removed > 0 {
             self.topology_dirty = true;
-            self.render_dirty = true;
+            // Ray casts read the render triangles, so they change with the cut itself, never
+            // with whoever happens to take a snapshot.
+            self.rebuild_render_runs();
         }
         if severed > 0 {
             out.events.push(EventKind::TiesSevered {
@@ -939,15 +980,6 @@ impl TissueModel for SoftBody {
     }
 
     fn render_mesh(&mut self) -> ModelSnapshot {
-        if self.render_dirty {
-            let rest = &self.mesh.rest;
-            let normals: Vec<Vec3> = (0..rest.len())
-                .map(|i| self.mesh.normal_area(rest, &self.alive, i).0)
-                .collect();
-            let alive = self.alive.clone();
-            self.mesh.rebuild_render(&alive, &normals);
-            self.render_dirty = false;
-        }
         let mut normals = vec![Vec3::ZERO; self.x.len()];
         self.mesh.vertex_normals(&self.x, &self.alive, &mut normals);
         let positions: Vec<Vec3> = (0..self.mesh.render.len())
@@ -990,6 +1022,7 @@ impl TissueModel for SoftBody {
         for i in 0..self.x.len() {
             self.refresh_normal(i);
         }
+        self.resum_volumes();
         self.active.clear();
         self.awake.fill(false);
     }
@@ -1033,5 +1066,185 @@ impl Fnv {
             self.0 ^= b as u64;
             self.0 = self.0.wrapping_mul(0x100_0000_01b3);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::icosphere;
+    use crate::sim::Quarantine;
+
+    fn ball(level: u32, radius: f32, at: Vec3) -> crate::mesh::TriMesh {
+        let mut m = icosphere(level);
+        for p in &mut m.positions {
+            *p = at + *p * radius;
+        }
+        m
+    }
+
+    fn body_of(m: &crate::mesh::TriMesh, regions: Vec<u8>) -> SoftBody {
+        let s = SimplexMesh::dual(m).expect("closed mesh");
+        SoftBody::new("test", s, regions, SoftBodyParams::default())
+    }
+
+    #[test]
+    fn a_closed_band_of_cut_faces_splits_connectivity() {
+        let m = ball(3, 0.03, Vec3::ZERO);
+        let mut b = body_of(&m, vec![0; m.triangle_count()]);
+        let north = (0..b.mesh().len())
+            .max_by(|&i, &j| b.x[i].y.total_cmp(&b.x[j].y))
+            .unwrap_or(0);
+        let south = (0..b.mesh().len())
+            .min_by(|&i, &j| b.x[i].y.total_cmp(&b.x[j].y))
+            .unwrap_or(0);
+        b.refresh_topology();
+        assert_eq!(b.components()[north], b.components()[south]);
+        let band: Vec<u32> = (0..b.mesh().len() as u32)
+            .filter(|&f| b.x[f as usize].y.abs() < 0.003)
+            .collect();
+        let mut out = ModelOutput::default();
+        b.cut(
+            &CutStroke {
+                faces: band.clone(),
+            },
+            &mut out,
+        );
+        b.refresh_topology();
+        assert_ne!(b.components()[north], b.components()[south]);
+        // One half keeps its anchors, the other floats free.
+        assert_ne!(b.is_anchored(north), b.is_anchored(south));
+        assert!(band.iter().all(|&f| !b.alive()[f as usize]));
+        // A cut that does not close the loop leaves one piece.
+        let mut c = body_of(&m, vec![0; m.triangle_count()]);
+        let open: Vec<u32> = band
+            .iter()
+            .copied()
+            .filter(|&f| c.x[f as usize].x < 0.02)
+            .collect();
+        c.cut(&CutStroke { faces: open }, &mut out);
+        c.refresh_topology();
+        assert_eq!(c.components()[north], c.components()[south]);
+    }
+
+    /// Two balls tied by one tie; the second is moved rigidly by `stretch_m` and stepped once.
+    fn tie_after_stretch(stretch_m: f32) -> bool {
+        let mut m = ball(1, 0.01, Vec3::ZERO);
+        let n0 = m.triangle_count();
+        m.append(&ball(1, 0.01, Vec3::new(0.03, 0.0, 0.0)));
+        let mut regions = vec![0u8; n0];
+        regions.extend(std::iter::repeat_n(1u8, m.triangle_count() - n0));
+        let mut b = body_of(&m, regions.clone());
+        let (a, c) = {
+            let x = b.positions();
+            let a = (0..n0)
+                .max_by(|&i, &j| x[i].x.total_cmp(&x[j].x))
+                .unwrap_or(0);
+            let c = (n0..x.len())
+                .min_by(|&i, &j| x[i].x.total_cmp(&x[j].x))
+                .unwrap_or(0);
+            (a, c)
+        };
+        let rest = (b.positions()[a] - b.positions()[c]).length();
+        b.set_ties(vec![Tie {
+            a: a as u32,
+            b: c as u32,
+            rest_m: rest,
+            alive: true,
+        }]);
+        for i in n0..b.positions().len() {
+            let p = b.positions()[i] + Vec3::new(stretch_m, 0.0, 0.0);
+            b.set_position(i, p);
+        }
+        let mut out = ModelOutput::default();
+        b.step(0.002, &[], &mut out);
+        let broke = out
+            .events
+            .iter()
+            .any(|e| matches!(e, EventKind::TieBroken { .. }));
+        assert_eq!(broke, !b.ties()[0].alive);
+        b.ties()[0].alive
+    }
+
+    #[test]
+    fn a_tie_breaks_at_its_threshold_and_not_below() {
+        let p = SoftBodyParams::default();
+        // XPBD, one iteration, unit masses: F = C / (2 dt^2 + compliance).
+        let at_threshold =
+            p.tie_break_force_n * (2.0 * 0.002f32 * 0.002 + p.tie_compliance_m_per_n);
+        assert!(
+            tie_after_stretch(0.9 * at_threshold),
+            "tie broke below its threshold"
+        );
+        assert!(
+            !tie_after_stretch(1.1 * at_threshold),
+            "tie held above its threshold"
+        );
+    }
+
+    #[test]
+    fn an_injected_nan_is_quarantined_rolled_back_and_reported() {
+        let m = ball(2, 0.02, Vec3::ZERO);
+        let mut b = body_of(&m, vec![0; m.triangle_count()]);
+        let mut guard = Quarantine::new(4);
+        let mut out = ModelOutput::default();
+        let press = [Contact {
+            tool: ToolId::Right,
+            point: Vec3::new(0.0, 0.0, 0.02),
+            normal: Vec3::Z,
+            kind: ContactKind::Press {
+                pressure_pa: 1500.0,
+                area_m2: 1e-4,
+            },
+        }];
+        for step in 1..=8 {
+            b.step(0.002, &press, &mut out);
+            assert!(guard.after_step(&mut b, step).is_none());
+        }
+        let good = b.positions().to_vec();
+        b.set_position(5, Vec3::new(f32::NAN, 0.0, 0.0));
+        b.step(0.002, &press, &mut out);
+        let event = guard.after_step(&mut b, 9);
+        assert_eq!(
+            event,
+            Some(EventKind::Quarantined {
+                model: "test".into(),
+                restored_step: 8
+            })
+        );
+        assert!(guard.is_frozen());
+        assert!(b.positions().iter().all(|p| p.is_finite()));
+        assert_eq!(b.positions(), &good[..]);
+    }
+
+    #[test]
+    fn a_press_dents_the_surface_and_it_springs_back() {
+        let m = ball(3, 0.03, Vec3::ZERO);
+        let mut b = body_of(&m, vec![0; m.triangle_count()]);
+        let top = (0..b.mesh().len())
+            .max_by(|&i, &j| b.x[i].z.total_cmp(&b.x[j].z))
+            .unwrap_or(0);
+        let z0 = b.positions()[top].z;
+        let press = [Contact {
+            tool: ToolId::Right,
+            point: b.positions()[top],
+            normal: Vec3::Z,
+            kind: ContactKind::Press {
+                pressure_pa: 1500.0,
+                area_m2: 1e-4,
+            },
+        }];
+        let mut out = ModelOutput::default();
+        for _ in 0..500 {
+            b.step(0.002, &press, &mut out);
+        }
+        let dent = z0 - b.positions()[top].z;
+        // The membrane (1000 N/m edges) and the gas pressure share the load with the anchors.
+        assert!(dent > 2e-5 && dent < 5e-3, "dent {dent}");
+        for _ in 0..3000 {
+            b.step(0.002, &[], &mut out);
+        }
+        assert!((b.positions()[top].z - z0).abs() < 1e-6);
+        assert_eq!(b.awake_count(), 0, "everything settles and sleeps");
     }
 }

@@ -35,7 +35,7 @@ impl Quarantine {
                 restored_step: self.last_good_step,
             });
         }
-        if step % self.interval == 0 {
+        if step.is_multiple_of(self.interval) {
             model.checkpoint();
             self.last_good_step = step;
         }

@@ -1,0 +1,180 @@
+//! Every kind of bad scenario and trace gets a clear error naming the file, the key and what
+//! is expected; nothing panics.
+
+use std::process::Command;
+use vesalius::scenario::{Scenario, builtin};
+use vesalius::trace::{KeyTrace, Recording};
+
+fn scenario() -> String {
+    builtin("nephrectomy").expect("builtin").to_string()
+}
+
+fn scenario_error(text: &str) -> String {
+    Scenario::parse("bad.toml", text)
+        .expect_err("must be rejected")
+        .to_string()
+}
+
+const TRACE: &str = r#"
+procedure = "nephrectomy"
+[[left]]
+t_s = 0.0
+position = [0.0, 0.0, 0.2]
+target = [0.0, 0.0, 0.0]
+[[right]]
+t_s = 0.0
+position = [0.05, 0.0, 0.2]
+target = [0.0, 0.0, 0.0]
+[[right]]
+t_s = 1.0
+position = [0.05, 0.0, 0.2]
+target = [0.0, 0.0, 0.0]
+"#;
+
+fn trace_error(text: &str) -> String {
+    KeyTrace::parse("bad-trace.toml", text)
+        .expect_err("must be rejected")
+        .to_string()
+}
+
+#[test]
+fn the_good_files_parse() {
+    assert!(Scenario::parse("ok.toml", &scenario()).is_ok());
+    let t = KeyTrace::parse("ok.toml", TRACE).expect("parses");
+    assert_eq!(t.duration_s(), 1.0);
+}
+
+#[test]
+fn a_missing_key_is_named() {
+    let e = scenario_error(&scenario().replace("dt_s = 0.002", ""));
+    assert!(e.starts_with("bad.toml: ") && e.contains("dt_s"), "{e}");
+}
+
+#[test]
+fn a_wrong_type_is_named_with_its_line() {
+    let e =
+        scenario_error(&scenario().replace("spring_n_per_m = 40.0", "spring_n_per_m = \"stiff\""));
+    assert!(
+        e.contains("bad.toml") && e.contains("line") && e.contains("spring_n_per_m"),
+        "{e}"
+    );
+}
+
+#[test]
+fn out_of_range_and_nan_numbers_are_rejected_with_the_expected_range() {
+    let e = scenario_error(&scenario().replace("spring_n_per_m = 40.0", "spring_n_per_m = -5.0"));
+    assert!(
+        e.contains("kidney.spring_n_per_m") && e.contains("between 0"),
+        "{e}"
+    );
+    let e = scenario_error(&scenario().replace("damping_per_s = 8.0", "damping_per_s = nan"));
+    assert!(
+        e.contains("kidney.damping_per_s") && e.contains("finite"),
+        "{e}"
+    );
+    let e = scenario_error(&scenario().replace("dt_s = 0.002", "dt_s = 0.5"));
+    assert!(e.contains("dt_s") && e.contains("0.01"), "{e}");
+    let e = scenario_error(&scenario().replace("margin_m = 0.005", "margin_m = inf"));
+    assert!(e.contains("task.margin_m"), "{e}");
+}
+
+#[test]
+fn unknown_and_unbuilt_procedures_are_named() {
+    let e = scenario_error(&scenario().replace(
+        "procedure = \"nephrectomy\"",
+        "procedure = \"appendectomy\"",
+    ));
+    assert!(
+        e.contains("procedure")
+            && e.contains("unknown procedure 'appendectomy'")
+            && e.contains("nephrectomy"),
+        "{e}"
+    );
+    let e = trace_error(&TRACE.replace("nephrectomy", "rectum"));
+    assert!(e.contains("not implemented yet"), "{e}");
+}
+
+#[test]
+fn an_unknown_key_is_rejected() {
+    let e = scenario_error(&scenario().replace("[kidney]", "[kidney]\nstifness = 3.0"));
+    assert!(e.contains("stifness"), "{e}");
+}
+
+#[test]
+fn time_going_backwards_is_named_by_keyframe() {
+    let e = trace_error(&TRACE.replace("t_s = 1.0", "t_s = -0.0").replacen(
+        "t_s = 0.0\nposition = [0.05",
+        "t_s = 0.5\nposition = [0.05",
+        1,
+    ));
+    assert!(
+        e.contains("bad-trace.toml: right[1].t_s") && e.contains("backwards"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_nan_pose_is_named() {
+    let e = trace_error(&TRACE.replace("position = [0.0, 0.0, 0.2]", "position = [nan, 0.0, 0.2]"));
+    assert!(
+        e.contains("left[0].position") && e.contains("finite"),
+        "{e}"
+    );
+    let e = trace_error(&TRACE.replace("t_s = 1.0", "t_s = nan"));
+    assert!(e.contains("right[1].t_s"), "{e}");
+}
+
+#[test]
+fn a_truncated_or_corrupt_recording_is_rejected() {
+    let rec = Recording {
+        procedure: "nephrectomy".into(),
+        dt_s: 0.002,
+        scenario: scenario(),
+        frames: vec![Default::default(); 3],
+    };
+    let dir = std::env::temp_dir().join(format!("vesalius-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let path = dir.join("r.vtrace");
+    rec.write(&path).expect("write");
+    assert_eq!(Recording::read(&path).expect("reads back"), rec);
+    let bytes = std::fs::read(&path).expect("read");
+    let e = Recording::decode("r.vtrace", &bytes[..bytes.len() - 5]).expect_err("truncated");
+    assert!(e.to_string().contains("r.vtrace"), "{e}");
+    let mut bad = bytes.clone();
+    let n = bad.len();
+    bad[n - 37..n - 33].copy_from_slice(&f32::NAN.to_le_bytes());
+    let e = Recording::decode("r.vtrace", &bad).expect_err("nan pose");
+    assert!(
+        e.to_string().contains("frame 2") && e.to_string().contains("finite"),
+        "{e}"
+    );
+}
+
+#[test]
+fn the_cli_reports_bad_files_and_exits_non_zero() {
+    let dir = std::env::temp_dir().join(format!("vesalius-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let bad = dir.join("bad.toml");
+    std::fs::write(
+        &bad,
+        scenario().replace("spring_n_per_m = 40.0", "spring_n_per_m = -1.0"),
+    )
+    .expect("write");
+    let o = Command::new(env!("CARGO_BIN_EXE_vesalius"))
+        .arg("check")
+        .arg(&bad)
+        .output()
+        .expect("runs");
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("bad.toml: kidney.spring_n_per_m: must be between"),
+        "{err}"
+    );
+    let o = Command::new(env!("CARGO_BIN_EXE_vesalius"))
+        .args(["run", "appendectomy", "--headless"])
+        .output()
+        .expect("runs");
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("unknown procedure"));
+}

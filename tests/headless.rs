@@ -1,0 +1,159 @@
+//! Headless sessions end to end: the demo completes, runs are byte-identical, replays match,
+//! and 1 and 2 worker threads agree.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use vesalius::scenario::builtin;
+use vesalius::session::{self, Input};
+use vesalius::sim::{Pacing, SnapshotBus};
+use vesalius::trace::KeyTrace;
+
+fn demo_trace() -> KeyTrace {
+    KeyTrace::parse("demo", vesalius::bench::DEMO_TRACE).expect("demo trace parses")
+}
+
+fn scenario() -> &'static str {
+    builtin("nephrectomy").expect("builtin scenario")
+}
+
+/// The shipped scenario at coarse resolution, for quick determinism runs.
+fn coarse() -> String {
+    scenario()
+        .replace("level = 5", "level = 3")
+        .replace("vessel_rings = 64", "vessel_rings = 12")
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("vesalius-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_vesalius"))
+}
+
+#[test]
+fn the_demo_removes_the_tumour_by_cutting_and_replays_byte_for_byte() {
+    let bus = SnapshotBus::new();
+    let o = session::run(
+        scenario(),
+        "nephrectomy.toml",
+        Input::Keys(demo_trace()),
+        Pacing::AsFastAsPossible,
+        Some(&bus),
+    )
+    .expect("session runs");
+    let r = &o.report;
+    assert!(r.completed);
+    assert!(r.models.iter().map(|m| m.triangles).sum::<usize>() >= 50_000);
+    assert!(r.events.get("cut").copied().unwrap_or(0) > 0);
+    assert_eq!(r.events.get("tumour_removed"), Some(&1));
+    assert_eq!(
+        r.events.get("tie_broken"),
+        None,
+        "freed by the cut, not torn"
+    );
+    assert!(r.metrics.cut_deviation_mean_m < 0.002);
+    assert!(r.score > 50.0 && r.score <= 100.0);
+    // A snapshot reached the bus with every model and finite geometry.
+    let snap = bus.latest();
+    assert_eq!(snap.models.len(), 4);
+    assert!(
+        snap.models
+            .iter()
+            .all(|m| m.positions.iter().all(|p| p.is_finite()))
+    );
+
+    let dir = tmp("demo");
+    session::write_outputs(&o, &dir).expect("outputs written");
+    let report = std::fs::read(dir.join("report.json")).expect("report");
+    let text = String::from_utf8_lossy(&report);
+    for key in [
+        "\"procedure\"",
+        "\"completed\": true",
+        "\"dt_s\"",
+        "\"steps\"",
+        "\"simulated_s\"",
+        "\"models\"",
+        "\"metrics\"",
+        "\"score\"",
+    ] {
+        assert!(text.contains(key), "report lacks {key}");
+    }
+    assert!(
+        !text.contains("wall"),
+        "no wall-clock fields in report.json"
+    );
+    let out2 = dir.join("replayed");
+    let status = bin()
+        .args(["replay"])
+        .arg(dir.join("input.vtrace"))
+        .arg("--out")
+        .arg(&out2)
+        .status()
+        .expect("runs");
+    assert!(status.success());
+    assert_eq!(
+        std::fs::read(out2.join("report.json")).expect("replayed report"),
+        report
+    );
+    assert_eq!(
+        std::fs::read(out2.join("events.jsonl")).expect("events"),
+        std::fs::read(dir.join("events.jsonl")).expect("events")
+    );
+}
+
+fn run_cli(dir: &Path, threads: &str) -> Vec<u8> {
+    std::fs::create_dir_all(dir).expect("dir");
+    let scen = dir.join("coarse.toml");
+    std::fs::write(&scen, coarse()).expect("write scenario");
+    let trace = dir.join("demo.toml");
+    std::fs::write(&trace, vesalius::bench::DEMO_TRACE).expect("write trace");
+    let out = dir.join("out");
+    let o = bin()
+        .args([
+            "--threads",
+            threads,
+            "run",
+            "nephrectomy",
+            "--headless",
+            "--trace",
+        ])
+        .arg(&trace)
+        .arg("--scenario")
+        .arg(&scen)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .expect("runs");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    std::fs::read(out.join("report.json")).expect("report")
+}
+
+#[test]
+fn same_trace_gives_the_same_bytes_on_one_and_two_threads() {
+    let a = run_cli(&tmp("t1a"), "1");
+    let b = run_cli(&tmp("t1b"), "1");
+    let c = run_cli(&tmp("t2"), "2");
+    assert_eq!(a, b, "two runs differ");
+    assert_eq!(a, c, "1 and 2 threads differ");
+    assert!(String::from_utf8_lossy(&a).contains("\"state_hash\""));
+}
+
+#[test]
+fn check_accepts_the_shipped_files_and_bench_prints_json_lines() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let o = bin()
+        .arg("check")
+        .arg(root.join("assets/scenarios/nephrectomy.toml"))
+        .arg(root.join("assets/traces/nephrectomy-demo.toml"))
+        .output()
+        .expect("runs");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        s.contains("ok (scenario)") && s.contains("ok (keyframed trace)"),
+        "{s}"
+    );
+}
