@@ -1088,16 +1088,19 @@ mod tests {
         SoftBody::new("test", s, regions, SoftBodyParams::default())
     }
 
+    /// The point farthest along `dir`.
+    fn farthest(b: &SoftBody, dir: Vec3) -> usize {
+        (0..b.mesh().len())
+            .max_by(|&i, &j| b.x[i].dot(dir).total_cmp(&b.x[j].dot(dir)))
+            .unwrap_or(0)
+    }
+
     #[test]
     fn a_closed_band_of_cut_faces_splits_connectivity() {
         let m = ball(3, 0.03, Vec3::ZERO);
         let mut b = body_of(&m, vec![0; m.triangle_count()]);
-        let north = (0..b.mesh().len())
-            .max_by(|&i, &j| b.x[i].y.total_cmp(&b.x[j].y))
-            .unwrap_or(0);
-        let south = (0..b.mesh().len())
-            .min_by(|&i, &j| b.x[i].y.total_cmp(&b.x[j].y))
-            .unwrap_or(0);
+        let north = farthest(&b, Vec3::Y);
+        let south = farthest(&b, -Vec3::Y);
         b.refresh_topology();
         assert_eq!(b.components()[north], b.components()[south]);
         let band: Vec<u32> = (0..b.mesh().len() as u32)
@@ -1221,9 +1224,7 @@ mod tests {
     fn a_press_dents_the_surface_and_it_springs_back() {
         let m = ball(3, 0.03, Vec3::ZERO);
         let mut b = body_of(&m, vec![0; m.triangle_count()]);
-        let top = (0..b.mesh().len())
-            .max_by(|&i, &j| b.x[i].z.total_cmp(&b.x[j].z))
-            .unwrap_or(0);
+        let top = farthest(&b, Vec3::Z);
         let z0 = b.positions()[top].z;
         let press = [Contact {
             tool: ToolId::Right,
