@@ -54,6 +54,11 @@ fn the_demo_removes_the_tumour_by_cutting_and_replays_byte_for_byte() {
         None,
         "freed by the cut, not torn"
     );
+    assert_eq!(
+        r.events.get("quarantined"),
+        None,
+        "no model went non-finite (the quarantine is a safety net, not a step of the demo)"
+    );
     assert!(r.metrics.cut_deviation_mean_m < 0.002);
     assert!(r.score > 50.0 && r.score <= 100.0);
     // A snapshot reached the bus with every model and finite geometry.

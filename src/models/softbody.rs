@@ -21,6 +21,8 @@ use serde::{Deserialize, Serialize};
 const SLEEP_STEPS: u16 = 30;
 /// A sleeping anchored point must be this close to rest, metres.
 const SLEEP_DISTANCE_M: f32 = 2e-5;
+/// A point that belongs to no pressure group.
+const NO_GROUP: u32 = u32::MAX;
 /// A sleeping point nudged less than this by a constraint is put back and stays asleep, m.
 const WAKE_DISTANCE_M: f32 = 1e-5;
 /// BVH leaves are enlarged by this margin so that small motions need no refit, metres.
@@ -78,6 +80,47 @@ impl Default for SoftBodyParams {
     }
 }
 
+/// A piece of the body cut free of its anchors.
+#[derive(Debug, Clone)]
+struct FreePart {
+    points: Vec<u32>,
+    /// The fitted motion from rest: x = rotation * rest + translation (m).
+    rotation: Quat,
+    translation: Vec3,
+    /// Farthest point from the piece's rest centre, m.
+    radius_m: f32,
+}
+
+impl Default for FreePart {
+    fn default() -> Self {
+        FreePart {
+            points: Vec::new(),
+            rotation: Quat::IDENTITY,
+            translation: Vec3::ZERO,
+            radius_m: 0.0,
+        }
+    }
+}
+
+/// The rotation part of a deformation gradient `a`, by Mueller et al.'s (2016) iteration from
+/// a starting guess: robust when `a` is flat or degenerate (then the guess is kept).
+fn extract_rotation(a: glam::Mat3, guess: Quat) -> Quat {
+    let mut q = guess;
+    for _ in 0..20 {
+        let r = glam::Mat3::from_quat(q);
+        let num = r.x_axis.cross(a.x_axis) + r.y_axis.cross(a.y_axis) + r.z_axis.cross(a.z_axis);
+        let den = (r.x_axis.dot(a.x_axis) + r.y_axis.dot(a.y_axis) + r.z_axis.dot(a.z_axis)).abs()
+            + 1e-12;
+        let omega = num / den;
+        let w = omega.length();
+        if !w.is_finite() || w < 1e-7 {
+            break;
+        }
+        q = (Quat::from_axis_angle(omega / w, w) * q).normalize();
+    }
+    q
+}
+
 /// A breakable distance constraint between two points (tumour to kidney bed).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Tie {
@@ -130,7 +173,19 @@ pub struct SoftBody {
     sleep_at: Vec<Vec3>,
     still: Vec<u16>,
     active: Vec<u32>,
+    /// Per pressure group: the enclosed volume at rest, m^3.
     rest_volume: Vec<f32>,
+    /// Per point: its pressure group (one per connected part and region that encloses a
+    /// volume), or `NO_GROUP` for points of an open, free part, which enclose nothing.
+    pressure_group: Vec<u32>,
+    /// Pieces cut free of the anchored organ, and each point's piece (or `NO_GROUP`).
+    free_parts: Vec<FreePart>,
+    part_of: Vec<u32>,
+    /// Where the spring pulls each point of a free piece: its rest position carried by the
+    /// piece's best rigid motion (shape matching), m.
+    goal: Vec<Vec3>,
+    /// Sleeping points carried by their piece this step (their normals and leaves update).
+    carried: Vec<u32>,
     held: Vec<Held>,
     bvh: Bvh,
     bvh_ws: BvhWorkspace,
@@ -143,6 +198,9 @@ pub struct SoftBody {
     stamp_now: u32,
     force: Vec<Vec3>,
     touched: Vec<u32>,
+    /// Per point: how far the instrument tips pushed it this step (and which points).
+    pushed: Vec<Vec3>,
+    pushed_list: Vec<u32>,
     constraints_now: Vec<Constraint>,
     moved: Vec<u32>,
     before: Vec<Vec3>,
@@ -215,6 +273,11 @@ impl SoftBody {
             still: vec![0; n],
             active: Vec::new(),
             rest_volume: Vec::new(),
+            pressure_group: vec![NO_GROUP; n],
+            free_parts: Vec::new(),
+            part_of: vec![NO_GROUP; n],
+            goal: x.clone(),
+            carried: Vec::new(),
             held: Vec::new(),
             bvh: Bvh::new(),
             bvh_ws: BvhWorkspace::default(),
@@ -226,6 +289,8 @@ impl SoftBody {
             stamp_now: 0,
             force: vec![Vec3::ZERO; n],
             touched: Vec::new(),
+            pushed: vec![Vec3::ZERO; n],
+            pushed_list: Vec::new(),
             constraints_now: Vec::new(),
             moved: Vec::new(),
             before: Vec::new(),
@@ -237,10 +302,10 @@ impl SoftBody {
             x,
             mesh,
         };
+        body.regroup_pressure();
         for i in 0..n {
             body.refresh_normal(i);
         }
-        body.rest_volume = body.region_volumes();
         // Pad each leaf by the distance from the simplex point to its face's corners at rest.
         for f in 0..n {
             let c = body.mesh.faces[f].map(|v| body.mesh.tri_rest[v as usize]);
@@ -399,7 +464,7 @@ impl SoftBody {
         } else {
             0.0
         };
-        if let Some(v) = self.volume.get_mut(self.region[i] as usize) {
+        if let Some(v) = self.volume.get_mut(self.pressure_group[i] as usize) {
             *v += (term - self.volume_term[i]) as f64;
         }
         self.volume_term[i] = term;
@@ -407,15 +472,11 @@ impl SoftBody {
 
     /// Sums the volume terms from scratch (also done periodically against rounding drift).
     fn resum_volumes(&mut self) {
-        let regions = self
-            .region
-            .iter()
-            .copied()
-            .max()
-            .map_or(0, |r| r as usize + 1);
-        let mut v = vec![0.0f64; regions];
+        let mut v = vec![0.0f64; self.rest_volume.len()];
         for (i, t) in self.volume_term.iter().enumerate() {
-            v[self.region[i] as usize] += *t as f64;
+            if let Some(g) = v.get_mut(self.pressure_group[i] as usize) {
+                *g += *t as f64;
+            }
         }
         self.volume = v;
         self.steps_since_resum = 0;
@@ -423,7 +484,7 @@ impl SoftBody {
 
     fn region_volumes(&mut self) -> Vec<f32> {
         self.steps_since_resum += 1;
-        if self.volume.is_empty() || self.steps_since_resum >= 1024 {
+        if self.volume.len() != self.rest_volume.len() || self.steps_since_resum >= 1024 {
             self.resum_volumes();
         }
         self.volume.iter().map(|&v| v as f32).collect()
@@ -474,9 +535,11 @@ impl SoftBody {
                 count[r as usize] += 1;
             }
         }
+        // The part holding most of the anchor region; none if that region has no live point.
         let main = (0..n)
             .max_by_key(|&r| (count[r], std::cmp::Reverse(r)))
-            .unwrap_or(0) as u32;
+            .filter(|&r| count[r] > 0)
+            .map_or(u32::MAX, |r| r as u32);
         for i in 0..n {
             let anchored = self.alive[i] && self.component[i] == main;
             if self.anchored[i] && !anchored {
@@ -484,17 +547,167 @@ impl SoftBody {
             }
             self.anchored[i] = anchored;
         }
-        // Volume at rest of what is left, so the internal pressure starts from zero.
-        let mut rest_volume = vec![0.0f32; self.rest_volume.len()];
-        let rest = &self.mesh.rest;
+        self.regroup_free_parts();
+        self.regroup_pressure();
+        self.topology_dirty = false;
+    }
+
+    /// Lists the live parts that float free (not anchored), in order of their first point.
+    fn regroup_free_parts(&mut self) {
+        let n = self.x.len();
+        let mut parts: Vec<FreePart> = Vec::new();
+        let mut by_component: Vec<(u32, u32)> = Vec::new();
+        self.part_of.fill(NO_GROUP);
         for i in 0..n {
-            if self.alive[i] {
-                let (nn, a) = self.mesh.normal_area(rest, &self.alive, i);
-                rest_volume[self.region[i] as usize] += rest[i].dot(nn) * a / 3.0;
+            if !self.alive[i] || self.anchored[i] {
+                continue;
+            }
+            let c = self.component[i];
+            let k = match by_component.binary_search_by(|e| e.0.cmp(&c)) {
+                Ok(k) => by_component[k].1,
+                Err(k) => {
+                    let id = parts.len() as u32;
+                    by_component.insert(k, (c, id));
+                    parts.push(FreePart::default());
+                    id
+                }
+            };
+            parts[k as usize].points.push(i as u32);
+            self.part_of[i] = k;
+        }
+        for part in &mut parts {
+            let rest = &self.mesh.rest;
+            let count = part.points.len().max(1) as f32;
+            let centre = part.points.iter().map(|&i| rest[i as usize]).sum::<Vec3>() / count;
+            part.radius_m = part
+                .points
+                .iter()
+                .map(|&i| (rest[i as usize] - centre).length())
+                .fold(0.0, f32::max);
+            let (q, t) = self.fit_part(part);
+            (part.rotation, part.translation) = (q, t);
+            for &i in &part.points {
+                self.goal[i as usize] = q * rest[i as usize] + t;
             }
         }
+        self.free_parts = parts;
+    }
+
+    /// The best rigid motion of a free piece from rest (Mueller et al.'s 2005 shape matching),
+    /// as x = rotation * rest + translation: fitted to the held points when a grasper holds
+    /// three or more of them (the instrument carries the piece), else to all its points.
+    fn fit_part(&self, part: &FreePart) -> (Quat, Vec3) {
+        let rest = &self.mesh.rest;
+        let held: Vec<u32> = part
+            .points
+            .iter()
+            .copied()
+            .filter(|&i| self.kinematic[i as usize])
+            .collect();
+        let fit: &[u32] = if held.len() >= 3 { &held } else { &part.points };
+        let count = fit.len().max(1) as f32;
+        let c: Vec3 = fit.iter().map(|&i| self.x[i as usize]).sum::<Vec3>() / count;
+        let c0: Vec3 = fit.iter().map(|&i| rest[i as usize]).sum::<Vec3>() / count;
+        let mut a = glam::Mat3::ZERO;
+        for &i in fit {
+            let (p, q) = (self.x[i as usize] - c, rest[i as usize] - c0);
+            a += glam::Mat3::from_cols(p * q.x, p * q.y, p * q.z);
+        }
+        let q = extract_rotation(a, part.rotation);
+        (q, c - q * c0)
+    }
+
+    /// Moves each free piece's spring goals with the piece's fitted motion, so a cut-out
+    /// specimen keeps its shape and follows the grasper instead of stretching out of its
+    /// jaws. Sleeping points of the piece ride along rigidly (they stay asleep; only points
+    /// disturbed relative to the piece wake), which keeps a carried specimen cheap.
+    fn match_free_parts(&mut self) {
+        for k in 0..self.free_parts.len() {
+            let part = &self.free_parts[k];
+            let busy = part
+                .points
+                .iter()
+                .any(|&i| self.awake[i as usize] || self.kinematic[i as usize]);
+            if !busy {
+                continue;
+            }
+            let (q, t) = self.fit_part(part);
+            let (q0, t0) = (part.rotation, part.translation);
+            let radius = part.radius_m;
+            let change = (t - t0).length() + q.angle_between(q0) * radius;
+            if change <= 1e-9 {
+                continue;
+            }
+            let delta = q * q0.inverse();
+            let points = std::mem::take(&mut self.free_parts[k].points);
+            for &i in &points {
+                let i = i as usize;
+                self.goal[i] = q * self.mesh.rest[i] + t;
+                if !self.awake[i] {
+                    let carried = delta * (self.x[i] - t0) + t;
+                    self.x[i] = carried;
+                    self.sleep_at[i] = carried;
+                    self.carried.push(i as u32);
+                }
+            }
+            let part = &mut self.free_parts[k];
+            part.points = points;
+            part.rotation = q;
+            part.translation = t;
+        }
+    }
+
+    /// Sorts the points into pressure groups: one per (connected part, region). A closed part
+    /// encloses a volume whatever its pose; an open part (cut) only while it is anchored in
+    /// place, so a cut-free open piece gets no internal pressure (its "volume" would change
+    /// as it moves, pumping energy into it). Rest volumes are taken over what is left, at
+    /// rest, so the pressure starts from zero.
+    fn regroup_pressure(&mut self) {
+        let n = self.x.len();
+        let mut key_to_group: Vec<((u32, u8), u32)> = Vec::new();
+        let mut closed: Vec<bool> = Vec::new();
+        let mut anchored: Vec<bool> = Vec::new();
+        let mut group = vec![NO_GROUP; n];
+        for i in 0..n {
+            if !self.alive[i] {
+                continue;
+            }
+            let key = (self.component[i], self.region[i]);
+            let g = match key_to_group.binary_search_by(|e| e.0.cmp(&key)) {
+                Ok(k) => key_to_group[k].1,
+                Err(k) => {
+                    let g = closed.len() as u32;
+                    key_to_group.insert(k, (key, g));
+                    closed.push(true);
+                    anchored.push(false);
+                    g
+                }
+            };
+            group[i] = g;
+            let g = g as usize;
+            anchored[g] |= self.anchored[i];
+            closed[g] &= self.mesh.neighbors[i]
+                .iter()
+                .all(|&q| self.alive[q as usize]);
+        }
+        let mut rest_volume = vec![0.0f32; closed.len()];
+        let rest = &self.mesh.rest;
+        for i in 0..n {
+            let g = group[i];
+            if g == NO_GROUP {
+                continue;
+            }
+            if !(closed[g as usize] || anchored[g as usize]) {
+                group[i] = NO_GROUP;
+                continue;
+            }
+            let (nn, a) = self.mesh.normal_area(rest, &self.alive, i);
+            rest_volume[g as usize] += rest[i].dot(nn) * a / 3.0;
+        }
+        self.pressure_group = group;
         self.rest_volume = rest_volume;
-        self.topology_dirty = false;
+        // Volume terms are current; the sums start again over the new groups.
+        self.volume.clear();
     }
 
     fn next_stamp(&mut self) -> u32 {
@@ -754,6 +967,7 @@ impl TissueModel for SoftBody {
         }
         let p = self.params;
         self.apply_contacts(contacts, out);
+        self.match_free_parts();
         // Normals and areas of every point whose neighbourhood may move (eq 3 needs them).
         self.active.sort_unstable();
         self.active.dedup();
@@ -768,6 +982,14 @@ impl TissueModel for SoftBody {
                 }
             }
         }
+        for k in 0..self.carried.len() {
+            let i = self.carried[k];
+            if self.stamp[i as usize] != stamp {
+                self.stamp[i as usize] = stamp;
+                self.moved.push(i);
+            }
+        }
+        self.carried.clear();
         let moved = std::mem::take(&mut self.moved);
         for &i in &moved {
             self.refresh_normal(i as usize);
@@ -790,12 +1012,12 @@ impl TissueModel for SoftBody {
             let mut f = self.force[i];
             if self.anchored[i] {
                 f += forces::spring_force(p.spring_n_per_m, self.x[i], self.mesh.rest[i]);
+            } else if self.part_of[i] != NO_GROUP {
+                f += forces::spring_force(p.spring_n_per_m, self.x[i], self.goal[i]);
             }
-            f += forces::pressure_force(
-                pressure[self.region[i] as usize],
-                self.normal[i],
-                self.area[i],
-            );
+            if let Some(&pg) = pressure.get(self.pressure_group[i] as usize) {
+                f += forces::pressure_force(pg, self.normal[i], self.area[i]);
+            }
             let (x, v) = forces::integrate(self.x[i], self.v[i], f, p.damping_per_s, dt);
             self.x[i] = x;
             self.v[i] = v;
@@ -825,19 +1047,35 @@ impl TissueModel for SoftBody {
                         let corr = dir * (radius_m - len);
                         self.x[i] += corr;
                         push += corr;
+                        if self.pushed[i] == Vec3::ZERO {
+                            self.pushed_list.push(i as u32);
+                        }
+                        self.pushed[i] += corr;
                         self.wake(i);
                     }
                 }
                 out.reactions.push((c.tool, -push / (dt * dt)));
             }
         }
-        // Constraint corrections become velocity; points moved by neighbours wake up.
+        // Constraint corrections become velocity; points moved by neighbours wake up. A tip's
+        // push moves tissue and stops it moving into the tip (an inelastic contact), but adds
+        // no speed of its own: turned into velocity, the correction fights the bending
+        // constraints and pumps energy into a free piece every step.
         for k in 0..n_active {
             let i = self.active[k] as usize;
             if self.alive[i] && !self.kinematic[i] {
-                self.v[i] = (self.x[i] - self.before[k]) / dt;
+                let push = self.pushed[i];
+                let mut v = (self.x[i] - push - self.before[k]) / dt;
+                // Inelastic contact: no speed left into the tip.
+                let n = push.normalize_or_zero();
+                v -= n * v.dot(n).min(0.0);
+                self.v[i] = v;
             }
         }
+        for &i in &self.pushed_list {
+            self.pushed[i as usize] = Vec3::ZERO;
+        }
+        self.pushed_list.clear();
         let stamp2 = self.next_stamp();
         let list = std::mem::take(&mut self.constraints_now);
         for &c in &list {
@@ -932,7 +1170,7 @@ impl TissueModel for SoftBody {
             removed += 1;
             self.alive[i] = false;
             self.inv_mass[i] = 0.0;
-            if let Some(v) = self.volume.get_mut(self.region[i] as usize) {
+            if let Some(v) = self.volume.get_mut(self.pressure_group[i] as usize) {
                 *v -= self.volume_term[i] as f64;
             }
             self.volume_term[i] = 0.0;
@@ -1247,5 +1485,73 @@ mod tests {
         }
         assert!((b.positions()[top].z - z0).abs() < 1e-6);
         assert_eq!(b.awake_count(), 0, "everything settles and sleeps");
+    }
+
+    #[test]
+    fn a_free_ball_pushed_by_a_tip_stays_whole() {
+        // A free tumour-sized ball (no anchor region) shoved by a 3 mm tip at 9 cm/s.
+        let m = ball(5, 0.02, Vec3::ZERO);
+        let mut b = body_of(&m, vec![1; m.triangle_count()]);
+        let params = SoftBodyParams {
+            spring_n_per_m: 120.0,
+            damping_per_s: 10.0,
+            volume_stiffness_pa: 4000.0,
+            ..SoftBodyParams::default()
+        };
+        b.params = params;
+        let mut out = ModelOutput::default();
+        let mut worst = 0.0f32;
+        let dt = 0.002;
+        for k in 0..800 {
+            let depth = (k as f32 * dt * 0.09).min(0.012);
+            let tip = Vec3::new(0.0, 0.0, 0.02 + 0.003 - depth);
+            let c = [Contact {
+                tool: ToolId::Left,
+                point: tip,
+                normal: Vec3::Z,
+                kind: ContactKind::Sphere { radius_m: 0.003 },
+            }];
+            b.step(dt, &c, &mut out);
+            let v = b.v.iter().map(|v| v.length()).fold(0.0, f32::max);
+            worst = worst.max(v);
+        }
+        assert!(b.state_is_finite());
+        assert!(worst < 0.5, "fastest point {worst} m/s");
+    }
+
+    #[test]
+    fn a_grasped_free_piece_follows_the_grasper_and_keeps_its_shape() {
+        let m = ball(4, 0.02, Vec3::ZERO);
+        let mut b = body_of(&m, vec![1; m.triangle_count()]);
+        let top = farthest(&b, Vec3::Z);
+        let grip = b.positions()[top];
+        let rest_centre: Vec3 = b.positions().iter().sum::<Vec3>() / b.mesh().len() as f32;
+        let mut out = ModelOutput::default();
+        let dt = 0.002;
+        // Grip, then lift 4 cm in 1 s and hold for 1 s.
+        for k in 0..1000 {
+            let lift = (k as f32 * dt).min(1.0) * 0.04;
+            let c = [Contact {
+                tool: ToolId::Left,
+                point: grip + Vec3::Z * lift,
+                normal: Vec3::Z,
+                kind: ContactKind::Grasp {
+                    rotation: Quat::IDENTITY,
+                    radius_m: 0.006,
+                },
+            }];
+            b.step(dt, &c, &mut out);
+        }
+        assert!(b.state_is_finite());
+        let centre: Vec3 = b.positions().iter().sum::<Vec3>() / b.mesh().len() as f32;
+        let rise = centre.z - rest_centre.z;
+        assert!((rise - 0.04).abs() < 0.004, "centre rose {rise} m of 0.04");
+        // Still a ball: every point within 10 % of the radius from the centre.
+        let worst = b
+            .positions()
+            .iter()
+            .map(|p| ((*p - centre).length() - 0.02).abs())
+            .fold(0.0, f32::max);
+        assert!(worst < 0.002, "shape error {worst} m");
     }
 }

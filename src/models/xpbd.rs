@@ -12,9 +12,12 @@ pub struct Stretch {
     pub rest_m: f32,
 }
 
-/// A dihedral constraint C = acos(n1 . n2) - phi12 (eq 12) over the hinge (a, b) with wings
-/// c and d, n1 = (b - a) x (c - a), n2 = (b - a) x (d - a) (Bender's convention: a flat hinge
-/// has angle pi).
+/// A dihedral constraint over the hinge (a, b) with wings c and d (triangles (a, b, c) and
+/// (a, d, b)). Eq 12 writes it as C = acos(n1 . n2) - phi12; we measure the same angle signed,
+/// phi = atan2((n1 x n2) . e, n1 . n2) with e the hinge direction (0 when flat, positive when
+/// folded one way, negative the other). acos cannot tell a bump from a dent of the same size
+/// and its gradient blows up near flat, which let free bodies (a cut-out tumour) turn inside
+/// out; the signed angle has a bounded gradient there.
 #[derive(Debug, Clone, Copy)]
 pub struct Bend {
     pub a: u32,
@@ -23,6 +26,9 @@ pub struct Bend {
     pub d: u32,
     pub rest_rad: f32,
 }
+
+/// The most a single bending projection turns a hinge, radians (10 rad/s at dt = 2 ms).
+pub const MAX_BEND_CORRECTION_RAD: f32 = 0.02;
 
 /// Projects one stretch constraint; returns the Lagrange multiplier increment. The force the
 /// constraint exerts is lambda / dt^2 (newtons with unit mass).
@@ -53,22 +59,40 @@ pub fn project_stretch(
     dl
 }
 
-/// The dihedral angle between triangles (a, b, c) and (b, a, d), radians in [0, pi].
-pub fn dihedral(x: &[Vec3], c: &Bend) -> f32 {
-    let (p1, p2, p3, p4) = (
+/// The hinge's unnormalised triangle normals and its edge, or None when degenerate.
+fn hinge(x: &[Vec3], c: &Bend) -> Option<(Vec3, Vec3, Vec3)> {
+    let (a, b, pc, pd) = (
         x[c.a as usize],
         x[c.b as usize],
         x[c.c as usize],
         x[c.d as usize],
     );
-    // Same convention as the projection: flat hinge = pi.
-    let n1 = (p2 - p1).cross(p3 - p1).normalize_or_zero();
-    let n2 = (p2 - p1).cross(p4 - p1).normalize_or_zero();
-    n1.dot(n2).clamp(-1.0, 1.0).acos()
+    let e = b - a;
+    let n1 = e.cross(pc - a);
+    let n2 = (pd - a).cross(e);
+    let tiny = 1e-14 * e.length_squared().max(f32::MIN_POSITIVE);
+    if e.length_squared() <= 1e-20 || n1.length_squared() <= tiny || n2.length_squared() <= tiny {
+        return None;
+    }
+    Some((n1, n2, e))
 }
 
-/// Projects one bending constraint with gradients from Bender et al.'s PBD dihedral formula
-/// (positions taken relative to the hinge's first point).
+/// The signed dihedral angle of a hinge, radians in (-pi, pi]; 0 when flat.
+pub fn dihedral(x: &[Vec3], c: &Bend) -> f32 {
+    match hinge(x, c) {
+        Some((n1, n2, e)) => signed_angle(n1, n2, e),
+        None => 0.0,
+    }
+}
+
+fn signed_angle(n1: Vec3, n2: Vec3, e: Vec3) -> f32 {
+    let (u1, u2) = (n1.normalize(), n2.normalize());
+    u1.cross(u2).dot(e.normalize()).atan2(u1.dot(u2))
+}
+
+/// Projects one bending constraint; returns the Lagrange multiplier increment. The gradients
+/// are those of the signed angle (Bridson et al.'s bending directions): bounded wherever the
+/// two triangles are.
 pub fn project_bend(
     x: &mut [Vec3],
     w: &[f32],
@@ -77,33 +101,35 @@ pub fn project_bend(
     dt_s: f32,
     lambda: f32,
 ) -> f32 {
+    let Some((n1, n2, e)) = hinge(x, c) else {
+        return 0.0;
+    };
     let (ia, ib, ic, id) = (c.a as usize, c.b as usize, c.c as usize, c.d as usize);
-    let p1 = x[ia];
-    let p2 = x[ib] - p1;
-    let p3 = x[ic] - p1;
-    let p4 = x[id] - p1;
-    let c23 = p2.cross(p3);
-    let c24 = p2.cross(p4);
-    let (l23, l24) = (c23.length(), c24.length());
-    if l23 <= 1e-12 || l24 <= 1e-12 {
-        return 0.0;
+    let mut constraint = signed_angle(n1, n2, e) - c.rest_rad;
+    // The shorter way round.
+    let tau = std::f32::consts::TAU;
+    if constraint > std::f32::consts::PI {
+        constraint -= tau;
+    } else if constraint < -std::f32::consts::PI {
+        constraint += tau;
     }
-    let n1 = c23 / l23;
-    let n2 = c24 / l24;
-    let d = n1.dot(n2).clamp(-1.0, 1.0);
-    let angle = d.acos();
-    let constraint = angle - c.rest_rad;
-    let s = (1.0 - d * d).sqrt();
-    if s < 1e-6 {
-        return 0.0;
-    }
-    let q3 = (p2.cross(n2) + n1.cross(p2) * d) / l23;
-    let q4 = (p2.cross(n1) + n2.cross(p2) * d) / l24;
-    let q2 = -(p3.cross(n2) + n1.cross(p3) * d) / l23 - (p4.cross(n1) + n2.cross(p4) * d) / l24;
-    let q1 = -q2 - q3 - q4;
-    // The q's are the gradients of -d in this convention (the sign the PBD paper's appendix
-    // leaves implicit), and d(acos u)/du = -1 / sqrt(1 - u^2).
-    let g = [q1, q2, q3, q4].map(|q| q * (1.0 / s));
+    // Linearisation holds for small corrections only: a nearly rigid hinge asked to turn far
+    // in one projection overshoots, and Gauss-Seidel sweeps can then feed the overshoot
+    // back (a free piece pushed by a tip blew up this way). Turn at most this far per
+    // projection; the rest follows over the next steps.
+    constraint = constraint.clamp(-MAX_BEND_CORRECTION_RAD, MAX_BEND_CORRECTION_RAD);
+    let len = e.length();
+    let eh = e / len;
+    let m1 = n1 / n1.length_squared();
+    let m2 = n2 / n2.length_squared();
+    let (a, b, pc, pd) = (x[ia], x[ib], x[ic], x[id]);
+    // d(angle)/dx for a, b, c, d.
+    let g = [
+        -((pc - b).dot(eh) * m1 + (pd - b).dot(eh) * m2),
+        (pc - a).dot(eh) * m1 + (pd - a).dot(eh) * m2,
+        -len * m1,
+        -len * m2,
+    ];
     let idx = [ia, ib, ic, id];
     let denom: f32 = (0..4).map(|k| w[idx[k]] * g[k].length_squared()).sum();
     let alpha = compliance / (dt_s * dt_s);
@@ -182,16 +208,101 @@ mod tests {
         rest[3] = Vec3::new(0.00866, 0.005, 0.005);
         c.rest_rad = dihedral(&rest, &c);
         let pi = std::f32::consts::PI;
-        assert!((c.rest_rad - 5.0 * pi / 6.0).abs() < 1e-3, "{}", c.rest_rad);
-        // Folded to 90 degrees.
+        assert!((c.rest_rad.abs() - pi / 6.0).abs() < 1e-3, "{}", c.rest_rad);
+        // Folded to 90 degrees the same way.
         let mut x = rest.clone();
         x[3] = Vec3::new(0.0, 0.005, 0.01);
-        assert!((dihedral(&x, &c) - pi / 2.0).abs() < 1e-3);
+        let folded = dihedral(&x, &c);
+        assert!((folded.abs() - pi / 2.0).abs() < 1e-3);
+        assert_eq!(folded.signum(), c.rest_rad.signum());
         let w = [0.0, 0.0, 1.0, 1.0];
-        for _ in 0..50 {
+        // 60 degrees back at most MAX_BEND_CORRECTION_RAD per projection.
+        for _ in 0..100 {
             project_bend(&mut x, &w, &c, 0.0, 0.002, 0.0);
         }
         let err = (dihedral(&x, &c) - c.rest_rad).abs();
         assert!(err < 0.01, "{err}");
+    }
+
+    #[test]
+    fn a_dent_is_not_mistaken_for_a_bump() {
+        // The same 30-degree fold up and down: equal and opposite angles, and a hinge pushed
+        // through flat is driven back to its own side.
+        let mut x = vec![
+            Vec3::ZERO,
+            Vec3::new(0.0, 0.01, 0.0),
+            Vec3::new(-0.01, 0.005, 0.0),
+            Vec3::new(0.00866, 0.005, 0.005),
+        ];
+        let c = Bend {
+            a: 0,
+            b: 1,
+            c: 2,
+            d: 3,
+            rest_rad: dihedral(
+                &x,
+                &Bend {
+                    a: 0,
+                    b: 1,
+                    c: 2,
+                    d: 3,
+                    rest_rad: 0.0,
+                },
+            ),
+        };
+        let mut dent = x.clone();
+        dent[3].z = -0.005;
+        assert!((dihedral(&dent, &c) + c.rest_rad).abs() < 1e-4);
+        let w = [0.0, 0.0, 0.0, 1.0];
+        for _ in 0..80 {
+            project_bend(&mut dent, &w, &c, 0.0, 0.002, 0.0);
+        }
+        assert!(dent[3].z > 0.004, "wing at z = {}", dent[3].z);
+        x[3] = dent[3];
+        assert!((dihedral(&x, &c) - c.rest_rad).abs() < 1e-3);
+    }
+
+    #[test]
+    fn bend_gradient_matches_finite_differences() {
+        let x0 = vec![
+            Vec3::new(0.001, -0.002, 0.0005),
+            Vec3::new(0.0003, 0.011, -0.001),
+            Vec3::new(-0.009, 0.004, 0.002),
+            Vec3::new(0.008, 0.006, -0.004),
+        ];
+        let mut c = Bend {
+            a: 0,
+            b: 1,
+            c: 2,
+            d: 3,
+            rest_rad: 0.0,
+        };
+        // A small violation (inside the per-projection limit).
+        c.rest_rad = dihedral(&x0, &c) - 0.01;
+        // One projection with zero compliance and a single free point moves it by
+        // -C grad / |grad|^2: compare with the angle's finite-difference gradient.
+        for k in 0..4 {
+            let mut w = [0.0; 4];
+            w[k] = 1.0;
+            let mut x = x0.clone();
+            let violation = dihedral(&x0, &c) - c.rest_rad;
+            project_bend(&mut x, &w, &c, 0.0, 0.002, 0.0);
+            let step = x[k] - x0[k];
+            let h = 1e-5f32;
+            let mut num = Vec3::ZERO;
+            for j in 0..3 {
+                let mut p = x0.clone();
+                p[k][j] += h;
+                let f1 = dihedral(&p, &c);
+                p[k][j] -= 2.0 * h;
+                let f0 = dihedral(&p, &c);
+                num[j] = (f1 - f0) / (2.0 * h);
+            }
+            let expect = num * (-violation / num.length_squared());
+            assert!(
+                (step - expect).length() < 0.02 * expect.length(),
+                "{k}: {step} vs {expect}"
+            );
+        }
     }
 }
