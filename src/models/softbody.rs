@@ -89,6 +89,8 @@ struct FreePart {
     translation: Vec3,
     /// Farthest point from the piece's rest centre, m.
     radius_m: f32,
+    /// How far the piece moved since its BVH leaves were last refreshed, m.
+    bvh_drift_m: f32,
 }
 
 impl Default for FreePart {
@@ -98,6 +100,7 @@ impl Default for FreePart {
             rotation: Quat::IDENTITY,
             translation: Vec3::ZERO,
             radius_m: 0.0,
+            bvh_drift_m: 0.0,
         }
     }
 }
@@ -184,8 +187,8 @@ pub struct SoftBody {
     /// Where the spring pulls each point of a free piece: its rest position carried by the
     /// piece's best rigid motion (shape matching), m.
     goal: Vec<Vec3>,
-    /// Sleeping points carried by their piece this step (their normals and leaves update).
-    carried: Vec<u32>,
+    /// Points of carried pieces whose BVH leaves are due a refresh this step.
+    bvh_pending: Vec<u32>,
     held: Vec<Held>,
     bvh: Bvh,
     bvh_ws: BvhWorkspace,
@@ -277,7 +280,7 @@ impl SoftBody {
             free_parts: Vec::new(),
             part_of: vec![NO_GROUP; n],
             goal: x.clone(),
-            carried: Vec::new(),
+            bvh_pending: Vec::new(),
             held: Vec::new(),
             bvh: Bvh::new(),
             bvh_ws: BvhWorkspace::default(),
@@ -639,15 +642,33 @@ impl SoftBody {
                 continue;
             }
             let delta = q * q0.inverse();
+            // Leaves are padded by the BVH margin: refresh the piece's leaves only when it has
+            // moved half of that since they were last fitted.
+            let drift = self.free_parts[k].bvh_drift_m + change;
+            let refit = drift > 0.5 * BVH_MARGIN_M;
+            self.free_parts[k].bvh_drift_m = if refit { 0.0 } else { drift };
             let points = std::mem::take(&mut self.free_parts[k].points);
             for &i in &points {
                 let i = i as usize;
                 self.goal[i] = q * self.mesh.rest[i] + t;
                 if !self.awake[i] {
+                    // Rigidly carried: position, normal and volume term move with the piece.
                     let carried = delta * (self.x[i] - t0) + t;
                     self.x[i] = carried;
                     self.sleep_at[i] = carried;
-                    self.carried.push(i as u32);
+                    self.normal[i] = delta * self.normal[i];
+                    let term = if self.alive[i] {
+                        carried.dot(self.normal[i]) * self.area[i] / 3.0
+                    } else {
+                        0.0
+                    };
+                    if let Some(v) = self.volume.get_mut(self.pressure_group[i] as usize) {
+                        *v += (term - self.volume_term[i]) as f64;
+                    }
+                    self.volume_term[i] = term;
+                }
+                if refit {
+                    self.bvh_pending.push(i as u32);
                 }
             }
             let part = &mut self.free_parts[k];
@@ -982,14 +1003,6 @@ impl TissueModel for SoftBody {
                 }
             }
         }
-        for k in 0..self.carried.len() {
-            let i = self.carried[k];
-            if self.stamp[i as usize] != stamp {
-                self.stamp[i as usize] = stamp;
-                self.moved.push(i);
-            }
-        }
-        self.carried.clear();
         let moved = std::mem::take(&mut self.moved);
         for &i in &moved {
             self.refresh_normal(i as usize);
@@ -1135,7 +1148,8 @@ impl TissueModel for SoftBody {
         let mut changed = false;
         let stamp3 = self.next_stamp();
         let mut leaves = std::mem::take(&mut self.touched);
-        for &i in moved.iter().chain(self.active.iter()) {
+        let pending = std::mem::take(&mut self.bvh_pending);
+        for &i in moved.iter().chain(self.active.iter()).chain(pending.iter()) {
             if self.stamp[i as usize] != stamp3 {
                 self.stamp[i as usize] = stamp3;
                 leaves.push(i);
@@ -1153,6 +1167,8 @@ impl TissueModel for SoftBody {
         }
         leaves.clear();
         self.touched = leaves;
+        self.bvh_pending = pending;
+        self.bvh_pending.clear();
         if changed {
             self.bvh.refit(&mut self.bvh_ws);
         }
