@@ -2,7 +2,8 @@
 # Installs what a fresh Debian 12 machine needs to build and run Vesalius, when missing.
 set -euo pipefail
 need=()
-for pkg in build-essential pkg-config curl ca-certificates; do
+# Vulkan: Mesa's lavapipe renders in software where there is no GPU.
+for pkg in build-essential pkg-config curl ca-certificates mesa-vulkan-drivers libvulkan1 vulkan-tools; do
   dpkg -s "$pkg" >/dev/null 2>&1 || need+=("$pkg")
 done
 if [ ${#need[@]} -gt 0 ]; then

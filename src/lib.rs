@@ -9,6 +9,8 @@ pub mod collision;
 pub mod mesh;
 pub mod models;
 pub mod procedures;
+pub mod profiler;
+pub mod render;
 pub mod scenario;
 pub mod session;
 pub mod sim;

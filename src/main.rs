@@ -8,9 +8,24 @@ use vesalius::session::{self, Input};
 use vesalius::sim::Pacing;
 use vesalius::trace::{KeyTrace, Recording};
 
+/// Counts live heap bytes for the profiler's memory figures.
+#[global_allocator]
+static GLOBAL: &stats_alloc::StatsAlloc<std::alloc::System> = &stats_alloc::INSTRUMENTED_SYSTEM;
+
+fn heap_bytes() -> u64 {
+    let s = GLOBAL.stats();
+    (s.bytes_allocated as i64 - s.bytes_deallocated as i64 + s.bytes_reallocated as i64).max(0)
+        as u64
+}
+
 const USAGE: &str = "usage:
   vesalius demo [--out DIR]                 run the demo traces headless, reports under DIR (./vesalius-demo)
   vesalius run <procedure> --headless --trace FILE [--out DIR] [--scenario FILE] [--realtime]
+              [--frames N] [--eye-size WxH]  save N stereo frames as DIR/frames/{left,right}_NNNN.png
+                                             (default eye 1080x1200, the Vive's) and DIR/profiler.csv
+  vesalius profile [<procedure>] [--json] [--eye-size WxH] [--two-pass]
+                                            render the scene and print the Unity-profiler counters
+                                            beside the paper's CPU and GPU columns
   vesalius replay <recorded input.vtrace> --out DIR
   vesalius check <file>...                  validate scenario, trace and recording files
   vesalius bench [<procedure>] [--json]     model step rates at the scenario's sizes
@@ -18,6 +33,7 @@ global: --threads N (rayon worker threads; default: all cores)
 procedures: nephrectomy (rectum, cholecystectomy, myotomy, catheter: not yet)";
 
 fn main() -> ExitCode {
+    vesalius::profiler::set_heap_probe(heap_bytes);
     let mut args: Vec<String> = std::env::args().skip(1).collect();
     if let Some(i) = args.iter().position(|a| a == "--threads") {
         let n = args
@@ -89,6 +105,17 @@ fn dispatch(args: &[String]) -> Result<(), String> {
             let scenario = take_flag(&mut rest, "--scenario")?;
             let headless = take_switch(&mut rest, "--headless");
             let realtime = take_switch(&mut rest, "--realtime");
+            let frames = match take_flag(&mut rest, "--frames")? {
+                Some(v) => v
+                    .parse::<u32>()
+                    .ok()
+                    .filter(|n| (1..=10_000).contains(n))
+                    .ok_or(format!(
+                        "--frames: expected a whole number from 1 to 10000, got '{v}'"
+                    ))?,
+                None => 0,
+            };
+            let eye_size = eye_size(&mut rest)?;
             if rest.is_empty() {
                 return Err(format!("run needs a procedure\n{USAGE}"));
             }
@@ -102,12 +129,16 @@ fn dispatch(args: &[String]) -> Result<(), String> {
                 );
             }
             let trace = trace.ok_or("run --headless needs --trace FILE")?;
+            if frames > 0 && out.is_none() {
+                return Err("--frames needs --out DIR (frames go to DIR/frames/)".into());
+            }
             run(
                 &procedure,
                 scenario.as_deref(),
                 Path::new(&trace),
                 out.as_deref().map(Path::new),
                 realtime,
+                (frames, eye_size),
             )
         }
         "replay" => {
@@ -133,6 +164,19 @@ fn dispatch(args: &[String]) -> Result<(), String> {
             no_more(&rest)?;
             check_procedure("command line", "procedure", &procedure).map_err(|e| e.to_string())?;
             bench(&procedure, json)
+        }
+        "profile" => {
+            let json = take_switch(&mut rest, "--json");
+            let two_pass = take_switch(&mut rest, "--two-pass");
+            let eye_size = eye_size(&mut rest)?;
+            let procedure = if rest.is_empty() {
+                "nephrectomy".to_string()
+            } else {
+                rest.remove(0)
+            };
+            no_more(&rest)?;
+            check_procedure("command line", "procedure", &procedure).map_err(|e| e.to_string())?;
+            profile(&procedure, json, eye_size, two_pass)
         }
         "help" | "--help" | "-h" => {
             println!("{USAGE}");
@@ -162,12 +206,27 @@ fn finish(outcome: &session::Outcome, out: Option<&Path>) -> Result<(), String> 
     Ok(())
 }
 
+/// `--eye-size WxH`, default the Vive's 1080x1200.
+fn eye_size(args: &mut Vec<String>) -> Result<(u32, u32), String> {
+    let Some(v) = take_flag(args, "--eye-size")? else {
+        return Ok(vesalius::render::camera::VIVE_EYE_SIZE);
+    };
+    let parsed = v
+        .split_once('x')
+        .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
+        .filter(|&(w, h)| (16..=8192).contains(&w) && (16..=8192).contains(&h));
+    parsed.ok_or(format!(
+        "--eye-size: expected WIDTHxHEIGHT in pixels, each 16 to 8192, got '{v}'"
+    ))
+}
+
 fn run(
     procedure: &str,
     scenario: Option<&str>,
     trace: &Path,
     out: Option<&Path>,
     realtime: bool,
+    (frames, eye_size): (u32, (u32, u32)),
 ) -> Result<(), String> {
     let (file, text) = match scenario {
         Some(f) => (
@@ -192,9 +251,173 @@ fn run(
     } else {
         Pacing::AsFastAsPossible
     };
-    let outcome =
-        session::run(&text, &file, Input::Keys(keys), pacing, None).map_err(|e| e.to_string())?;
-    finish(&outcome, out)
+    let outcome = session::run_capturing(&text, &file, Input::Keys(keys), pacing, None, frames)
+        .map_err(|e| e.to_string())?;
+    finish(&outcome, out)?;
+    if let (Some(dir), true) = (out, frames > 0) {
+        let gpu = vesalius::render::Gpu::headless(true).map_err(|e| e.to_string())?;
+        let sim_ms = outcome.wall_s * 1e3 / outcome.report.steps.max(1) as f64;
+        let done = vesalius::render::frames::render_snapshots(
+            &gpu,
+            &outcome.captured,
+            1,
+            eye_size,
+            sim_ms,
+            Some(&dir.join("frames")),
+        )
+        .map_err(|e| e.to_string())?;
+        vesalius::render::frames::write_profiler_csv(&dir.join("profiler.csv"), &done.counters)
+            .map_err(|e| e.to_string())?;
+        let mean = done.frame_ms.iter().sum::<f64>() / done.frame_ms.len().max(1) as f64;
+        println!(
+            "rendered {} stereo frames {}x{} per eye on {}: {:.1} ms per frame",
+            done.counters.len(),
+            eye_size.0,
+            eye_size.1,
+            done.device,
+            mean
+        );
+    }
+    Ok(())
+}
+
+/// Renders the demo mid-cut (laser on, instruments in view) and prints the counters beside the
+/// paper's Tables 2 and 3.
+fn profile(
+    procedure: &str,
+    json: bool,
+    eye_size: (u32, u32),
+    two_pass: bool,
+) -> Result<(), String> {
+    use vesalius::profiler::{mb, paper_cpu, paper_gpu};
+    let text = builtin(procedure).unwrap_or_default();
+    let keys = KeyTrace::parse("builtin demo trace", vesalius::bench::DEMO_TRACE)
+        .map_err(|e| e.to_string())?;
+    // Simulate up to the middle of the cut (40 % of the trace) and render that instant with
+    // the simulation still alive, so total memory counts it as Unity's profiler would.
+    let scenario =
+        Scenario::parse("builtin nephrectomy scenario", text).map_err(|e| e.to_string())?;
+    let dt = scenario.dt_s as f64;
+    let mut sim = vesalius::procedures::Nephrectomy::new(scenario).map_err(|e| e.to_string())?;
+    let steps = (keys.duration_s() * 0.4 / dt).ceil() as u64;
+    let mut events = Vec::new();
+    let t0 = std::time::Instant::now();
+    for step in 0..steps {
+        sim.step(&keys.sample(step as f64 * dt), step, &mut events);
+        events.clear();
+    }
+    let sim_ms = t0.elapsed().as_secs_f64() * 1e3 / steps.max(1) as f64;
+    let gpu = vesalius::render::Gpu::headless(!two_pass).map_err(|e| e.to_string())?;
+    // Five frames of the same instant: the first pays for pipeline warm-up.
+    let snap = sim.snapshot(steps.saturating_sub(1));
+    let done = vesalius::render::frames::render_repeated(&gpu, &snap, 5, eye_size, sim_ms)
+        .map_err(|e| e.to_string())?;
+    let mut ours = done.counters.last().cloned().unwrap_or_default();
+    ours.total_memory_bytes = vesalius::profiler::heap_bytes() + ours.vram_bytes;
+    let steady: Vec<f64> = done.frame_ms.iter().skip(1).copied().collect();
+    let frame_ms = steady.iter().sum::<f64>() / steady.len().max(1) as f64;
+    if json {
+        let v = serde_json::json!({
+            "procedure": procedure,
+            "device": done.device,
+            "eye_size": [eye_size.0, eye_size.1],
+            "frame_ms": frame_ms,
+            "heap_measured": vesalius::profiler::heap_measured(),
+            "vesalius": ours,
+            "paper": { "cpu": paper_cpu(), "gpu": paper_gpu() },
+        });
+        println!("{}", serde_json::to_string_pretty(&v).unwrap_or_default());
+        return Ok(());
+    }
+    let (pc, pg) = (paper_cpu(), paper_gpu());
+    println!(
+        "{procedure} on {} ({}x{} per eye, {} pass{}), {frame_ms:.1} ms per stereo frame",
+        done.device,
+        eye_size.0,
+        eye_size.1,
+        ours.passes,
+        if ours.passes == 1 {
+            ", multiview"
+        } else {
+            "es"
+        }
+    );
+    println!(
+        "{:<22} {:>12} {:>12} {:>12}",
+        "", "vesalius", "paper CPU", "paper GPU"
+    );
+    let row = |name: &str, a: String, b: String, c: String| {
+        println!("{name:<22} {a:>12} {b:>12} {c:>12}")
+    };
+    row(
+        "batches",
+        ours.batches.to_string(),
+        pc.batches.to_string(),
+        pg.batches.to_string(),
+    );
+    row(
+        "draw calls",
+        ours.draw_calls.to_string(),
+        pc.draw_calls.to_string(),
+        pg.draw_calls.to_string(),
+    );
+    row(
+        "setpass calls",
+        ours.setpass_calls.to_string(),
+        pc.setpass_calls.to_string(),
+        pg.setpass_calls.to_string(),
+    );
+    row(
+        "triangles",
+        ours.triangles.to_string(),
+        pc.triangles.to_string(),
+        pg.triangles.to_string(),
+    );
+    row(
+        "vertices",
+        ours.vertices.to_string(),
+        pc.vertices.to_string(),
+        pg.vertices.to_string(),
+    );
+    let m = |b: u64| format!("{:.1} MB", mb(b));
+    row(
+        "VRAM",
+        m(ours.vram_bytes),
+        m(pc.vram_bytes),
+        m(pg.vram_bytes),
+    );
+    row(
+        "total memory",
+        m(ours.total_memory_bytes),
+        m(pc.total_memory_bytes),
+        m(pg.total_memory_bytes),
+    );
+    let cb =
+        |c: vesalius::profiler::CountBytes| format!("{}/{:.0}KB", c.count, c.bytes as f64 / 1e3);
+    row(
+        "textures",
+        cb(ours.textures),
+        cb(pc.textures),
+        cb(pg.textures),
+    );
+    row("meshes", cb(ours.meshes), cb(pc.meshes), cb(pg.meshes));
+    row(
+        "materials",
+        cb(ours.materials),
+        cb(pc.materials),
+        cb(pg.materials),
+    );
+    row(
+        "objects",
+        ours.objects.to_string(),
+        pc.objects.to_string(),
+        pg.objects.to_string(),
+    );
+    println!(
+        "cpu per stage: simulation {:.2} ms/step, render encode {:.2} ms, submit {:.2} ms",
+        ours.cpu.simulation_ms, ours.cpu.render_encode_ms, ours.cpu.submit_ms
+    );
+    Ok(())
 }
 
 fn replay(recorded: &Path, out: &Path) -> Result<(), String> {

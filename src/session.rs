@@ -3,7 +3,7 @@
 use crate::assess;
 use crate::procedures::Nephrectomy;
 use crate::scenario::{InputError, Scenario};
-use crate::sim::{Clock, InputFrame, Pacing, SimEvent, SnapshotBus, TissueModel};
+use crate::sim::{Clock, InputFrame, Pacing, SimEvent, Snapshot, SnapshotBus, TissueModel};
 use crate::trace::{KeyTrace, Recording};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -50,6 +50,8 @@ pub struct Outcome {
     pub events: Vec<SimEvent>,
     pub recording: Recording,
     pub wall_s: f64,
+    /// Snapshots taken for rendering (`run_capturing`), evenly spaced, the last at the end.
+    pub captured: Vec<Snapshot>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -80,6 +82,18 @@ pub fn run(
     pacing: Pacing,
     bus: Option<&SnapshotBus>,
 ) -> Result<Outcome, SessionError> {
+    run_capturing(scenario_text, scenario_file, input, pacing, bus, 0)
+}
+
+/// Runs a session and keeps `frames` snapshots, evenly spaced over it, for rendering.
+pub fn run_capturing(
+    scenario_text: &str,
+    scenario_file: &str,
+    input: Input,
+    pacing: Pacing,
+    bus: Option<&SnapshotBus>,
+    frames_wanted: u32,
+) -> Result<Outcome, SessionError> {
     let scenario = Scenario::parse(scenario_file, scenario_text)?;
     let dt = scenario.dt_s;
     let publish_every = ((1.0 / scenario.publish_hz) / dt).round().max(1.0) as u64;
@@ -90,6 +104,11 @@ pub fn run(
         Input::Recorded(f) => f.len() as u64,
     };
     let mut frames = Vec::with_capacity(total_steps as usize);
+    let n = frames_wanted as u64;
+    let capture_at: Vec<u64> = (1..=n)
+        .map(|k| (k * total_steps / n.max(1)).saturating_sub(1))
+        .collect();
+    let mut captured = Vec::with_capacity(capture_at.len());
     let mut events = Vec::new();
     let start = Instant::now();
     while clock.step() < total_steps {
@@ -100,6 +119,9 @@ pub fn run(
         };
         proc_.step(&frame, step, &mut events);
         frames.push(frame);
+        if capture_at.binary_search(&step).is_ok() {
+            captured.push(proc_.snapshot(step));
+        }
         if let Some(bus) = bus
             && step.is_multiple_of(publish_every)
         {
@@ -153,6 +175,7 @@ pub fn run(
             frames,
         },
         wall_s,
+        captured,
     })
 }
 

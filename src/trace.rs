@@ -111,6 +111,14 @@ impl KeyTrace {
         Self::parse(&file, &text)
     }
 
+    /// Drops every keyframe after `t_s` (each hand keeps at least its first).
+    pub fn truncate_to(&mut self, t_s: f64) {
+        for keys in &mut self.keys {
+            let keep = keys.iter().filter(|k| k.t_s <= t_s).count().max(1);
+            keys.truncate(keep);
+        }
+    }
+
     /// Time of the last keyframe, seconds.
     pub fn duration_s(&self) -> f64 {
         self.keys

@@ -1256,8 +1256,15 @@ impl TissueModel for SoftBody {
                 rn[i as usize] += n;
             }
         }
+        let cut_edge = self
+            .mesh
+            .render
+            .iter()
+            .map(|r| r.faces.len() < self.mesh.fans[r.source as usize].len())
+            .collect();
         ModelSnapshot {
             name: self.name.clone(),
+            cut_edge,
             positions,
             normals: rn.into_iter().map(Vec3::normalize_or_zero).collect(),
             indices,

@@ -603,6 +603,7 @@ impl Nephrectomy {
             models,
             tools: self.tools,
             reactions: self.reactions,
+            tumour_identified: self.identified,
         }
     }
 

@@ -11,6 +11,8 @@ pub struct ModelSnapshot {
     pub indices: Vec<u32>,
     /// Region index per triangle.
     pub regions: Vec<u8>,
+    /// Per vertex: whether it lies on the edge of a cut (drawn as cut tissue).
+    pub cut_edge: Vec<bool>,
 }
 
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -31,6 +33,8 @@ pub struct Snapshot {
     pub tools: [ToolSnapshot; 2],
     /// Reaction force on each tool, newtons.
     pub reactions: [Vec3; 2],
+    /// The trainee has found the tumour (the renderer highlights it).
+    pub tumour_identified: bool,
 }
 
 /// Publishes snapshots without blocking: readers load the newest `Arc`, the simulation swaps in

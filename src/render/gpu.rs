@@ -1,0 +1,269 @@
+//! The wgpu device for headless rendering (Vulkan; Mesa's lavapipe where there is no GPU), and
+//! eye textures that can be read back to PNG.
+
+use crate::profiler::{Category, Ledger, Tracked};
+use std::path::Path;
+use std::sync::Arc;
+
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    #[error(
+        "no Vulkan adapter: {0} (install a Vulkan driver; without a GPU, Mesa's lavapipe: apt-get install mesa-vulkan-drivers libvulkan1)"
+    )]
+    NoAdapter(String),
+    #[error("the Vulkan device could not be created: {0}")]
+    Device(String),
+    #[error("reading the frame back from the GPU failed: {0}")]
+    Readback(String),
+    #[error("{path}: {message}")]
+    Write { path: String, message: String },
+}
+
+/// A wgpu device and queue with what we learned about the adapter.
+pub struct Gpu {
+    pub instance: wgpu::Instance,
+    pub adapter: wgpu::Adapter,
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    /// Whether one render pass can draw both eyes.
+    pub multiview: bool,
+    pub info: wgpu::AdapterInfo,
+    pub ledger: Arc<Ledger>,
+}
+
+impl Gpu {
+    /// Opens the first Vulkan adapter (a real GPU if there is one, else lavapipe). With
+    /// `allow_multiview` false the device is made without multiview, to exercise the
+    /// two-pass path.
+    pub fn headless(allow_multiview: bool) -> Result<Gpu, RenderError> {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = wgpu::Backends::VULKAN;
+        let instance = wgpu::Instance::new(desc);
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            force_fallback_adapter: false,
+            compatible_surface: None,
+            apply_limit_buckets: false,
+        }))
+        .map_err(|e| RenderError::NoAdapter(e.to_string()))?;
+        let multiview = allow_multiview && adapter.features().contains(wgpu::Features::MULTIVIEW);
+        let mut required_features = wgpu::Features::empty();
+        if multiview {
+            required_features |= wgpu::Features::MULTIVIEW;
+        }
+        let mut required_limits = wgpu::Limits::default().using_resolution(adapter.limits());
+        if multiview {
+            required_limits.max_multiview_view_count = 2;
+        }
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("vesalius"),
+            required_features,
+            required_limits,
+            ..Default::default()
+        }))
+        .map_err(|e| RenderError::Device(e.to_string()))?;
+        let info = adapter.get_info();
+        Ok(Gpu {
+            instance,
+            adapter,
+            device,
+            queue,
+            multiview,
+            info,
+            ledger: Ledger::new(),
+        })
+    }
+
+    /// "name (backend, device type)" for reports.
+    pub fn describe(&self) -> String {
+        format!(
+            "{} ({:?}, {:?}, driver {})",
+            self.info.name, self.info.backend, self.info.device_type, self.info.driver_info
+        )
+    }
+}
+
+/// The colour format of headless eye images (sRGB, as PNG stores them).
+pub const EYE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+
+/// A 2-layer colour texture standing in for an XR swapchain image, with the views the renderer
+/// takes and a way to read it back.
+pub struct EyeTarget {
+    pub size: (u32, u32),
+    texture: Tracked<wgpu::Texture>,
+    pub array: wgpu::TextureView,
+    pub layers: [wgpu::TextureView; 2],
+}
+
+impl EyeTarget {
+    pub fn new(gpu: &Gpu, size: (u32, u32)) -> Self {
+        let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("eyes"),
+            size: wgpu::Extent3d {
+                width: size.0,
+                height: size.1,
+                depth_or_array_layers: 2,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: EYE_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let array = texture.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let layer = |l: u32| {
+            texture.create_view(&wgpu::TextureViewDescriptor {
+                dimension: Some(wgpu::TextureViewDimension::D2),
+                base_array_layer: l,
+                array_layer_count: Some(1),
+                ..Default::default()
+            })
+        };
+        let layers = [layer(0), layer(1)];
+        let bytes = size.0 as u64 * size.1 as u64 * 4 * 2;
+        EyeTarget {
+            size,
+            texture: Tracked::new(texture, bytes, Category::Texture, &gpu.ledger),
+            array,
+            layers,
+        }
+    }
+
+    /// The target as the renderer takes it: the array for multiview, else one view per eye.
+    pub fn target(&self, multiview: bool) -> super::RenderTarget<'_> {
+        if multiview {
+            super::RenderTarget::Array(&self.array)
+        } else {
+            super::RenderTarget::PerEye([&self.layers[0], &self.layers[1]])
+        }
+    }
+
+    /// Both eyes' pixels, tightly packed RGBA8 rows, top row first.
+    pub fn read(&self, gpu: &Gpu) -> Result<[Vec<u8>; 2], RenderError> {
+        let (w, h) = self.size;
+        let row = w * 4;
+        let padded = row.next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+        let layer_bytes = padded as u64 * h as u64;
+        let buffer = Tracked::new(
+            gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("readback"),
+                size: layer_bytes * 2,
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                mapped_at_creation: false,
+            }),
+            layer_bytes * 2,
+            Category::Staging,
+            &gpu.ledger,
+        );
+        let mut encoder = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("readback"),
+            });
+        for layer in 0..2u32 {
+            encoder.copy_texture_to_buffer(
+                wgpu::TexelCopyTextureInfo {
+                    texture: &self.texture,
+                    mip_level: 0,
+                    origin: wgpu::Origin3d {
+                        x: 0,
+                        y: 0,
+                        z: layer,
+                    },
+                    aspect: wgpu::TextureAspect::All,
+                },
+                wgpu::TexelCopyBufferInfo {
+                    buffer: &buffer,
+                    layout: wgpu::TexelCopyBufferLayout {
+                        offset: layer as u64 * layer_bytes,
+                        bytes_per_row: Some(padded),
+                        rows_per_image: Some(h),
+                    },
+                },
+                wgpu::Extent3d {
+                    width: w,
+                    height: h,
+                    depth_or_array_layers: 1,
+                },
+            );
+        }
+        gpu.queue.submit([encoder.finish()]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        buffer.slice(..).map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        gpu.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| RenderError::Readback(e.to_string()))?;
+        rx.recv()
+            .map_err(|e| RenderError::Readback(e.to_string()))?
+            .map_err(|e| RenderError::Readback(e.to_string()))?;
+        let mut out = [Vec::new(), Vec::new()];
+        {
+            let data = buffer
+                .slice(..)
+                .get_mapped_range()
+                .map_err(|e| RenderError::Readback(e.to_string()))?;
+            for (layer, img) in out.iter_mut().enumerate() {
+                img.reserve_exact((row * h) as usize);
+                for y in 0..h as usize {
+                    let start = layer * layer_bytes as usize + y * padded as usize;
+                    img.extend_from_slice(&data[start..start + row as usize]);
+                }
+            }
+        }
+        buffer.unmap();
+        Ok(out)
+    }
+}
+
+/// Writes tightly packed RGBA8 pixels as a PNG (via a temporary file and a rename, so a reader
+/// never sees half a picture).
+pub fn write_png(path: &Path, size: (u32, u32), rgba: &[u8]) -> Result<(), RenderError> {
+    let err = |message: String| RenderError::Write {
+        path: path.display().to_string(),
+        message,
+    };
+    let tmp = path.with_extension("png.partial");
+    {
+        let file = std::fs::File::create(&tmp).map_err(|e| err(e.to_string()))?;
+        let mut enc = png::Encoder::new(std::io::BufWriter::new(file), size.0, size.1);
+        enc.set_color(png::ColorType::Rgba);
+        enc.set_depth(png::BitDepth::Eight);
+        enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+        let mut w = enc.write_header().map_err(|e| err(e.to_string()))?;
+        w.write_image_data(rgba).map_err(|e| err(e.to_string()))?;
+        w.finish().map_err(|e| err(e.to_string()))?;
+    }
+    std::fs::rename(&tmp, path).map_err(|e| err(e.to_string()))
+}
+
+/// Reads a PNG back as tightly packed RGBA8 (for tests and reference comparisons).
+pub fn read_png(path: &Path) -> Result<((u32, u32), Vec<u8>), RenderError> {
+    let err = |message: String| RenderError::Write {
+        path: path.display().to_string(),
+        message,
+    };
+    let file = std::fs::File::open(path).map_err(|e| err(e.to_string()))?;
+    let mut dec = png::Decoder::new(std::io::BufReader::new(file));
+    dec.set_transformations(png::Transformations::EXPAND);
+    let mut reader = dec.read_info().map_err(|e| err(e.to_string()))?;
+    let mut buf = vec![0; reader.output_buffer_size().unwrap_or(0)];
+    let info = reader
+        .next_frame(&mut buf)
+        .map_err(|e| err(e.to_string()))?;
+    buf.truncate(info.buffer_size());
+    let rgba = match info.color_type {
+        png::ColorType::Rgba => buf,
+        png::ColorType::Rgb => buf
+            .chunks_exact(3)
+            .flat_map(|p| [p[0], p[1], p[2], 255])
+            .collect(),
+        other => return Err(err(format!("expected an RGB or RGBA PNG, got {other:?}"))),
+    };
+    Ok(((info.width, info.height), rgba))
+}

@@ -1,0 +1,682 @@
+//! Stereo rendering of simulation snapshots with wgpu on Vulkan.
+//!
+//! The renderer draws into whatever target it is handed: a 2-layer texture array (the XR
+//! swapchain image, a headless test texture) in one multiview pass, or, where the adapter lacks
+//! multiview, one view per eye in two passes. Organ vertex buffers are rewritten from each
+//! snapshot in place and grow only when a cut adds render vertices beyond their headroom.
+
+pub mod camera;
+pub mod frames;
+pub mod gpu;
+
+pub use camera::{EyeView, Fov};
+pub use gpu::{EyeTarget, Gpu, RenderError};
+
+use crate::profiler::{Category, FrameCounters, Ledger, Tracked};
+use crate::sim::{Snapshot, ToolSnapshot};
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat4, Vec3};
+use std::num::NonZeroU32;
+use std::sync::Arc;
+use std::time::Instant;
+
+const SHADER: &str = include_str!("../../shaders/tissue.wgsl");
+/// 16-bit depth: at 0.2 m from the eye with the near plane at 1 cm it resolves 0.06 mm, and it
+/// halves the depth buffer of a 2 x 1080 x 1200 target (5.2 MB).
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth16Unorm;
+/// Background: the dim, warm cavity a laparoscope sees.
+pub const BACKGROUND: [f64; 3] = [0.02, 0.012, 0.01];
+
+/// Material slots (the shader's table).
+pub mod material {
+    pub const KIDNEY: u32 = 0;
+    pub const TUMOUR: u32 = 1;
+    pub const ARTERY: u32 = 2;
+    pub const VEIN: u32 = 3;
+    pub const URETER: u32 = 4;
+    pub const INSTRUMENT: u32 = 5;
+    pub const LASER_ON: u32 = 6;
+    pub const LASER_IDLE: u32 = 7;
+    /// Set on vertices at the edge of a cut.
+    pub const CUT_FLAG: u32 = 256;
+    pub const COUNT: usize = 8;
+}
+
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct Vertex {
+    position: [f32; 3],
+    normal: [f32; 3],
+    material: u32,
+}
+
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct EyeUniform {
+    view_proj: [[f32; 4]; 4],
+    position: [f32; 4],
+}
+
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct FrameUniform {
+    eyes: [EyeUniform; 2],
+    flags: [f32; 4],
+}
+
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct MaterialUniform {
+    albedo: [f32; 4],
+    shading: [f32; 4],
+}
+
+fn material_table() -> [MaterialUniform; material::COUNT] {
+    // albedo rgb; specular strength, shininess, emissive, rim.
+    let m = |r: f32, g: f32, b: f32, spec: f32, shin: f32, emit: f32, rim: f32| MaterialUniform {
+        albedo: [r, g, b, 1.0],
+        shading: [spec, shin, emit, rim],
+    };
+    [
+        m(0.50, 0.13, 0.10, 0.35, 40.0, 0.0, 0.10), // kidney parenchyma
+        m(0.78, 0.62, 0.36, 0.30, 30.0, 0.0, 0.08), // tumour
+        m(0.80, 0.08, 0.08, 0.50, 60.0, 0.0, 0.12), // renal artery
+        m(0.20, 0.18, 0.62, 0.50, 60.0, 0.0, 0.12), // renal vein
+        m(0.88, 0.80, 0.58, 0.35, 40.0, 0.0, 0.08), // ureter
+        m(0.55, 0.57, 0.60, 0.90, 80.0, 0.0, 0.20), // instrument steel
+        m(0.20, 1.00, 0.30, 0.00, 1.0, 2.0, 0.00),  // laser, cutting
+        m(0.10, 0.50, 0.15, 0.00, 1.0, 0.8, 0.00),  // laser, aiming
+    ]
+}
+
+/// The material of a model's region.
+fn base_material(model: &str, region: u8) -> u32 {
+    match (model, region) {
+        ("kidney", 1) => material::TUMOUR,
+        ("kidney", _) => material::KIDNEY,
+        ("renal_artery", _) => material::ARTERY,
+        ("renal_vein", _) => material::VEIN,
+        ("ureter", _) => material::URETER,
+        _ => material::KIDNEY,
+    }
+}
+
+struct GpuMesh {
+    vertex: Tracked<wgpu::Buffer>,
+    index: Tracked<wgpu::Buffer>,
+    vertex_count: u32,
+    index_count: u32,
+}
+
+/// Where to draw: both eyes' layers of one array texture (multiview), or one view per eye.
+pub enum RenderTarget<'a> {
+    Array(&'a wgpu::TextureView),
+    PerEye([&'a wgpu::TextureView; 2]),
+}
+
+struct Depth {
+    size: (u32, u32),
+    _texture: Tracked<wgpu::Texture>,
+    array: wgpu::TextureView,
+    layers: [wgpu::TextureView; 2],
+}
+
+pub struct Renderer {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    ledger: Arc<Ledger>,
+    multiview: bool,
+    pipeline: wgpu::RenderPipeline,
+    frame_buffers: Vec<Tracked<wgpu::Buffer>>,
+    bind_groups: Vec<wgpu::BindGroup>,
+    _materials: Tracked<wgpu::Buffer>,
+    meshes: Vec<GpuMesh>,
+    instruments: GpuMesh,
+    depth: Option<Depth>,
+    format: wgpu::TextureFormat,
+    frame: u64,
+    scratch: Vec<Vertex>,
+    scratch_idx: Vec<u32>,
+    objects: u64,
+    flags: [f32; 4],
+}
+
+fn uniform_bytes() -> u64 {
+    std::mem::size_of::<FrameUniform>() as u64
+}
+
+impl Renderer {
+    /// A renderer for targets of `format` on `gpu`'s device; multiview when the device has it.
+    pub fn new(gpu: &Gpu, format: wgpu::TextureFormat) -> Self {
+        let device = gpu.device.clone();
+        let multiview = gpu.multiview;
+        let source = if multiview {
+            SHADER
+                .replace("/*VIEW_INDEX*/", ", @builtin(view_index) view: u32")
+                .replace("let eye = VIEW;", "let eye = view;")
+        } else {
+            SHADER.replace("let eye = VIEW;", "let eye = 0u;")
+        };
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("tissue.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("frame"),
+            entries: &[0, 1].map(|binding| wgpu::BindGroupLayoutEntry {
+                binding,
+                visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            }),
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("tissue"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Uint32];
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("tissue"),
+            layout: Some(&pipeline_layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[Some(wgpu::VertexBufferLayout {
+                    array_stride: std::mem::size_of::<Vertex>() as u64,
+                    step_mode: wgpu::VertexStepMode::Vertex,
+                    attributes: &attributes,
+                })],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Less),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: if multiview {
+                NonZeroU32::new(0b11)
+            } else {
+                None
+            },
+            cache: None,
+        });
+        let ledger = gpu.ledger.clone();
+        let table = material_table();
+        let materials = tracked_buffer(
+            &device,
+            &ledger,
+            "materials",
+            std::mem::size_of_val(&table) as u64,
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            Category::Material,
+        );
+        gpu.queue
+            .write_buffer(&materials, 0, bytemuck::cast_slice(&table));
+        let passes = if multiview { 1 } else { 2 };
+        let frame_buffers: Vec<Tracked<wgpu::Buffer>> = (0..passes)
+            .map(|_| {
+                tracked_buffer(
+                    &device,
+                    &ledger,
+                    "frame",
+                    uniform_bytes(),
+                    wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                    Category::Material,
+                )
+            })
+            .collect();
+        let bind_groups = frame_buffers
+            .iter()
+            .map(|fb| {
+                device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("frame"),
+                    layout: &layout,
+                    entries: &[
+                        wgpu::BindGroupEntry {
+                            binding: 0,
+                            resource: fb.inner.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 1,
+                            resource: materials.inner.as_entire_binding(),
+                        },
+                    ],
+                })
+            })
+            .collect();
+        let instruments = empty_mesh(&device, &ledger, 512, 1024);
+        Renderer {
+            device,
+            queue: gpu.queue.clone(),
+            ledger,
+            multiview,
+            pipeline,
+            frame_buffers,
+            bind_groups,
+            _materials: materials,
+            meshes: Vec::new(),
+            instruments,
+            depth: None,
+            format,
+            frame: 0,
+            scratch: Vec::new(),
+            scratch_idx: Vec::new(),
+            objects: 0,
+            flags: [0.0; 4],
+        }
+    }
+
+    pub fn multiview(&self) -> bool {
+        self.multiview
+    }
+
+    pub fn format(&self) -> wgpu::TextureFormat {
+        self.format
+    }
+
+    /// Copies a snapshot's geometry into the GPU buffers (in place while it fits).
+    pub fn update(&mut self, snap: &Snapshot) {
+        while self.meshes.len() < snap.models.len() {
+            self.meshes
+                .push(empty_mesh(&self.device, &self.ledger, 0, 0));
+        }
+        self.meshes.truncate(snap.models.len());
+        for (k, m) in snap.models.iter().enumerate() {
+            let mut vertex_material = vec![material::KIDNEY; m.positions.len()];
+            for (t, tri) in m.indices.chunks_exact(3).enumerate() {
+                let base = base_material(&m.name, m.regions.get(t).copied().unwrap_or(0));
+                for &i in tri {
+                    if let Some(v) = vertex_material.get_mut(i as usize) {
+                        *v = base;
+                    }
+                }
+            }
+            self.scratch.clear();
+            for (i, p) in m.positions.iter().enumerate() {
+                let cut = m.cut_edge.get(i).copied().unwrap_or(false);
+                self.scratch.push(Vertex {
+                    position: p.to_array(),
+                    normal: m.normals.get(i).copied().unwrap_or(Vec3::Y).to_array(),
+                    material: vertex_material[i] | if cut { material::CUT_FLAG } else { 0 },
+                });
+            }
+            let verts = std::mem::take(&mut self.scratch);
+            upload(
+                &self.device,
+                &self.queue,
+                &self.ledger,
+                &mut self.meshes[k],
+                &verts,
+                &m.indices,
+            );
+            self.scratch = verts;
+        }
+        // Instruments and the beam, rebuilt each frame (a few hundred vertices).
+        self.scratch.clear();
+        self.scratch_idx.clear();
+        let mut tools = 0;
+        let mut beams = 0;
+        for t in &snap.tools {
+            if t.direction.length_squared() < 0.5 {
+                continue;
+            }
+            tools += 1;
+            instrument_geometry(t, &mut self.scratch, &mut self.scratch_idx);
+            if let Some(end) = t.beam_end {
+                beams += 1;
+                let m = if t.active {
+                    material::LASER_ON
+                } else {
+                    material::LASER_IDLE
+                };
+                cylinder(
+                    t.tip,
+                    end,
+                    0.0004,
+                    m,
+                    &mut self.scratch,
+                    &mut self.scratch_idx,
+                );
+            }
+        }
+        let (verts, idx) = (
+            std::mem::take(&mut self.scratch),
+            std::mem::take(&mut self.scratch_idx),
+        );
+        upload(
+            &self.device,
+            &self.queue,
+            &self.ledger,
+            &mut self.instruments,
+            &verts,
+            &idx,
+        );
+        (self.scratch, self.scratch_idx) = (verts, idx);
+        // Organs, instruments, beams, the headlight and the eye rig.
+        self.objects = snap.models.len() as u64 + tools + beams + 2;
+        let flags = [
+            if snap.tumour_identified { 1.0 } else { 0.0 },
+            snap.time_s as f32,
+            0.0,
+            0.0,
+        ];
+        self.flags = flags;
+    }
+
+    fn ensure_depth(&mut self, size: (u32, u32)) {
+        if self.depth.as_ref().is_some_and(|d| d.size == size) {
+            return;
+        }
+        let bytes = size.0 as u64 * size.1 as u64 * 2 * 2;
+        let texture = self.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("depth"),
+            size: wgpu::Extent3d {
+                width: size.0,
+                height: size.1,
+                depth_or_array_layers: 2,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: DEPTH_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            view_formats: &[],
+        });
+        let array = texture.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let layer = |l: u32| {
+            texture.create_view(&wgpu::TextureViewDescriptor {
+                dimension: Some(wgpu::TextureViewDimension::D2),
+                base_array_layer: l,
+                array_layer_count: Some(1),
+                ..Default::default()
+            })
+        };
+        let layers = [layer(0), layer(1)];
+        self.depth = Some(Depth {
+            size,
+            _texture: Tracked::new(texture, bytes, Category::Texture, &self.ledger),
+            array,
+            layers,
+        });
+    }
+
+    /// Draws the last updated snapshot for both eyes into `target` (each eye `size` pixels)
+    /// and submits. Returns the frame's counters (memory and CPU stage times filled in by the
+    /// caller where it measures them).
+    pub fn render(
+        &mut self,
+        target: RenderTarget<'_>,
+        size: (u32, u32),
+        eyes: &[EyeView; 2],
+    ) -> FrameCounters {
+        let t0 = Instant::now();
+        self.ensure_depth(size);
+        let eye_uniform = |e: &EyeView| EyeUniform {
+            view_proj: e.view_proj().to_cols_array_2d(),
+            position: e.position.extend(1.0).to_array(),
+        };
+        let both = [eye_uniform(&eyes[0]), eye_uniform(&eyes[1])];
+        if self.multiview {
+            let u = FrameUniform {
+                eyes: both,
+                flags: self.flags,
+            };
+            self.queue
+                .write_buffer(&self.frame_buffers[0], 0, bytemuck::bytes_of(&u));
+        } else {
+            for (k, fb) in self.frame_buffers.iter().enumerate() {
+                let u = FrameUniform {
+                    eyes: [both[k], both[k]],
+                    flags: self.flags,
+                };
+                self.queue.write_buffer(fb, 0, bytemuck::bytes_of(&u));
+            }
+        }
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("frame"),
+            });
+        let mut c = FrameCounters {
+            frame: self.frame,
+            multiview: self.multiview,
+            ..Default::default()
+        };
+        let Some(depth) = self.depth.as_ref() else {
+            return c;
+        };
+        let passes: Vec<(&wgpu::TextureView, &wgpu::TextureView, Option<NonZeroU32>)> =
+            match (&target, self.multiview) {
+                (RenderTarget::Array(v), true) => vec![(*v, &depth.array, NonZeroU32::new(0b11))],
+                (RenderTarget::PerEye(v), _) => vec![
+                    (v[0], &depth.layers[0], None),
+                    (v[1], &depth.layers[1], None),
+                ],
+                (RenderTarget::Array(_), false) => Vec::new(),
+            };
+        for (k, (colour, depth_view, mask)) in passes.iter().enumerate() {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("eyes"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: colour,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color {
+                            r: BACKGROUND[0],
+                            g: BACKGROUND[1],
+                            b: BACKGROUND[2],
+                            a: 1.0,
+                        }),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: depth_view,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(1.0),
+                        store: wgpu::StoreOp::Discard,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: *mask,
+            });
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &self.bind_groups[k.min(self.bind_groups.len() - 1)], &[]);
+            c.setpass_calls += 1;
+            c.passes += 1;
+            for mesh in self.meshes.iter().chain(std::iter::once(&self.instruments)) {
+                if mesh.index_count == 0 {
+                    continue;
+                }
+                pass.set_vertex_buffer(0, mesh.vertex.inner.slice(..));
+                pass.set_index_buffer(mesh.index.inner.slice(..), wgpu::IndexFormat::Uint32);
+                pass.draw_indexed(0..mesh.index_count, 0, 0..1);
+                c.draw_calls += 1;
+                c.triangles += mesh.index_count as u64 / 3;
+                c.vertices += mesh.vertex_count as u64;
+            }
+        }
+        c.batches = c.draw_calls;
+        let t1 = Instant::now();
+        self.queue.submit([encoder.finish()]);
+        let t2 = Instant::now();
+        c.cpu.render_encode_ms = (t1 - t0).as_secs_f64() * 1e3;
+        c.cpu.submit_ms = (t2 - t1).as_secs_f64() * 1e3;
+        c.textures = self.ledger.live(Category::Texture);
+        c.meshes = self.ledger.live(Category::Mesh);
+        c.materials = self.ledger.live(Category::Material);
+        c.materials.count = material::COUNT as u64;
+        c.vram_bytes = self.ledger.total_bytes();
+        c.total_memory_bytes = crate::profiler::heap_bytes() + c.vram_bytes;
+        c.objects = self.objects;
+        self.frame += 1;
+        c
+    }
+}
+
+fn tracked_buffer(
+    device: &wgpu::Device,
+    ledger: &Arc<Ledger>,
+    label: &str,
+    bytes: u64,
+    usage: wgpu::BufferUsages,
+    category: Category,
+) -> Tracked<wgpu::Buffer> {
+    // wgpu wants copy sizes in multiples of 4 and no zero-sized bindings.
+    let size = bytes.max(16).next_multiple_of(4);
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size,
+        usage,
+        mapped_at_creation: false,
+    });
+    Tracked::new(buffer, size, category, ledger)
+}
+
+fn empty_mesh(device: &wgpu::Device, ledger: &Arc<Ledger>, verts: u64, indices: u64) -> GpuMesh {
+    GpuMesh {
+        vertex: tracked_buffer(
+            device,
+            ledger,
+            "vertices",
+            verts * std::mem::size_of::<Vertex>() as u64,
+            wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+            Category::Mesh,
+        ),
+        index: tracked_buffer(
+            device,
+            ledger,
+            "indices",
+            indices * 4,
+            wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST,
+            Category::Mesh,
+        ),
+        vertex_count: 0,
+        index_count: 0,
+    }
+}
+
+/// Writes vertices and indices into a mesh's buffers, growing them (by a quarter more than
+/// needed) only when they do not fit.
+fn upload(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    ledger: &Arc<Ledger>,
+    mesh: &mut GpuMesh,
+    verts: &[Vertex],
+    indices: &[u32],
+) {
+    let vbytes = std::mem::size_of_val(verts) as u64;
+    let ibytes = std::mem::size_of_val(indices) as u64;
+    if vbytes > mesh.vertex.bytes() {
+        mesh.vertex = tracked_buffer(
+            device,
+            ledger,
+            "vertices",
+            vbytes + vbytes / 4,
+            wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+            Category::Mesh,
+        );
+    }
+    if ibytes > mesh.index.bytes() {
+        mesh.index = tracked_buffer(
+            device,
+            ledger,
+            "indices",
+            ibytes + ibytes / 4,
+            wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST,
+            Category::Mesh,
+        );
+    }
+    if vbytes > 0 {
+        queue.write_buffer(&mesh.vertex, 0, bytemuck::cast_slice(verts));
+    }
+    if ibytes > 0 {
+        queue.write_buffer(&mesh.index, 0, bytemuck::cast_slice(indices));
+    }
+    mesh.vertex_count = verts.len() as u32;
+    mesh.index_count = indices.len() as u32;
+}
+
+/// An open cylinder of 8 sides from `a` to `b`.
+fn cylinder(a: Vec3, b: Vec3, radius: f32, mat: u32, v: &mut Vec<Vertex>, idx: &mut Vec<u32>) {
+    let axis = (b - a).normalize_or(Vec3::Z);
+    let side = axis.any_orthonormal_vector();
+    let up = axis.cross(side);
+    let base = v.len() as u32;
+    const SIDES: u32 = 8;
+    for k in 0..SIDES {
+        let t = k as f32 / SIDES as f32 * std::f32::consts::TAU;
+        let n = side * t.cos() + up * t.sin();
+        for end in [a, b] {
+            v.push(Vertex {
+                position: (end + n * radius).to_array(),
+                normal: n.to_array(),
+                material: mat,
+            });
+        }
+    }
+    for k in 0..SIDES {
+        let (i0, i1) = (base + 2 * k, base + 2 * ((k + 1) % SIDES));
+        idx.extend_from_slice(&[i0, i1, i0 + 1, i1, i1 + 1, i0 + 1]);
+    }
+}
+
+/// A laparoscopic instrument: a 5 mm shaft ending at the tip, with two short jaws.
+fn instrument_geometry(t: &ToolSnapshot, v: &mut Vec<Vertex>, idx: &mut Vec<u32>) {
+    let d = t.direction.normalize_or(Vec3::NEG_Z);
+    let jaw_base = t.tip - d * 0.012;
+    cylinder(
+        t.tip - d * 0.30,
+        jaw_base,
+        0.0025,
+        material::INSTRUMENT,
+        v,
+        idx,
+    );
+    let side = d.any_orthonormal_vector() * 0.0015;
+    for s in [side, -side] {
+        cylinder(
+            jaw_base + s,
+            t.tip + s * 0.5,
+            0.0008,
+            material::INSTRUMENT,
+            v,
+            idx,
+        );
+    }
+}
+
+/// The view-projection a renderer uses for an eye (for tests that project known points).
+pub fn view_proj(e: &EyeView) -> Mat4 {
+    e.view_proj()
+}
