@@ -83,6 +83,23 @@ impl Gpu {
     }
 }
 
+/// Views of a 2-layer texture: the whole array (multiview) and each eye's layer (two passes).
+pub fn eye_views(texture: &wgpu::Texture) -> (wgpu::TextureView, [wgpu::TextureView; 2]) {
+    let array = texture.create_view(&wgpu::TextureViewDescriptor {
+        dimension: Some(wgpu::TextureViewDimension::D2Array),
+        ..Default::default()
+    });
+    let layer = |l: u32| {
+        texture.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2),
+            base_array_layer: l,
+            array_layer_count: Some(1),
+            ..Default::default()
+        })
+    };
+    (array, [layer(0), layer(1)])
+}
+
 /// The colour format of headless eye images (sRGB, as PNG stores them).
 pub const EYE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 
@@ -111,19 +128,7 @@ impl EyeTarget {
             usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
             view_formats: &[],
         });
-        let array = texture.create_view(&wgpu::TextureViewDescriptor {
-            dimension: Some(wgpu::TextureViewDimension::D2Array),
-            ..Default::default()
-        });
-        let layer = |l: u32| {
-            texture.create_view(&wgpu::TextureViewDescriptor {
-                dimension: Some(wgpu::TextureViewDimension::D2),
-                base_array_layer: l,
-                array_layer_count: Some(1),
-                ..Default::default()
-            })
-        };
-        let layers = [layer(0), layer(1)];
+        let (array, layers) = eye_views(&texture);
         let bytes = size.0 as u64 * size.1 as u64 * 4 * 2;
         EyeTarget {
             size,

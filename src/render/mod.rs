@@ -405,19 +405,7 @@ impl Renderer {
             usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
             view_formats: &[],
         });
-        let array = texture.create_view(&wgpu::TextureViewDescriptor {
-            dimension: Some(wgpu::TextureViewDimension::D2Array),
-            ..Default::default()
-        });
-        let layer = |l: u32| {
-            texture.create_view(&wgpu::TextureViewDescriptor {
-                dimension: Some(wgpu::TextureViewDimension::D2),
-                base_array_layer: l,
-                array_layer_count: Some(1),
-                ..Default::default()
-            })
-        };
-        let layers = [layer(0), layer(1)];
+        let (array, layers) = gpu::eye_views(&texture);
         self.depth = Some(Depth {
             size,
             _texture: Tracked::new(texture, bytes, Category::Texture, &self.ledger),
