@@ -83,6 +83,43 @@ impl Gpu {
     }
 }
 
+/// A 2-layer texture (one layer per eye), entered in the ledger, with its views.
+pub fn eye_texture(
+    device: &wgpu::Device,
+    ledger: &Arc<Ledger>,
+    label: &str,
+    size: (u32, u32),
+    format: wgpu::TextureFormat,
+    usage: wgpu::TextureUsages,
+) -> (
+    Tracked<wgpu::Texture>,
+    wgpu::TextureView,
+    [wgpu::TextureView; 2],
+) {
+    let texture = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d {
+            width: size.0,
+            height: size.1,
+            depth_or_array_layers: 2,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage,
+        view_formats: &[],
+    });
+    let (array, layers) = eye_views(&texture);
+    let texel = format.block_copy_size(None).unwrap_or(4) as u64;
+    let bytes = size.0 as u64 * size.1 as u64 * texel * 2;
+    (
+        Tracked::new(texture, bytes, Category::Texture, ledger),
+        array,
+        layers,
+    )
+}
+
 /// Views of a 2-layer texture: the whole array (multiview) and each eye's layer (two passes).
 pub fn eye_views(texture: &wgpu::Texture) -> (wgpu::TextureView, [wgpu::TextureView; 2]) {
     let array = texture.create_view(&wgpu::TextureViewDescriptor {
@@ -114,25 +151,17 @@ pub struct EyeTarget {
 
 impl EyeTarget {
     pub fn new(gpu: &Gpu, size: (u32, u32)) -> Self {
-        let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("eyes"),
-            size: wgpu::Extent3d {
-                width: size.0,
-                height: size.1,
-                depth_or_array_layers: 2,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: EYE_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        });
-        let (array, layers) = eye_views(&texture);
-        let bytes = size.0 as u64 * size.1 as u64 * 4 * 2;
+        let (texture, array, layers) = eye_texture(
+            &gpu.device,
+            &gpu.ledger,
+            "eyes",
+            size,
+            EYE_FORMAT,
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        );
         EyeTarget {
             size,
-            texture: Tracked::new(texture, bytes, Category::Texture, &gpu.ledger),
+            texture,
             array,
             layers,
         }

@@ -390,25 +390,17 @@ impl Renderer {
         if self.depth.as_ref().is_some_and(|d| d.size == size) {
             return;
         }
-        let bytes = size.0 as u64 * size.1 as u64 * 2 * 2;
-        let texture = self.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("depth"),
-            size: wgpu::Extent3d {
-                width: size.0,
-                height: size.1,
-                depth_or_array_layers: 2,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: DEPTH_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-            view_formats: &[],
-        });
-        let (array, layers) = gpu::eye_views(&texture);
+        let (texture, array, layers) = gpu::eye_texture(
+            &self.device,
+            &self.ledger,
+            "depth",
+            size,
+            DEPTH_FORMAT,
+            wgpu::TextureUsages::RENDER_ATTACHMENT,
+        );
         self.depth = Some(Depth {
             size,
-            _texture: Tracked::new(texture, bytes, Category::Texture, &self.ledger),
+            _texture: texture,
             array,
             layers,
         });
