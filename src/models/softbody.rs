@@ -192,6 +192,13 @@ pub struct SoftBody {
     held: Vec<Held>,
     bvh: Bvh,
     bvh_ws: BvhWorkspace,
+    /// Leaves whose AABB grew past their margin at the last refit (their change flags are
+    /// cleared by the next partial refit).
+    bvh_changed: Vec<u32>,
+    /// Leaves grown past their margin this step.
+    bvh_growing: Vec<u32>,
+    /// A leaf was removed since the last refit: the next refit walks the whole tree.
+    bvh_full_refit: bool,
     leaf_pad: Vec<f32>,
     topology_dirty: bool,
     component: Vec<u32>,
@@ -284,6 +291,9 @@ impl SoftBody {
             held: Vec::new(),
             bvh: Bvh::new(),
             bvh_ws: BvhWorkspace::default(),
+            bvh_changed: Vec::new(),
+            bvh_growing: Vec::new(),
+            bvh_full_refit: true,
             leaf_pad: vec![0.0; n],
             topology_dirty: true,
             component: vec![0; n],
@@ -1145,7 +1155,8 @@ impl TissueModel for SoftBody {
             k += 1;
         }
         // Refit the BVH where anything moved.
-        let mut changed = false;
+        let mut growing = std::mem::take(&mut self.bvh_growing);
+        growing.clear();
         let stamp3 = self.next_stamp();
         let mut leaves = std::mem::take(&mut self.touched);
         let pending = std::mem::take(&mut self.bvh_pending);
@@ -1161,17 +1172,27 @@ impl TissueModel for SoftBody {
                 continue;
             }
             let aabb = self.leaf_aabb(f);
-            if let Some(s) = self.bvh.update_partially_if_present(aabb, i, BVH_MARGIN_M) {
-                changed |= s != BvhLeafUpdateStatus::Unchanged;
+            if let Some(s) = self.bvh.update_partially_if_present(aabb, i, BVH_MARGIN_M)
+                && s != BvhLeafUpdateStatus::Unchanged
+            {
+                growing.push(i);
             }
         }
         leaves.clear();
         self.touched = leaves;
         self.bvh_pending = pending;
         self.bvh_pending.clear();
-        if changed {
+        if self.bvh_full_refit {
+            // A cut removed leaves: only a whole-tree refit is valid.
             self.bvh.refit(&mut self.bvh_ws);
+            self.bvh_full_refit = false;
+        } else if !growing.is_empty() || !self.bvh_changed.is_empty() {
+            // Only the paths from the grown leaves to the root: O(grown x height) instead of
+            // the whole tree (the grasper wakes a few hundred of 25k+ leaves).
+            self.bvh.refit_partial(&self.bvh_changed, &growing);
         }
+        std::mem::swap(&mut self.bvh_changed, &mut growing);
+        self.bvh_growing = growing;
         self.moved = moved;
     }
 
@@ -1191,6 +1212,7 @@ impl TissueModel for SoftBody {
             }
             self.volume_term[i] = 0.0;
             self.bvh.remove(f);
+            self.bvh_full_refit = true;
             let (s, e) = (self.adj_start[i] as usize, self.adj_start[i + 1] as usize);
             for k in s..e {
                 match self.adj[k] {
@@ -1479,6 +1501,71 @@ mod tests {
         assert!(guard.is_frozen());
         assert!(b.positions().iter().all(|p| p.is_finite()));
         assert_eq!(b.positions(), &good[..]);
+    }
+
+    /// Every live face is found by a BVH query for the centre of its own box: each ancestor
+    /// on its path must contain that point, which stale ancestors after a move do not.
+    fn bvh_bounds_every_live_face(b: &SoftBody) -> bool {
+        (0..b.mesh().len()).filter(|&f| b.alive()[f]).all(|f| {
+            let c = b.leaf_aabb(f).center();
+            let q = Aabb::new(c, c);
+            b.bvh.intersect_aabb(&q).any(|l| l as usize == f)
+        })
+    }
+
+    #[test]
+    fn the_bvh_follows_deformation_through_partial_and_full_refits() {
+        let m = ball(3, 0.03, Vec3::ZERO);
+        let mut b = body_of(&m, vec![0; m.triangle_count()]);
+        let mut out = ModelOutput::default();
+        let dt = 0.002;
+        // A 4 mm tip pressed 6 mm into the top and dragged sideways: leaves grow past their
+        // margin every step (partial refits).
+        let top = b.positions()[farthest(&b, Vec3::Z)];
+        let tip_at = |k: usize| {
+            let s = k as f32 * dt;
+            top + Vec3::new(0.02 * s, 0.0, 0.004 - (0.03 * s).min(0.006))
+        };
+        for k in 0..300 {
+            let c = [Contact {
+                tool: ToolId::Left,
+                point: tip_at(k),
+                normal: Vec3::Z,
+                kind: ContactKind::Sphere { radius_m: 0.004 },
+            }];
+            b.step(dt, &c, &mut out);
+            if k % 50 == 49 {
+                assert!(bvh_bounds_every_live_face(&b), "step {k}");
+            }
+        }
+        let moved = (0..b.mesh().len())
+            .map(|i| (b.positions()[i] - b.mesh.rest[i]).length())
+            .fold(0.0, f32::max);
+        assert!(
+            moved > 5.0 * BVH_MARGIN_M,
+            "the tip moved the surface {moved} m"
+        );
+        // A cut removes leaves (whole-tree refit), then the drag goes on (partial again).
+        let band: Vec<u32> = (0..b.mesh().len() as u32)
+            .filter(|&f| b.x[f as usize].y.abs() < 0.002 && b.x[f as usize].x < 0.0)
+            .collect();
+        b.cut(&CutStroke { faces: band }, &mut out);
+        for k in 300..400 {
+            let c = [Contact {
+                tool: ToolId::Left,
+                point: tip_at(k),
+                normal: Vec3::Z,
+                kind: ContactKind::Sphere { radius_m: 0.004 },
+            }];
+            b.step(dt, &c, &mut out);
+        }
+        assert!(bvh_bounds_every_live_face(&b));
+        let removed = (0..b.mesh().len()).filter(|&f| !b.alive()[f]).count();
+        assert!(removed > 0);
+        assert!(
+            b.bvh.intersect_aabb(&b.bvh.root_aabb()).count() == b.mesh().len() - removed,
+            "cut faces left the tree"
+        );
     }
 
     #[test]
