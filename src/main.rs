@@ -13,9 +13,11 @@ use vesalius::trace::{KeyTrace, Recording};
 static GLOBAL: &stats_alloc::StatsAlloc<std::alloc::System> = &stats_alloc::INSTRUMENTED_SYSTEM;
 
 fn heap_bytes() -> u64 {
+    // stats_alloc books a realloc's growth under bytes_allocated (and its shrinkage under
+    // bytes_deallocated) as well as under bytes_reallocated: adding the latter would count
+    // every grown Vec twice.
     let s = GLOBAL.stats();
-    (s.bytes_allocated as i64 - s.bytes_deallocated as i64 + s.bytes_reallocated as i64).max(0)
-        as u64
+    s.bytes_allocated.saturating_sub(s.bytes_deallocated) as u64
 }
 
 const USAGE: &str = "usage:
@@ -312,8 +314,12 @@ fn profile(
     let snap = sim.snapshot(steps.saturating_sub(1));
     let done = vesalius::render::frames::render_repeated(&gpu, &snap, 5, eye_size, sim_ms)
         .map_err(|e| e.to_string())?;
-    let mut ours = done.counters.last().cloned().unwrap_or_default();
-    ours.total_memory_bytes = vesalius::profiler::heap_bytes() + ours.vram_bytes;
+    // Total memory as the last frame measured it: heap (simulation, snapshot, renderer) plus
+    // every GPU buffer and texture, while all of them were alive.
+    let ours = done.counters.last().cloned().unwrap_or_default();
+    let heap = ours.total_memory_bytes.saturating_sub(ours.vram_bytes);
+    let sim_parts = sim.memory();
+    let sim_bytes: usize = sim_parts.iter().map(|(_, b)| b).sum();
     let steady: Vec<f64> = done.frame_ms.iter().skip(1).copied().collect();
     let frame_ms = steady.iter().sum::<f64>() / steady.len().max(1) as f64;
     if json {
@@ -323,6 +329,11 @@ fn profile(
             "eye_size": [eye_size.0, eye_size.1],
             "frame_ms": frame_ms,
             "heap_measured": vesalius::profiler::heap_measured(),
+            "heap_bytes": heap,
+            "simulation_heap_bytes": sim_parts
+                .iter()
+                .map(|(k, b)| (k.to_string(), serde_json::json!(b)))
+                .collect::<serde_json::Map<_, _>>(),
             "vesalius": ours,
             "paper": { "cpu": paper_cpu(), "gpu": paper_gpu() },
         });
@@ -416,6 +427,19 @@ fn profile(
     println!(
         "cpu per stage: simulation {:.2} ms/step, render encode {:.2} ms, submit {:.2} ms",
         ours.cpu.simulation_ms, ours.cpu.render_encode_ms, ours.cpu.submit_ms
+    );
+    let mut parts = sim_parts.clone();
+    parts.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(b.0)));
+    let top: Vec<String> = parts
+        .iter()
+        .take(4)
+        .map(|(k, b)| format!("{k} {:.1}", mb(*b as u64)))
+        .collect();
+    println!(
+        "heap {:.1} MB, of which simulation {:.1} MB (largest: {})",
+        mb(heap),
+        mb(sim_bytes as u64),
+        top.join(", ")
     );
     Ok(())
 }

@@ -55,10 +55,14 @@ struct Shot {
 }
 
 fn render(gpu: &Gpu, snap: &Snapshot, eyes: &[EyeView; 2]) -> Shot {
+    render_at(gpu, snap, eyes, SIZE)
+}
+
+fn render_at(gpu: &Gpu, snap: &Snapshot, eyes: &[EyeView; 2], size: (u32, u32)) -> Shot {
     let mut r = Renderer::new(gpu, EYE_FORMAT);
-    let target = EyeTarget::new(gpu, SIZE);
+    let target = EyeTarget::new(gpu, size);
     r.update(snap);
-    let counters = r.render(target.target(r.multiview()), SIZE, eyes);
+    let counters = r.render(target.target(r.multiview()), size, eyes);
     let eyes = target.read(gpu).expect("read back");
     Shot { eyes, counters }
 }
@@ -121,7 +125,8 @@ fn the_organ_shows_in_both_eyes_with_the_predicted_disparity() {
 #[test]
 fn two_passes_draw_the_same_picture_as_multiview() {
     let eyes = nephrectomy_eyes(DEFAULT_IPD_M);
-    let snap = scene(ball(0.03, None));
+    // The instrument scene: its shaft runs past the eyes, through the near plane.
+    let snap = reference_scenes().swap_remove(0).1;
     let one = render(&gpu(true), &snap, &eyes);
     let two = render(&gpu(false), &snap, &eyes);
     assert_eq!(two.counters.passes, 2);
@@ -218,4 +223,149 @@ fn saved_frames_read_back_as_the_rendered_pixels() {
     let (size, pixels) = read_png(&path).expect("read");
     assert_eq!(size, SIZE);
     assert_eq!(pixels, shot.eyes[0]);
+}
+
+/// The three fixed reference scenes: the organ with an instrument and its beam, the organ with
+/// a cut, and a tumour highlighted once identified.
+fn reference_scenes() -> Vec<(&'static str, Snapshot)> {
+    let mut tool = scene(ball(0.05, None));
+    tool.tools[1].tip = Vec3::new(0.02, 0.04, 0.1);
+    tool.tools[1].direction = Vec3::new(-0.2, -0.3, -1.0).normalize();
+    tool.tools[1].beam_end = Some(Vec3::new(0.0, 0.01, 0.049));
+    tool.tools[1].active = true;
+    let cut = scene(ball(0.05, Some((Vec3::new(0.0, 0.02, 0.045), 0.015))));
+    let mut tumour = ball(0.05, None);
+    tumour.regions = tumour
+        .indices
+        .chunks_exact(3)
+        .map(|t| {
+            let c: Vec3 = t
+                .iter()
+                .map(|&i| tumour.positions[i as usize])
+                .sum::<Vec3>()
+                / 3.0;
+            u8::from(c.x > 0.02 && c.z > 0.0)
+        })
+        .collect();
+    let mut tumour = scene(tumour);
+    tumour.tumour_identified = true;
+    vec![("instrument", tool), ("cut", cut), ("tumour", tumour)]
+}
+
+/// Pixels whose largest channel difference exceeds 16, and the mean absolute difference.
+fn image_difference(a: &[u8], b: &[u8]) -> (usize, f64) {
+    let mut off = 0;
+    let mut sum = 0u64;
+    for (p, q) in a.chunks_exact(4).zip(b.chunks_exact(4)) {
+        let d = (0..3).map(|k| p[k].abs_diff(q[k])).max().unwrap_or(0);
+        off += usize::from(d > 16);
+        sum += (0..3).map(|k| p[k].abs_diff(q[k]) as u64).sum::<u64>();
+    }
+    (off, sum as f64 / (a.len() / 4 * 3).max(1) as f64)
+}
+
+/// Reference PNGs in tests/reference/ (made on Mesa's lavapipe; `VESALIUS_BLESS=1` rewrites
+/// them after an intended change of the picture). A pixel may differ by a rounding step
+/// anywhere and by more on at most 0.5 % of the image (edges rasterised a hair apart).
+#[test]
+fn fixed_scenes_match_their_reference_images() {
+    let gpu = gpu(true);
+    let size = SIZE;
+    let eyes = nephrectomy_eyes(DEFAULT_IPD_M);
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/reference");
+    let bless = std::env::var_os("VESALIUS_BLESS").is_some();
+    for (name, snap) in reference_scenes() {
+        let shot = render_at(&gpu, &snap, &eyes, size);
+        for (eye, pixels) in ["left", "right"].iter().zip(&shot.eyes) {
+            let path = dir.join(format!("{name}_{eye}.png"));
+            if bless {
+                std::fs::create_dir_all(&dir).expect("reference dir");
+                write_png(&path, size, pixels).expect("reference written");
+                continue;
+            }
+            let (ref_size, reference) = read_png(&path)
+                .unwrap_or_else(|e| panic!("{}: {e} (VESALIUS_BLESS=1 makes it)", path.display()));
+            assert_eq!(ref_size, size, "{}", path.display());
+            let (off, mean) = image_difference(pixels, &reference);
+            let limit = (size.0 * size.1) as usize / 200;
+            assert!(
+                off <= limit && mean < 1.5,
+                "{name} {eye}: {off} pixels off (at most {limit}), mean difference {mean:.2}"
+            );
+        }
+    }
+}
+
+#[test]
+fn the_reference_comparison_catches_a_changed_picture() {
+    // The same tolerance must reject a scene that changed: the cut scene against the intact one.
+    let gpu = gpu(true);
+    let size = SIZE;
+    let eyes = nephrectomy_eyes(DEFAULT_IPD_M);
+    let scenes = reference_scenes();
+    let a = render_at(&gpu, &scenes[0].1, &eyes, size);
+    let b = render_at(&gpu, &scenes[1].1, &eyes, size);
+    let (off, _) = image_difference(&a.eyes[0], &b.eyes[0]);
+    assert!(
+        off > (size.0 * size.1) as usize / 200,
+        "only {off} pixels differ"
+    );
+    let (same, mean) = image_difference(&a.eyes[0], &a.eyes[0]);
+    assert_eq!((same, mean), (0, 0.0));
+}
+
+#[test]
+fn a_gpu_validation_error_is_returned_not_a_panic() {
+    let gpu = gpu(true);
+    assert!(gpu.check().is_ok());
+    let small = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("too small"),
+        size: 16,
+        usage: wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    // 64 bytes into a 16-byte buffer: wgpu's validation rejects it.
+    gpu.queue.write_buffer(&small, 0, &[0u8; 64]);
+    let err = gpu.check().expect_err("the overrun is reported");
+    assert!(
+        matches!(err, vesalius::render::gpu::RenderError::Validation(_)),
+        "{err}"
+    );
+    assert!(gpu.check().is_ok(), "reported once");
+    // An eye size past the device's limit is refused before anything is made.
+    let max = gpu.device.limits().max_texture_dimension_2d;
+    assert!(gpu.check_eye_size((max + 1, 16)).is_err());
+    assert!(gpu.check_eye_size((max, 16)).is_ok());
+}
+
+/// `vesalius profile nephrectomy --json` at full size against the nephrectomy paper's budget
+/// (Tables 2 and 3): at least 50,000 triangles, at most 9 draw calls for both eyes, total
+/// memory (heap + GPU) at most the 38.9 MB of its CPU case.
+#[test]
+fn the_full_size_scene_profiles_within_the_papers_budget() {
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_vesalius"))
+        .args(["profile", "nephrectomy", "--json"])
+        .output()
+        .expect("runs");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON");
+    let ours = &v["vesalius"];
+    let n = |k: &str| {
+        ours[k]
+            .as_u64()
+            .unwrap_or_else(|| panic!("no {k} in {ours}"))
+    };
+    assert!(n("triangles") >= 50_000, "{} triangles", n("triangles"));
+    assert!(n("draw_calls") <= 9, "{} draw calls", n("draw_calls"));
+    assert!(n("batches") <= n("draw_calls"));
+    assert!(v["heap_measured"].as_bool() == Some(true));
+    let total = n("total_memory_bytes");
+    assert!(total <= 38_900_000, "total memory {total} bytes");
+    // The GPU share is the textures and meshes the counters list.
+    let bytes = |k: &str| ours[k]["bytes"].as_u64().unwrap_or(0);
+    assert!(n("vram_bytes") >= bytes("textures") + bytes("meshes"));
+    assert!(total > n("vram_bytes"), "heap counted too");
+    // The 2-layer Vive-sized colour target alone: 2 x 1080 x 1200 x 4 bytes.
+    assert!(bytes("textures") >= 2 * 1080 * 1200 * 4);
+    assert_eq!(v["paper"]["cpu"]["draw_calls"].as_u64(), Some(19));
 }

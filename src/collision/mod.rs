@@ -1,8 +1,10 @@
 //! Collision queries between instruments and tissue surfaces. Detection produces contacts and
 //! hits; the models consume them.
 
+mod face_bvh;
 mod ray_mesh;
 mod sphere_vertices;
 
+pub use face_bvh::{FaceBvh, PATCH_FACES};
 pub use ray_mesh::{RayHit, cast_ray};
 pub use sphere_vertices::nearest_within;

@@ -10,7 +10,7 @@ pub fn nearest_within(surface: &SurfaceView, center: Vec3, radius_m: f32) -> Vec
     );
     let mut found: Vec<(f32, u32)> = surface
         .bvh
-        .intersect_aabb(&q)
+        .faces_in(&q)
         .filter(|&f| surface.alive[f as usize])
         .map(|f| ((surface.positions[f as usize] - center).length(), f))
         .filter(|&(d, _)| d <= radius_m)

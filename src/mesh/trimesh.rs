@@ -12,6 +12,8 @@ pub enum MeshError {
     Degenerate(usize),
     #[error("vertex {0} has an open or pinched fan of triangles")]
     BadFan(u32),
+    #[error("vertex {0} is shared by {1} triangles; at most 65535 are supported")]
+    CrowdedVertex(usize, usize),
 }
 
 /// An indexed triangle mesh, counter-clockwise (outward) winding. Positions in metres.

@@ -7,13 +7,16 @@ use crate::mesh::{MeshError, TriMesh};
 use glam::Vec3;
 
 /// One render vertex: a run of consecutive live faces around a triangle-mesh vertex. An uncut
-/// vertex has one run (its whole fan); a cut through the fan splits it into several.
-#[derive(Debug, Clone)]
+/// vertex has one run (its whole fan); a cut through the fan splits it into several. The run
+/// is stored as a (cyclic) stretch of its source vertex's fan, so it owns no list: 24 bytes.
+#[derive(Debug, Clone, Copy)]
 pub struct RenderVertex {
     /// The triangle-mesh vertex this came from.
     pub source: u32,
-    /// Simplex vertices (= faces of the fan) whose centroid anchors this vertex.
-    pub faces: Vec<u32>,
+    /// Where the run starts in the source's fan.
+    pub first: u16,
+    /// How many faces of the fan (going round, wrapping) the run takes.
+    pub count: u16,
     /// Rest offset along the run's normal, metres.
     pub height_m: f32,
     /// Rest offset in the tangent plane, metres.
@@ -26,8 +29,10 @@ pub struct SimplexMesh {
     pub neighbors: Vec<[u32; 3]>,
     /// The render triangulation (triangle-mesh faces, one per simplex vertex).
     pub faces: Vec<[u32; 3]>,
-    /// Faces around each triangle-mesh vertex, counter-clockwise.
-    pub fans: Vec<Vec<u32>>,
+    /// Faces around each triangle-mesh vertex, counter-clockwise: vertex v's fan is
+    /// `fan_faces[fan_start[v]..fan_start[v + 1]]` (see [`SimplexMesh::fan`]).
+    pub fan_start: Vec<u32>,
+    pub fan_faces: Vec<u32>,
     /// Triangle-mesh rest positions, metres.
     pub tri_rest: Vec<Vec3>,
     /// Simplex rest positions (face centroids), metres.
@@ -43,6 +48,17 @@ impl SimplexMesh {
     pub fn dual(mesh: &TriMesh) -> Result<Self, MeshError> {
         let neighbors = mesh.edge_adjacency()?;
         let fans = mesh.vertex_fans(&neighbors)?;
+        let mut fan_start = Vec::with_capacity(fans.len() + 1);
+        let mut fan_faces = Vec::with_capacity(3 * mesh.triangles.len());
+        fan_start.push(0);
+        for (v, fan) in fans.iter().enumerate() {
+            if fan.len() > u16::MAX as usize {
+                return Err(MeshError::CrowdedVertex(v, fan.len()));
+            }
+            fan_faces.extend_from_slice(fan);
+            fan_start.push(fan_faces.len() as u32);
+        }
+        drop(fans);
         let rest: Vec<Vec3> = mesh
             .triangles
             .iter()
@@ -51,7 +67,8 @@ impl SimplexMesh {
         let mut s = SimplexMesh {
             neighbors,
             faces: mesh.triangles.clone(),
-            fans,
+            fan_start,
+            fan_faces,
             tri_rest: mesh.positions.clone(),
             rest,
             render: Vec::new(),
@@ -62,6 +79,29 @@ impl SimplexMesh {
         s.vertex_normals(&s.rest, &alive, &mut normals);
         s.rebuild_render(&alive, &normals);
         Ok(s)
+    }
+
+    /// The faces around triangle-mesh vertex `v`, counter-clockwise.
+    pub fn fan(&self, v: usize) -> &[u32] {
+        &self.fan_faces[self.fan_start[v] as usize..self.fan_start[v + 1] as usize]
+    }
+
+    /// Number of triangle-mesh vertices.
+    pub fn vertex_count(&self) -> usize {
+        self.fan_start.len().saturating_sub(1)
+    }
+
+    /// The simplex vertices of render vertex `r`'s run.
+    pub fn run(&self, r: usize) -> impl Iterator<Item = u32> + '_ {
+        let rv = self.render[r];
+        let fan = self.fan(rv.source as usize);
+        (0..rv.count as usize).map(move |j| fan[(rv.first as usize + j) % fan.len()])
+    }
+
+    /// Whether render vertex `r` is only part of its fan (a cut passes through the vertex).
+    pub fn is_split(&self, r: usize) -> bool {
+        let rv = self.render[r];
+        (rv.count as usize) < self.fan(rv.source as usize).len()
     }
 
     pub fn len(&self) -> usize {
@@ -110,69 +150,88 @@ impl SimplexMesh {
     /// Splits every fan into runs of live faces and records each run's rest offset.
     pub fn rebuild_render(&mut self, alive: &[bool], rest_normals: &[Vec3]) {
         self.render.clear();
+        // One run per vertex, plus one per extra run a cut makes (grown by an eighth at a time).
+        let want = self.vertex_count();
+        if self.render.capacity() < want {
+            self.render.reserve_exact(want);
+        }
         for c in &mut self.corners {
             *c = [u32::MAX; 3];
         }
-        for v in 0..self.fans.len() {
-            let fan = self.fans[v].clone();
-            let n = fan.len();
-            let Some(dead_at) = (0..n).find(|&k| !alive[fan[k] as usize]) else {
-                self.push_run(v as u32, fan, rest_normals);
+        for v in 0..self.vertex_count() {
+            let n = self.fan(v).len();
+            let Some(dead_at) = (0..n).find(|&k| !alive[self.fan(v)[k] as usize]) else {
+                self.push_run(v as u32, 0, n, rest_normals);
                 continue;
             };
             // Walk once around, starting just after a dead face, collecting live runs.
-            let mut run: Vec<u32> = Vec::new();
+            let mut first = 0;
+            let mut count = 0;
             for step in 1..=n {
-                let f = fan[(dead_at + step) % n];
-                if alive[f as usize] {
-                    run.push(f);
-                } else if !run.is_empty() {
-                    self.push_run(v as u32, std::mem::take(&mut run), rest_normals);
+                let k = (dead_at + step) % n;
+                if alive[self.fan(v)[k] as usize] {
+                    if count == 0 {
+                        first = k;
+                    }
+                    count += 1;
+                } else if count > 0 {
+                    self.push_run(v as u32, first, count, rest_normals);
+                    count = 0;
                 }
             }
-            if !run.is_empty() {
-                self.push_run(v as u32, run, rest_normals);
+            if count > 0 {
+                self.push_run(v as u32, first, count, rest_normals);
             }
         }
     }
 
-    fn push_run(&mut self, v: u32, faces: Vec<u32>, rest_normals: &[Vec3]) {
-        let (c, n) = run_frame(&self.rest, rest_normals, &faces);
+    fn push_run(&mut self, v: u32, first: usize, count: usize, rest_normals: &[Vec3]) {
+        let id = self.render.len() as u32;
+        if self.render.len() == self.render.capacity() {
+            self.render.reserve_exact(self.render.capacity() / 8 + 16);
+        }
+        // Fan lengths are checked to fit u16 when the mesh is built.
+        self.render.push(RenderVertex {
+            source: v,
+            first: first as u16,
+            count: count as u16,
+            height_m: 0.0,
+            tangent_m: Vec3::ZERO,
+        });
+        let (c, n) = run_frame(&self.rest, rest_normals, self.run(id as usize));
         let d = self.tri_rest[v as usize] - c;
         let height = d.dot(n);
-        let id = self.render.len() as u32;
-        for &f in &faces {
+        for f in self.run(id as usize).collect::<Vec<_>>() {
             let k = self.faces[f as usize]
                 .iter()
                 .position(|&x| x == v)
                 .unwrap_or(0);
             self.corners[f as usize][k] = id;
         }
-        self.render.push(RenderVertex {
-            source: v,
-            faces,
-            height_m: height,
-            tangent_m: d - n * height,
-        });
+        let rv = &mut self.render[id as usize];
+        rv.height_m = height;
+        rv.tangent_m = d - n * height;
     }
 
     /// Position of render vertex `r` given simplex positions and normals.
     pub fn render_position(&self, r: usize, x: &[Vec3], normals: &[Vec3]) -> Vec3 {
-        let rv = &self.render[r];
-        let (c, n) = run_frame(x, normals, &rv.faces);
+        let rv = self.render[r];
+        let (c, n) = run_frame(x, normals, self.run(r));
         c + n * rv.height_m + rv.tangent_m
     }
 }
 
 /// Centroid and mean normal of a run of simplex vertices.
-fn run_frame(x: &[Vec3], normals: &[Vec3], faces: &[u32]) -> (Vec3, Vec3) {
+fn run_frame(x: &[Vec3], normals: &[Vec3], faces: impl Iterator<Item = u32>) -> (Vec3, Vec3) {
     let mut c = Vec3::ZERO;
     let mut n = Vec3::ZERO;
-    for &f in faces {
+    let mut count = 0u32;
+    for f in faces {
         c += x[f as usize];
         n += normals[f as usize];
+        count += 1;
     }
-    (c / faces.len() as f32, n.normalize_or_zero())
+    (c / count.max(1) as f32, n.normalize_or_zero())
 }
 
 #[cfg(test)]
@@ -233,7 +292,7 @@ mod tests {
         let mut alive = vec![true; s.len()];
         let before = s.render.len();
         // Kill two faces of one fan that are not adjacent: that vertex splits in two runs.
-        let fan = s.fans[0].clone();
+        let fan = s.fan(0).to_vec();
         alive[fan[0] as usize] = false;
         alive[fan[2] as usize] = false;
         let normals: Vec<Vec3> = (0..s.len())

@@ -9,13 +9,13 @@
 use super::forces;
 use super::simplex::SimplexMesh;
 use super::xpbd::{self, Bend, Stretch};
+use crate::collision::FaceBvh;
 use crate::sim::{
     Contact, ContactKind, CutStroke, EventKind, ModelOutput, ModelSizes, ModelSnapshot,
     SurfaceView, TissueModel, ToolId,
 };
 use glam::{Quat, Vec3};
 use parry3d::bounding_volume::Aabb;
-use parry3d::partitioning::{Bvh, BvhBuildStrategy, BvhLeafUpdateStatus, BvhWorkspace};
 use serde::{Deserialize, Serialize};
 
 const SLEEP_STEPS: u16 = 30;
@@ -147,6 +147,20 @@ enum Constraint {
     Tie(u32),
 }
 
+/// Box of face `f`: its simplex point padded by the rest distance to its corners (x 1.25),
+/// and its three neighbours.
+fn leaf_aabb(x: &[Vec3], pad: &[f32], neighbors: &[[u32; 3]], f: usize) -> Aabb {
+    let p = x[f];
+    let pad = Vec3::splat(pad[f] * 1.25);
+    let mut lo = p - pad;
+    let mut hi = p + pad;
+    for &n in &neighbors[f] {
+        lo = lo.min(x[n as usize]);
+        hi = hi.max(x[n as usize]);
+    }
+    Aabb::new(lo, hi)
+}
+
 pub struct SoftBody {
     name: String,
     pub params: SoftBodyParams,
@@ -170,7 +184,8 @@ pub struct SoftBody {
     ties: Vec<Tie>,
     /// Constraints touching each point (CSR).
     adj_start: Vec<u32>,
-    adj: Vec<Constraint>,
+    /// Constraint ids (see [`SoftBody::kind`]): 4 bytes each.
+    adj: Vec<u32>,
     awake: Vec<bool>,
     /// Where each sleeping point sleeps.
     sleep_at: Vec<Vec3>,
@@ -184,21 +199,10 @@ pub struct SoftBody {
     /// Pieces cut free of the anchored organ, and each point's piece (or `NO_GROUP`).
     free_parts: Vec<FreePart>,
     part_of: Vec<u32>,
-    /// Where the spring pulls each point of a free piece: its rest position carried by the
-    /// piece's best rigid motion (shape matching), m.
-    goal: Vec<Vec3>,
     /// Points of carried pieces whose BVH leaves are due a refresh this step.
     bvh_pending: Vec<u32>,
     held: Vec<Held>,
-    bvh: Bvh,
-    bvh_ws: BvhWorkspace,
-    /// Leaves whose AABB grew past their margin at the last refit (their change flags are
-    /// cleared by the next partial refit).
-    bvh_changed: Vec<u32>,
-    /// Leaves grown past their margin this step.
-    bvh_growing: Vec<u32>,
-    /// A leaf was removed since the last refit: the next refit walks the whole tree.
-    bvh_full_refit: bool,
+    bvh: FaceBvh,
     leaf_pad: Vec<f32>,
     topology_dirty: bool,
     component: Vec<u32>,
@@ -211,12 +215,12 @@ pub struct SoftBody {
     /// Per point: how far the instrument tips pushed it this step (and which points).
     pushed: Vec<Vec3>,
     pushed_list: Vec<u32>,
-    constraints_now: Vec<Constraint>,
+    constraints_now: Vec<u32>,
     moved: Vec<u32>,
     before: Vec<Vec3>,
     lambda: Vec<f32>,
-    /// Per constraint: the stamp of the step that last listed it.
-    listed: Vec<u32>,
+    /// One bit per constraint: listed this step (cleared again once the list is made).
+    listed: Vec<u64>,
     /// Per region: the running sum of volume terms.
     volume: Vec<f64>,
     steps_since_resum: u32,
@@ -286,14 +290,9 @@ impl SoftBody {
             pressure_group: vec![NO_GROUP; n],
             free_parts: Vec::new(),
             part_of: vec![NO_GROUP; n],
-            goal: x.clone(),
             bvh_pending: Vec::new(),
             held: Vec::new(),
-            bvh: Bvh::new(),
-            bvh_ws: BvhWorkspace::default(),
-            bvh_changed: Vec::new(),
-            bvh_growing: Vec::new(),
-            bvh_full_refit: true,
+            bvh: FaceBvh::new(&[], |_| Aabb::new_invalid()),
             leaf_pad: vec![0.0; n],
             topology_dirty: true,
             component: vec![0; n],
@@ -327,8 +326,7 @@ impl SoftBody {
                 .map(|p| (*p - body.x[f]).length())
                 .fold(0.0, f32::max);
         }
-        let leaves: Vec<Aabb> = (0..n).map(|f| body.leaf_aabb(f)).collect();
-        body.bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &leaves);
+        body.bvh = FaceBvh::new(&body.mesh.rest, |f| body.leaf_aabb(f));
         body.rebuild_adjacency();
         body
     }
@@ -435,17 +433,29 @@ impl SoftBody {
             count[i + 1] += count[i];
         }
         let mut fill = count.clone();
-        let mut adj = vec![Constraint::Stretch(0); count[n] as usize];
+        let mut adj = vec![0u32; count[n] as usize];
         for &c in &all {
+            let id = self.constraint_index(c) as u32;
             each(c, self, &mut |p| {
-                adj[fill[p as usize] as usize] = c;
+                adj[fill[p as usize] as usize] = id;
                 fill[p as usize] += 1;
             });
         }
         self.adj_start = count;
         self.adj = adj;
-        self.lambda = vec![0.0; all.len()];
-        self.listed = vec![0; all.len()];
+        self.listed = vec![0; all.len().div_ceil(64)];
+    }
+
+    /// What constraint id `id` is: stretch constraints first, then bends, then ties.
+    fn kind(&self, id: u32) -> Constraint {
+        let (ns, nb) = (self.stretch.len() as u32, self.bend.len() as u32);
+        if id < ns {
+            Constraint::Stretch(id)
+        } else if id < ns + nb {
+            Constraint::Bend(id - ns)
+        } else {
+            Constraint::Tie(id - ns - nb)
+        }
     }
 
     fn constraint_index(&self, c: Constraint) -> usize {
@@ -457,15 +467,7 @@ impl SoftBody {
     }
 
     fn leaf_aabb(&self, f: usize) -> Aabb {
-        let p = self.x[f];
-        let pad = Vec3::splat(self.leaf_pad[f] * 1.25);
-        let mut lo = p - pad;
-        let mut hi = p + pad;
-        for &n in &self.mesh.neighbors[f] {
-            lo = lo.min(self.x[n as usize]);
-            hi = hi.max(self.x[n as usize]);
-        }
-        Aabb::new(lo, hi)
+        leaf_aabb(&self.x, &self.leaf_pad, &self.mesh.neighbors, f)
     }
 
     fn refresh_normal(&mut self, i: usize) {
@@ -599,9 +601,6 @@ impl SoftBody {
                 .fold(0.0, f32::max);
             let (q, t) = self.fit_part(part);
             (part.rotation, part.translation) = (q, t);
-            for &i in &part.points {
-                self.goal[i as usize] = q * rest[i as usize] + t;
-            }
         }
         self.free_parts = parts;
     }
@@ -660,7 +659,6 @@ impl SoftBody {
             let points = std::mem::take(&mut self.free_parts[k].points);
             for &i in &points {
                 let i = i as usize;
-                self.goal[i] = q * self.mesh.rest[i] + t;
                 if !self.awake[i] {
                     // Rigidly carried: position, normal and volume term move with the piece.
                     let carried = delta * (self.x[i] - t0) + t;
@@ -765,7 +763,7 @@ impl SoftBody {
                     // Beyond 2 falloff lengths the force is under a fifth of the peak: ignored.
                     let reach = 2.0 * p.falloff_m;
                     let q = Aabb::new(from - Vec3::splat(reach), from + Vec3::splat(reach));
-                    let found: Vec<u32> = self.bvh.intersect_aabb(&q).collect();
+                    let found: Vec<u32> = self.bvh.faces_in(&q).collect();
                     let mut total = Vec3::ZERO;
                     for f in found {
                         let i = f as usize;
@@ -792,7 +790,7 @@ impl SoftBody {
                         c.point - Vec3::splat(radius_m * 2.0),
                         c.point + Vec3::splat(radius_m * 2.0),
                     );
-                    let found: Vec<u32> = self.bvh.intersect_aabb(&q).collect();
+                    let found: Vec<u32> = self.bvh.faces_in(&q).collect();
                     for f in found {
                         if (self.x[f as usize] - c.point).length() < radius_m * 1.5 {
                             self.wake(f as usize);
@@ -817,7 +815,7 @@ impl SoftBody {
                     );
                     let mut found: Vec<(f32, u32)> = self
                         .bvh
-                        .intersect_aabb(&q)
+                        .faces_in(&q)
                         .filter(|&f| self.alive[f as usize])
                         .map(|f| ((self.x[f as usize] - c.point).length(), f))
                         .filter(|&(d, _)| d <= radius_m)
@@ -886,42 +884,39 @@ impl SoftBody {
         self.constraints_now.clear();
         // Walk the awake points in index order (the active list is sorted) and list each live
         // constraint once: a fixed order whatever the order points woke in.
-        let stamp = self.next_stamp();
-        let n_stretch = self.stretch.len();
-        let n_bend = self.bend.len();
         for &i in &self.active {
             let (s, e) = (
                 self.adj_start[i as usize] as usize,
                 self.adj_start[i as usize + 1] as usize,
             );
-            for &c in &self.adj[s..e] {
-                let (li, live) = match c {
-                    Constraint::Stretch(k) => (k as usize, self.stretch_alive[k as usize]),
-                    Constraint::Bend(k) => (n_stretch + k as usize, self.bend_alive[k as usize]),
-                    Constraint::Tie(k) => {
-                        (n_stretch + n_bend + k as usize, self.ties[k as usize].alive)
-                    }
+            for &id in &self.adj[s..e] {
+                let live = match self.kind(id) {
+                    Constraint::Stretch(k) => self.stretch_alive[k as usize],
+                    Constraint::Bend(k) => self.bend_alive[k as usize],
+                    Constraint::Tie(k) => self.ties[k as usize].alive,
                 };
-                if live && self.listed[li] != stamp {
-                    self.listed[li] = stamp;
-                    self.constraints_now.push(c);
+                let (word, bit) = (id as usize / 64, 1u64 << (id % 64));
+                if live && self.listed[word] & bit == 0 {
+                    self.listed[word] |= bit;
+                    self.constraints_now.push(id);
                 }
             }
+        }
+        for &id in &self.constraints_now {
+            self.listed[id as usize / 64] = 0;
         }
     }
 
     fn project(&mut self, dt: f32, out: &mut ModelOutput) {
         let p = self.params;
         let list = std::mem::take(&mut self.constraints_now);
-        for &c in &list {
-            let li = self.constraint_index(c);
-            self.lambda[li] = 0.0;
-        }
+        // One Lagrange multiplier per listed constraint, from zero each step.
+        self.lambda.clear();
+        self.lambda.resize(list.len(), 0.0);
         for _ in 0..p.solver_iterations.max(1) {
-            for &c in &list {
-                let li = self.constraint_index(c);
+            for (li, &id) in list.iter().enumerate() {
                 let l = self.lambda[li];
-                let dl = match c {
+                let dl = match self.kind(id) {
                     Constraint::Stretch(k) => xpbd::project_stretch(
                         &mut self.x,
                         &self.inv_mass,
@@ -958,9 +953,9 @@ impl SoftBody {
             }
         }
         // Ties whose force exceeds the threshold tear.
-        for &c in &list {
-            if let Constraint::Tie(k) = c {
-                let force = self.lambda[self.constraint_index(c)].abs() / (dt * dt);
+        for (li, &id) in list.iter().enumerate() {
+            if let Constraint::Tie(k) = self.kind(id) {
+                let force = self.lambda[li].abs() / (dt * dt);
                 if force > p.tie_break_force_n {
                     self.ties[k as usize].alive = false;
                     self.topology_dirty = true;
@@ -972,6 +967,56 @@ impl SoftBody {
             }
         }
         self.constraints_now = list;
+    }
+}
+
+impl SoftBody {
+    /// Heap bytes held by each part of the body (capacity, not length), for the profiler.
+    pub fn memory(&self) -> Vec<(&'static str, usize)> {
+        fn b<T>(v: &Vec<T>) -> usize {
+            v.capacity() * std::mem::size_of::<T>()
+        }
+        let m = &self.mesh;
+        let fans: usize = b(&m.fan_start) + b(&m.fan_faces);
+        let render: usize = b(&m.render);
+        vec![
+            ("mesh.neighbors", b(&m.neighbors)),
+            ("mesh.faces", b(&m.faces)),
+            ("mesh.fans", fans),
+            ("mesh.tri_rest", b(&m.tri_rest)),
+            ("mesh.rest", b(&m.rest)),
+            ("mesh.render", render),
+            ("mesh.corners", b(&m.corners)),
+            ("x", b(&self.x)),
+            ("v", b(&self.v)),
+            ("normal", b(&self.normal)),
+            ("area+volume_term+inv_mass+leaf_pad", b(&self.area) * 4),
+            (
+                "flags",
+                b(&self.alive) * 4 + b(&self.region) + b(&self.still),
+            ),
+            ("stretch", b(&self.stretch) + b(&self.stretch_alive)),
+            ("bend", b(&self.bend) + b(&self.bend_alive)),
+            ("adj", b(&self.adj_start) + b(&self.adj)),
+            ("sleep_at", b(&self.sleep_at)),
+            ("groups+parts+component+stamp", b(&self.pressure_group) * 4),
+            ("bvh", self.bvh.heap_bytes()),
+            ("checkpoint", b(&self.checkpoint.0) + b(&self.checkpoint.1)),
+            (
+                "force+pushed+before",
+                b(&self.force) + b(&self.pushed) + b(&self.before),
+            ),
+            ("constraints_now", b(&self.constraints_now)),
+            ("lambda+listed", b(&self.lambda) + b(&self.listed)),
+            (
+                "lists",
+                b(&self.active)
+                    + b(&self.touched)
+                    + b(&self.moved)
+                    + b(&self.pushed_list)
+                    + b(&self.bvh_pending),
+            ),
+        ]
     }
 }
 
@@ -1035,8 +1080,10 @@ impl TissueModel for SoftBody {
             let mut f = self.force[i];
             if self.anchored[i] {
                 f += forces::spring_force(p.spring_n_per_m, self.x[i], self.mesh.rest[i]);
-            } else if self.part_of[i] != NO_GROUP {
-                f += forces::spring_force(p.spring_n_per_m, self.x[i], self.goal[i]);
+            } else if let Some(part) = self.free_parts.get(self.part_of[i] as usize) {
+                // The spring goal: the point's rest position carried by its piece's motion.
+                let goal = part.rotation * self.mesh.rest[i] + part.translation;
+                f += forces::spring_force(p.spring_n_per_m, self.x[i], goal);
             }
             if let Some(&pg) = pressure.get(self.pressure_group[i] as usize) {
                 f += forces::pressure_force(pg, self.normal[i], self.area[i]);
@@ -1060,7 +1107,7 @@ impl TissueModel for SoftBody {
                     c.point - Vec3::splat(radius_m * 2.0),
                     c.point + Vec3::splat(radius_m * 2.0),
                 );
-                let found: Vec<u32> = self.bvh.intersect_aabb(&q).collect();
+                let found: Vec<u32> = self.bvh.faces_in(&q).collect();
                 for f in found {
                     let i = f as usize;
                     let d = self.x[i] - c.point;
@@ -1101,8 +1148,8 @@ impl TissueModel for SoftBody {
         self.pushed_list.clear();
         let stamp2 = self.next_stamp();
         let list = std::mem::take(&mut self.constraints_now);
-        for &c in &list {
-            let pts: [u32; 4] = match c {
+        for &id in &list {
+            let pts: [u32; 4] = match self.kind(id) {
                 Constraint::Stretch(k) => {
                     let s = self.stretch[k as usize];
                     [s.a, s.b, s.a, s.b]
@@ -1155,8 +1202,6 @@ impl TissueModel for SoftBody {
             k += 1;
         }
         // Refit the BVH where anything moved.
-        let mut growing = std::mem::take(&mut self.bvh_growing);
-        growing.clear();
         let stamp3 = self.next_stamp();
         let mut leaves = std::mem::take(&mut self.touched);
         let pending = std::mem::take(&mut self.bvh_pending);
@@ -1167,32 +1212,15 @@ impl TissueModel for SoftBody {
             }
         }
         for &i in &leaves {
-            let f = i as usize;
-            if !self.alive[f] {
-                continue;
-            }
-            let aabb = self.leaf_aabb(f);
-            if let Some(s) = self.bvh.update_partially_if_present(aabb, i, BVH_MARGIN_M)
-                && s != BvhLeafUpdateStatus::Unchanged
-            {
-                growing.push(i);
-            }
+            self.bvh.mark(i);
         }
         leaves.clear();
         self.touched = leaves;
         self.bvh_pending = pending;
         self.bvh_pending.clear();
-        if self.bvh_full_refit {
-            // A cut removed leaves: only a whole-tree refit is valid.
-            self.bvh.refit(&mut self.bvh_ws);
-            self.bvh_full_refit = false;
-        } else if !growing.is_empty() || !self.bvh_changed.is_empty() {
-            // Only the paths from the grown leaves to the root: O(grown x height) instead of
-            // the whole tree (the grasper wakes a few hundred of 25k+ leaves).
-            self.bvh.refit_partial(&self.bvh_changed, &growing);
-        }
-        std::mem::swap(&mut self.bvh_changed, &mut growing);
-        self.bvh_growing = growing;
+        let (x, pad, nb, alive) = (&self.x, &self.leaf_pad, &self.mesh.neighbors, &self.alive);
+        self.bvh
+            .refresh(|f| alive[f].then(|| leaf_aabb(x, pad, nb, f)), BVH_MARGIN_M);
         self.moved = moved;
     }
 
@@ -1211,11 +1239,10 @@ impl TissueModel for SoftBody {
                 *v -= self.volume_term[i] as f64;
             }
             self.volume_term[i] = 0.0;
-            self.bvh.remove(f);
-            self.bvh_full_refit = true;
+            self.bvh.remove_face(f);
             let (s, e) = (self.adj_start[i] as usize, self.adj_start[i + 1] as usize);
             for k in s..e {
-                match self.adj[k] {
+                match self.kind(self.adj[k]) {
                     Constraint::Stretch(c) => self.stretch_alive[c as usize] = false,
                     Constraint::Bend(c) => self.bend_alive[c as usize] = false,
                     Constraint::Tie(c) => {
@@ -1278,11 +1305,8 @@ impl TissueModel for SoftBody {
                 rn[i as usize] += n;
             }
         }
-        let cut_edge = self
-            .mesh
-            .render
-            .iter()
-            .map(|r| r.faces.len() < self.mesh.fans[r.source as usize].len())
+        let cut_edge = (0..self.mesh.render.len())
+            .map(|r| self.mesh.is_split(r))
             .collect();
         ModelSnapshot {
             name: self.name.clone(),
@@ -1509,7 +1533,7 @@ mod tests {
         (0..b.mesh().len()).filter(|&f| b.alive()[f]).all(|f| {
             let c = b.leaf_aabb(f).center();
             let q = Aabb::new(c, c);
-            b.bvh.intersect_aabb(&q).any(|l| l as usize == f)
+            b.bvh.faces_in(&q).any(|l| l as usize == f)
         })
     }
 
@@ -1562,9 +1586,17 @@ mod tests {
         assert!(bvh_bounds_every_live_face(&b));
         let removed = (0..b.mesh().len()).filter(|&f| !b.alive()[f]).count();
         assert!(removed > 0);
+        let root = b.bvh.root_aabb();
+        let listed: Vec<u32> = b.bvh.faces_in(&root).collect();
         assert!(
-            b.bvh.intersect_aabb(&b.bvh.root_aabb()).count() == b.mesh().len() - removed,
-            "cut faces left the tree"
+            listed.iter().any(|&f| !b.alive()[f as usize]),
+            "a partly cut patch stays"
+        );
+        let whole = (0..b.mesh().len()).filter(|&f| b.alive()[f]).count();
+        assert_eq!(
+            listed.iter().filter(|&&f| b.alive()[f as usize]).count(),
+            whole,
+            "every live face is in the tree once"
         );
     }
 

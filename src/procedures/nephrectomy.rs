@@ -607,6 +607,20 @@ impl Nephrectomy {
         }
     }
 
+    /// Heap bytes by part, summed over the models.
+    pub fn memory(&self) -> Vec<(&'static str, usize)> {
+        let mut total: Vec<(&'static str, usize)> = Vec::new();
+        for m in &self.models {
+            for (k, (name, bytes)) in m.memory().into_iter().enumerate() {
+                match total.get_mut(k) {
+                    Some(t) => t.1 += bytes,
+                    None => total.push((name, bytes)),
+                }
+            }
+        }
+        total
+    }
+
     /// Digest of every model's state.
     pub fn state_hash(&self) -> u64 {
         let mut h = crate::models::Fnv::default();

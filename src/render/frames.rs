@@ -28,8 +28,10 @@ pub fn render_snapshots(
     sim_ms_per_frame: f64,
     save: Option<&Path>,
 ) -> Result<FramesOut, RenderError> {
+    gpu.check_eye_size(eye_size)?;
     let mut renderer = Renderer::new(gpu, EYE_FORMAT);
     let target = EyeTarget::new(gpu, eye_size);
+    gpu.check()?;
     let eyes = nephrectomy_eyes(DEFAULT_IPD_M);
     let mut counters = Vec::with_capacity(snaps.len());
     let mut frame_ms = Vec::with_capacity(snaps.len());
@@ -49,6 +51,8 @@ pub fn render_snapshots(
         gpu.device
             .poll(wgpu::PollType::wait_indefinitely())
             .map_err(|e| RenderError::Readback(e.to_string()))?;
+        // A rejected command or a lost device ends the run with that error, not a panic.
+        gpu.check()?;
         frame_ms.push(t0.elapsed().as_secs_f64() * 1e3);
         c.cpu.simulation_ms = sim_ms_per_frame;
         if let Some(dir) = save {

@@ -17,6 +17,12 @@ pub enum RenderError {
     Readback(String),
     #[error("{path}: {message}")]
     Write { path: String, message: String },
+    #[error("the GPU rejected a command: {0}")]
+    Validation(String),
+    #[error("the GPU device was lost: {0}")]
+    Lost(String),
+    #[error("eye size {0}x{1} is beyond this GPU's largest texture ({2} pixels a side)")]
+    TooLarge(u32, u32, u32),
 }
 
 /// A wgpu device and queue with what we learned about the adapter.
@@ -29,6 +35,9 @@ pub struct Gpu {
     pub multiview: bool,
     pub info: wgpu::AdapterInfo,
     pub ledger: Arc<Ledger>,
+    /// Errors wgpu reported outside an error scope (validation, out of memory, device loss):
+    /// collected here instead of wgpu's default panic, and returned by [`Gpu::check`].
+    errors: Arc<std::sync::Mutex<Vec<RenderError>>>,
 }
 
 impl Gpu {
@@ -63,6 +72,19 @@ impl Gpu {
         }))
         .map_err(|e| RenderError::Device(e.to_string()))?;
         let info = adapter.get_info();
+        let errors: Arc<std::sync::Mutex<Vec<RenderError>>> = Arc::default();
+        let sink = errors.clone();
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            if let Ok(mut v) = sink.lock() {
+                v.push(RenderError::Validation(e.to_string()));
+            }
+        }));
+        let sink = errors.clone();
+        device.set_device_lost_callback(move |reason, message| {
+            if let Ok(mut v) = sink.lock() {
+                v.push(RenderError::Lost(format!("{reason:?}: {message}")));
+            }
+        });
         Ok(Gpu {
             instance,
             adapter,
@@ -71,7 +93,31 @@ impl Gpu {
             multiview,
             info,
             ledger: Ledger::new(),
+            errors,
         })
+    }
+
+    /// The first error wgpu reported since the last check, if any.
+    pub fn check(&self) -> Result<(), RenderError> {
+        let mut v = match self.errors.lock() {
+            Ok(v) => v,
+            Err(poisoned) => poisoned.into_inner(),
+        };
+        if v.is_empty() {
+            return Ok(());
+        }
+        let first = v.remove(0);
+        v.clear();
+        Err(first)
+    }
+
+    /// Whether this device can hold a 2-layer eye texture of `size`.
+    pub fn check_eye_size(&self, size: (u32, u32)) -> Result<(), RenderError> {
+        let max = self.device.limits().max_texture_dimension_2d;
+        if size.0 > max || size.1 > max {
+            return Err(RenderError::TooLarge(size.0, size.1, max));
+        }
+        Ok(())
     }
 
     /// "name (backend, device type)" for reports.

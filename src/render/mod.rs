@@ -137,6 +137,7 @@ pub struct Renderer {
     frame: u64,
     scratch: Vec<Vertex>,
     scratch_idx: Vec<u32>,
+    tools: [ToolSnapshot; 2],
     objects: u64,
     flags: [f32; 4],
 }
@@ -284,6 +285,7 @@ impl Renderer {
             frame: 0,
             scratch: Vec::new(),
             scratch_idx: Vec::new(),
+            tools: Default::default(),
             objects: 0,
             flags: [0.0; 4],
         }
@@ -314,52 +316,92 @@ impl Renderer {
                     }
                 }
             }
-            self.scratch.clear();
-            for (i, p) in m.positions.iter().enumerate() {
-                let cut = m.cut_edge.get(i).copied().unwrap_or(false);
-                self.scratch.push(Vertex {
-                    position: p.to_array(),
-                    normal: m.normals.get(i).copied().unwrap_or(Vec3::Y).to_array(),
-                    material: vertex_material[i] | if cut { material::CUT_FLAG } else { 0 },
-                });
-            }
-            let verts = std::mem::take(&mut self.scratch);
-            upload(
+            // Vertices go straight into wgpu's staging memory: no CPU copy of the mesh is kept.
+            let mesh = &mut self.meshes[k];
+            ensure_capacity(
                 &self.device,
-                &self.queue,
                 &self.ledger,
-                &mut self.meshes[k],
-                &verts,
-                &m.indices,
+                mesh,
+                (m.positions.len() * std::mem::size_of::<Vertex>()) as u64,
+                std::mem::size_of_val(&m.indices[..]) as u64,
             );
-            self.scratch = verts;
+            let vsize = (m.positions.len() * std::mem::size_of::<Vertex>()) as u64;
+            if let Some(size) = wgpu::BufferSize::new(vsize)
+                && let Some(mut view) = self.queue.write_buffer_with(&mesh.vertex, 0, size)
+            {
+                // Built 512 vertices at a time in a small reused buffer.
+                const CHUNK: usize = 512;
+                let stride = std::mem::size_of::<Vertex>();
+                for start in (0..m.positions.len()).step_by(CHUNK) {
+                    let end = (start + CHUNK).min(m.positions.len());
+                    self.scratch.clear();
+                    for i in start..end {
+                        let cut = m.cut_edge.get(i).copied().unwrap_or(false);
+                        self.scratch.push(Vertex {
+                            position: m.positions[i].to_array(),
+                            normal: m.normals.get(i).copied().unwrap_or(Vec3::Y).to_array(),
+                            material: vertex_material[i] | if cut { material::CUT_FLAG } else { 0 },
+                        });
+                    }
+                    view.slice(start * stride..end * stride)
+                        .copy_from_slice(bytemuck::cast_slice(&self.scratch));
+                }
+            }
+            if !m.indices.is_empty() {
+                self.queue
+                    .write_buffer(&mesh.index, 0, bytemuck::cast_slice(&m.indices));
+            }
+            mesh.vertex_count = m.positions.len() as u32;
+            mesh.index_count = m.indices.len() as u32;
         }
-        // Instruments and the beam, rebuilt each frame (a few hundred vertices).
+        // Instruments and beams are built per frame, clipped to the eyes (see `render`).
+        self.tools = snap.tools;
+        let tools = snap
+            .tools
+            .iter()
+            .filter(|t| t.direction.length_squared() >= 0.5)
+            .count() as u64;
+        let beams = snap
+            .tools
+            .iter()
+            .filter(|t| t.direction.length_squared() >= 0.5 && t.beam_end.is_some())
+            .count() as u64;
+        // Organs, instruments, beams, the headlight and the eye rig.
+        self.objects = snap.models.len() as u64 + tools + beams + 2;
+        let flags = [
+            if snap.tumour_identified { 1.0 } else { 0.0 },
+            snap.time_s as f32,
+            0.0,
+            0.0,
+        ];
+        self.flags = flags;
+    }
+
+    /// Instruments and laser beams as cylinders (a few hundred vertices), each cut where it
+    /// passes behind the eyes' near plane. The GPU would clip those triangles too, but Mesa's
+    /// lavapipe (22.3) draws near-plane-clipped triangles of the second view into the first
+    /// layer of a multiview pass; a shaft held close to the face showed in the wrong eye.
+    fn build_instruments(&mut self, eyes: &[EyeView; 2]) {
         self.scratch.clear();
         self.scratch_idx.clear();
-        let mut tools = 0;
-        let mut beams = 0;
-        for t in &snap.tools {
+        for t in &self.tools {
             if t.direction.length_squared() < 0.5 {
                 continue;
             }
-            tools += 1;
-            instrument_geometry(t, &mut self.scratch, &mut self.scratch_idx);
+            let mut parts = Vec::with_capacity(4);
+            instrument_segments(t, &mut parts);
             if let Some(end) = t.beam_end {
-                beams += 1;
                 let m = if t.active {
                     material::LASER_ON
                 } else {
                     material::LASER_IDLE
                 };
-                cylinder(
-                    t.tip,
-                    end,
-                    0.0004,
-                    m,
-                    &mut self.scratch,
-                    &mut self.scratch_idx,
-                );
+                parts.push((t.tip, end, 0.0004, m));
+            }
+            for (a, b, radius, m) in parts {
+                if let Some((a, b)) = clip_to_eyes(a, b, radius, eyes) {
+                    cylinder(a, b, radius, m, &mut self.scratch, &mut self.scratch_idx);
+                }
             }
         }
         let (verts, idx) = (
@@ -375,15 +417,6 @@ impl Renderer {
             &idx,
         );
         (self.scratch, self.scratch_idx) = (verts, idx);
-        // Organs, instruments, beams, the headlight and the eye rig.
-        self.objects = snap.models.len() as u64 + tools + beams + 2;
-        let flags = [
-            if snap.tumour_identified { 1.0 } else { 0.0 },
-            snap.time_s as f32,
-            0.0,
-            0.0,
-        ];
-        self.flags = flags;
     }
 
     fn ensure_depth(&mut self, size: (u32, u32)) {
@@ -417,6 +450,7 @@ impl Renderer {
     ) -> FrameCounters {
         let t0 = Instant::now();
         self.ensure_depth(size);
+        self.build_instruments(eyes);
         let eye_uniform = |e: &EyeView| EyeUniform {
             view_proj: e.view_proj().to_cols_array_2d(),
             position: e.position.extend(1.0).to_array(),
@@ -577,6 +611,25 @@ fn upload(
 ) {
     let vbytes = std::mem::size_of_val(verts) as u64;
     let ibytes = std::mem::size_of_val(indices) as u64;
+    ensure_capacity(device, ledger, mesh, vbytes, ibytes);
+    if vbytes > 0 {
+        queue.write_buffer(&mesh.vertex, 0, bytemuck::cast_slice(verts));
+    }
+    if ibytes > 0 {
+        queue.write_buffer(&mesh.index, 0, bytemuck::cast_slice(indices));
+    }
+    mesh.vertex_count = verts.len() as u32;
+    mesh.index_count = indices.len() as u32;
+}
+
+/// Grows a mesh's buffers (by a quarter more than asked) when they are too small.
+fn ensure_capacity(
+    device: &wgpu::Device,
+    ledger: &Arc<Ledger>,
+    mesh: &mut GpuMesh,
+    vbytes: u64,
+    ibytes: u64,
+) {
     if vbytes > mesh.vertex.bytes() {
         mesh.vertex = tracked_buffer(
             device,
@@ -597,14 +650,6 @@ fn upload(
             Category::Mesh,
         );
     }
-    if vbytes > 0 {
-        queue.write_buffer(&mesh.vertex, 0, bytemuck::cast_slice(verts));
-    }
-    if ibytes > 0 {
-        queue.write_buffer(&mesh.index, 0, bytemuck::cast_slice(indices));
-    }
-    mesh.vertex_count = verts.len() as u32;
-    mesh.index_count = indices.len() as u32;
 }
 
 /// An open cylinder of 8 sides from `a` to `b`.
@@ -632,28 +677,38 @@ fn cylinder(a: Vec3, b: Vec3, radius: f32, mat: u32, v: &mut Vec<Vertex>, idx: &
 }
 
 /// A laparoscopic instrument: a 5 mm shaft ending at the tip, with two short jaws.
-fn instrument_geometry(t: &ToolSnapshot, v: &mut Vec<Vertex>, idx: &mut Vec<u32>) {
+/// Shaft and two jaws of an instrument as (from, to, radius, material) cylinders.
+fn instrument_segments(t: &ToolSnapshot, out: &mut Vec<(Vec3, Vec3, f32, u32)>) {
     let d = t.direction.normalize_or(Vec3::NEG_Z);
     let jaw_base = t.tip - d * 0.012;
-    cylinder(
-        t.tip - d * 0.30,
-        jaw_base,
-        0.0025,
-        material::INSTRUMENT,
-        v,
-        idx,
-    );
+    out.push((t.tip - d * 0.30, jaw_base, 0.0025, material::INSTRUMENT));
     let side = d.any_orthonormal_vector() * 0.0015;
     for s in [side, -side] {
-        cylinder(
-            jaw_base + s,
-            t.tip + s * 0.5,
-            0.0008,
-            material::INSTRUMENT,
-            v,
-            idx,
-        );
+        out.push((jaw_base + s, t.tip + s * 0.5, 0.0008, material::INSTRUMENT));
     }
+}
+
+/// The part of segment a-b (a cylinder of `radius`) in front of both eyes' near planes, kept
+/// a cylinder radius clear of them; None when nothing is left.
+fn clip_to_eyes(a: Vec3, b: Vec3, radius: f32, eyes: &[EyeView; 2]) -> Option<(Vec3, Vec3)> {
+    let (mut t0, mut t1) = (0.0f32, 1.0f32);
+    for e in eyes {
+        let forward = e.orientation * Vec3::NEG_Z;
+        let clear = 2.0 * camera::NEAR_M + radius;
+        let (da, db) = (
+            (a - e.position).dot(forward) - clear,
+            (b - e.position).dot(forward) - clear,
+        );
+        if da < 0.0 && db < 0.0 {
+            return None;
+        }
+        if da < 0.0 {
+            t0 = t0.max(da / (da - db));
+        } else if db < 0.0 {
+            t1 = t1.min(da / (da - db));
+        }
+    }
+    (t1 > t0).then(|| (a.lerp(b, t0), a.lerp(b, t1)))
 }
 
 /// The view-projection a renderer uses for an eye (for tests that project known points).

@@ -1,7 +1,6 @@
 use super::EventKind;
 use crate::models::SimplexMesh;
 use glam::{Quat, Vec3};
-use parry3d::partitioning::Bvh;
 
 /// Which instrument: the hand holding it.
 pub type ToolId = super::Hand;
@@ -57,8 +56,8 @@ pub struct SurfaceView<'a> {
     pub alive: &'a [bool],
     /// Region index per face (names are the model's).
     pub regions: &'a [u8],
-    /// BVH over live faces, refit every step.
-    pub bvh: &'a Bvh,
+    /// BVH over patches of faces, refit every step.
+    pub bvh: &'a crate::collision::FaceBvh,
 }
 
 impl SurfaceView<'_> {
