@@ -7,5 +7,5 @@ export PATH="$HOME/.cargo/bin:$PATH"
 export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp/xdg-$(id -u)}"; mkdir -p -m 700 "$XDG_RUNTIME_DIR"
 rustup component add rustfmt clippy >/dev/null 2>&1 || true
 cargo fmt --all -- --check
-cargo clippy --release --locked --all-targets -- -D warnings
-cargo test --release --locked --all-targets
+cargo clippy --release --locked --workspace --all-targets -- -D warnings
+cargo test --release --locked --workspace --all-targets
