@@ -3,7 +3,9 @@
 set -euo pipefail
 need=()
 # Vulkan: Mesa's lavapipe renders in software where there is no GPU.
-for pkg in build-essential pkg-config curl ca-certificates mesa-vulkan-drivers libvulkan1 vulkan-tools; do
+# OpenXR: the Khronos loader (and its openxr_runtime_list) that loads our simulated runtime.
+for pkg in build-essential pkg-config curl ca-certificates mesa-vulkan-drivers libvulkan1 vulkan-tools \
+    libopenxr-loader1 libopenxr-dev libopenxr-utils; do
   dpkg -s "$pkg" >/dev/null 2>&1 || need+=("$pkg")
 done
 if [ ${#need[@]} -gt 0 ]; then

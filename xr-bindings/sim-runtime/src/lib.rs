@@ -1,0 +1,554 @@
+//! A simulated OpenXR runtime: a shared library the Khronos loader loads from a runtime manifest
+//! (`XR_RUNTIME_JSON`), as it would load SteamVR or Monado. This first slice negotiates with the
+//! loader, answers every core OpenXR 1.0 function name (those not implemented yet return
+//! `XR_ERROR_FUNCTION_UNSUPPORTED`), and implements the instance and the system: a head-mounted
+//! display with two 1080 x 1200 views, the HTC Vive's. Sessions, swapchains, the 90 Hz frame
+//! clock, trace-driven poses and haptics come next.
+
+use openxr_sys as sys;
+use std::ffi::{CStr, c_char};
+use std::sync::Mutex;
+use sys::Handle;
+
+/// The one instance handle this runtime hands out.
+const INSTANCE: u64 = 1;
+/// The head-mounted display's system id.
+const SYSTEM: u64 = 1;
+/// The API version this runtime implements.
+pub const API_VERSION: sys::Version = sys::Version::new(1, 0, 20);
+pub const RUNTIME_NAME: &str = "Vesalius simulated runtime";
+pub const SYSTEM_NAME: &str = "Vesalius simulated HMD (HTC Vive layout)";
+/// Per-eye image size, pixels (the Vive's panels).
+pub const EYE_SIZE: (u32, u32) = (1080, 1200);
+
+/// Every function of the OpenXR 1.0 core, which the loader resolves when an instance is made.
+pub const CORE_FUNCTIONS: [&str; 55] = [
+    "xrGetInstanceProcAddr",
+    "xrEnumerateApiLayerProperties",
+    "xrEnumerateInstanceExtensionProperties",
+    "xrCreateInstance",
+    "xrDestroyInstance",
+    "xrGetInstanceProperties",
+    "xrPollEvent",
+    "xrResultToString",
+    "xrStructureTypeToString",
+    "xrGetSystem",
+    "xrGetSystemProperties",
+    "xrEnumerateEnvironmentBlendModes",
+    "xrCreateSession",
+    "xrDestroySession",
+    "xrEnumerateReferenceSpaces",
+    "xrCreateReferenceSpace",
+    "xrGetReferenceSpaceBoundsRect",
+    "xrCreateActionSpace",
+    "xrLocateSpace",
+    "xrDestroySpace",
+    "xrEnumerateViewConfigurations",
+    "xrGetViewConfigurationProperties",
+    "xrEnumerateViewConfigurationViews",
+    "xrEnumerateSwapchainFormats",
+    "xrCreateSwapchain",
+    "xrDestroySwapchain",
+    "xrEnumerateSwapchainImages",
+    "xrAcquireSwapchainImage",
+    "xrWaitSwapchainImage",
+    "xrReleaseSwapchainImage",
+    "xrBeginSession",
+    "xrEndSession",
+    "xrRequestExitSession",
+    "xrWaitFrame",
+    "xrBeginFrame",
+    "xrEndFrame",
+    "xrLocateViews",
+    "xrStringToPath",
+    "xrPathToString",
+    "xrCreateActionSet",
+    "xrDestroyActionSet",
+    "xrCreateAction",
+    "xrDestroyAction",
+    "xrSuggestInteractionProfileBindings",
+    "xrAttachSessionActionSets",
+    "xrGetCurrentInteractionProfile",
+    "xrGetActionStateBoolean",
+    "xrGetActionStateFloat",
+    "xrGetActionStateVector2f",
+    "xrGetActionStatePose",
+    "xrSyncActions",
+    "xrEnumerateBoundSourcesForAction",
+    "xrGetInputSourceLocalizedName",
+    "xrApplyHapticFeedback",
+    "xrStopHapticFeedback",
+];
+
+/// Runtime state behind the C interface.
+struct Runtime {
+    instance_alive: bool,
+    /// Interned paths: XrPath n is `paths[n - 1]`.
+    paths: Vec<String>,
+}
+
+static RUNTIME: Mutex<Runtime> = Mutex::new(Runtime {
+    instance_alive: false,
+    paths: Vec::new(),
+});
+
+fn runtime() -> std::sync::MutexGuard<'static, Runtime> {
+    match RUNTIME.lock() {
+        Ok(g) => g,
+        Err(poisoned) => poisoned.into_inner(),
+    }
+}
+
+/// Copies `s` into a fixed C string buffer, truncated and NUL-terminated.
+fn write_c(dst: &mut [c_char], s: &str) {
+    let n = s.len().min(dst.len().saturating_sub(1));
+    for (d, b) in dst.iter_mut().zip(s.bytes().take(n)) {
+        *d = b as c_char;
+    }
+    if let Some(end) = dst.get_mut(n) {
+        *end = 0;
+    }
+}
+
+fn check_instance(instance: sys::Instance) -> sys::Result {
+    if instance.into_raw() == INSTANCE && runtime().instance_alive {
+        sys::Result::SUCCESS
+    } else {
+        sys::Result::ERROR_HANDLE_INVALID
+    }
+}
+
+/// The loader's entry point: agree on the interface and hand over `xrGetInstanceProcAddr`.
+///
+/// # Safety
+/// `loader_info` and `request` must be valid, as the loader guarantees.
+#[unsafe(no_mangle)]
+pub unsafe extern "system" fn xrNegotiateLoaderRuntimeInterface(
+    loader_info: *const sys::NegotiateLoaderInfo,
+    request: *mut sys::NegotiateRuntimeRequest,
+) -> sys::Result {
+    // SAFETY: the loader passes valid pointers or null; null is rejected here.
+    let (Some(info), Some(req)) = (unsafe { loader_info.as_ref() }, unsafe { request.as_mut() })
+    else {
+        return sys::Result::ERROR_INITIALIZATION_FAILED;
+    };
+    if info.struct_type != sys::NegotiateLoaderInfo::TYPE
+        || req.struct_type != sys::NegotiateRuntimeRequest::TYPE
+        || info.min_interface_version > 1
+        || info.max_interface_version < 1
+        || info.max_api_version.major() < 1
+    {
+        return sys::Result::ERROR_INITIALIZATION_FAILED;
+    }
+    req.runtime_interface_version = 1;
+    req.runtime_api_version = API_VERSION;
+    req.get_instance_proc_addr = Some(get_instance_proc_addr);
+    sys::Result::SUCCESS
+}
+
+/// Answers every core function name; functions this runtime does not implement yet get
+/// [`unsupported`].
+unsafe extern "system" fn get_instance_proc_addr(
+    instance: sys::Instance,
+    name: *const c_char,
+    function: *mut Option<sys::pfn::VoidFunction>,
+) -> sys::Result {
+    if name.is_null() || function.is_null() {
+        return sys::Result::ERROR_VALIDATION_FAILURE;
+    }
+    // SAFETY: the caller passes a NUL-terminated name (checked non-null above).
+    let name = unsafe { CStr::from_ptr(name) }.to_str().unwrap_or("");
+    let pre_instance = matches!(
+        name,
+        "xrEnumerateInstanceExtensionProperties"
+            | "xrEnumerateApiLayerProperties"
+            | "xrCreateInstance"
+    );
+    if instance == sys::Instance::NULL && !pre_instance && name != "xrGetInstanceProcAddr" {
+        // SAFETY: `function` is non-null (checked above) and writable, per the API.
+        unsafe { *function = None };
+        return sys::Result::ERROR_HANDLE_INVALID;
+    }
+    // SAFETY (all transmutes below): each turns a function pointer of the exact pfn type the
+    // OpenXR API declares for that name into the untyped PFN_xrVoidFunction the API returns;
+    // the caller casts it back to that same type before calling.
+    let f: Option<sys::pfn::VoidFunction> = unsafe {
+        use std::mem::transmute;
+        match name {
+            "xrGetInstanceProcAddr" => Some(transmute::<
+                sys::pfn::GetInstanceProcAddr,
+                sys::pfn::VoidFunction,
+            >(get_instance_proc_addr)),
+            "xrEnumerateInstanceExtensionProperties" => Some(transmute::<
+                sys::pfn::EnumerateInstanceExtensionProperties,
+                sys::pfn::VoidFunction,
+            >(enumerate_extensions)),
+            "xrEnumerateApiLayerProperties" => Some(transmute::<
+                sys::pfn::EnumerateApiLayerProperties,
+                sys::pfn::VoidFunction,
+            >(enumerate_layers)),
+            "xrCreateInstance" => {
+                Some(transmute::<sys::pfn::CreateInstance, sys::pfn::VoidFunction>(create_instance))
+            }
+            "xrDestroyInstance" => Some(transmute::<
+                sys::pfn::DestroyInstance,
+                sys::pfn::VoidFunction,
+            >(destroy_instance)),
+            "xrGetInstanceProperties" => Some(transmute::<
+                sys::pfn::GetInstanceProperties,
+                sys::pfn::VoidFunction,
+            >(get_instance_properties)),
+            "xrGetSystem" => Some(transmute::<sys::pfn::GetSystem, sys::pfn::VoidFunction>(
+                get_system,
+            )),
+            "xrGetSystemProperties" => Some(transmute::<
+                sys::pfn::GetSystemProperties,
+                sys::pfn::VoidFunction,
+            >(get_system_properties)),
+            "xrEnumerateViewConfigurations" => Some(transmute::<
+                sys::pfn::EnumerateViewConfigurations,
+                sys::pfn::VoidFunction,
+            >(enumerate_view_configurations)),
+            "xrEnumerateViewConfigurationViews" => {
+                Some(transmute::<
+                    sys::pfn::EnumerateViewConfigurationViews,
+                    sys::pfn::VoidFunction,
+                >(enumerate_view_configuration_views))
+            }
+            "xrPollEvent" => Some(transmute::<sys::pfn::PollEvent, sys::pfn::VoidFunction>(
+                poll_event,
+            )),
+            "xrStringToPath" => Some(transmute::<sys::pfn::StringToPath, sys::pfn::VoidFunction>(
+                string_to_path,
+            )),
+            "xrPathToString" => Some(transmute::<sys::pfn::PathToString, sys::pfn::VoidFunction>(
+                path_to_string,
+            )),
+            n if CORE_FUNCTIONS.contains(&n) => Some(transmute::<
+                unsafe extern "system" fn() -> sys::Result,
+                sys::pfn::VoidFunction,
+            >(unsupported)),
+            _ => None,
+        }
+    };
+    // SAFETY: `function` is non-null (checked above) and writable, per the API.
+    unsafe { *function = f };
+    if f.is_some() {
+        sys::Result::SUCCESS
+    } else {
+        sys::Result::ERROR_FUNCTION_UNSUPPORTED
+    }
+}
+
+/// Stands in for every core function not implemented yet. Every OpenXR function returns an
+/// XrResult and takes only integer, handle and pointer arguments, which the calling convention
+/// passes in registers and on a stack the caller cleans, so a callee that reads none of them
+/// is safe to call through any of those signatures.
+unsafe extern "system" fn unsupported() -> sys::Result {
+    sys::Result::ERROR_FUNCTION_UNSUPPORTED
+}
+
+/// Fills a two-call-idiom array: writes the count, and the items when there is room.
+///
+/// # Safety
+/// `count` must be writable; `out` must hold `capacity` items when `capacity` > 0.
+unsafe fn two_call<T>(
+    capacity: u32,
+    count: *mut u32,
+    out: *mut T,
+    items: &[T],
+    copy: impl Fn(&T, &mut T),
+) -> sys::Result {
+    if count.is_null() {
+        return sys::Result::ERROR_VALIDATION_FAILURE;
+    }
+    // SAFETY: `count` is non-null and writable (caller's contract).
+    unsafe { *count = items.len() as u32 };
+    if capacity == 0 {
+        return sys::Result::SUCCESS;
+    }
+    if (capacity as usize) < items.len() || out.is_null() {
+        return sys::Result::ERROR_SIZE_INSUFFICIENT;
+    }
+    for (k, item) in items.iter().enumerate() {
+        // SAFETY: `out` holds at least `capacity` >= items.len() elements (caller's contract).
+        copy(item, unsafe { &mut *out.add(k) });
+    }
+    sys::Result::SUCCESS
+}
+
+unsafe extern "system" fn enumerate_extensions(
+    _layer: *const c_char,
+    capacity: u32,
+    count: *mut u32,
+    out: *mut sys::ExtensionProperties,
+) -> sys::Result {
+    let none: [sys::ExtensionProperties; 0] = [];
+    // SAFETY: the pointers come from the caller under the two-call idiom's contract.
+    unsafe { two_call(capacity, count, out, &none, |_, _| {}) }
+}
+
+unsafe extern "system" fn enumerate_layers(
+    capacity: u32,
+    count: *mut u32,
+    out: *mut sys::ApiLayerProperties,
+) -> sys::Result {
+    let none: [sys::ApiLayerProperties; 0] = [];
+    // SAFETY: the pointers come from the caller under the two-call idiom's contract.
+    unsafe { two_call(capacity, count, out, &none, |_, _| {}) }
+}
+
+unsafe extern "system" fn create_instance(
+    info: *const sys::InstanceCreateInfo,
+    instance: *mut sys::Instance,
+) -> sys::Result {
+    // SAFETY: the caller passes a valid create-info or null (rejected).
+    let Some(info) = (unsafe { info.as_ref() }) else {
+        return sys::Result::ERROR_VALIDATION_FAILURE;
+    };
+    if instance.is_null() || info.ty != sys::InstanceCreateInfo::TYPE {
+        return sys::Result::ERROR_VALIDATION_FAILURE;
+    }
+    let v = info.application_info.api_version;
+    if v.major() != 1 || v.minor() != 0 {
+        return sys::Result::ERROR_API_VERSION_UNSUPPORTED;
+    }
+    if info.enabled_extension_count > 0 {
+        return sys::Result::ERROR_EXTENSION_NOT_PRESENT;
+    }
+    let mut rt = runtime();
+    if rt.instance_alive {
+        return sys::Result::ERROR_LIMIT_REACHED;
+    }
+    rt.instance_alive = true;
+    rt.paths.clear();
+    // SAFETY: `instance` is non-null (checked) and writable, per the API.
+    unsafe { *instance = sys::Instance::from_raw(INSTANCE) };
+    sys::Result::SUCCESS
+}
+
+unsafe extern "system" fn destroy_instance(instance: sys::Instance) -> sys::Result {
+    let r = check_instance(instance);
+    if r == sys::Result::SUCCESS {
+        let mut rt = runtime();
+        rt.instance_alive = false;
+        rt.paths.clear();
+    }
+    r
+}
+
+unsafe extern "system" fn get_instance_properties(
+    instance: sys::Instance,
+    props: *mut sys::InstanceProperties,
+) -> sys::Result {
+    let r = check_instance(instance);
+    if r != sys::Result::SUCCESS {
+        return r;
+    }
+    // SAFETY: the caller passes a writable properties struct or null (rejected).
+    let Some(p) = (unsafe { props.as_mut() }) else {
+        return sys::Result::ERROR_VALIDATION_FAILURE;
+    };
+    p.runtime_version = sys::Version::new(0, 1, 0);
+    write_c(&mut p.runtime_name, RUNTIME_NAME);
+    sys::Result::SUCCESS
+}
+
+unsafe extern "system" fn get_system(
+    instance: sys::Instance,
+    info: *const sys::SystemGetInfo,
+    system: *mut sys::SystemId,
+) -> sys::Result {
+    let r = check_instance(instance);
+    if r != sys::Result::SUCCESS {
+        return r;
+    }
+    // SAFETY: the caller passes a valid get-info or null (rejected).
+    let Some(info) = (unsafe { info.as_ref() }) else {
+        return sys::Result::ERROR_VALIDATION_FAILURE;
+    };
+    if system.is_null() {
+        return sys::Result::ERROR_VALIDATION_FAILURE;
+    }
+    if info.form_factor != sys::FormFactor::HEAD_MOUNTED_DISPLAY {
+        return sys::Result::ERROR_FORM_FACTOR_UNSUPPORTED;
+    }
+    // SAFETY: `system` is non-null (checked) and writable, per the API.
+    unsafe { *system = sys::SystemId::from_raw(SYSTEM) };
+    sys::Result::SUCCESS
+}
+
+unsafe extern "system" fn get_system_properties(
+    instance: sys::Instance,
+    system: sys::SystemId,
+    props: *mut sys::SystemProperties,
+) -> sys::Result {
+    let r = check_instance(instance);
+    if r != sys::Result::SUCCESS {
+        return r;
+    }
+    if system.into_raw() != SYSTEM {
+        return sys::Result::ERROR_SYSTEM_INVALID;
+    }
+    // SAFETY: the caller passes a writable properties struct or null (rejected).
+    let Some(p) = (unsafe { props.as_mut() }) else {
+        return sys::Result::ERROR_VALIDATION_FAILURE;
+    };
+    p.system_id = system;
+    p.vendor_id = 0;
+    write_c(&mut p.system_name, SYSTEM_NAME);
+    p.graphics_properties = sys::SystemGraphicsProperties {
+        max_swapchain_image_width: 4096,
+        max_swapchain_image_height: 4096,
+        max_layer_count: 16,
+    };
+    p.tracking_properties = sys::SystemTrackingProperties {
+        orientation_tracking: sys::TRUE,
+        position_tracking: sys::TRUE,
+    };
+    sys::Result::SUCCESS
+}
+
+unsafe extern "system" fn enumerate_view_configurations(
+    instance: sys::Instance,
+    system: sys::SystemId,
+    capacity: u32,
+    count: *mut u32,
+    out: *mut sys::ViewConfigurationType,
+) -> sys::Result {
+    let r = check_instance(instance);
+    if r != sys::Result::SUCCESS {
+        return r;
+    }
+    if system.into_raw() != SYSTEM {
+        return sys::Result::ERROR_SYSTEM_INVALID;
+    }
+    let only = [sys::ViewConfigurationType::PRIMARY_STEREO];
+    // SAFETY: the pointers come from the caller under the two-call idiom's contract.
+    unsafe { two_call(capacity, count, out, &only, |a, b| *b = *a) }
+}
+
+unsafe extern "system" fn enumerate_view_configuration_views(
+    instance: sys::Instance,
+    system: sys::SystemId,
+    config: sys::ViewConfigurationType,
+    capacity: u32,
+    count: *mut u32,
+    out: *mut sys::ViewConfigurationView,
+) -> sys::Result {
+    let r = check_instance(instance);
+    if r != sys::Result::SUCCESS {
+        return r;
+    }
+    if system.into_raw() != SYSTEM {
+        return sys::Result::ERROR_SYSTEM_INVALID;
+    }
+    if config != sys::ViewConfigurationType::PRIMARY_STEREO {
+        return sys::Result::ERROR_VIEW_CONFIGURATION_TYPE_UNSUPPORTED;
+    }
+    let view = sys::ViewConfigurationView {
+        ty: sys::ViewConfigurationView::TYPE,
+        next: std::ptr::null_mut(),
+        recommended_image_rect_width: EYE_SIZE.0,
+        max_image_rect_width: 4096,
+        recommended_image_rect_height: EYE_SIZE.1,
+        max_image_rect_height: 4096,
+        recommended_swapchain_sample_count: 1,
+        max_swapchain_sample_count: 1,
+    };
+    // SAFETY: the pointers come from the caller under the two-call idiom's contract.
+    unsafe {
+        two_call(capacity, count, out, &[view, view], |a, b| {
+            // Keep the caller's chain pointer.
+            let next = b.next;
+            *b = *a;
+            b.next = next;
+        })
+    }
+}
+
+unsafe extern "system" fn poll_event(
+    instance: sys::Instance,
+    _event: *mut sys::EventDataBuffer,
+) -> sys::Result {
+    let r = check_instance(instance);
+    if r != sys::Result::SUCCESS {
+        return r;
+    }
+    sys::Result::EVENT_UNAVAILABLE
+}
+
+unsafe extern "system" fn string_to_path(
+    instance: sys::Instance,
+    s: *const c_char,
+    path: *mut sys::Path,
+) -> sys::Result {
+    let r = check_instance(instance);
+    if r != sys::Result::SUCCESS {
+        return r;
+    }
+    if s.is_null() || path.is_null() {
+        return sys::Result::ERROR_VALIDATION_FAILURE;
+    }
+    // SAFETY: `s` is a non-null NUL-terminated string (caller's contract).
+    let Ok(text) = (unsafe { CStr::from_ptr(s) }).to_str() else {
+        return sys::Result::ERROR_PATH_FORMAT_INVALID;
+    };
+    let well_formed = text.starts_with('/')
+        && !text.ends_with('/')
+        && text[1..].split('/').all(|seg| {
+            !seg.is_empty()
+                && seg
+                    .bytes()
+                    .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b"-_.".contains(&b))
+        });
+    if !well_formed {
+        return sys::Result::ERROR_PATH_FORMAT_INVALID;
+    }
+    let mut rt = runtime();
+    let n = match rt.paths.iter().position(|p| p == text) {
+        Some(k) => k + 1,
+        None => {
+            rt.paths.push(text.to_string());
+            rt.paths.len()
+        }
+    };
+    // SAFETY: `path` is non-null (checked) and writable.
+    unsafe { *path = sys::Path::from_raw(n as u64) };
+    sys::Result::SUCCESS
+}
+
+unsafe extern "system" fn path_to_string(
+    instance: sys::Instance,
+    path: sys::Path,
+    capacity: u32,
+    count: *mut u32,
+    buffer: *mut c_char,
+) -> sys::Result {
+    let r = check_instance(instance);
+    if r != sys::Result::SUCCESS {
+        return r;
+    }
+    let text = {
+        let rt = runtime();
+        match (path.into_raw() as usize)
+            .checked_sub(1)
+            .and_then(|k| rt.paths.get(k))
+        {
+            Some(t) => t.clone(),
+            None => return sys::Result::ERROR_PATH_INVALID,
+        }
+    };
+    let mut bytes: Vec<c_char> = text.bytes().map(|b| b as c_char).collect();
+    bytes.push(0);
+    // SAFETY: the pointers come from the caller under the two-call idiom's contract.
+    unsafe { two_call(capacity, count, buffer, &bytes, |a, b| *b = *a) }
+}
+
+/// The runtime manifest (JSON) for the library at `library_path`.
+pub fn manifest(library_path: &str) -> String {
+    let escaped = library_path.replace('\\', "\\\\").replace('"', "\\\"");
+    format!(
+        "{{\n  \"file_format_version\": \"1.0.0\",\n  \"runtime\": {{\n    \"name\": \"{RUNTIME_NAME}\",\n    \"library_path\": \"{escaped}\"\n  }}\n}}\n"
+    )
+}
