@@ -6,16 +6,18 @@ use openxr as xr;
 use std::path::PathBuf;
 use vesalius_sim_runtime::{CORE_FUNCTIONS, EYE_SIZE, RUNTIME_NAME, SYSTEM_NAME, manifest};
 
-/// The built runtime library: beside this test's executable's folder (target/<profile>/).
+/// The built runtime library: cargo builds the cdylib beside the test executable (in
+/// target/<profile>/deps/) and, when it is a top-level artifact, copies it up a folder.
 fn runtime_library() -> PathBuf {
     let exe = std::env::current_exe().expect("test executable path");
-    let dir = exe
-        .parent()
-        .and_then(|d| d.parent())
-        .expect("target/<profile>");
-    let lib = dir.join("libvesalius_sim_runtime.so");
-    assert!(lib.exists(), "{} was not built", lib.display());
-    lib
+    let deps = exe.parent().expect("target/<profile>/deps");
+    let name = "libvesalius_sim_runtime.so";
+    let candidates = [deps.join(name), deps.join("..").join(name)];
+    candidates
+        .iter()
+        .find(|p| p.exists())
+        .cloned()
+        .unwrap_or_else(|| panic!("{name} was not built (looked in {})", deps.display()))
 }
 
 fn write_manifest(name: &str) -> PathBuf {
