@@ -31,6 +31,9 @@ const USAGE: &str = "usage:
   vesalius replay <recorded input.vtrace> --out DIR
   vesalius check <file>...                  validate scenario, trace and recording files
   vesalius bench [<procedure>] [--json]     model step rates at the scenario's sizes
+  vesalius xr-sim manifest [--out FILE]     write the simulated OpenXR runtime's manifest (default
+                                            beside the runtime library) and print its path, for
+                                            XR_RUNTIME_JSON
 global: --threads N (rayon worker threads; default: all cores)
 procedures: nephrectomy (rectum, cholecystectomy, myotomy, catheter: not yet)";
 
@@ -180,12 +183,53 @@ fn dispatch(args: &[String]) -> Result<(), String> {
             check_procedure("command line", "procedure", &procedure).map_err(|e| e.to_string())?;
             profile(&procedure, json, eye_size, two_pass)
         }
+        "xr-sim" => {
+            let out = take_flag(&mut rest, "--out")?;
+            if rest.first().map(String::as_str) != Some("manifest") {
+                return Err(format!(
+                    "usage: vesalius xr-sim manifest [--out FILE]\n{USAGE}"
+                ));
+            }
+            rest.remove(0);
+            no_more(&rest)?;
+            let path = xr_sim_manifest(out.map(PathBuf::from))?;
+            println!("{}", path.display());
+            Ok(())
+        }
         "help" | "--help" | "-h" => {
             println!("{USAGE}");
             Ok(())
         }
         other => Err(format!("unknown command '{other}'\n{USAGE}")),
     }
+}
+
+/// Finds the simulated runtime library built with this binary (beside it, or in `deps/` where
+/// cargo leaves a dependency's cdylib) and writes its runtime manifest.
+fn xr_sim_manifest(out: Option<PathBuf>) -> Result<PathBuf, String> {
+    let exe = std::env::current_exe().map_err(|e| format!("cannot find this executable: {e}"))?;
+    let dir = exe
+        .parent()
+        .ok_or_else(|| format!("{}: no parent folder", exe.display()))?;
+    let name = "libvesalius_sim_runtime.so";
+    let lib = [dir.join(name), dir.join("deps").join(name)]
+        .into_iter()
+        .find(|p| p.is_file())
+        .ok_or_else(|| {
+            format!(
+                "{name} is not beside {} (build it: cargo build --release --workspace)",
+                exe.display()
+            )
+        })?;
+    let lib = lib
+        .canonicalize()
+        .map_err(|e| format!("{}: {e}", lib.display()))?;
+    let path = out.unwrap_or_else(|| dir.join("vesalius_sim_runtime.json"));
+    let text = vesalius_sim_runtime::manifest(&lib.display().to_string());
+    let tmp = path.with_extension("json.partial");
+    std::fs::write(&tmp, text).map_err(|e| format!("{}: {e}", tmp.display()))?;
+    std::fs::rename(&tmp, &path).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(path)
 }
 
 fn finish(outcome: &session::Outcome, out: Option<&Path>) -> Result<(), String> {
