@@ -1,9 +1,10 @@
 //! A simulated OpenXR runtime: a shared library the Khronos loader loads from a runtime manifest
-//! (`XR_RUNTIME_JSON`), as it would load SteamVR or Monado. This first slice negotiates with the
+//! (`XR_RUNTIME_JSON`), as it would load SteamVR or Monado. So far it negotiates with the
 //! loader, answers every core OpenXR 1.0 function name (those not implemented yet return
-//! `XR_ERROR_FUNCTION_UNSUPPORTED`), and implements the instance and the system: a head-mounted
-//! display with two 1080 x 1200 views, the HTC Vive's. Sessions, swapchains, the 90 Hz frame
-//! clock, trace-driven poses and haptics come next.
+//! `XR_ERROR_FUNCTION_UNSUPPORTED`), and implements the instance, the system (a head-mounted
+//! display with two 1080 x 1200 views, the HTC Vive's), XR_KHR_vulkan_enable2 and the session
+//! life cycle with its state events. Swapchains, the 90 Hz frame clock, trace-driven poses and
+//! haptics come next.
 
 use openxr_sys as sys;
 use std::ffi::{CStr, c_char};
@@ -20,6 +21,8 @@ pub const RUNTIME_NAME: &str = "Vesalius simulated runtime";
 pub const SYSTEM_NAME: &str = "Vesalius simulated HMD (HTC Vive layout)";
 /// Per-eye image size, pixels (the Vive's panels).
 pub const EYE_SIZE: (u32, u32) = (1080, 1200);
+/// The graphics extension this runtime offers.
+pub const VULKAN_ENABLE2: &str = "XR_KHR_vulkan_enable2";
 
 /// Every function of the OpenXR 1.0 core, which the loader resolves when an instance is made.
 pub const CORE_FUNCTIONS: [&str; 55] = [
@@ -81,18 +84,30 @@ pub const CORE_FUNCTIONS: [&str; 55] = [
 ];
 
 /// Runtime state behind the C interface.
-struct Runtime {
+pub(crate) struct Runtime {
     instance_alive: bool,
     /// Interned paths: XrPath n is `paths[n - 1]`.
     paths: Vec<String>,
+    /// The app enabled XR_KHR_vulkan_enable2.
+    pub(crate) vulkan_enabled: bool,
+    pub(crate) vulkan: session::VulkanState,
+    pub(crate) session: Option<session::SessionData>,
+    /// Events not yet polled, oldest first.
+    pub(crate) events: std::collections::VecDeque<session::Event>,
 }
 
 static RUNTIME: Mutex<Runtime> = Mutex::new(Runtime {
     instance_alive: false,
     paths: Vec::new(),
+    vulkan_enabled: false,
+    vulkan: session::VulkanState::NONE,
+    session: None,
+    events: std::collections::VecDeque::new(),
 });
 
-fn runtime() -> std::sync::MutexGuard<'static, Runtime> {
+mod session;
+
+pub(crate) fn runtime() -> std::sync::MutexGuard<'static, Runtime> {
     match RUNTIME.lock() {
         Ok(g) => g,
         Err(poisoned) => poisoned.into_inner(),
@@ -110,7 +125,7 @@ fn write_c(dst: &mut [c_char], s: &str) {
     }
 }
 
-fn check_instance(instance: sys::Instance) -> sys::Result {
+pub(crate) fn check_instance(instance: sys::Instance) -> sys::Result {
     if instance.into_raw() == INSTANCE && runtime().instance_alive {
         sys::Result::SUCCESS
     } else {
@@ -224,6 +239,7 @@ unsafe extern "system" fn get_instance_proc_addr(
             "xrPathToString" => Some(transmute::<sys::pfn::PathToString, sys::pfn::VoidFunction>(
                 path_to_string,
             )),
+            n if session::lookup(n).is_some() => session::lookup(n),
             n if CORE_FUNCTIONS.contains(&n) => Some(transmute::<
                 unsafe extern "system" fn() -> sys::Result,
                 sys::pfn::VoidFunction,
@@ -283,9 +299,20 @@ unsafe extern "system" fn enumerate_extensions(
     count: *mut u32,
     out: *mut sys::ExtensionProperties,
 ) -> sys::Result {
-    let none: [sys::ExtensionProperties; 0] = [];
+    let mut vk2 = sys::ExtensionProperties {
+        ty: sys::ExtensionProperties::TYPE,
+        next: std::ptr::null_mut(),
+        extension_name: [0; sys::MAX_EXTENSION_NAME_SIZE],
+        extension_version: 2,
+    };
+    write_c(&mut vk2.extension_name, VULKAN_ENABLE2);
     // SAFETY: the pointers come from the caller under the two-call idiom's contract.
-    unsafe { two_call(capacity, count, out, &none, |_, _| {}) }
+    unsafe {
+        two_call(capacity, count, out, &[vk2], |a, b| {
+            b.extension_name = a.extension_name;
+            b.extension_version = a.extension_version;
+        })
+    }
 }
 
 unsafe extern "system" fn enumerate_layers(
@@ -313,8 +340,15 @@ unsafe extern "system" fn create_instance(
     if v.major() != 1 || v.minor() != 0 {
         return sys::Result::ERROR_API_VERSION_UNSUPPORTED;
     }
-    if info.enabled_extension_count > 0 {
-        return sys::Result::ERROR_EXTENSION_NOT_PRESENT;
+    let mut vulkan = false;
+    for k in 0..info.enabled_extension_count as usize {
+        // SAFETY: the create info holds `enabled_extension_count` NUL-terminated names.
+        let name = unsafe { CStr::from_ptr(*info.enabled_extension_names.add(k)) };
+        if name.to_bytes() == VULKAN_ENABLE2.as_bytes() {
+            vulkan = true;
+        } else {
+            return sys::Result::ERROR_EXTENSION_NOT_PRESENT;
+        }
     }
     let mut rt = runtime();
     if rt.instance_alive {
@@ -322,6 +356,10 @@ unsafe extern "system" fn create_instance(
     }
     rt.instance_alive = true;
     rt.paths.clear();
+    rt.vulkan_enabled = vulkan;
+    rt.vulkan = session::VulkanState::NONE;
+    rt.session = None;
+    rt.events.clear();
     // SAFETY: `instance` is non-null (checked) and writable, per the API.
     unsafe { *instance = sys::Instance::from_raw(INSTANCE) };
     sys::Result::SUCCESS
@@ -333,6 +371,10 @@ unsafe extern "system" fn destroy_instance(instance: sys::Instance) -> sys::Resu
         let mut rt = runtime();
         rt.instance_alive = false;
         rt.paths.clear();
+        // Children go with the instance.
+        rt.session = None;
+        rt.events.clear();
+        rt.vulkan = session::VulkanState::NONE;
     }
     r
 }
@@ -469,13 +511,33 @@ unsafe extern "system" fn enumerate_view_configuration_views(
 
 unsafe extern "system" fn poll_event(
     instance: sys::Instance,
-    _event: *mut sys::EventDataBuffer,
+    event: *mut sys::EventDataBuffer,
 ) -> sys::Result {
     let r = check_instance(instance);
     if r != sys::Result::SUCCESS {
         return r;
     }
-    sys::Result::EVENT_UNAVAILABLE
+    if event.is_null() {
+        return sys::Result::ERROR_VALIDATION_FAILURE;
+    }
+    let Some(e) = runtime().events.pop_front() else {
+        return sys::Result::EVENT_UNAVAILABLE;
+    };
+    let changed = sys::EventDataSessionStateChanged {
+        ty: sys::EventDataSessionStateChanged::TYPE,
+        next: std::ptr::null(),
+        session: sys::Session::from_raw(e.session),
+        state: e.state,
+        time: sys::Time::from_nanos(e.time_ns),
+    };
+    // SAFETY: `event` is a non-null EventDataBuffer (4 kB), larger than the event written, and
+    // suitably aligned for it (both start with the same header).
+    unsafe {
+        event
+            .cast::<sys::EventDataSessionStateChanged>()
+            .write(changed)
+    };
+    sys::Result::SUCCESS
 }
 
 unsafe extern "system" fn string_to_path(

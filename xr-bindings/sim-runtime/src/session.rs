@@ -1,0 +1,440 @@
+//! XR_KHR_vulkan_enable2 (the app's Vulkan instance and device are made through the runtime,
+//! on whatever Vulkan driver the app loads) and the session life cycle with its state events.
+//!
+//! Until the frame loop is simulated, beginning a session moves it straight on to
+//! SYNCHRONIZED, VISIBLE and FOCUSED; a runtime with a frame clock does that once the app's
+//! frames are in step with it.
+
+use super::{Runtime, SYSTEM, check_instance, runtime, sys};
+use std::ffi::{c_char, c_void};
+use sys::Handle;
+use sys::platform::{VkDevice, VkGetInstanceProcAddr, VkInstance, VkPhysicalDevice};
+
+/// The one session handle this runtime hands out.
+const SESSION: u64 = 1;
+
+/// What the runtime keeps of the app's Vulkan objects (as addresses: the runtime state is
+/// shared between threads, and it never dereferences them itself).
+#[derive(Clone, Copy)]
+pub(crate) struct VulkanState {
+    gipa: Option<VkGetInstanceProcAddr>,
+    instance: usize,
+    requirements_queried: bool,
+}
+
+impl VulkanState {
+    pub(crate) const NONE: VulkanState = VulkanState {
+        gipa: None,
+        instance: 0,
+        requirements_queried: false,
+    };
+}
+
+pub(crate) struct SessionData {
+    /// The latest state the runtime has put the session in (queued for the app).
+    state: sys::SessionState,
+    begun: bool,
+    exit_requested: bool,
+}
+
+/// A session state change waiting in the event queue.
+pub(crate) struct Event {
+    pub(crate) session: u64,
+    pub(crate) state: sys::SessionState,
+    pub(crate) time_ns: i64,
+}
+
+fn enter(rt: &mut Runtime, state: sys::SessionState) {
+    if let Some(s) = rt.session.as_mut() {
+        s.state = state;
+        rt.events.push_back(Event {
+            session: SESSION,
+            state,
+            time_ns: 0,
+        });
+    }
+}
+
+/// The session functions and, when the app enabled it, XR_KHR_vulkan_enable2's.
+pub(crate) fn lookup(name: &str) -> Option<sys::pfn::VoidFunction> {
+    let vulkan = runtime().vulkan_enabled;
+    // SAFETY (all transmutes): each turns a function pointer of the exact pfn type OpenXR
+    // declares for that name into PFN_xrVoidFunction; the caller casts it back before calling.
+    unsafe {
+        use std::mem::transmute;
+        use sys::pfn::VoidFunction as V;
+        match name {
+            "xrGetVulkanGraphicsRequirements2KHR" if vulkan => Some(transmute::<
+                sys::pfn::GetVulkanGraphicsRequirements2KHR,
+                V,
+            >(requirements)),
+            "xrCreateVulkanInstanceKHR" if vulkan => Some(transmute::<
+                sys::pfn::CreateVulkanInstanceKHR,
+                V,
+            >(create_vulkan_instance)),
+            "xrGetVulkanGraphicsDevice2KHR" if vulkan => Some(transmute::<
+                sys::pfn::GetVulkanGraphicsDevice2KHR,
+                V,
+            >(graphics_device)),
+            "xrCreateVulkanDeviceKHR" if vulkan => Some(transmute::<
+                sys::pfn::CreateVulkanDeviceKHR,
+                V,
+            >(create_vulkan_device)),
+            "xrCreateSession" => Some(transmute::<sys::pfn::CreateSession, V>(create_session)),
+            "xrDestroySession" => Some(transmute::<sys::pfn::DestroySession, V>(destroy_session)),
+            "xrBeginSession" => Some(transmute::<sys::pfn::BeginSession, V>(begin_session)),
+            "xrEndSession" => Some(transmute::<sys::pfn::EndSession, V>(end_session)),
+            "xrRequestExitSession" => Some(transmute::<sys::pfn::RequestExitSession, V>(
+                request_exit_session,
+            )),
+            _ => None,
+        }
+    }
+}
+
+fn check_system(instance: sys::Instance, system: sys::SystemId) -> sys::Result {
+    let r = check_instance(instance);
+    if r != sys::Result::SUCCESS {
+        return r;
+    }
+    if system.into_raw() != SYSTEM {
+        return sys::Result::ERROR_SYSTEM_INVALID;
+    }
+    sys::Result::SUCCESS
+}
+
+/// A Vulkan entry point through the app's `vkGetInstanceProcAddr`, as type `F`.
+///
+/// # Safety
+/// `F` must be the function pointer type Vulkan declares for `name`.
+unsafe fn vk_fn<F: Copy>(gipa: VkGetInstanceProcAddr, instance: usize, name: &[u8]) -> Option<F> {
+    debug_assert_eq!(name.last(), Some(&0));
+    // SAFETY: `name` is NUL-terminated; `instance` is null or the app's live VkInstance.
+    let f = unsafe { gipa(instance as VkInstance, name.as_ptr().cast::<c_char>()) }?;
+    // SAFETY: `F` is the pointer type Vulkan declares for `name` (caller's contract), and all
+    // function pointers have the same size.
+    Some(unsafe { std::mem::transmute_copy::<unsafe extern "system" fn(), F>(&f) })
+}
+
+type VkCreateInstance =
+    unsafe extern "system" fn(*const c_void, *const c_void, *mut VkInstance) -> i32;
+type VkEnumeratePhysicalDevices =
+    unsafe extern "system" fn(VkInstance, *mut u32, *mut VkPhysicalDevice) -> i32;
+type VkCreateDevice =
+    unsafe extern "system" fn(VkPhysicalDevice, *const c_void, *const c_void, *mut VkDevice) -> i32;
+/// VK_ERROR_INITIALIZATION_FAILED.
+const VK_INIT_FAILED: i32 = -3;
+
+unsafe extern "system" fn requirements(
+    instance: sys::Instance,
+    system: sys::SystemId,
+    out: *mut sys::GraphicsRequirementsVulkanKHR,
+) -> sys::Result {
+    let r = check_system(instance, system);
+    if r != sys::Result::SUCCESS {
+        return r;
+    }
+    // SAFETY: the caller passes a writable struct or null (rejected).
+    let Some(out) = (unsafe { out.as_mut() }) else {
+        return sys::Result::ERROR_VALIDATION_FAILURE;
+    };
+    out.min_api_version_supported = sys::Version::new(1, 0, 0);
+    out.max_api_version_supported = sys::Version::new(1, 3, 0);
+    runtime().vulkan.requirements_queried = true;
+    sys::Result::SUCCESS
+}
+
+unsafe extern "system" fn create_vulkan_instance(
+    instance: sys::Instance,
+    info: *const sys::VulkanInstanceCreateInfoKHR,
+    vk_instance: *mut VkInstance,
+    vk_result: *mut i32,
+) -> sys::Result {
+    // SAFETY: the caller passes a valid create info or null (rejected).
+    let Some(info) = (unsafe { info.as_ref() }) else {
+        return sys::Result::ERROR_VALIDATION_FAILURE;
+    };
+    let r = check_system(instance, info.system_id);
+    if r != sys::Result::SUCCESS {
+        return r;
+    }
+    let Some(gipa) = info.pfn_get_instance_proc_addr else {
+        return sys::Result::ERROR_VALIDATION_FAILURE;
+    };
+    if vk_instance.is_null() || vk_result.is_null() || info.vulkan_create_info.is_null() {
+        return sys::Result::ERROR_VALIDATION_FAILURE;
+    }
+    // SAFETY: vkCreateInstance has the declared type.
+    let Some(create) = (unsafe { vk_fn::<VkCreateInstance>(gipa, 0, b"vkCreateInstance\0") })
+    else {
+        return sys::Result::ERROR_RUNTIME_FAILURE;
+    };
+    // SAFETY: the app's create info and allocator are passed through unchanged, as the
+    // extension specifies; `vk_instance` is writable.
+    let vr = unsafe { create(info.vulkan_create_info, info.vulkan_allocator, vk_instance) };
+    // SAFETY: `vk_result` is non-null (checked) and writable.
+    unsafe { *vk_result = vr };
+    if vr == 0 {
+        let mut rt = runtime();
+        rt.vulkan.gipa = Some(gipa);
+        // SAFETY: vkCreateInstance succeeded, so `*vk_instance` holds the new instance.
+        rt.vulkan.instance = unsafe { *vk_instance } as usize;
+    }
+    sys::Result::SUCCESS
+}
+
+unsafe extern "system" fn graphics_device(
+    instance: sys::Instance,
+    info: *const sys::VulkanGraphicsDeviceGetInfoKHR,
+    physical: *mut VkPhysicalDevice,
+) -> sys::Result {
+    // SAFETY: the caller passes a valid get info or null (rejected).
+    let Some(info) = (unsafe { info.as_ref() }) else {
+        return sys::Result::ERROR_VALIDATION_FAILURE;
+    };
+    let r = check_system(instance, info.system_id);
+    if r != sys::Result::SUCCESS {
+        return r;
+    }
+    let vk = runtime().vulkan;
+    let (Some(gipa), false) = (vk.gipa, physical.is_null()) else {
+        return sys::Result::ERROR_VALIDATION_FAILURE;
+    };
+    let vk_instance = info.vulkan_instance as usize;
+    if vk_instance != vk.instance {
+        return sys::Result::ERROR_GRAPHICS_DEVICE_INVALID;
+    }
+    // SAFETY: vkEnumeratePhysicalDevices has the declared type.
+    let Some(enumerate) = (unsafe {
+        vk_fn::<VkEnumeratePhysicalDevices>(gipa, vk_instance, b"vkEnumeratePhysicalDevices\0")
+    }) else {
+        return sys::Result::ERROR_RUNTIME_FAILURE;
+    };
+    let mut count = 0u32;
+    // SAFETY: the two-call idiom with a live instance: count first, then the handles.
+    let mut devices = unsafe {
+        if enumerate(info.vulkan_instance, &mut count, std::ptr::null_mut()) != 0 || count == 0 {
+            return sys::Result::ERROR_SYSTEM_INVALID;
+        }
+        let mut v: Vec<VkPhysicalDevice> = vec![std::ptr::null(); count as usize];
+        let r = enumerate(info.vulkan_instance, &mut count, v.as_mut_ptr());
+        if r < 0 {
+            return sys::Result::ERROR_SYSTEM_INVALID;
+        }
+        v.truncate(count as usize);
+        v
+    };
+    // The first device: the headset's GPU on a real runtime; here whatever the driver lists
+    // first (lavapipe where there is no GPU).
+    let Some(first) = devices.drain(..).next() else {
+        return sys::Result::ERROR_SYSTEM_INVALID;
+    };
+    // SAFETY: `physical` is non-null (checked) and writable.
+    unsafe { *physical = first };
+    sys::Result::SUCCESS
+}
+
+unsafe extern "system" fn create_vulkan_device(
+    instance: sys::Instance,
+    info: *const sys::VulkanDeviceCreateInfoKHR,
+    vk_device: *mut VkDevice,
+    vk_result: *mut i32,
+) -> sys::Result {
+    // SAFETY: the caller passes a valid create info or null (rejected).
+    let Some(info) = (unsafe { info.as_ref() }) else {
+        return sys::Result::ERROR_VALIDATION_FAILURE;
+    };
+    let r = check_system(instance, info.system_id);
+    if r != sys::Result::SUCCESS {
+        return r;
+    }
+    let (Some(gipa), false, false) = (
+        info.pfn_get_instance_proc_addr,
+        vk_device.is_null(),
+        vk_result.is_null(),
+    ) else {
+        return sys::Result::ERROR_VALIDATION_FAILURE;
+    };
+    let vk = runtime().vulkan;
+    // SAFETY: vkCreateDevice has the declared type.
+    let Some(create) = (unsafe { vk_fn::<VkCreateDevice>(gipa, vk.instance, b"vkCreateDevice\0") })
+    else {
+        // SAFETY: `vk_result` is non-null (checked) and writable.
+        unsafe { *vk_result = VK_INIT_FAILED };
+        return sys::Result::SUCCESS;
+    };
+    // SAFETY: the app's physical device, create info and allocator pass through unchanged;
+    // `vk_device` and `vk_result` are writable.
+    unsafe {
+        *vk_result = create(
+            info.vulkan_physical_device,
+            info.vulkan_create_info,
+            info.vulkan_allocator,
+            vk_device,
+        );
+    }
+    sys::Result::SUCCESS
+}
+
+/// Whether a structure chain holds a Vulkan graphics binding with live handles.
+///
+/// # Safety
+/// `next` must be null or a valid OpenXR structure chain.
+unsafe fn vulkan_binding(mut next: *const c_void) -> Option<sys::GraphicsBindingVulkanKHR> {
+    while !next.is_null() {
+        // SAFETY: every chained structure starts with (type, next) (caller's contract).
+        let base = unsafe { &*next.cast::<sys::BaseInStructure>() };
+        if base.ty == sys::GraphicsBindingVulkanKHR::TYPE {
+            // SAFETY: the type tag says what the structure is.
+            return Some(unsafe { *next.cast::<sys::GraphicsBindingVulkanKHR>() });
+        }
+        next = base.next.cast::<c_void>();
+    }
+    None
+}
+
+unsafe extern "system" fn create_session(
+    instance: sys::Instance,
+    info: *const sys::SessionCreateInfo,
+    session: *mut sys::Session,
+) -> sys::Result {
+    // SAFETY: the caller passes a valid create info or null (rejected).
+    let Some(info) = (unsafe { info.as_ref() }) else {
+        return sys::Result::ERROR_VALIDATION_FAILURE;
+    };
+    let r = check_system(instance, info.system_id);
+    if r != sys::Result::SUCCESS {
+        return r;
+    }
+    if session.is_null() {
+        return sys::Result::ERROR_VALIDATION_FAILURE;
+    }
+    // SAFETY: the create info's chain is a valid OpenXR chain (caller's contract).
+    let Some(binding) = (unsafe { vulkan_binding(info.next) }) else {
+        return sys::Result::ERROR_GRAPHICS_DEVICE_INVALID;
+    };
+    let mut rt = runtime();
+    if !rt.vulkan.requirements_queried {
+        return sys::Result::ERROR_GRAPHICS_REQUIREMENTS_CALL_MISSING;
+    }
+    if binding.instance.is_null() || binding.device.is_null() || binding.physical_device.is_null() {
+        return sys::Result::ERROR_GRAPHICS_DEVICE_INVALID;
+    }
+    if rt.session.is_some() {
+        return sys::Result::ERROR_LIMIT_REACHED;
+    }
+    rt.session = Some(SessionData {
+        state: sys::SessionState::UNKNOWN,
+        begun: false,
+        exit_requested: false,
+    });
+    enter(&mut rt, sys::SessionState::IDLE);
+    enter(&mut rt, sys::SessionState::READY);
+    // SAFETY: `session` is non-null (checked) and writable.
+    unsafe { *session = sys::Session::from_raw(SESSION) };
+    sys::Result::SUCCESS
+}
+
+/// The live session, or the error for a bad handle.
+fn with_session<T>(
+    session: sys::Session,
+    f: impl FnOnce(&mut Runtime) -> Result<T, sys::Result>,
+) -> Result<T, sys::Result> {
+    let mut rt = runtime();
+    if session.into_raw() != SESSION || rt.session.is_none() || !rt.instance_alive {
+        return Err(sys::Result::ERROR_HANDLE_INVALID);
+    }
+    f(&mut rt)
+}
+
+fn result(r: Result<(), sys::Result>) -> sys::Result {
+    r.err().unwrap_or(sys::Result::SUCCESS)
+}
+
+unsafe extern "system" fn destroy_session(session: sys::Session) -> sys::Result {
+    result(with_session(session, |rt| {
+        rt.session = None;
+        rt.events.retain(|e| e.session != SESSION);
+        Ok(())
+    }))
+}
+
+unsafe extern "system" fn begin_session(
+    session: sys::Session,
+    info: *const sys::SessionBeginInfo,
+) -> sys::Result {
+    // SAFETY: the caller passes a valid begin info or null (rejected).
+    let Some(info) = (unsafe { info.as_ref() }) else {
+        return sys::Result::ERROR_VALIDATION_FAILURE;
+    };
+    result(with_session(session, |rt| {
+        let s = rt
+            .session
+            .as_mut()
+            .ok_or(sys::Result::ERROR_HANDLE_INVALID)?;
+        if s.begun {
+            return Err(sys::Result::ERROR_SESSION_RUNNING);
+        }
+        if s.state != sys::SessionState::READY {
+            return Err(sys::Result::ERROR_SESSION_NOT_READY);
+        }
+        if info.primary_view_configuration_type != sys::ViewConfigurationType::PRIMARY_STEREO {
+            return Err(sys::Result::ERROR_VIEW_CONFIGURATION_TYPE_UNSUPPORTED);
+        }
+        s.begun = true;
+        for state in [
+            sys::SessionState::SYNCHRONIZED,
+            sys::SessionState::VISIBLE,
+            sys::SessionState::FOCUSED,
+        ] {
+            enter(rt, state);
+        }
+        Ok(())
+    }))
+}
+
+unsafe extern "system" fn request_exit_session(session: sys::Session) -> sys::Result {
+    result(with_session(session, |rt| {
+        let s = rt
+            .session
+            .as_mut()
+            .ok_or(sys::Result::ERROR_HANDLE_INVALID)?;
+        if !s.begun {
+            return Err(sys::Result::ERROR_SESSION_NOT_RUNNING);
+        }
+        s.exit_requested = true;
+        // Down the graph one state at a time: FOCUSED -> VISIBLE -> SYNCHRONIZED -> STOPPING.
+        let mut now = s.state;
+        if now == sys::SessionState::FOCUSED {
+            enter(rt, sys::SessionState::VISIBLE);
+            now = sys::SessionState::VISIBLE;
+        }
+        if now == sys::SessionState::VISIBLE {
+            enter(rt, sys::SessionState::SYNCHRONIZED);
+        }
+        enter(rt, sys::SessionState::STOPPING);
+        Ok(())
+    }))
+}
+
+unsafe extern "system" fn end_session(session: sys::Session) -> sys::Result {
+    result(with_session(session, |rt| {
+        let s = rt
+            .session
+            .as_mut()
+            .ok_or(sys::Result::ERROR_HANDLE_INVALID)?;
+        if !s.begun {
+            return Err(sys::Result::ERROR_SESSION_NOT_RUNNING);
+        }
+        if s.state != sys::SessionState::STOPPING {
+            return Err(sys::Result::ERROR_SESSION_NOT_STOPPING);
+        }
+        s.begun = false;
+        let exit = s.exit_requested;
+        enter(rt, sys::SessionState::IDLE);
+        if exit {
+            enter(rt, sys::SessionState::EXITING);
+        }
+        Ok(())
+    }))
+}
