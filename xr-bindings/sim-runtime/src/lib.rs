@@ -2,8 +2,9 @@
 //! (`XR_RUNTIME_JSON`), as it would load SteamVR or Monado. So far it negotiates with the
 //! loader, answers every core OpenXR 1.0 function name (those not implemented yet return
 //! `XR_ERROR_FUNCTION_UNSUPPORTED`), and implements the instance, the system (a head-mounted
-//! display with two 1080 x 1200 views, the HTC Vive's), XR_KHR_vulkan_enable2 and the session
-//! life cycle with its state events. Swapchains, the 90 Hz frame clock, trace-driven poses and
+//! display with two 1080 x 1200 views, the HTC Vive's), XR_KHR_vulkan_enable2, the session
+//! life cycle with its state events, the frame loop on a simulated 90 Hz clock, reference spaces
+//! and eye views (Vive field of view, 63 mm IPD). Swapchains, actions, trace-driven poses and
 //! haptics come next.
 
 use openxr_sys as sys;
@@ -105,6 +106,7 @@ static RUNTIME: Mutex<Runtime> = Mutex::new(Runtime {
     events: std::collections::VecDeque::new(),
 });
 
+mod frame;
 mod session;
 
 pub(crate) fn runtime() -> std::sync::MutexGuard<'static, Runtime> {
@@ -123,6 +125,17 @@ fn write_c(dst: &mut [c_char], s: &str) {
     if let Some(end) = dst.get_mut(n) {
         *end = 0;
     }
+}
+
+pub(crate) fn check_system(instance: sys::Instance, system: sys::SystemId) -> sys::Result {
+    let r = check_instance(instance);
+    if r != sys::Result::SUCCESS {
+        return r;
+    }
+    if system.into_raw() != SYSTEM {
+        return sys::Result::ERROR_SYSTEM_INVALID;
+    }
+    sys::Result::SUCCESS
 }
 
 pub(crate) fn check_instance(instance: sys::Instance) -> sys::Result {
@@ -268,7 +281,7 @@ unsafe extern "system" fn unsupported() -> sys::Result {
 ///
 /// # Safety
 /// `count` must be writable; `out` must hold `capacity` items when `capacity` > 0.
-unsafe fn two_call<T>(
+pub(crate) unsafe fn two_call<T>(
     capacity: u32,
     count: *mut u32,
     out: *mut T,

@@ -1,17 +1,16 @@
 //! XR_KHR_vulkan_enable2 (the app's Vulkan instance and device are made through the runtime,
 //! on whatever Vulkan driver the app loads) and the session life cycle with its state events.
 //!
-//! Until the frame loop is simulated, beginning a session moves it straight on to
-//! SYNCHRONIZED, VISIBLE and FOCUSED; a runtime with a frame clock does that once the app's
-//! frames are in step with it.
+//! A begun session becomes SYNCHRONIZED at the app's first `xrWaitFrame` and VISIBLE, then
+//! FOCUSED, at its first `xrEndFrame` (see `frame.rs`).
 
-use super::{Runtime, SYSTEM, check_instance, runtime, sys};
+use super::{Runtime, check_system, runtime, sys};
 use std::ffi::{c_char, c_void};
 use sys::Handle;
 use sys::platform::{VkDevice, VkGetInstanceProcAddr, VkInstance, VkPhysicalDevice};
 
 /// The one session handle this runtime hands out.
-const SESSION: u64 = 1;
+pub(crate) const SESSION: u64 = 1;
 
 /// What the runtime keeps of the app's Vulkan objects (as addresses: the runtime state is
 /// shared between threads, and it never dereferences them itself).
@@ -32,9 +31,12 @@ impl VulkanState {
 
 pub(crate) struct SessionData {
     /// The latest state the runtime has put the session in (queued for the app).
-    state: sys::SessionState,
-    begun: bool,
-    exit_requested: bool,
+    pub(crate) state: sys::SessionState,
+    pub(crate) begun: bool,
+    pub(crate) exit_requested: bool,
+    pub(crate) frames: crate::frame::FrameLoop,
+    /// Reference spaces: handle n is `spaces[n - 1]` (None once destroyed).
+    pub(crate) spaces: Vec<Option<crate::frame::RefSpace>>,
 }
 
 /// A session state change waiting in the event queue.
@@ -44,7 +46,7 @@ pub(crate) struct Event {
     pub(crate) time_ns: i64,
 }
 
-fn enter(rt: &mut Runtime, state: sys::SessionState) {
+pub(crate) fn enter(rt: &mut Runtime, state: sys::SessionState) {
     if let Some(s) = rt.session.as_mut() {
         s.state = state;
         rt.events.push_back(Event {
@@ -87,20 +89,9 @@ pub(crate) fn lookup(name: &str) -> Option<sys::pfn::VoidFunction> {
             "xrRequestExitSession" => Some(transmute::<sys::pfn::RequestExitSession, V>(
                 request_exit_session,
             )),
-            _ => None,
+            _ => crate::frame::lookup(name),
         }
     }
-}
-
-fn check_system(instance: sys::Instance, system: sys::SystemId) -> sys::Result {
-    let r = check_instance(instance);
-    if r != sys::Result::SUCCESS {
-        return r;
-    }
-    if system.into_raw() != SYSTEM {
-        return sys::Result::ERROR_SYSTEM_INVALID;
-    }
-    sys::Result::SUCCESS
 }
 
 /// A Vulkan entry point through the app's `vkGetInstanceProcAddr`, as type `F`.
@@ -327,6 +318,8 @@ unsafe extern "system" fn create_session(
         state: sys::SessionState::UNKNOWN,
         begun: false,
         exit_requested: false,
+        frames: crate::frame::FrameLoop::default(),
+        spaces: Vec::new(),
     });
     enter(&mut rt, sys::SessionState::IDLE);
     enter(&mut rt, sys::SessionState::READY);
@@ -336,7 +329,7 @@ unsafe extern "system" fn create_session(
 }
 
 /// The live session, or the error for a bad handle.
-fn with_session<T>(
+pub(crate) fn with_session<T>(
     session: sys::Session,
     f: impl FnOnce(&mut Runtime) -> Result<T, sys::Result>,
 ) -> Result<T, sys::Result> {
@@ -347,7 +340,7 @@ fn with_session<T>(
     f(&mut rt)
 }
 
-fn result(r: Result<(), sys::Result>) -> sys::Result {
+pub(crate) fn result(r: Result<(), sys::Result>) -> sys::Result {
     r.err().unwrap_or(sys::Result::SUCCESS)
 }
 
@@ -382,13 +375,7 @@ unsafe extern "system" fn begin_session(
             return Err(sys::Result::ERROR_VIEW_CONFIGURATION_TYPE_UNSUPPORTED);
         }
         s.begun = true;
-        for state in [
-            sys::SessionState::SYNCHRONIZED,
-            sys::SessionState::VISIBLE,
-            sys::SessionState::FOCUSED,
-        ] {
-            enter(rt, state);
-        }
+        s.frames = crate::frame::FrameLoop::default();
         Ok(())
     }))
 }

@@ -108,8 +108,12 @@ fn an_app_creates_an_instance_and_finds_a_stereo_hmd_through_the_loader() {
     let mut buf = xr::EventDataBuffer::new();
     assert!(instance.poll_event(&mut buf).expect("poll").is_none());
     // A core function not implemented yet answers XR_ERROR_FUNCTION_UNSUPPORTED, not a crash.
-    let r = instance
-        .enumerate_environment_blend_modes(system, xr::ViewConfigurationType::PRIMARY_STEREO);
-    assert_eq!(r, Err(xr::sys::Result::ERROR_FUNCTION_UNSUPPORTED));
+    let blend = instance
+        .enumerate_environment_blend_modes(system, xr::ViewConfigurationType::PRIMARY_STEREO)
+        .expect("blend modes");
+    assert_eq!(blend, [xr::EnvironmentBlendMode::OPAQUE]);
+    // Actions are not simulated yet: the stub answers XR_ERROR_FUNCTION_UNSUPPORTED.
+    let r = instance.create_action_set("tools", "Tools", 0);
+    assert_eq!(r.err(), Some(xr::sys::Result::ERROR_FUNCTION_UNSUPPORTED));
     assert_eq!(CORE_FUNCTIONS.len(), 55);
 }

@@ -115,7 +115,7 @@ fn a_vulkan_session_walks_the_whole_life_cycle() {
     .expect("vkCreateDevice");
 
     // SAFETY: the Vulkan handles were made through this runtime and outlive the session.
-    let (session, _waiter, _stream) = unsafe {
+    let (session, mut waiter, mut stream) = unsafe {
         instance.create_session::<xr::Vulkan>(
             system,
             &xr::vulkan::SessionCreateInfo {
@@ -128,13 +128,16 @@ fn a_vulkan_session_walks_the_whole_life_cycle() {
         )
     }
     .expect("session");
+    let stage = session
+        .create_reference_space(xr::ReferenceSpaceType::STAGE, xr::Posef::IDENTITY)
+        .expect("stage space");
 
     let mut machine = SessionMachine::new();
     let mut buf = xr::EventDataBuffer::new();
     let mut asked_to_exit = false;
-    let mut polls = 0;
-    'run: while polls < 100 {
-        polls += 1;
+    let mut times = Vec::new();
+    let mut rendered = 0;
+    'run: for _ in 0..1000 {
         while let Some(event) = instance.poll_event(&mut buf).expect("poll") {
             let xr::Event::SessionStateChanged(e) = event else {
                 continue;
@@ -153,12 +156,45 @@ fn a_vulkan_session_walks_the_whole_life_cycle() {
                 None => {}
             }
         }
-        if machine.focused() && !asked_to_exit {
+        if machine.submits_frames() {
+            let frame = waiter.wait().expect("wait");
+            stream.begin().expect("begin frame");
+            times.push(frame.predicted_display_time.as_nanos());
+            if frame.should_render {
+                rendered += 1;
+                let (_, views) = session
+                    .locate_views(
+                        xr::ViewConfigurationType::PRIMARY_STEREO,
+                        frame.predicted_display_time,
+                        &stage,
+                    )
+                    .expect("views");
+                assert_eq!(views.len(), 2);
+                let (l, r) = (views[0].pose.position, views[1].pose.position);
+                assert!(((r.x - l.x) - 0.063).abs() < 1e-6, "IPD {}", r.x - l.x);
+                assert!((l.y - 1.6).abs() < 1e-6 && (r.y - 1.6).abs() < 1e-6);
+                assert_eq!(views[0].fov.angle_left, -views[1].fov.angle_right);
+            }
+            stream
+                .end(
+                    frame.predicted_display_time,
+                    xr::EnvironmentBlendMode::OPAQUE,
+                    &[],
+                )
+                .expect("end frame");
+        }
+        if machine.focused() && rendered >= 120 && !asked_to_exit {
             // The trainee is done: ask the runtime to wind the session down.
             session.request_exit().expect("request exit");
             asked_to_exit = true;
         }
     }
+    // A 90 Hz display: every predicted time one period after the last.
+    assert!(times.len() > 120, "{} frames", times.len());
+    assert!(
+        times.windows(2).all(|w| w[1] - w[0] == 1_000_000_000 / 90),
+        "display times step by 11.1 ms"
+    );
     use xr::SessionState as S;
     assert_eq!(
         machine.history,
@@ -181,9 +217,10 @@ fn a_vulkan_session_walks_the_whole_life_cycle() {
         session.end(),
         Err(xr::sys::Result::ERROR_SESSION_NOT_RUNNING)
     );
+    drop(stage);
     drop(session);
-    drop(_waiter);
-    drop(_stream);
+    drop(waiter);
+    drop(stream);
     // SAFETY: nothing uses the device or instance any more; children first.
     unsafe {
         let device = ash::Device::load(
