@@ -80,30 +80,57 @@ unsafe extern "system" fn wait_frame(
     let Some(out) = (unsafe { state.as_mut() }) else {
         return sys::Result::ERROR_VALIDATION_FAILURE;
     };
-    result(with_session(session, |rt| {
-        let s = rt
-            .session
-            .as_mut()
-            .ok_or(sys::Result::ERROR_HANDLE_INVALID)?;
-        if !s.begun {
+    let r = with_session(session, |rt| {
+        let (state, begun) = match rt.session.as_ref() {
+            Some(s) => (s.state, s.begun),
+            None => return Err(sys::Result::ERROR_HANDLE_INVALID),
+        };
+        if !begun {
             return Err(sys::Result::ERROR_SESSION_NOT_RUNNING);
         }
-        let t = FIRST_DISPLAY_NS + s.frames.waited as i64 * FRAME_PERIOD_NS;
-        s.frames.waited += 1;
-        s.frames.pending = Some(t);
+        // One display clock for the instance: it runs on across sessions.
+        let t = if rt.now_ns == 0 {
+            FIRST_DISPLAY_NS
+        } else {
+            rt.now_ns + FRAME_PERIOD_NS
+        };
+        rt.now_ns = t;
+        if let Some(s) = rt.session.as_mut() {
+            s.frames.waited += 1;
+            s.frames.pending = Some(t);
+        }
         let render = matches!(
-            s.state,
+            state,
             sys::SessionState::VISIBLE | sys::SessionState::FOCUSED
         );
         out.predicted_display_time = sys::Time::from_nanos(t);
         out.predicted_display_period = sys::Duration::from_nanos(FRAME_PERIOD_NS);
         out.should_render = render.into();
         // The app's frames are now in step with the display.
-        if s.state == sys::SessionState::READY {
+        if state == sys::SessionState::READY {
             enter(rt, sys::SessionState::SYNCHRONIZED);
         }
-        Ok(())
-    }))
+        // An injected loss: the headset goes away (unplugged, or its runtime service died).
+        let loss = rt.config.as_ref().and_then(|c| c.inject.session_loss_s);
+        if let Some(at) = loss
+            && !rt.lost
+            && (t - FIRST_DISPLAY_NS) as f64 >= at * 1e9
+        {
+            rt.lost = true;
+            rt.headset_gone_polls = rt
+                .config
+                .as_ref()
+                .map_or(0, |c| c.inject.headset_back_after_polls);
+            enter(rt, sys::SessionState::LOSS_PENDING);
+        }
+        // A session on its way out still gets frames, flagged with the success code.
+        Ok(if state == sys::SessionState::LOSS_PENDING {
+            sys::Result::SESSION_LOSS_PENDING
+        } else {
+            sys::Result::SUCCESS
+        })
+    });
+    r.unwrap_or_else(|e| e)
 }
 
 unsafe extern "system" fn begin_frame(

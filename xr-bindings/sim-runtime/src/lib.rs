@@ -95,6 +95,17 @@ pub(crate) struct Runtime {
     pub(crate) session: Option<session::SessionData>,
     /// Events not yet polled, oldest first.
     pub(crate) events: std::collections::VecDeque<session::Event>,
+    pub(crate) config: Option<config::Config>,
+    /// The injected session loss has happened.
+    pub(crate) lost: bool,
+    /// `xrGetSystem` calls left that find no headset.
+    pub(crate) headset_gone_polls: u32,
+    /// Display time of the newest waited frame, ns (event and log time stamps).
+    pub(crate) now_ns: i64,
+    /// Every session state entered: "display time ns, session number, state".
+    pub(crate) state_log: Vec<String>,
+    /// Sessions created under this instance.
+    pub(crate) sessions_made: u32,
 }
 
 static RUNTIME: Mutex<Runtime> = Mutex::new(Runtime {
@@ -104,10 +115,38 @@ static RUNTIME: Mutex<Runtime> = Mutex::new(Runtime {
     vulkan: session::VulkanState::NONE,
     session: None,
     events: std::collections::VecDeque::new(),
+    config: None,
+    lost: false,
+    headset_gone_polls: 0,
+    now_ns: 0,
+    state_log: Vec::new(),
+    sessions_made: 0,
 });
 
+mod config;
 mod frame;
+pub use config::{CONFIG_ENV, Config};
+pub use frame::FRAME_PERIOD_NS;
 mod session;
+
+impl Runtime {
+    /// Writes `session-states.log` into the configured output folder (whole, atomically).
+    pub(crate) fn write_state_log(&self) {
+        let Some(dir) = self.config.as_ref().and_then(|c| c.out_dir.as_ref()) else {
+            return;
+        };
+        let mut text = self.state_log.join("\n");
+        text.push('\n');
+        let path = dir.join("session-states.log");
+        let tmp = dir.join("session-states.log.partial");
+        let written = std::fs::create_dir_all(dir)
+            .and_then(|()| std::fs::write(&tmp, text))
+            .and_then(|()| std::fs::rename(&tmp, &path));
+        if let Err(e) = written {
+            eprintln!("vesalius-sim-runtime: {}: {e}", path.display());
+        }
+    }
+}
 
 pub(crate) fn runtime() -> std::sync::MutexGuard<'static, Runtime> {
     match RUNTIME.lock() {
@@ -363,11 +402,24 @@ unsafe extern "system" fn create_instance(
             return sys::Result::ERROR_EXTENSION_NOT_PRESENT;
         }
     }
+    let config = match Config::from_env() {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("vesalius-sim-runtime: {e}");
+            return sys::Result::ERROR_RUNTIME_FAILURE;
+        }
+    };
     let mut rt = runtime();
     if rt.instance_alive {
         return sys::Result::ERROR_LIMIT_REACHED;
     }
     rt.instance_alive = true;
+    rt.config = Some(config);
+    rt.lost = false;
+    rt.headset_gone_polls = 0;
+    rt.now_ns = 0;
+    rt.state_log.clear();
+    rt.sessions_made = 0;
     rt.paths.clear();
     rt.vulkan_enabled = vulkan;
     rt.vulkan = session::VulkanState::NONE;
@@ -384,6 +436,7 @@ unsafe extern "system" fn destroy_instance(instance: sys::Instance) -> sys::Resu
         let mut rt = runtime();
         rt.instance_alive = false;
         rt.paths.clear();
+        rt.write_state_log();
         // Children go with the instance.
         rt.session = None;
         rt.events.clear();
@@ -427,6 +480,14 @@ unsafe extern "system" fn get_system(
     }
     if info.form_factor != sys::FormFactor::HEAD_MOUNTED_DISPLAY {
         return sys::Result::ERROR_FORM_FACTOR_UNSUPPORTED;
+    }
+    {
+        // After an injected loss the headset stays away for a few polls.
+        let mut rt = runtime();
+        if rt.headset_gone_polls > 0 {
+            rt.headset_gone_polls -= 1;
+            return sys::Result::ERROR_FORM_FACTOR_UNAVAILABLE;
+        }
     }
     // SAFETY: `system` is non-null (checked) and writable, per the API.
     unsafe { *system = sys::SystemId::from_raw(SYSTEM) };

@@ -52,8 +52,10 @@ pub(crate) fn enter(rt: &mut Runtime, state: sys::SessionState) {
         rt.events.push_back(Event {
             session: SESSION,
             state,
-            time_ns: 0,
+            time_ns: rt.now_ns,
         });
+        let line = format!("{} {} {:?}", rt.now_ns, rt.sessions_made, state);
+        rt.state_log.push(line);
     }
 }
 
@@ -314,6 +316,7 @@ unsafe extern "system" fn create_session(
     if rt.session.is_some() {
         return sys::Result::ERROR_LIMIT_REACHED;
     }
+    rt.sessions_made += 1;
     rt.session = Some(SessionData {
         state: sys::SessionState::UNKNOWN,
         begun: false,
@@ -348,6 +351,7 @@ unsafe extern "system" fn destroy_session(session: sys::Session) -> sys::Result 
     result(with_session(session, |rt| {
         rt.session = None;
         rt.events.retain(|e| e.session != SESSION);
+        rt.write_state_log();
         Ok(())
     }))
 }

@@ -3,28 +3,20 @@
 //! exactly as SteamVR or Monado are loaded.
 
 use openxr as xr;
+mod common;
+
 use std::path::PathBuf;
 use vesalius_sim_runtime::{CORE_FUNCTIONS, EYE_SIZE, RUNTIME_NAME, SYSTEM_NAME, manifest};
-
-/// The built runtime library: cargo builds the cdylib beside the test executable (in
-/// target/<profile>/deps/) and, when it is a top-level artifact, copies it up a folder.
-fn runtime_library() -> PathBuf {
-    let exe = std::env::current_exe().expect("test executable path");
-    let deps = exe.parent().expect("target/<profile>/deps");
-    let name = "libvesalius_sim_runtime.so";
-    let candidates = [deps.join(name), deps.join("..").join(name)];
-    candidates
-        .iter()
-        .find(|p| p.exists())
-        .cloned()
-        .unwrap_or_else(|| panic!("{name} was not built (looked in {})", deps.display()))
-}
 
 fn write_manifest(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("vesalius-xr-{}-{name}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temp dir");
     let path = dir.join("vesalius_sim_runtime.json");
-    std::fs::write(&path, manifest(&runtime_library().display().to_string())).expect("manifest");
+    std::fs::write(
+        &path,
+        manifest(&common::runtime_library().display().to_string()),
+    )
+    .expect("manifest");
     path
 }
 
