@@ -401,73 +401,25 @@ fn profile(
         "{:<22} {:>12} {:>12} {:>12}",
         "", "vesalius", "paper CPU", "paper GPU"
     );
-    let row = |name: &str, a: String, b: String, c: String| {
+    let cols = [ours.column(), pc, pg];
+    let row = |name: &str, cell: &dyn Fn(&vesalius::profiler::PaperColumn) -> String| {
+        let [a, b, c] = cols.each_ref().map(cell);
         println!("{name:<22} {a:>12} {b:>12} {c:>12}")
     };
-    row(
-        "batches",
-        ours.batches.to_string(),
-        pc.batches.to_string(),
-        pg.batches.to_string(),
-    );
-    row(
-        "draw calls",
-        ours.draw_calls.to_string(),
-        pc.draw_calls.to_string(),
-        pg.draw_calls.to_string(),
-    );
-    row(
-        "setpass calls",
-        ours.setpass_calls.to_string(),
-        pc.setpass_calls.to_string(),
-        pg.setpass_calls.to_string(),
-    );
-    row(
-        "triangles",
-        ours.triangles.to_string(),
-        pc.triangles.to_string(),
-        pg.triangles.to_string(),
-    );
-    row(
-        "vertices",
-        ours.vertices.to_string(),
-        pc.vertices.to_string(),
-        pg.vertices.to_string(),
-    );
-    let m = |b: u64| format!("{:.1} MB", mb(b));
-    row(
-        "VRAM",
-        m(ours.vram_bytes),
-        m(pc.vram_bytes),
-        m(pg.vram_bytes),
-    );
-    row(
-        "total memory",
-        m(ours.total_memory_bytes),
-        m(pc.total_memory_bytes),
-        m(pg.total_memory_bytes),
-    );
+    let mb1 = |b: u64| format!("{:.1} MB", mb(b));
     let cb =
         |c: vesalius::profiler::CountBytes| format!("{}/{:.0}KB", c.count, c.bytes as f64 / 1e3);
-    row(
-        "textures",
-        cb(ours.textures),
-        cb(pc.textures),
-        cb(pg.textures),
-    );
-    row("meshes", cb(ours.meshes), cb(pc.meshes), cb(pg.meshes));
-    row(
-        "materials",
-        cb(ours.materials),
-        cb(pc.materials),
-        cb(pg.materials),
-    );
-    row(
-        "objects",
-        ours.objects.to_string(),
-        pc.objects.to_string(),
-        pg.objects.to_string(),
-    );
+    row("batches", &|c| c.batches.to_string());
+    row("draw calls", &|c| c.draw_calls.to_string());
+    row("setpass calls", &|c| c.setpass_calls.to_string());
+    row("triangles", &|c| c.triangles.to_string());
+    row("vertices", &|c| c.vertices.to_string());
+    row("VRAM", &|c| mb1(c.vram_bytes));
+    row("total memory", &|c| mb1(c.total_memory_bytes));
+    row("textures", &|c| cb(c.textures));
+    row("meshes", &|c| cb(c.meshes));
+    row("materials", &|c| cb(c.materials));
+    row("objects", &|c| c.objects.to_string());
     println!(
         "cpu per stage: simulation {:.2} ms/step, render encode {:.2} ms, submit {:.2} ms",
         ours.cpu.simulation_ms, ours.cpu.render_encode_ms, ours.cpu.submit_ms

@@ -1548,16 +1548,15 @@ mod tests {
         let top = b.positions()[farthest(&b, Vec3::Z)];
         let tip_at = |k: usize| {
             let s = k as f32 * dt;
-            top + Vec3::new(0.02 * s, 0.0, 0.004 - (0.03 * s).min(0.006))
-        };
-        for k in 0..300 {
-            let c = [Contact {
+            [Contact {
                 tool: ToolId::Left,
-                point: tip_at(k),
+                point: top + Vec3::new(0.02 * s, 0.0, 0.004 - (0.03 * s).min(0.006)),
                 normal: Vec3::Z,
                 kind: ContactKind::Sphere { radius_m: 0.004 },
-            }];
-            b.step(dt, &c, &mut out);
+            }]
+        };
+        for k in 0..300 {
+            b.step(dt, &tip_at(k), &mut out);
             if k % 50 == 49 {
                 assert!(bvh_bounds_every_live_face(&b), "step {k}");
             }
@@ -1575,13 +1574,7 @@ mod tests {
             .collect();
         b.cut(&CutStroke { faces: band }, &mut out);
         for k in 300..400 {
-            let c = [Contact {
-                tool: ToolId::Left,
-                point: tip_at(k),
-                normal: Vec3::Z,
-                kind: ContactKind::Sphere { radius_m: 0.004 },
-            }];
-            b.step(dt, &c, &mut out);
+            b.step(dt, &tip_at(k), &mut out);
         }
         assert!(bvh_bounds_every_live_face(&b));
         let removed = (0..b.mesh().len()).filter(|&f| !b.alive()[f]).count();

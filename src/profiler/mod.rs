@@ -222,6 +222,25 @@ pub struct PaperColumn {
 const KB: u64 = 1000;
 const MB: u64 = 1000 * 1000;
 
+impl FrameCounters {
+    /// Our frame in the shape of the paper's columns, to print beside them.
+    pub fn column(&self) -> PaperColumn {
+        PaperColumn {
+            batches: self.batches,
+            draw_calls: self.draw_calls,
+            setpass_calls: self.setpass_calls,
+            triangles: self.triangles,
+            vertices: self.vertices,
+            vram_bytes: self.vram_bytes,
+            total_memory_bytes: self.total_memory_bytes,
+            textures: self.textures,
+            meshes: self.meshes,
+            materials: self.materials,
+            objects: self.objects,
+        }
+    }
+}
+
 /// Table 2 and 3, "CPU" column.
 pub fn paper_cpu() -> PaperColumn {
     PaperColumn {

@@ -15,11 +15,14 @@ pub struct Fov {
 
 impl Fov {
     /// About what SteamVR reports for the HTC Vive's left eye; the right eye is its mirror.
-    pub const VIVE_LEFT: Fov = Fov {
-        left: -0.967,
-        right: 0.845,
-        up: 0.944,
-        down: -0.952,
+    pub const VIVE_LEFT: Fov = {
+        let [left, right, up, down] = xr_bindings::vive::LEFT_FOV_RAD;
+        Fov {
+            left,
+            right,
+            up,
+            down,
+        }
     };
 
     pub fn mirrored(self) -> Fov {
@@ -33,9 +36,9 @@ impl Fov {
 }
 
 /// Default interpupillary distance for headless rendering, metres.
-pub const DEFAULT_IPD_M: f32 = 0.063;
+pub const DEFAULT_IPD_M: f32 = xr_bindings::vive::IPD_M;
 /// The Vive's per-eye resolution, pixels.
-pub const VIVE_EYE_SIZE: (u32, u32) = (1080, 1200);
+pub const VIVE_EYE_SIZE: (u32, u32) = xr_bindings::vive::EYE_SIZE;
 /// Clip planes, metres: the laparoscopic scene lies 5 cm to 1 m from the eye.
 pub const NEAR_M: f32 = 0.01;
 pub const FAR_M: f32 = 5.0;

@@ -318,14 +318,9 @@ impl Renderer {
             }
             // Vertices go straight into wgpu's staging memory: no CPU copy of the mesh is kept.
             let mesh = &mut self.meshes[k];
-            ensure_capacity(
-                &self.device,
-                &self.ledger,
-                mesh,
-                (m.positions.len() * std::mem::size_of::<Vertex>()) as u64,
-                std::mem::size_of_val(&m.indices[..]) as u64,
-            );
             let vsize = (m.positions.len() * std::mem::size_of::<Vertex>()) as u64;
+            let isize = std::mem::size_of_val(&m.indices[..]) as u64;
+            ensure_capacity(&self.device, &self.ledger, mesh, vsize, isize);
             if let Some(size) = wgpu::BufferSize::new(vsize)
                 && let Some(mut view) = self.queue.write_buffer_with(&mesh.vertex, 0, size)
             {

@@ -6,7 +6,8 @@
 
 pub mod profiles;
 pub mod session_state;
+pub mod vive;
 
 pub use openxr;
-pub use profiles::{Action, ActionKind, Hand, Profile, ProfileError};
+pub use profiles::{Action, ActionKind, Hand, Profile, ProfileError, is_path};
 pub use session_state::{Command, Phase, SessionMachine};

@@ -165,6 +165,13 @@ fn segment_ok(s: &str) -> bool {
             .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b"_-.".contains(&b))
 }
 
+/// Whether `s` is a well-formed OpenXR path: '/'-separated, non-empty segments of lowercase
+/// letters, digits, '_', '-' and '.'.
+pub fn is_path(s: &str) -> bool {
+    s.strip_prefix('/')
+        .is_some_and(|rest| rest.split('/').all(segment_ok))
+}
+
 fn check_path(kind: ActionKind, path: &str) -> Result<Hand, &'static str> {
     let hand = if path.starts_with("/user/hand/left/") {
         Hand::Left

@@ -2,24 +2,27 @@
 //! deterministic predicted display times, so a headless run goes as fast as the app renders),
 //! reference spaces, and the eye views the app renders from.
 
-use super::session::{SESSION, enter, result, with_session};
-use super::{check_system, sys, two_call};
+use super::session::{SESSION, enter, live, result, running, with_session};
+use super::{arg, arg_mut, check_system, sys, two_call};
 use sys::Handle;
 
 /// The Vive's refresh period: 90 Hz, nanoseconds.
-pub const FRAME_PERIOD_NS: i64 = 1_000_000_000 / 90;
+pub const FRAME_PERIOD_NS: i64 = 1_000_000_000 / xr_bindings::vive::REFRESH_HZ;
 /// Predicted display time of the first frame, nanoseconds (any fixed non-zero origin).
 pub const FIRST_DISPLAY_NS: i64 = 1_000_000_000;
 /// Head height above the stage floor when no trace moves it, metres.
 pub const HEAD_HEIGHT_M: f32 = 1.6;
 /// Distance between the eyes, metres.
-pub const IPD_M: f32 = 0.063;
+pub const IPD_M: f32 = xr_bindings::vive::IPD_M;
 /// The Vive's left-eye field of view, radians (the right eye's is its mirror image).
-pub const VIVE_LEFT_FOV: sys::Fovf = sys::Fovf {
-    angle_left: -0.967,
-    angle_right: 0.845,
-    angle_up: 0.944,
-    angle_down: -0.952,
+pub const VIVE_LEFT_FOV: sys::Fovf = {
+    let [angle_left, angle_right, angle_up, angle_down] = xr_bindings::vive::LEFT_FOV_RAD;
+    sys::Fovf {
+        angle_left,
+        angle_right,
+        angle_up,
+        angle_down,
+    }
 };
 /// Most composition layers a frame may submit.
 const MAX_LAYERS: u32 = 16;
@@ -77,9 +80,7 @@ unsafe extern "system" fn wait_frame(
     state: *mut sys::FrameState,
 ) -> sys::Result {
     // SAFETY: the caller passes a writable frame state or null (rejected).
-    let Some(out) = (unsafe { state.as_mut() }) else {
-        return sys::Result::ERROR_VALIDATION_FAILURE;
-    };
+    let out = xr_try!(unsafe { arg_mut(state) });
     let r = with_session(session, |rt| {
         let (state, begun) = match rt.session.as_ref() {
             Some(s) => (s.state, s.begun),
@@ -137,28 +138,19 @@ unsafe extern "system" fn begin_frame(
     session: sys::Session,
     _info: *const sys::FrameBeginInfo,
 ) -> sys::Result {
-    let mut discarded = false;
-    let r = with_session(session, |rt| {
-        let s = rt
-            .session
-            .as_mut()
-            .ok_or(sys::Result::ERROR_HANDLE_INVALID)?;
-        if !s.begun {
-            return Err(sys::Result::ERROR_SESSION_NOT_RUNNING);
-        }
+    let discarded = with_session(session, |rt| {
+        let s = running(rt)?;
         let t = s
             .frames
             .pending
             .take()
             .ok_or(sys::Result::ERROR_CALL_ORDER_INVALID)?;
         // A frame begun and never ended is dropped for the new one.
-        discarded = s.frames.begun.replace(t).is_some();
-        Ok(())
+        Ok(s.frames.begun.replace(t).is_some())
     });
-    match r {
-        Err(e) => e,
-        Ok(()) if discarded => sys::Result::FRAME_DISCARDED,
-        Ok(()) => sys::Result::SUCCESS,
+    match xr_try!(discarded) {
+        true => sys::Result::FRAME_DISCARDED,
+        false => sys::Result::SUCCESS,
     }
 }
 
@@ -201,22 +193,11 @@ unsafe extern "system" fn end_frame(
     info: *const sys::FrameEndInfo,
 ) -> sys::Result {
     // SAFETY: the caller passes a valid end info or null (rejected).
-    let Some(info) = (unsafe { info.as_ref() }) else {
-        return sys::Result::ERROR_VALIDATION_FAILURE;
-    };
+    let info = xr_try!(unsafe { arg(info) });
     // SAFETY: the end info's layer array is the caller's, valid for the call.
-    let stereo = match unsafe { projection_layers(info.layer_count, info.layers) } {
-        Ok(n) => n,
-        Err(e) => return e,
-    };
+    let stereo = xr_try!(unsafe { projection_layers(info.layer_count, info.layers) });
     result(with_session(session, |rt| {
-        let s = rt
-            .session
-            .as_mut()
-            .ok_or(sys::Result::ERROR_HANDLE_INVALID)?;
-        if !s.begun {
-            return Err(sys::Result::ERROR_SESSION_NOT_RUNNING);
-        }
+        let s = running(rt)?;
         let t = s
             .frames
             .begun
@@ -249,10 +230,7 @@ unsafe extern "system" fn blend_modes(
     count: *mut u32,
     out: *mut sys::EnvironmentBlendMode,
 ) -> sys::Result {
-    let r = check_system(instance, system);
-    if r != sys::Result::SUCCESS {
-        return r;
-    }
+    xr_try!(check_system(instance, system));
     if config != sys::ViewConfigurationType::PRIMARY_STEREO {
         return sys::Result::ERROR_VIEW_CONFIGURATION_TYPE_UNSUPPORTED;
     }
@@ -297,9 +275,7 @@ unsafe extern "system" fn create_reference_space(
     space: *mut sys::Space,
 ) -> sys::Result {
     // SAFETY: the caller passes a valid create info or null (rejected).
-    let Some(info) = (unsafe { info.as_ref() }) else {
-        return sys::Result::ERROR_VALIDATION_FAILURE;
-    };
+    let info = xr_try!(unsafe { arg(info) });
     if space.is_null() {
         return sys::Result::ERROR_VALIDATION_FAILURE;
     }
@@ -312,10 +288,7 @@ unsafe extern "system" fn create_reference_space(
         return sys::Result::ERROR_POSE_INVALID;
     }
     let r = with_session(session, |rt| {
-        let s = rt
-            .session
-            .as_mut()
-            .ok_or(sys::Result::ERROR_HANDLE_INVALID)?;
+        let s = live(rt)?;
         s.spaces.push(Some(RefSpace {
             kind: info.reference_space_type,
             pose: info.pose_in_reference_space,
@@ -337,10 +310,7 @@ unsafe extern "system" fn destroy_space(space: sys::Space) -> sys::Result {
         return sys::Result::ERROR_HANDLE_INVALID;
     };
     result(with_session(sys::Session::from_raw(SESSION), |rt| {
-        let s = rt
-            .session
-            .as_mut()
-            .ok_or(sys::Result::ERROR_HANDLE_INVALID)?;
+        let s = live(rt)?;
         match s.spaces.get_mut(k) {
             Some(slot @ Some(_)) => {
                 *slot = None;
@@ -415,13 +385,9 @@ unsafe extern "system" fn locate_views(
     out: *mut sys::View,
 ) -> sys::Result {
     // SAFETY: the caller passes a valid locate info or null (rejected).
-    let Some(info) = (unsafe { info.as_ref() }) else {
-        return sys::Result::ERROR_VALIDATION_FAILURE;
-    };
+    let info = xr_try!(unsafe { arg(info) });
     // SAFETY: the caller passes a writable view state or null (rejected).
-    let Some(state) = (unsafe { state.as_mut() }) else {
-        return sys::Result::ERROR_VALIDATION_FAILURE;
-    };
+    let state = xr_try!(unsafe { arg_mut(state) });
     if info.view_configuration_type != sys::ViewConfigurationType::PRIMARY_STEREO {
         return sys::Result::ERROR_VIEW_CONFIGURATION_TYPE_UNSUPPORTED;
     }

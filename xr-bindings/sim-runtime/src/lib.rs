@@ -12,6 +12,16 @@ use std::ffi::{CStr, c_char};
 use std::sync::Mutex;
 use sys::Handle;
 
+/// `?` for functions that return an `XrResult`: the error code is returned as it is.
+macro_rules! xr_try {
+    ($e:expr) => {
+        match $e {
+            Ok(v) => v,
+            Err(code) => return code,
+        }
+    };
+}
+
 /// The one instance handle this runtime hands out.
 const INSTANCE: u64 = 1;
 /// The head-mounted display's system id.
@@ -21,7 +31,7 @@ pub const API_VERSION: sys::Version = sys::Version::new(1, 0, 20);
 pub const RUNTIME_NAME: &str = "Vesalius simulated runtime";
 pub const SYSTEM_NAME: &str = "Vesalius simulated HMD (HTC Vive layout)";
 /// Per-eye image size, pixels (the Vive's panels).
-pub const EYE_SIZE: (u32, u32) = (1080, 1200);
+pub const EYE_SIZE: (u32, u32) = xr_bindings::vive::EYE_SIZE;
 /// The graphics extension this runtime offers.
 pub const VULKAN_ENABLE2: &str = "XR_KHR_vulkan_enable2";
 
@@ -166,23 +176,43 @@ fn write_c(dst: &mut [c_char], s: &str) {
     }
 }
 
-pub(crate) fn check_system(instance: sys::Instance, system: sys::SystemId) -> sys::Result {
-    let r = check_instance(instance);
-    if r != sys::Result::SUCCESS {
-        return r;
+/// The instance handle is live, or the error to return.
+pub(crate) fn check_instance(instance: sys::Instance) -> Result<(), sys::Result> {
+    if instance.into_raw() == INSTANCE && runtime().instance_alive {
+        Ok(())
+    } else {
+        Err(sys::Result::ERROR_HANDLE_INVALID)
     }
-    if system.into_raw() != SYSTEM {
-        return sys::Result::ERROR_SYSTEM_INVALID;
-    }
-    sys::Result::SUCCESS
 }
 
-pub(crate) fn check_instance(instance: sys::Instance) -> sys::Result {
-    if instance.into_raw() == INSTANCE && runtime().instance_alive {
-        sys::Result::SUCCESS
-    } else {
-        sys::Result::ERROR_HANDLE_INVALID
+/// The instance is live and `system` is its headset, or the error to return.
+pub(crate) fn check_system(
+    instance: sys::Instance,
+    system: sys::SystemId,
+) -> Result<(), sys::Result> {
+    check_instance(instance)?;
+    if system.into_raw() != SYSTEM {
+        return Err(sys::Result::ERROR_SYSTEM_INVALID);
     }
+    Ok(())
+}
+
+/// An input structure the caller passed: null is a validation failure.
+///
+/// # Safety
+/// `p` must be null or point to a valid `T` that outlives `'a`.
+pub(crate) unsafe fn arg<'a, T>(p: *const T) -> Result<&'a T, sys::Result> {
+    // SAFETY: `p` is null or valid (caller's contract).
+    unsafe { p.as_ref() }.ok_or(sys::Result::ERROR_VALIDATION_FAILURE)
+}
+
+/// An output structure the caller passed: null is a validation failure.
+///
+/// # Safety
+/// `p` must be null or point to a writable `T`, not aliased, that outlives `'a`.
+pub(crate) unsafe fn arg_mut<'a, T>(p: *mut T) -> Result<&'a mut T, sys::Result> {
+    // SAFETY: `p` is null or valid and unaliased (caller's contract).
+    unsafe { p.as_mut() }.ok_or(sys::Result::ERROR_VALIDATION_FAILURE)
 }
 
 /// The loader's entry point: agree on the interface and hand over `xrGetInstanceProcAddr`.
@@ -382,9 +412,7 @@ unsafe extern "system" fn create_instance(
     instance: *mut sys::Instance,
 ) -> sys::Result {
     // SAFETY: the caller passes a valid create-info or null (rejected).
-    let Some(info) = (unsafe { info.as_ref() }) else {
-        return sys::Result::ERROR_VALIDATION_FAILURE;
-    };
+    let info = xr_try!(unsafe { arg(info) });
     if instance.is_null() || info.ty != sys::InstanceCreateInfo::TYPE {
         return sys::Result::ERROR_VALIDATION_FAILURE;
     }
@@ -431,8 +459,8 @@ unsafe extern "system" fn create_instance(
 }
 
 unsafe extern "system" fn destroy_instance(instance: sys::Instance) -> sys::Result {
-    let r = check_instance(instance);
-    if r == sys::Result::SUCCESS {
+    xr_try!(check_instance(instance));
+    {
         let mut rt = runtime();
         rt.instance_alive = false;
         rt.paths.clear();
@@ -442,21 +470,16 @@ unsafe extern "system" fn destroy_instance(instance: sys::Instance) -> sys::Resu
         rt.events.clear();
         rt.vulkan = session::VulkanState::NONE;
     }
-    r
+    sys::Result::SUCCESS
 }
 
 unsafe extern "system" fn get_instance_properties(
     instance: sys::Instance,
     props: *mut sys::InstanceProperties,
 ) -> sys::Result {
-    let r = check_instance(instance);
-    if r != sys::Result::SUCCESS {
-        return r;
-    }
+    xr_try!(check_instance(instance));
     // SAFETY: the caller passes a writable properties struct or null (rejected).
-    let Some(p) = (unsafe { props.as_mut() }) else {
-        return sys::Result::ERROR_VALIDATION_FAILURE;
-    };
+    let p = xr_try!(unsafe { arg_mut(props) });
     p.runtime_version = sys::Version::new(0, 1, 0);
     write_c(&mut p.runtime_name, RUNTIME_NAME);
     sys::Result::SUCCESS
@@ -467,14 +490,9 @@ unsafe extern "system" fn get_system(
     info: *const sys::SystemGetInfo,
     system: *mut sys::SystemId,
 ) -> sys::Result {
-    let r = check_instance(instance);
-    if r != sys::Result::SUCCESS {
-        return r;
-    }
+    xr_try!(check_instance(instance));
     // SAFETY: the caller passes a valid get-info or null (rejected).
-    let Some(info) = (unsafe { info.as_ref() }) else {
-        return sys::Result::ERROR_VALIDATION_FAILURE;
-    };
+    let info = xr_try!(unsafe { arg(info) });
     if system.is_null() {
         return sys::Result::ERROR_VALIDATION_FAILURE;
     }
@@ -499,17 +517,9 @@ unsafe extern "system" fn get_system_properties(
     system: sys::SystemId,
     props: *mut sys::SystemProperties,
 ) -> sys::Result {
-    let r = check_instance(instance);
-    if r != sys::Result::SUCCESS {
-        return r;
-    }
-    if system.into_raw() != SYSTEM {
-        return sys::Result::ERROR_SYSTEM_INVALID;
-    }
+    xr_try!(check_system(instance, system));
     // SAFETY: the caller passes a writable properties struct or null (rejected).
-    let Some(p) = (unsafe { props.as_mut() }) else {
-        return sys::Result::ERROR_VALIDATION_FAILURE;
-    };
+    let p = xr_try!(unsafe { arg_mut(props) });
     p.system_id = system;
     p.vendor_id = 0;
     write_c(&mut p.system_name, SYSTEM_NAME);
@@ -532,13 +542,7 @@ unsafe extern "system" fn enumerate_view_configurations(
     count: *mut u32,
     out: *mut sys::ViewConfigurationType,
 ) -> sys::Result {
-    let r = check_instance(instance);
-    if r != sys::Result::SUCCESS {
-        return r;
-    }
-    if system.into_raw() != SYSTEM {
-        return sys::Result::ERROR_SYSTEM_INVALID;
-    }
+    xr_try!(check_system(instance, system));
     let only = [sys::ViewConfigurationType::PRIMARY_STEREO];
     // SAFETY: the pointers come from the caller under the two-call idiom's contract.
     unsafe { two_call(capacity, count, out, &only, |a, b| *b = *a) }
@@ -552,13 +556,7 @@ unsafe extern "system" fn enumerate_view_configuration_views(
     count: *mut u32,
     out: *mut sys::ViewConfigurationView,
 ) -> sys::Result {
-    let r = check_instance(instance);
-    if r != sys::Result::SUCCESS {
-        return r;
-    }
-    if system.into_raw() != SYSTEM {
-        return sys::Result::ERROR_SYSTEM_INVALID;
-    }
+    xr_try!(check_system(instance, system));
     if config != sys::ViewConfigurationType::PRIMARY_STEREO {
         return sys::Result::ERROR_VIEW_CONFIGURATION_TYPE_UNSUPPORTED;
     }
@@ -587,10 +585,7 @@ unsafe extern "system" fn poll_event(
     instance: sys::Instance,
     event: *mut sys::EventDataBuffer,
 ) -> sys::Result {
-    let r = check_instance(instance);
-    if r != sys::Result::SUCCESS {
-        return r;
-    }
+    xr_try!(check_instance(instance));
     if event.is_null() {
         return sys::Result::ERROR_VALIDATION_FAILURE;
     }
@@ -619,10 +614,7 @@ unsafe extern "system" fn string_to_path(
     s: *const c_char,
     path: *mut sys::Path,
 ) -> sys::Result {
-    let r = check_instance(instance);
-    if r != sys::Result::SUCCESS {
-        return r;
-    }
+    xr_try!(check_instance(instance));
     if s.is_null() || path.is_null() {
         return sys::Result::ERROR_VALIDATION_FAILURE;
     }
@@ -630,14 +622,7 @@ unsafe extern "system" fn string_to_path(
     let Ok(text) = (unsafe { CStr::from_ptr(s) }).to_str() else {
         return sys::Result::ERROR_PATH_FORMAT_INVALID;
     };
-    let well_formed = text.starts_with('/')
-        && !text.ends_with('/')
-        && text[1..].split('/').all(|seg| {
-            !seg.is_empty()
-                && seg
-                    .bytes()
-                    .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b"-_.".contains(&b))
-        });
+    let well_formed = xr_bindings::is_path(text);
     if !well_formed {
         return sys::Result::ERROR_PATH_FORMAT_INVALID;
     }
@@ -661,10 +646,7 @@ unsafe extern "system" fn path_to_string(
     count: *mut u32,
     buffer: *mut c_char,
 ) -> sys::Result {
-    let r = check_instance(instance);
-    if r != sys::Result::SUCCESS {
-        return r;
-    }
+    xr_try!(check_instance(instance));
     let text = {
         let rt = runtime();
         match (path.into_raw() as usize)

@@ -4,7 +4,7 @@
 //! A begun session becomes SYNCHRONIZED at the app's first `xrWaitFrame` and VISIBLE, then
 //! FOCUSED, at its first `xrEndFrame` (see `frame.rs`).
 
-use super::{Runtime, check_system, runtime, sys};
+use super::{Runtime, arg, arg_mut, check_system, runtime, sys};
 use std::ffi::{c_char, c_void};
 use sys::Handle;
 use sys::platform::{VkDevice, VkGetInstanceProcAddr, VkInstance, VkPhysicalDevice};
@@ -115,22 +115,15 @@ type VkEnumeratePhysicalDevices =
     unsafe extern "system" fn(VkInstance, *mut u32, *mut VkPhysicalDevice) -> i32;
 type VkCreateDevice =
     unsafe extern "system" fn(VkPhysicalDevice, *const c_void, *const c_void, *mut VkDevice) -> i32;
-/// VK_ERROR_INITIALIZATION_FAILED.
-const VK_INIT_FAILED: i32 = -3;
 
 unsafe extern "system" fn requirements(
     instance: sys::Instance,
     system: sys::SystemId,
     out: *mut sys::GraphicsRequirementsVulkanKHR,
 ) -> sys::Result {
-    let r = check_system(instance, system);
-    if r != sys::Result::SUCCESS {
-        return r;
-    }
+    xr_try!(check_system(instance, system));
     // SAFETY: the caller passes a writable struct or null (rejected).
-    let Some(out) = (unsafe { out.as_mut() }) else {
-        return sys::Result::ERROR_VALIDATION_FAILURE;
-    };
+    let out = xr_try!(unsafe { arg_mut(out) });
     out.min_api_version_supported = sys::Version::new(1, 0, 0);
     out.max_api_version_supported = sys::Version::new(1, 3, 0);
     runtime().vulkan.requirements_queried = true;
@@ -144,13 +137,8 @@ unsafe extern "system" fn create_vulkan_instance(
     vk_result: *mut i32,
 ) -> sys::Result {
     // SAFETY: the caller passes a valid create info or null (rejected).
-    let Some(info) = (unsafe { info.as_ref() }) else {
-        return sys::Result::ERROR_VALIDATION_FAILURE;
-    };
-    let r = check_system(instance, info.system_id);
-    if r != sys::Result::SUCCESS {
-        return r;
-    }
+    let info = xr_try!(unsafe { arg(info) });
+    xr_try!(check_system(instance, info.system_id));
     let Some(gipa) = info.pfn_get_instance_proc_addr else {
         return sys::Result::ERROR_VALIDATION_FAILURE;
     };
@@ -182,13 +170,8 @@ unsafe extern "system" fn graphics_device(
     physical: *mut VkPhysicalDevice,
 ) -> sys::Result {
     // SAFETY: the caller passes a valid get info or null (rejected).
-    let Some(info) = (unsafe { info.as_ref() }) else {
-        return sys::Result::ERROR_VALIDATION_FAILURE;
-    };
-    let r = check_system(instance, info.system_id);
-    if r != sys::Result::SUCCESS {
-        return r;
-    }
+    let info = xr_try!(unsafe { arg(info) });
+    xr_try!(check_system(instance, info.system_id));
     let vk = runtime().vulkan;
     let (Some(gipa), false) = (vk.gipa, physical.is_null()) else {
         return sys::Result::ERROR_VALIDATION_FAILURE;
@@ -203,25 +186,15 @@ unsafe extern "system" fn graphics_device(
     }) else {
         return sys::Result::ERROR_RUNTIME_FAILURE;
     };
-    let mut count = 0u32;
-    // SAFETY: the two-call idiom with a live instance: count first, then the handles.
-    let mut devices = unsafe {
-        if enumerate(info.vulkan_instance, &mut count, std::ptr::null_mut()) != 0 || count == 0 {
-            return sys::Result::ERROR_SYSTEM_INVALID;
-        }
-        let mut v: Vec<VkPhysicalDevice> = vec![std::ptr::null(); count as usize];
-        let r = enumerate(info.vulkan_instance, &mut count, v.as_mut_ptr());
-        if r < 0 {
-            return sys::Result::ERROR_SYSTEM_INVALID;
-        }
-        v.truncate(count as usize);
-        v
-    };
     // The first device: the headset's GPU on a real runtime; here whatever the driver lists
-    // first (lavapipe where there is no GPU).
-    let Some(first) = devices.drain(..).next() else {
+    // first (lavapipe where there is no GPU). Room for one: VK_INCOMPLETE is fine.
+    let mut count = 1u32;
+    let mut first: VkPhysicalDevice = std::ptr::null();
+    // SAFETY: a live instance, and room for `count` handles.
+    let r = unsafe { enumerate(info.vulkan_instance, &mut count, &mut first) };
+    if r < 0 || count == 0 || first.is_null() {
         return sys::Result::ERROR_SYSTEM_INVALID;
-    };
+    }
     // SAFETY: `physical` is non-null (checked) and writable.
     unsafe { *physical = first };
     sys::Result::SUCCESS
@@ -234,13 +207,8 @@ unsafe extern "system" fn create_vulkan_device(
     vk_result: *mut i32,
 ) -> sys::Result {
     // SAFETY: the caller passes a valid create info or null (rejected).
-    let Some(info) = (unsafe { info.as_ref() }) else {
-        return sys::Result::ERROR_VALIDATION_FAILURE;
-    };
-    let r = check_system(instance, info.system_id);
-    if r != sys::Result::SUCCESS {
-        return r;
-    }
+    let info = xr_try!(unsafe { arg(info) });
+    xr_try!(check_system(instance, info.system_id));
     let (Some(gipa), false, false) = (
         info.pfn_get_instance_proc_addr,
         vk_device.is_null(),
@@ -252,9 +220,7 @@ unsafe extern "system" fn create_vulkan_device(
     // SAFETY: vkCreateDevice has the declared type.
     let Some(create) = (unsafe { vk_fn::<VkCreateDevice>(gipa, vk.instance, b"vkCreateDevice\0") })
     else {
-        // SAFETY: `vk_result` is non-null (checked) and writable.
-        unsafe { *vk_result = VK_INIT_FAILED };
-        return sys::Result::SUCCESS;
+        return sys::Result::ERROR_RUNTIME_FAILURE;
     };
     // SAFETY: the app's physical device, create info and allocator pass through unchanged;
     // `vk_device` and `vk_result` are writable.
@@ -292,13 +258,8 @@ unsafe extern "system" fn create_session(
     session: *mut sys::Session,
 ) -> sys::Result {
     // SAFETY: the caller passes a valid create info or null (rejected).
-    let Some(info) = (unsafe { info.as_ref() }) else {
-        return sys::Result::ERROR_VALIDATION_FAILURE;
-    };
-    let r = check_system(instance, info.system_id);
-    if r != sys::Result::SUCCESS {
-        return r;
-    }
+    let info = xr_try!(unsafe { arg(info) });
+    xr_try!(check_system(instance, info.system_id));
     if session.is_null() {
         return sys::Result::ERROR_VALIDATION_FAILURE;
     }
@@ -343,6 +304,20 @@ pub(crate) fn with_session<T>(
     f(&mut rt)
 }
 
+/// The session of a runtime `with_session` has checked.
+pub(crate) fn live(rt: &mut Runtime) -> Result<&mut SessionData, sys::Result> {
+    rt.session.as_mut().ok_or(sys::Result::ERROR_HANDLE_INVALID)
+}
+
+/// The session, which must have begun.
+pub(crate) fn running(rt: &mut Runtime) -> Result<&mut SessionData, sys::Result> {
+    let s = live(rt)?;
+    if !s.begun {
+        return Err(sys::Result::ERROR_SESSION_NOT_RUNNING);
+    }
+    Ok(s)
+}
+
 pub(crate) fn result(r: Result<(), sys::Result>) -> sys::Result {
     r.err().unwrap_or(sys::Result::SUCCESS)
 }
@@ -361,14 +336,9 @@ unsafe extern "system" fn begin_session(
     info: *const sys::SessionBeginInfo,
 ) -> sys::Result {
     // SAFETY: the caller passes a valid begin info or null (rejected).
-    let Some(info) = (unsafe { info.as_ref() }) else {
-        return sys::Result::ERROR_VALIDATION_FAILURE;
-    };
+    let info = xr_try!(unsafe { arg(info) });
     result(with_session(session, |rt| {
-        let s = rt
-            .session
-            .as_mut()
-            .ok_or(sys::Result::ERROR_HANDLE_INVALID)?;
+        let s = live(rt)?;
         if s.begun {
             return Err(sys::Result::ERROR_SESSION_RUNNING);
         }
@@ -386,13 +356,7 @@ unsafe extern "system" fn begin_session(
 
 unsafe extern "system" fn request_exit_session(session: sys::Session) -> sys::Result {
     result(with_session(session, |rt| {
-        let s = rt
-            .session
-            .as_mut()
-            .ok_or(sys::Result::ERROR_HANDLE_INVALID)?;
-        if !s.begun {
-            return Err(sys::Result::ERROR_SESSION_NOT_RUNNING);
-        }
+        let s = running(rt)?;
         s.exit_requested = true;
         // Down the graph one state at a time: FOCUSED -> VISIBLE -> SYNCHRONIZED -> STOPPING.
         let mut now = s.state;
@@ -410,13 +374,7 @@ unsafe extern "system" fn request_exit_session(session: sys::Session) -> sys::Re
 
 unsafe extern "system" fn end_session(session: sys::Session) -> sys::Result {
     result(with_session(session, |rt| {
-        let s = rt
-            .session
-            .as_mut()
-            .ok_or(sys::Result::ERROR_HANDLE_INVALID)?;
-        if !s.begun {
-            return Err(sys::Result::ERROR_SESSION_NOT_RUNNING);
-        }
+        let s = running(rt)?;
         if s.state != sys::SessionState::STOPPING {
             return Err(sys::Result::ERROR_SESSION_NOT_STOPPING);
         }

@@ -32,15 +32,7 @@ fn a_lost_session_is_recreated_and_the_state_log_keeps_both() {
             let Some((session, _, _)) = live.as_ref() else {
                 continue;
             };
-            match machine.on_state(e.state()) {
-                Some(Command::BeginSession) => {
-                    session
-                        .begin(xr::ViewConfigurationType::PRIMARY_STEREO)
-                        .expect("begin");
-                }
-                Some(Command::EndSession) => {
-                    session.end().expect("end");
-                }
+            match common::obey(machine.on_state(e.state()), session) {
                 Some(Command::Exit) => break 'run,
                 Some(Command::Recreate) => {
                     loss_time = Some(e.time().as_nanos());
@@ -60,22 +52,14 @@ fn a_lost_session_is_recreated_and_the_state_log_keeps_both() {
                     machine.recreated();
                     break;
                 }
-                None => {}
+                _ => {}
             }
         }
         let Some((session, waiter, stream)) = live.as_mut() else {
             continue;
         };
         if machine.submits_frames() {
-            let frame = waiter.wait().expect("wait");
-            stream.begin().expect("begin frame");
-            stream
-                .end(
-                    frame.predicted_display_time,
-                    xr::EnvironmentBlendMode::OPAQUE,
-                    &[],
-                )
-                .expect("end frame");
+            let frame = common::frame(waiter, stream, |_| {});
             if machine.restarts == 1 && frame.should_render {
                 frames_after_restart += 1;
             }

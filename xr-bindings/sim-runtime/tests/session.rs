@@ -28,26 +28,17 @@ fn a_vulkan_session_walks_the_whole_life_cycle() {
             let xr::Event::SessionStateChanged(e) = event else {
                 continue;
             };
-            match machine.on_state(e.state()) {
-                Some(Command::BeginSession) => {
-                    session
-                        .begin(xr::ViewConfigurationType::PRIMARY_STEREO)
-                        .expect("begin");
-                }
-                Some(Command::EndSession) => {
-                    session.end().expect("end");
-                }
+            match common::obey(machine.on_state(e.state()), &session) {
                 Some(Command::Exit) => break 'run,
                 Some(Command::Recreate) => panic!("no loss was injected"),
-                None => {}
+                _ => {}
             }
         }
         if machine.submits_frames() {
-            let frame = waiter.wait().expect("wait");
-            stream.begin().expect("begin frame");
-            times.push(frame.predicted_display_time.as_nanos());
-            if frame.should_render {
-                rendered += 1;
+            let frame = common::frame(&mut waiter, &mut stream, |frame| {
+                if !frame.should_render {
+                    return;
+                }
                 let (_, views) = session
                     .locate_views(
                         xr::ViewConfigurationType::PRIMARY_STEREO,
@@ -60,14 +51,9 @@ fn a_vulkan_session_walks_the_whole_life_cycle() {
                 assert!(((r.x - l.x) - 0.063).abs() < 1e-6, "IPD {}", r.x - l.x);
                 assert!((l.y - 1.6).abs() < 1e-6 && (r.y - 1.6).abs() < 1e-6);
                 assert_eq!(views[0].fov.angle_left, -views[1].fov.angle_right);
-            }
-            stream
-                .end(
-                    frame.predicted_display_time,
-                    xr::EnvironmentBlendMode::OPAQUE,
-                    &[],
-                )
-                .expect("end frame");
+            });
+            times.push(frame.predicted_display_time.as_nanos());
+            rendered += usize::from(frame.should_render);
         }
         if machine.focused() && rendered >= 120 && !asked_to_exit {
             // The trainee is done: ask the runtime to wind the session down.

@@ -8,6 +8,7 @@ use ash::vk;
 use ash::vk::Handle;
 use openxr as xr;
 use std::path::PathBuf;
+use xr_bindings::Command;
 
 /// The built runtime library: cargo builds the cdylib beside the test executable (in
 /// target/<profile>/deps/) and, when it is a top-level artifact, copies it up a folder.
@@ -197,4 +198,41 @@ impl Drop for Rig {
             self.ash_instance.destroy_instance(None);
         }
     }
+}
+
+/// Carries out what the app's state machine asks of the session itself (begin, end); returns
+/// what is left for the caller (exit, recreate).
+pub fn obey(command: Option<Command>, session: &xr::Session<xr::Vulkan>) -> Option<Command> {
+    match command {
+        Some(Command::BeginSession) => {
+            session
+                .begin(xr::ViewConfigurationType::PRIMARY_STEREO)
+                .expect("begin");
+            None
+        }
+        Some(Command::EndSession) => {
+            session.end().expect("end");
+            None
+        }
+        other => other,
+    }
+}
+
+/// One frame with no layers: wait, begin, `between` (the app's work), end.
+pub fn frame(
+    waiter: &mut xr::FrameWaiter,
+    stream: &mut xr::FrameStream<xr::Vulkan>,
+    between: impl FnOnce(&xr::FrameState),
+) -> xr::FrameState {
+    let state = waiter.wait().expect("wait");
+    stream.begin().expect("begin frame");
+    between(&state);
+    stream
+        .end(
+            state.predicted_display_time,
+            xr::EnvironmentBlendMode::OPAQUE,
+            &[],
+        )
+        .expect("end frame");
+    state
 }
