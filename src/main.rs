@@ -25,6 +25,13 @@ const USAGE: &str = "usage:
   vesalius run <procedure> --headless --trace FILE [--out DIR] [--scenario FILE] [--realtime]
               [--frames N] [--eye-size WxH]  save N stereo frames as DIR/frames/{left,right}_NNNN.png
                                              (default eye 1080x1200, the Vive's) and DIR/profiler.csv
+  vesalius run <procedure> --xr [--out DIR] [--scenario FILE] [--eye-size WxH] [--xr-duration S]
+                                            in the headset of the active OpenXR runtime (SteamVR,
+                                            Monado); ends at the runtime's exit or after S seconds
+  vesalius run <procedure> --xr-sim TRACE --out DIR [--eye-size WxH]
+                                            the same under the simulated runtime playing TRACE;
+                                            its haptics.jsonl, frames/ and session-states.log go
+                                            to DIR/xr-sim/
   vesalius profile [<procedure>] [--json] [--eye-size WxH] [--two-pass]
                                             render the scene and print the Unity-profiler counters
                                             beside the paper's CPU and GPU columns
@@ -109,6 +116,20 @@ fn dispatch(args: &[String]) -> Result<(), String> {
             let trace = take_flag(&mut rest, "--trace")?;
             let scenario = take_flag(&mut rest, "--scenario")?;
             let headless = take_switch(&mut rest, "--headless");
+            let xr = take_switch(&mut rest, "--xr");
+            let xr_sim = take_flag(&mut rest, "--xr-sim")?;
+            let xr_duration = match take_flag(&mut rest, "--xr-duration")? {
+                Some(v) => Some(
+                    v.parse::<f64>()
+                        .ok()
+                        .filter(|d| d.is_finite() && *d > 0.0)
+                        .ok_or(format!(
+                            "--xr-duration: expected seconds greater than 0, got '{v}'"
+                        ))?,
+                ),
+                None => None,
+            };
+            let eye_given = rest.iter().any(|a| a == "--eye-size");
             let realtime = take_switch(&mut rest, "--realtime");
             let frames = match take_flag(&mut rest, "--frames")? {
                 Some(v) => v
@@ -127,9 +148,40 @@ fn dispatch(args: &[String]) -> Result<(), String> {
             let procedure = rest.remove(0);
             no_more(&rest)?;
             check_procedure("command line", "procedure", &procedure).map_err(|e| e.to_string())?;
+            if xr || xr_sim.is_some() {
+                if headless || trace.is_some() {
+                    return Err(
+                        "--xr runs in the headset: drop --headless/--trace (the simulated runtime plays a trace with --xr-sim TRACE)"
+                            .into(),
+                    );
+                }
+                let eye = eye_given.then_some(eye_size);
+                return match xr_sim {
+                    Some(t) => {
+                        let out =
+                            out.ok_or("--xr-sim needs --out DIR (its outputs go to DIR/xr-sim/)")?;
+                        run_xr_sim(
+                            &procedure,
+                            scenario.as_deref(),
+                            Path::new(&t),
+                            Path::new(&out),
+                            eye,
+                        )
+                    }
+                    None => run_xr(
+                        &procedure,
+                        scenario.as_deref(),
+                        out.as_deref().map(Path::new),
+                        vesalius::xr::XrOptions {
+                            duration_s: xr_duration,
+                            eye_size: eye,
+                        },
+                    ),
+                };
+            }
             if !headless {
                 return Err(
-                    "the desktop window and --xr are not built yet; use --headless --trace FILE"
+                    "the desktop window is not built yet; use --headless --trace FILE, or --xr"
                         .into(),
                 );
             }
@@ -212,9 +264,13 @@ fn xr_sim_manifest(out: Option<PathBuf>) -> Result<PathBuf, String> {
         .parent()
         .ok_or_else(|| format!("{}: no parent folder", exe.display()))?;
     let name = "libvesalius_sim_runtime.so";
+    // The newest build: `cargo build` copies the library up beside the executable, test
+    // builds leave theirs in deps/, and either may be stale.
+    let modified = |p: &PathBuf| std::fs::metadata(p).and_then(|m| m.modified()).ok();
     let lib = [dir.join(name), dir.join("deps").join(name)]
         .into_iter()
-        .find(|p| p.is_file())
+        .filter(|p| p.is_file())
+        .max_by_key(modified)
         .ok_or_else(|| {
             format!(
                 "{name} is not beside {} (build it: cargo build --release --workspace)",
@@ -230,6 +286,97 @@ fn xr_sim_manifest(out: Option<PathBuf>) -> Result<PathBuf, String> {
     std::fs::write(&tmp, text).map_err(|e| format!("{}: {e}", tmp.display()))?;
     std::fs::rename(&tmp, &path).map_err(|e| format!("{}: {e}", path.display()))?;
     Ok(path)
+}
+
+/// The scenario a run uses: the file given, or the procedure's built-in one.
+fn scenario_text(procedure: &str, scenario: Option<&str>) -> Result<(String, String), String> {
+    Ok(match scenario {
+        Some(f) => (
+            f.to_string(),
+            std::fs::read_to_string(f).map_err(|e| format!("{f}: cannot read: {e}"))?,
+        ),
+        None => (
+            format!("builtin {procedure} scenario"),
+            builtin(procedure).unwrap_or_default().to_string(),
+        ),
+    })
+}
+
+/// `run <p> --xr`: a session in the headset of whatever OpenXR runtime is active.
+fn run_xr(
+    procedure: &str,
+    scenario: Option<&str>,
+    out: Option<&Path>,
+    opts: vesalius::xr::XrOptions,
+) -> Result<(), String> {
+    let (file, text) = scenario_text(procedure, scenario)?;
+    let run = vesalius::xr::run(&text, &file, opts)?;
+    println!(
+        "XR runtime '{}' on {}: {} stereo frames at {}x{} per eye, {} session(s)",
+        run.runtime, run.device, run.frames, run.eye_size.0, run.eye_size.1, run.sessions
+    );
+    finish(&run.outcome, out)
+}
+
+/// `run <p> --xr-sim TRACE --out DIR`: the same XR session under the simulated runtime, which
+/// plays TRACE as head and controller motion and writes its logs and frames to DIR/xr-sim/.
+/// The loader reads the runtime's location from the environment, so the session runs in a
+/// child process that has it set.
+fn run_xr_sim(
+    procedure: &str,
+    scenario: Option<&str>,
+    trace: &Path,
+    out: &Path,
+    eye: Option<(u32, u32)>,
+) -> Result<(), String> {
+    let keys = KeyTrace::load(trace).map_err(|e| e.to_string())?;
+    if keys.procedure != procedure {
+        return Err(format!(
+            "{}: procedure: trace is for '{}', not '{procedure}'",
+            trace.display(),
+            keys.procedure
+        ));
+    }
+    let sim_dir = out.join("xr-sim");
+    std::fs::create_dir_all(&sim_dir).map_err(|e| format!("{}: {e}", sim_dir.display()))?;
+    let abs = |p: &Path| {
+        p.canonicalize()
+            .map_err(|e| format!("{}: {e}", p.display()))
+    };
+    let (sim_abs, trace_abs) = (abs(&sim_dir)?, abs(trace)?);
+    let manifest = xr_sim_manifest(Some(sim_abs.join("runtime.json")))?;
+    let quote = |p: &Path| toml::Value::String(p.display().to_string()).to_string();
+    let settings = format!(
+        "# Written by `vesalius run --xr-sim`: the simulated runtime's settings.\nout_dir = {}\ntrace = {}\n",
+        quote(&sim_abs),
+        quote(&trace_abs)
+    );
+    let config = sim_abs.join("settings.toml");
+    std::fs::write(&config, settings).map_err(|e| format!("{}: {e}", config.display()))?;
+    let exe = std::env::current_exe().map_err(|e| format!("cannot find this executable: {e}"))?;
+    let duration = keys.duration_s() + session::SETTLE_S;
+    let mut cmd = std::process::Command::new(exe);
+    cmd.args(["run", procedure, "--xr", "--out"])
+        .arg(out)
+        .args(["--xr-duration", &format!("{duration}")])
+        .env("XR_RUNTIME_JSON", &manifest)
+        .env(vesalius_sim_runtime::CONFIG_ENV, &config);
+    if let Some(f) = scenario {
+        cmd.args(["--scenario", f]);
+    }
+    if let Some((w, h)) = eye {
+        cmd.args(["--eye-size", &format!("{w}x{h}")]);
+    }
+    let status = cmd
+        .status()
+        .map_err(|e| format!("cannot start the XR session: {e}"))?;
+    if !status.success() {
+        return Err(format!(
+            "the XR session under the simulated runtime failed ({status})"
+        ));
+    }
+    println!("simulated runtime outputs in {}", sim_dir.display());
+    Ok(())
 }
 
 fn finish(outcome: &session::Outcome, out: Option<&Path>) -> Result<(), String> {
@@ -274,16 +421,7 @@ fn run(
     realtime: bool,
     (frames, eye_size): (u32, (u32, u32)),
 ) -> Result<(), String> {
-    let (file, text) = match scenario {
-        Some(f) => (
-            f.to_string(),
-            std::fs::read_to_string(f).map_err(|e| format!("{f}: cannot read: {e}"))?,
-        ),
-        None => (
-            format!("builtin {procedure} scenario"),
-            builtin(procedure).unwrap_or_default().to_string(),
-        ),
-    };
+    let (file, text) = scenario_text(procedure, scenario)?;
     let keys = KeyTrace::load(trace).map_err(|e| e.to_string())?;
     if keys.procedure != procedure {
         return Err(format!(

@@ -18,7 +18,7 @@ pub enum Input {
 }
 
 /// Extra simulated time after the trace ends, seconds, so that motion settles.
-const SETTLE_S: f64 = 0.25;
+pub const SETTLE_S: f64 = 0.25;
 
 #[derive(Debug, Serialize)]
 pub struct ModelReport {
@@ -85,6 +85,136 @@ pub fn run(
     run_capturing(scenario_text, scenario_file, input, pacing, bus, 0)
 }
 
+/// A session stepped from outside (the XR frame loop): the procedure, its clock, and what it
+/// has recorded so far.
+pub struct Live {
+    scenario: Scenario,
+    scenario_text: String,
+    proc_: Nephrectomy,
+    clock: Clock,
+    frames: Vec<InputFrame>,
+    events: Vec<SimEvent>,
+    start: Instant,
+}
+
+impl Live {
+    pub fn new(
+        scenario_text: &str,
+        scenario_file: &str,
+        pacing: Pacing,
+    ) -> Result<Live, SessionError> {
+        let scenario = Scenario::parse(scenario_file, scenario_text)?;
+        let proc_ = Nephrectomy::new(scenario.clone())?;
+        Ok(Live {
+            clock: Clock::new(scenario.dt_s, pacing),
+            scenario,
+            scenario_text: scenario_text.to_string(),
+            proc_,
+            frames: Vec::new(),
+            events: Vec::new(),
+            start: Instant::now(),
+        })
+    }
+
+    pub fn dt_s(&self) -> f32 {
+        self.scenario.dt_s
+    }
+
+    /// Simulated time, seconds.
+    pub fn time_s(&self) -> f64 {
+        self.clock.time_s()
+    }
+
+    pub fn step_count(&self) -> u64 {
+        self.clock.step()
+    }
+
+    /// One step with this input; the events it raised are returned (and kept).
+    pub fn step(&mut self, frame: InputFrame) -> &[SimEvent] {
+        let step = self.clock.step();
+        let before = self.events.len();
+        self.proc_.step(&frame, step, &mut self.events);
+        self.frames.push(frame);
+        self.clock.tick();
+        &self.events[before..]
+    }
+
+    /// Adds an event from outside the simulation (a controller lost, a session restarted).
+    pub fn note(&mut self, kind: crate::sim::EventKind) {
+        let step = self.clock.step();
+        self.events.push(SimEvent { step, kind });
+    }
+
+    pub fn snapshot(&mut self) -> Snapshot {
+        self.proc_.snapshot(self.clock.step())
+    }
+
+    pub fn is_completed(&self) -> bool {
+        self.proc_.is_completed()
+    }
+
+    /// Reaction force on each tool (left, right) after the last step, newtons.
+    pub fn reactions(&self) -> [glam::Vec3; 2] {
+        self.proc_.reactions()
+    }
+
+    /// The report, events and recording of the session so far.
+    pub fn finish(self, captured: Vec<Snapshot>) -> Outcome {
+        let wall_s = self.start.elapsed().as_secs_f64();
+        let proc_ = self.proc_;
+        let scenario = self.scenario;
+        let clock = self.clock;
+        let dt = scenario.dt_s;
+        let mut counts: BTreeMap<String, u64> = BTreeMap::new();
+        for e in &self.events {
+            *counts.entry(e.kind.name().to_string()).or_default() += 1;
+        }
+        let mut metrics = proc_.metrics.clone();
+        if !proc_.is_completed() {
+            metrics.healthy_removed_m2 = proc_.healthy_removed();
+        }
+        let (score, parts) = assess::score(&scenario, &metrics);
+        let report = Report {
+            procedure: scenario.procedure.clone(),
+            completed: proc_.is_completed(),
+            dt_s: dt,
+            steps: clock.step(),
+            simulated_s: clock.time_s(),
+            models: proc_
+                .models()
+                .iter()
+                .map(|m| {
+                    let s = m.sizes();
+                    ModelReport {
+                        name: m.name().to_string(),
+                        kind: m.kind().to_string(),
+                        vertices: s.vertices,
+                        triangles: s.triangles,
+                        constraints: s.constraints,
+                    }
+                })
+                .collect(),
+            events: counts,
+            metrics,
+            score_parts: parts,
+            score,
+            state_hash: format!("{:016x}", proc_.state_hash()),
+        };
+        Outcome {
+            report,
+            events: self.events,
+            recording: Recording {
+                procedure: scenario.procedure,
+                dt_s: dt,
+                scenario: self.scenario_text,
+                frames: self.frames,
+            },
+            wall_s,
+            captured,
+        }
+    }
+}
+
 /// Runs a session and keeps `frames` snapshots, evenly spaced over it, for rendering.
 pub fn run_capturing(
     scenario_text: &str,
@@ -94,89 +224,35 @@ pub fn run_capturing(
     bus: Option<&SnapshotBus>,
     frames_wanted: u32,
 ) -> Result<Outcome, SessionError> {
-    let scenario = Scenario::parse(scenario_file, scenario_text)?;
-    let dt = scenario.dt_s;
-    let publish_every = ((1.0 / scenario.publish_hz) / dt).round().max(1.0) as u64;
-    let mut proc_ = Nephrectomy::new(scenario.clone())?;
-    let mut clock = Clock::new(dt, pacing);
+    let mut live = Live::new(scenario_text, scenario_file, pacing)?;
+    let dt = live.dt_s();
+    let publish_every = ((1.0 / live.scenario.publish_hz) / dt).round().max(1.0) as u64;
     let total_steps = match &input {
         Input::Keys(k) => ((k.duration_s() + SETTLE_S) / dt as f64).ceil() as u64,
         Input::Recorded(f) => f.len() as u64,
     };
-    let mut frames = Vec::with_capacity(total_steps as usize);
     let n = frames_wanted as u64;
     let capture_at: Vec<u64> = (1..=n)
         .map(|k| (k * total_steps / n.max(1)).saturating_sub(1))
         .collect();
     let mut captured = Vec::with_capacity(capture_at.len());
-    let mut events = Vec::new();
-    let start = Instant::now();
-    while clock.step() < total_steps {
-        let step = clock.step();
+    while live.step_count() < total_steps {
+        let step = live.step_count();
         let frame = match &input {
-            Input::Keys(k) => k.sample(clock.time_s()),
+            Input::Keys(k) => k.sample(live.time_s()),
             Input::Recorded(f) => f[step as usize],
         };
-        proc_.step(&frame, step, &mut events);
-        frames.push(frame);
+        live.step(frame);
         if capture_at.binary_search(&step).is_ok() {
-            captured.push(proc_.snapshot(step));
+            captured.push(live.proc_.snapshot(step));
         }
         if let Some(bus) = bus
             && step.is_multiple_of(publish_every)
         {
-            bus.publish(proc_.snapshot(step));
+            bus.publish(live.proc_.snapshot(step));
         }
-        clock.tick();
     }
-    let wall_s = start.elapsed().as_secs_f64();
-    let mut counts: BTreeMap<String, u64> = BTreeMap::new();
-    for e in &events {
-        *counts.entry(e.kind.name().to_string()).or_default() += 1;
-    }
-    let mut metrics = proc_.metrics.clone();
-    if !proc_.is_completed() {
-        metrics.healthy_removed_m2 = proc_.healthy_removed();
-    }
-    let (score, parts) = assess::score(&scenario, &metrics);
-    let report = Report {
-        procedure: scenario.procedure.clone(),
-        completed: proc_.is_completed(),
-        dt_s: dt,
-        steps: clock.step(),
-        simulated_s: clock.time_s(),
-        models: proc_
-            .models()
-            .iter()
-            .map(|m| {
-                let s = m.sizes();
-                ModelReport {
-                    name: m.name().to_string(),
-                    kind: m.kind().to_string(),
-                    vertices: s.vertices,
-                    triangles: s.triangles,
-                    constraints: s.constraints,
-                }
-            })
-            .collect(),
-        events: counts,
-        metrics,
-        score_parts: parts,
-        score,
-        state_hash: format!("{:016x}", proc_.state_hash()),
-    };
-    Ok(Outcome {
-        report,
-        events,
-        recording: Recording {
-            procedure: scenario.procedure,
-            dt_s: dt,
-            scenario: scenario_text.to_string(),
-            frames,
-        },
-        wall_s,
-        captured,
-    })
+    Ok(live.finish(captured))
 }
 
 /// Writes report.json, events.jsonl, input.vtrace and timing.json into `dir`.

@@ -4,103 +4,30 @@
 use crate::scenario::{InputError, check_procedure};
 use crate::sim::{Buttons, Hand, HandInput, InputFrame, Pose};
 use glam::{Quat, Vec3};
-use serde::Deserialize;
 use std::io::{Read, Write};
 use std::path::Path;
 
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct TraceFile {
-    procedure: String,
-    #[serde(default)]
-    left: Vec<Key>,
-    #[serde(default)]
-    right: Vec<Key>,
-}
-
-/// One keyframe of one hand. Position and target are linearly interpolated; the instrument
-/// points from position to target; `mark` holds until the next keyframe.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Key {
-    pub t_s: f64,
-    pub position: [f32; 3],
-    pub target: [f32; 3],
-    #[serde(default)]
-    pub trigger: f32,
-    #[serde(default)]
-    pub grip: f32,
-    #[serde(default)]
-    pub mark: bool,
-}
+/// One keyframe of one hand (the format is shared with the simulated XR runtime).
+pub use xr_bindings::keyframes::HandKey as Key;
+use xr_bindings::keyframes::{HeadKey, KeyframeFile};
 
 /// A validated keyframed trace.
 #[derive(Debug, Clone, PartialEq)]
 pub struct KeyTrace {
     pub procedure: String,
     pub keys: [Vec<Key>; 2],
+    /// Head keys: played by the simulated XR runtime; headless sessions keep their camera.
+    pub head: Vec<HeadKey>,
 }
 
 impl KeyTrace {
     pub fn parse(file: &str, text: &str) -> Result<Self, InputError> {
-        let t: TraceFile = toml::from_str(text).map_err(|e| InputError::toml(file, &e))?;
+        let t = KeyframeFile::parse(text).map_err(|e| InputError::new(file, &e.key, e.message))?;
         check_procedure(file, "procedure", &t.procedure)?;
-        for (name, keys) in [("left", &t.left), ("right", &t.right)] {
-            if keys.is_empty() {
-                return Err(InputError::new(
-                    file,
-                    name,
-                    "needs at least one [[".to_string() + name + "]] keyframe",
-                ));
-            }
-            let mut last = f64::NEG_INFINITY;
-            for (i, k) in keys.iter().enumerate() {
-                let key = |f: &str| format!("{name}[{i}].{f}");
-                if !k.t_s.is_finite() || k.t_s < 0.0 {
-                    return Err(InputError::new(
-                        file,
-                        &key("t_s"),
-                        format!("must be a finite time >= 0 s, got {}", k.t_s),
-                    ));
-                }
-                if k.t_s < last {
-                    return Err(InputError::new(
-                        file,
-                        &key("t_s"),
-                        format!("time goes backwards: {} s after {} s", k.t_s, last),
-                    ));
-                }
-                last = k.t_s;
-                for (f, v) in [("position", k.position), ("target", k.target)] {
-                    if v.iter().any(|c| !c.is_finite() || c.abs() > 10.0) {
-                        return Err(InputError::new(
-                            file,
-                            &key(f),
-                            format!("must be finite metres within 10 m, got {v:?}"),
-                        ));
-                    }
-                }
-                if Vec3::from(k.position).distance(Vec3::from(k.target)) < 1e-6 {
-                    return Err(InputError::new(
-                        file,
-                        &key("target"),
-                        "must differ from position (it sets the pointing direction)",
-                    ));
-                }
-                for (f, v) in [("trigger", k.trigger), ("grip", k.grip)] {
-                    if !v.is_finite() || !(0.0..=1.0).contains(&v) {
-                        return Err(InputError::new(
-                            file,
-                            &key(f),
-                            format!("must be between 0 and 1, got {v}"),
-                        ));
-                    }
-                }
-            }
-        }
         Ok(Self {
             procedure: t.procedure,
             keys: [t.left, t.right],
+            head: t.head,
         })
     }
 
@@ -117,9 +44,10 @@ impl KeyTrace {
             let keep = keys.iter().filter(|k| k.t_s <= t_s).count().max(1);
             keys.truncate(keep);
         }
+        self.head.retain(|k| k.t_s <= t_s);
     }
 
-    /// Time of the last keyframe, seconds.
+    /// Time of the last hand keyframe, seconds.
     pub fn duration_s(&self) -> f64 {
         self.keys
             .iter()
@@ -132,33 +60,18 @@ impl KeyTrace {
     pub fn sample(&self, t_s: f64) -> InputFrame {
         let mut frame = InputFrame::default();
         for hand in Hand::BOTH {
-            frame.hands[hand.index()] = sample_hand(&self.keys[hand.index()], t_s);
+            if let Some(h) = xr_bindings::keyframes::sample_hand(&self.keys[hand.index()], t_s) {
+                frame.hands[hand.index()] = HandInput {
+                    pose: Pose::looking_at(h.position, h.target),
+                    buttons: Buttons {
+                        trigger: h.trigger,
+                        grip: h.grip,
+                        mark: h.mark,
+                    },
+                };
+            }
         }
         frame
-    }
-}
-
-fn sample_hand(keys: &[Key], t: f64) -> HandInput {
-    let i = keys.partition_point(|k| k.t_s <= t);
-    let (a, b) = match i {
-        0 => (keys[0], keys[0]),
-        i if i >= keys.len() => (keys[keys.len() - 1], keys[keys.len() - 1]),
-        i => (keys[i - 1], keys[i]),
-    };
-    let s = if b.t_s > a.t_s {
-        ((t - a.t_s) / (b.t_s - a.t_s)).clamp(0.0, 1.0) as f32
-    } else {
-        0.0
-    };
-    let pos = Vec3::from(a.position).lerp(Vec3::from(b.position), s);
-    let target = Vec3::from(a.target).lerp(Vec3::from(b.target), s);
-    HandInput {
-        pose: Pose::looking_at(pos, target),
-        buttons: Buttons {
-            trigger: a.trigger + (b.trigger - a.trigger) * s,
-            grip: a.grip + (b.grip - a.grip) * s,
-            mark: a.mark,
-        },
     }
 }
 

@@ -585,6 +585,11 @@ impl Nephrectomy {
     }
 
     /// Healthy parenchyma area (at rest) cut away or carried off with the specimen, m^2.
+    /// Reaction force on each tool after the last step, newtons.
+    pub fn reactions(&self) -> [Vec3; 2] {
+        self.reactions
+    }
+
     pub fn healthy_removed(&self) -> f32 {
         let k = &self.models[KIDNEY];
         (0..k.mesh().len())

@@ -71,6 +71,17 @@ impl Gpu {
             ..Default::default()
         }))
         .map_err(|e| RenderError::Device(e.to_string()))?;
+        Ok(Gpu::from_parts(instance, adapter, device, queue, multiview))
+    }
+
+    /// Wraps a device made elsewhere (the XR runtime's Vulkan device), collecting its errors.
+    pub fn from_parts(
+        instance: wgpu::Instance,
+        adapter: wgpu::Adapter,
+        device: wgpu::Device,
+        queue: wgpu::Queue,
+        multiview: bool,
+    ) -> Gpu {
         let info = adapter.get_info();
         let errors: Arc<std::sync::Mutex<Vec<RenderError>>> = Arc::default();
         let sink = errors.clone();
@@ -85,7 +96,7 @@ impl Gpu {
                 v.push(RenderError::Lost(format!("{reason:?}: {message}")));
             }
         });
-        Ok(Gpu {
+        Gpu {
             instance,
             adapter,
             device,
@@ -94,7 +105,7 @@ impl Gpu {
             info,
             ledger: Ledger::new(),
             errors,
-        })
+        }
     }
 
     /// The first error wgpu reported since the last check, if any.

@@ -67,6 +67,18 @@ pub enum EventKind {
         model: String,
         restored_step: u64,
     },
+    /// The hand's controller stopped tracking; its instrument stays where it was.
+    ControllerLost {
+        hand: String,
+    },
+    /// The hand's controller is tracked again; its instrument follows it.
+    ControllerRegained {
+        hand: String,
+    },
+    /// The XR session was lost (headset unplugged, runtime gone); the simulation waits.
+    SessionLost,
+    /// A new XR session took over after a loss.
+    SessionRestarted,
 }
 
 impl EventKind {
@@ -85,6 +97,10 @@ impl EventKind {
             EventKind::Release { .. } => "release",
             EventKind::TaskStep { .. } => "task_step",
             EventKind::Quarantined { .. } => "quarantined",
+            EventKind::ControllerLost { .. } => "controller_lost",
+            EventKind::ControllerRegained { .. } => "controller_regained",
+            EventKind::SessionLost => "session_lost",
+            EventKind::SessionRestarted => "session_restarted",
         }
     }
 

@@ -4,8 +4,11 @@
 //! the Khronos loader, the Vulkan -> wgpu interop and the simulated runtime
 //! (`xr-bindings/sim-runtime`) follow.
 
+pub mod app;
+pub mod keyframes;
 pub mod profiles;
 pub mod session_state;
+pub mod stage;
 pub mod vive;
 
 pub use openxr;

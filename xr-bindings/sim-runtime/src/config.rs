@@ -8,13 +8,65 @@ use std::path::PathBuf;
 /// The environment variable naming the settings file.
 pub const CONFIG_ENV: &str = "VESALIUS_XR_SIM_CONFIG";
 
-#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Config {
-    /// Where the runtime writes its outputs (`session-states.log`); none: nothing is written.
+    /// Where the runtime writes its outputs (`session-states.log`, `haptics.jsonl`,
+    /// `frames/`); none: nothing is written.
     pub out_dir: Option<PathBuf>,
+    /// A keyframed trace (`assets/traces/` format) that moves the head and controllers and
+    /// presses the buttons; relative paths are from the settings file's folder. None: the head
+    /// stands still and no controller is there.
+    pub trace: Option<PathBuf>,
+    /// Dump the submitted eye images of every Nth frame into `frames/` (0: none). Default 30
+    /// (three images a second at 90 Hz).
+    #[serde(default = "default_every")]
+    pub frames_every: u32,
     #[serde(default)]
     pub inject: Inject,
+}
+
+fn default_every() -> u32 {
+    30
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config {
+            out_dir: None,
+            trace: None,
+            frames_every: default_every(),
+            inject: Inject::default(),
+        }
+    }
+}
+
+/// A hand, as the settings name it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum HandName {
+    Left,
+    Right,
+}
+
+impl HandName {
+    pub fn index(self) -> usize {
+        match self {
+            HandName::Left => 0,
+            HandName::Right => 1,
+        }
+    }
+}
+
+/// A controller out of tracking (battery out, out of the base stations' view) for a while.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ControllerLoss {
+    pub hand: HandName,
+    /// From this time, seconds after the first frame...
+    pub from_s: f64,
+    /// ...until this time, seconds.
+    pub to_s: f64,
 }
 
 /// Faults to inject, at display times counted from the first frame.
@@ -26,6 +78,10 @@ pub struct Inject {
     /// After a loss, how many `xrGetSystem` calls find no headset before it is back.
     #[serde(default = "default_back")]
     pub headset_back_after_polls: u32,
+    /// Controllers lost for a while: `[[inject.controller_loss]]` with `hand`, `from_s`,
+    /// `to_s`.
+    #[serde(default)]
+    pub controller_loss: Vec<ControllerLoss>,
 }
 
 fn default_back() -> u32 {
@@ -37,6 +93,7 @@ impl Default for Inject {
         Inject {
             session_loss_s: None,
             headset_back_after_polls: default_back(),
+            controller_loss: Vec::new(),
         }
     }
 }
@@ -44,7 +101,22 @@ impl Default for Inject {
 impl Config {
     /// Parses and checks settings; `file` names them in errors.
     pub fn parse(file: &str, text: &str) -> Result<Config, String> {
-        let c: Config = toml::from_str(text).map_err(|e| format!("{file}: {e}"))?;
+        let mut c: Config = toml::from_str(text).map_err(|e| format!("{file}: {e}"))?;
+        for (i, l) in c.inject.controller_loss.iter().enumerate() {
+            if !(l.from_s.is_finite() && l.to_s.is_finite() && 0.0 <= l.from_s && l.from_s < l.to_s)
+            {
+                return Err(format!(
+                    "{file}: inject.controller_loss[{i}]: expected 0 <= from_s < to_s, in seconds, got {} and {}",
+                    l.from_s, l.to_s
+                ));
+            }
+        }
+        if let Some(t) = c.trace.as_mut()
+            && t.is_relative()
+            && let Some(dir) = std::path::Path::new(file).parent()
+        {
+            *t = dir.join(&*t);
+        }
         if let Some(t) = c.inject.session_loss_s
             && !(t.is_finite() && t > 0.0)
         {
@@ -53,6 +125,29 @@ impl Config {
             ));
         }
         Ok(c)
+    }
+
+    /// The trace the settings name, read and checked.
+    pub fn load_trace(&self) -> Result<Option<xr_bindings::keyframes::KeyframeFile>, String> {
+        let Some(path) = self.trace.as_ref() else {
+            return Ok(None);
+        };
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("{}: cannot read the trace: {e}", path.display()))?;
+        xr_bindings::keyframes::KeyframeFile::parse(&text)
+            .map(Some)
+            .map_err(|e| format!("{}: {}: {}", path.display(), e.key, e.message))
+    }
+
+    /// Makes the output folder and empties the logs a run appends to.
+    pub fn start_outputs(&self) -> Result<(), String> {
+        let Some(dir) = self.out_dir.as_ref() else {
+            return Ok(());
+        };
+        let fail = |e: std::io::Error| format!("{}: {e}", dir.display());
+        std::fs::create_dir_all(dir.join("frames")).map_err(fail)?;
+        std::fs::write(dir.join(crate::HAPTICS_FILE), "").map_err(fail)?;
+        Ok(())
     }
 
     /// The settings named by [`CONFIG_ENV`], or the defaults when it is not set.

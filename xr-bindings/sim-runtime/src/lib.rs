@@ -116,6 +116,11 @@ pub(crate) struct Runtime {
     pub(crate) state_log: Vec<String>,
     /// Sessions created under this instance.
     pub(crate) sessions_made: u32,
+    /// Frames ended with a stereo projection layer, over all sessions (names the dumps).
+    pub(crate) frames_shown: u64,
+    /// The trace that moves the head and controllers (`trace` in the settings).
+    pub(crate) trace: Option<xr_bindings::keyframes::KeyframeFile>,
+    pub(crate) input: input::Input,
 }
 
 static RUNTIME: Mutex<Runtime> = Mutex::new(Runtime {
@@ -131,15 +136,42 @@ static RUNTIME: Mutex<Runtime> = Mutex::new(Runtime {
     now_ns: 0,
     state_log: Vec::new(),
     sessions_made: 0,
+    frames_shown: 0,
+    trace: None,
+    input: input::Input::NEW,
 });
 
 mod config;
 mod frame;
+mod input;
+mod spaces;
+mod swapchain;
 pub use config::{CONFIG_ENV, Config};
 pub use frame::FRAME_PERIOD_NS;
+pub use input::HAPTICS_FILE;
 mod session;
 
 impl Runtime {
+    /// The text of an interned path.
+    pub(crate) fn path_text(&self, path: sys::Path) -> Option<&str> {
+        (path.into_raw() as usize)
+            .checked_sub(1)
+            .and_then(|k| self.paths.get(k))
+            .map(String::as_str)
+    }
+
+    /// The path for `text` (well-formed), interning it if new.
+    pub(crate) fn intern(&mut self, text: &str) -> sys::Path {
+        let n = match self.paths.iter().position(|p| p == text) {
+            Some(k) => k + 1,
+            None => {
+                self.paths.push(text.to_string());
+                self.paths.len()
+            }
+        };
+        sys::Path::from_raw(n as u64)
+    }
+
     /// Writes `session-states.log` into the configured output folder (whole, atomically).
     pub(crate) fn write_state_log(&self) {
         let Some(dir) = self.config.as_ref().and_then(|c| c.out_dir.as_ref()) else {
@@ -322,6 +354,7 @@ unsafe extern "system" fn get_instance_proc_addr(
                 path_to_string,
             )),
             n if session::lookup(n).is_some() => session::lookup(n),
+            n if input::lookup(n).is_some() => input::lookup(n),
             n if CORE_FUNCTIONS.contains(&n) => Some(transmute::<
                 unsafe extern "system" fn() -> sys::Result,
                 sys::pfn::VoidFunction,
@@ -437,17 +470,31 @@ unsafe extern "system" fn create_instance(
             return sys::Result::ERROR_RUNTIME_FAILURE;
         }
     };
+    let trace = match config.load_trace() {
+        Ok(t) => t,
+        Err(e) => {
+            eprintln!("vesalius-sim-runtime: {e}");
+            return sys::Result::ERROR_RUNTIME_FAILURE;
+        }
+    };
+    if let Err(e) = config.start_outputs() {
+        eprintln!("vesalius-sim-runtime: {e}");
+        return sys::Result::ERROR_RUNTIME_FAILURE;
+    }
     let mut rt = runtime();
     if rt.instance_alive {
         return sys::Result::ERROR_LIMIT_REACHED;
     }
     rt.instance_alive = true;
+    rt.trace = trace;
+    rt.input = input::Input::NEW;
     rt.config = Some(config);
     rt.lost = false;
     rt.headset_gone_polls = 0;
     rt.now_ns = 0;
     rt.state_log.clear();
     rt.sessions_made = 0;
+    rt.frames_shown = 0;
     rt.paths.clear();
     rt.vulkan_enabled = vulkan;
     rt.vulkan = session::VulkanState::NONE;
@@ -592,20 +639,37 @@ unsafe extern "system" fn poll_event(
     let Some(e) = runtime().events.pop_front() else {
         return sys::Result::EVENT_UNAVAILABLE;
     };
-    let changed = sys::EventDataSessionStateChanged {
-        ty: sys::EventDataSessionStateChanged::TYPE,
-        next: std::ptr::null(),
-        session: sys::Session::from_raw(e.session),
-        state: e.state,
-        time: sys::Time::from_nanos(e.time_ns),
-    };
-    // SAFETY: `event` is a non-null EventDataBuffer (4 kB), larger than the event written, and
-    // suitably aligned for it (both start with the same header).
-    unsafe {
-        event
-            .cast::<sys::EventDataSessionStateChanged>()
-            .write(changed)
-    };
+    match e.state {
+        Some(state) => {
+            let changed = sys::EventDataSessionStateChanged {
+                ty: sys::EventDataSessionStateChanged::TYPE,
+                next: std::ptr::null(),
+                session: sys::Session::from_raw(e.session),
+                state,
+                time: sys::Time::from_nanos(e.time_ns),
+            };
+            // SAFETY: `event` is a non-null EventDataBuffer (4 kB), larger than the event
+            // written, and suitably aligned for it (both start with the same header).
+            unsafe {
+                event
+                    .cast::<sys::EventDataSessionStateChanged>()
+                    .write(changed)
+            };
+        }
+        None => {
+            let changed = sys::EventDataInteractionProfileChanged {
+                ty: sys::EventDataInteractionProfileChanged::TYPE,
+                next: std::ptr::null(),
+                session: sys::Session::from_raw(e.session),
+            };
+            // SAFETY: as above.
+            unsafe {
+                event
+                    .cast::<sys::EventDataInteractionProfileChanged>()
+                    .write(changed)
+            };
+        }
+    }
     sys::Result::SUCCESS
 }
 
@@ -626,16 +690,9 @@ unsafe extern "system" fn string_to_path(
     if !well_formed {
         return sys::Result::ERROR_PATH_FORMAT_INVALID;
     }
-    let mut rt = runtime();
-    let n = match rt.paths.iter().position(|p| p == text) {
-        Some(k) => k + 1,
-        None => {
-            rt.paths.push(text.to_string());
-            rt.paths.len()
-        }
-    };
+    let p = runtime().intern(text);
     // SAFETY: `path` is non-null (checked) and writable.
-    unsafe { *path = sys::Path::from_raw(n as u64) };
+    unsafe { *path = p };
     sys::Result::SUCCESS
 }
 
@@ -647,15 +704,8 @@ unsafe extern "system" fn path_to_string(
     buffer: *mut c_char,
 ) -> sys::Result {
     xr_try!(check_instance(instance));
-    let text = {
-        let rt = runtime();
-        match (path.into_raw() as usize)
-            .checked_sub(1)
-            .and_then(|k| rt.paths.get(k))
-        {
-            Some(t) => t.clone(),
-            None => return sys::Result::ERROR_PATH_INVALID,
-        }
+    let Some(text) = runtime().path_text(path).map(str::to_string) else {
+        return sys::Result::ERROR_PATH_INVALID;
     };
     let mut bytes: Vec<c_char> = text.bytes().map(|b| b as c_char).collect();
     bytes.push(0);

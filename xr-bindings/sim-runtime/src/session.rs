@@ -36,13 +36,29 @@ pub(crate) struct SessionData {
     pub(crate) exit_requested: bool,
     pub(crate) frames: crate::frame::FrameLoop,
     /// Reference spaces: handle n is `spaces[n - 1]` (None once destroyed).
-    pub(crate) spaces: Vec<Option<crate::frame::RefSpace>>,
+    pub(crate) spaces: Vec<Option<crate::spaces::SpaceData>>,
+    /// The app's Vulkan device from the session's graphics binding.
+    pub(crate) device: Option<crate::swapchain::Device>,
+    /// Swapchains: handle n is `swapchains[n - 1]` (None once destroyed).
+    pub(crate) swapchains: Vec<Option<crate::swapchain::Swapchain>>,
+}
+
+impl SessionData {
+    /// Frees the swapchains' images on the app's device.
+    pub(crate) fn release_gpu(&mut self) {
+        if let Some(dev) = self.device.as_ref() {
+            for mut c in self.swapchains.drain(..).flatten() {
+                c.destroy(dev);
+            }
+        }
+    }
 }
 
 /// A session state change waiting in the event queue.
 pub(crate) struct Event {
     pub(crate) session: u64,
-    pub(crate) state: sys::SessionState,
+    /// A session state change, or (None) XrEventDataInteractionProfileChanged.
+    pub(crate) state: Option<sys::SessionState>,
     pub(crate) time_ns: i64,
 }
 
@@ -51,11 +67,22 @@ pub(crate) fn enter(rt: &mut Runtime, state: sys::SessionState) {
         s.state = state;
         rt.events.push_back(Event {
             session: SESSION,
-            state,
+            state: Some(state),
             time_ns: rt.now_ns,
         });
         let line = format!("{} {} {:?}", rt.now_ns, rt.sessions_made, state);
         rt.state_log.push(line);
+    }
+}
+
+/// Tells the app that what its actions are bound to changed (attached, controller gone or back).
+pub(crate) fn profile_changed(rt: &mut Runtime) {
+    if rt.session.is_some() {
+        rt.events.push_back(Event {
+            session: SESSION,
+            state: None,
+            time_ns: rt.now_ns,
+        });
     }
 }
 
@@ -91,7 +118,7 @@ pub(crate) fn lookup(name: &str) -> Option<sys::pfn::VoidFunction> {
             "xrRequestExitSession" => Some(transmute::<sys::pfn::RequestExitSession, V>(
                 request_exit_session,
             )),
-            _ => crate::frame::lookup(name),
+            _ => crate::frame::lookup(name).or_else(|| crate::swapchain::lookup(name)),
         }
     }
 }
@@ -277,13 +304,27 @@ unsafe extern "system" fn create_session(
     if rt.session.is_some() {
         return sys::Result::ERROR_LIMIT_REACHED;
     }
+    let Some(gipa) = rt.vulkan.gipa else {
+        // The app made its Vulkan instance without xrCreateVulkanInstanceKHR: this runtime
+        // needs that call to reach the app's driver.
+        return sys::Result::ERROR_GRAPHICS_DEVICE_INVALID;
+    };
+    if binding.instance as usize != rt.vulkan.instance {
+        return sys::Result::ERROR_GRAPHICS_DEVICE_INVALID;
+    }
+    // SAFETY: the binding's handles are live (the app's contract) and were made through
+    // `gipa`'s instance (checked just above).
+    let device = unsafe { crate::swapchain::Device::load(gipa, &binding) };
     rt.sessions_made += 1;
+    rt.input.reset_session();
     rt.session = Some(SessionData {
         state: sys::SessionState::UNKNOWN,
         begun: false,
         exit_requested: false,
         frames: crate::frame::FrameLoop::default(),
         spaces: Vec::new(),
+        device: Some(device),
+        swapchains: Vec::new(),
     });
     enter(&mut rt, sys::SessionState::IDLE);
     enter(&mut rt, sys::SessionState::READY);
@@ -324,6 +365,9 @@ pub(crate) fn result(r: Result<(), sys::Result>) -> sys::Result {
 
 unsafe extern "system" fn destroy_session(session: sys::Session) -> sys::Result {
     result(with_session(session, |rt| {
+        if let Some(s) = rt.session.as_mut() {
+            s.release_gpu();
+        }
         rt.session = None;
         rt.events.retain(|e| e.session != SESSION);
         rt.write_state_log();

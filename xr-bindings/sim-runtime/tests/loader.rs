@@ -3,6 +3,7 @@
 //! exactly as SteamVR or Monado are loaded.
 
 use openxr as xr;
+use xr::sys::Handle as _;
 mod common;
 
 use std::path::PathBuf;
@@ -104,8 +105,25 @@ fn an_app_creates_an_instance_and_finds_a_stereo_hmd_through_the_loader() {
         .enumerate_environment_blend_modes(system, xr::ViewConfigurationType::PRIMARY_STEREO)
         .expect("blend modes");
     assert_eq!(blend, [xr::EnvironmentBlendMode::OPAQUE]);
-    // Actions are not simulated yet: the stub answers XR_ERROR_FUNCTION_UNSUPPORTED.
-    let r = instance.create_action_set("tools", "Tools", 0);
-    assert_eq!(r.err(), Some(xr::sys::Result::ERROR_FUNCTION_UNSUPPORTED));
+    // Action sets are made; a malformed name is refused.
+    assert!(instance.create_action_set("tools", "Tools", 0).is_ok());
+    assert_eq!(
+        instance.create_action_set("Tools!", "Tools", 0).err(),
+        Some(xr::sys::Result::ERROR_NAME_INVALID)
+    );
+    // A core function the runtime leaves out (localized input names) answers
+    // XR_ERROR_FUNCTION_UNSUPPORTED through the loader, not a crash.
+    let mut count = 0u32;
+    // SAFETY: the stub reads none of its arguments.
+    let r = unsafe {
+        (instance.fp().get_input_source_localized_name)(
+            xr::sys::Session::from_raw(0),
+            std::ptr::null(),
+            0,
+            &mut count,
+            std::ptr::null_mut(),
+        )
+    };
+    assert_eq!(r, xr::sys::Result::ERROR_FUNCTION_UNSUPPORTED);
     assert_eq!(CORE_FUNCTIONS.len(), 55);
 }

@@ -48,8 +48,12 @@ fn a_vulkan_session_walks_the_whole_life_cycle() {
                     .expect("views");
                 assert_eq!(views.len(), 2);
                 let (l, r) = (views[0].pose.position, views[1].pose.position);
-                assert!(((r.x - l.x) - 0.063).abs() < 1e-6, "IPD {}", r.x - l.x);
-                assert!((l.y - 1.6).abs() < 1e-6 && (r.y - 1.6).abs() < 1e-6);
+                let (dx, dy, dz) = (r.x - l.x, r.y - l.y, r.z - l.z);
+                let ipd = (dx * dx + dy * dy + dz * dz).sqrt();
+                assert!((ipd - 0.063).abs() < 1e-5, "IPD {ipd}");
+                // The default head: eyes 1.6 m above the floor, right eye to the right.
+                assert!(((l.y + r.y) / 2.0 - 1.6).abs() < 1e-5);
+                assert!(dx > 0.06);
                 assert_eq!(views[0].fov.angle_left, -views[1].fov.angle_right);
             });
             times.push(frame.predicted_display_time.as_nanos());

@@ -1,0 +1,365 @@
+//! The trainee in the headset: an OpenXR session (any runtime: SteamVR, Monado, or the
+//! simulated one) drives the simulation. Each frame the app waits for the runtime's display
+//! time, reads both controllers, steps the simulation up to that time (the controller poses
+//! interpolated between frames, so the instruments move at the simulation's rate), vibrates
+//! the controllers on contact, and draws both eyes into the swapchain in one multiview pass.
+//!
+//! The right controller holds the laser pointer (aim-pose ray; trigger cuts; trackpad click
+//! marks the margin), the left the grasper (grip closes it). A controller that stops tracking
+//! freezes its instrument and raises `controller_lost`; a lost session stops the simulation,
+//! keeps its record, and a new session carries on when the headset returns.
+
+use crate::render::{EyeView, Fov, Gpu, RenderTarget, Renderer};
+use crate::session::{Live, Outcome};
+use crate::sim::{Buttons, EventKind, Hand, HandInput, InputFrame, Pacing, Pose};
+use glam::{Quat, Vec3};
+use xr_bindings::app::{EYE_FORMAT, HandReading, XrApp, XrSession};
+use xr_bindings::openxr as xr;
+use xr_bindings::{Command, SessionMachine};
+
+/// Vibration for one instrument: contact force to amplitude, and its buzz.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HapticProfile {
+    /// Force that gives full amplitude, newtons.
+    pub full_force_n: f32,
+    /// Force below which there is no vibration, newtons.
+    pub threshold_n: f32,
+    /// Vibration frequency, Hz.
+    pub frequency_hz: f32,
+    /// Length of each pulse, seconds (pulses repeat every frame while contact lasts).
+    pub pulse_s: f64,
+    /// Amplitude while the instrument is cutting, whatever the force (0..1).
+    pub cutting_amplitude: f32,
+}
+
+/// Left hand: the grasper. A soft 160 Hz pulse (the Vive's actuator resonates near there),
+/// full at 2 N.
+pub const GRASPER_HAPTICS: HapticProfile = HapticProfile {
+    full_force_n: 2.0,
+    threshold_n: 0.01,
+    frequency_hz: 160.0,
+    pulse_s: 0.025,
+    cutting_amplitude: 0.0,
+};
+/// Right hand: the laser. A sharper 250 Hz buzz, full at 1 N, and half amplitude while it
+/// removes tissue (the paper's "vibrational feedback" when triangles are cut).
+pub const LASER_HAPTICS: HapticProfile = HapticProfile {
+    full_force_n: 1.0,
+    threshold_n: 0.01,
+    frequency_hz: 250.0,
+    pulse_s: 0.025,
+    cutting_amplitude: 0.5,
+};
+
+impl HapticProfile {
+    /// The amplitude for this frame's peak contact force and cut faces; `None`: no contact.
+    pub fn amplitude(&self, force_n: f32, cut_faces: u32) -> Option<f32> {
+        let touching = force_n.is_finite() && force_n > self.threshold_n;
+        let cutting = cut_faces > 0 && self.cutting_amplitude > 0.0;
+        if !touching && !cutting {
+            return None;
+        }
+        let from_force = if touching {
+            (force_n / self.full_force_n).clamp(0.05, 1.0)
+        } else {
+            0.0
+        };
+        let from_cut = if cutting { self.cutting_amplitude } else { 0.0 };
+        Some(from_force.max(from_cut))
+    }
+}
+
+/// What a run under an XR runtime did.
+pub struct XrRun {
+    pub outcome: Outcome,
+    pub runtime: String,
+    /// Frames submitted with a stereo projection layer.
+    pub frames: u64,
+    /// Sessions started (more than one after a loss).
+    pub sessions: u32,
+    pub eye_size: (u32, u32),
+    pub device: String,
+}
+
+/// How long to run, and at what eye size.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct XrOptions {
+    /// Stop after this much simulated time, seconds (the trace's length under the simulated
+    /// runtime); none: until the trainee presses the menu button.
+    pub duration_s: Option<f64>,
+    /// Per-eye image size; none: the runtime's recommendation.
+    pub eye_size: Option<(u32, u32)>,
+}
+
+fn err(e: impl std::fmt::Display) -> String {
+    e.to_string()
+}
+
+fn field_pose(aim: ([f32; 3], [f32; 4])) -> Pose {
+    Pose {
+        position: xr_bindings::stage::stage_to_field(Vec3::from(aim.0)),
+        orientation: Quat::from_array(aim.1).normalize(),
+    }
+}
+
+fn eye_view(v: &xr::View) -> EyeView {
+    let (p, q) = (v.pose.position, v.pose.orientation);
+    EyeView {
+        position: xr_bindings::stage::stage_to_field(Vec3::new(p.x, p.y, p.z)),
+        orientation: Quat::from_xyzw(q.x, q.y, q.z, q.w).normalize(),
+        fov: Fov {
+            left: v.fov.angle_left,
+            right: v.fov.angle_right,
+            up: v.fov.angle_up,
+            down: v.fov.angle_down,
+        },
+    }
+}
+
+/// Input between two frames' readings, `s` of the way (0..1).
+fn between(a: &HandInput, b: &HandInput, s: f32) -> HandInput {
+    HandInput {
+        pose: Pose {
+            position: a.pose.position.lerp(b.pose.position, s),
+            orientation: a.pose.orientation.slerp(b.pose.orientation, s),
+        },
+        buttons: Buttons {
+            trigger: a.buttons.trigger + (b.buttons.trigger - a.buttons.trigger) * s,
+            grip: a.buttons.grip + (b.buttons.grip - a.buttons.grip) * s,
+            mark: b.buttons.mark,
+        },
+    }
+}
+
+/// Runs the procedure in the headset until `duration_s` or the menu button.
+pub fn run(scenario_text: &str, scenario_file: &str, opts: XrOptions) -> Result<XrRun, String> {
+    let (app, xg) = XrApp::open("vesalius").map_err(err)?;
+    let gpu = Gpu::from_parts(xg.instance, xg.adapter, xg.device, xg.queue, xg.multiview);
+    let mut renderer = Renderer::new(&gpu, EYE_FORMAT);
+    let eye = opts.eye_size.unwrap_or(app.eye_size);
+    gpu.check_eye_size(eye).map_err(err)?;
+    let mut live =
+        Live::new(scenario_text, scenario_file, Pacing::AsFastAsPossible).map_err(err)?;
+    let dt = f64::from(live.dt_s());
+    let mut machine = SessionMachine::new();
+    // The input each hand last gave (a lost controller's instrument stays there).
+    let mut held = [HandInput::default(); 2];
+    let mut tracked = [false; 2];
+    let mut buzzing = [false; 2];
+    let mut frames = 0u64;
+    let mut sessions = 0u32;
+    // Display time (ns) that corresponds to simulated time 0 in the current session.
+    let mut origin: Option<i64> = None;
+    let mut last_t_s = 0.0f64;
+    let mut exit_asked = false;
+    let mut buf = xr::EventDataBuffer::new();
+    'sessions: loop {
+        let (mut xs, mut waiter, mut stream) = app.session(&gpu.device, eye).map_err(err)?;
+        sessions += 1;
+        if sessions > 1 {
+            live.note(EventKind::SessionRestarted);
+            machine.recreated();
+            origin = None;
+            exit_asked = false;
+        }
+        loop {
+            while let Some(ev) = app.poll(&mut buf).map_err(err)? {
+                let xr::Event::SessionStateChanged(e) = ev else {
+                    continue;
+                };
+                match machine.on_state(e.state()) {
+                    Some(Command::BeginSession) => {
+                        xs.session
+                            .begin(xr::ViewConfigurationType::PRIMARY_STEREO)
+                            .map_err(|r| format!("xrBeginSession failed: {r}"))?;
+                    }
+                    Some(Command::EndSession) => {
+                        xs.session
+                            .end()
+                            .map_err(|r| format!("xrEndSession failed: {r}"))?;
+                    }
+                    Some(Command::Exit) => break 'sessions,
+                    Some(Command::Recreate) => {
+                        live.note(EventKind::SessionLost);
+                        for h in 0..2 {
+                            buzzing[h] = false;
+                        }
+                        drop((xs, waiter, stream));
+                        // Wait for the headset to come back (a real runtime: minutes at most).
+                        let mut tries = 0u32;
+                        while !app.headset_present() {
+                            tries += 1;
+                            if tries > 600 {
+                                return Err("the headset did not come back within 60 s".into());
+                            }
+                            std::thread::sleep(std::time::Duration::from_millis(100));
+                        }
+                        continue 'sessions;
+                    }
+                    _ => {}
+                }
+            }
+            if !machine.submits_frames() {
+                std::thread::sleep(std::time::Duration::from_millis(1));
+                continue;
+            }
+            let fs = waiter
+                .wait()
+                .map_err(|r| format!("xrWaitFrame failed: {r}"))?;
+            stream
+                .begin()
+                .map_err(|r| format!("xrBeginFrame failed: {r}"))?;
+            let t = fs.predicted_display_time;
+            let o = *origin.get_or_insert(t.as_nanos() - (live.time_s() * 1e9).round() as i64);
+            let mut target_s = (t.as_nanos() - o) as f64 / 1e9;
+            if let Some(d) = opts.duration_s {
+                target_s = target_s.min(d);
+            }
+            let readings = if machine.focused() {
+                xs.read_hands(&app.controls, t).map_err(err)?
+            } else {
+                [HandReading::default(); 2]
+            };
+            let before = held;
+            let mut now = held;
+            for h in Hand::BOTH {
+                let k = h.index();
+                let r = readings[k];
+                let is_tracked = r.aim.is_some();
+                if is_tracked != tracked[k] && machine.focused() {
+                    let hand = h.name().to_string();
+                    live.note(if is_tracked {
+                        EventKind::ControllerRegained { hand }
+                    } else {
+                        EventKind::ControllerLost { hand }
+                    });
+                }
+                tracked[k] = is_tracked;
+                if let Some(aim) = r.aim {
+                    now[k] = HandInput {
+                        pose: field_pose(aim),
+                        buttons: Buttons {
+                            trigger: r.trigger,
+                            grip: if r.squeeze { 1.0 } else { 0.0 },
+                            mark: r.click,
+                        },
+                    };
+                }
+            }
+            // Step the simulation up to the display time, inputs interpolated.
+            let mut peak = [0.0f32; 2];
+            let mut cut = [0u32; 2];
+            let span = (target_s - last_t_s).max(1e-9);
+            while live.time_s() + dt * 0.5 <= target_s {
+                let s = ((live.time_s() - last_t_s) / span).clamp(0.0, 1.0) as f32;
+                let frame = InputFrame {
+                    hands: [
+                        between(&before[0], &now[0], s),
+                        between(&before[1], &now[1], s),
+                    ],
+                };
+                for e in live.step(frame) {
+                    if let EventKind::Cut { faces, .. } = e.kind {
+                        cut[Hand::Right.index()] += faces;
+                    }
+                }
+                let f = live.reactions();
+                for k in 0..2 {
+                    peak[k] = peak[k].max(f[k].length());
+                }
+            }
+            last_t_s = live.time_s();
+            held = now;
+            // Vibration while in contact, stopped when contact ends.
+            if machine.focused() {
+                for (k, profile) in [GRASPER_HAPTICS, LASER_HAPTICS].iter().enumerate() {
+                    match profile.amplitude(peak[k], cut[k]) {
+                        Some(a) if tracked[k] => {
+                            xs.vibrate(&app.controls, k, a, profile.frequency_hz, profile.pulse_s)
+                                .map_err(err)?;
+                            buzzing[k] = true;
+                        }
+                        _ if buzzing[k] => {
+                            xs.stop_vibration(&app.controls, k).map_err(err)?;
+                            buzzing[k] = false;
+                        }
+                        _ => {}
+                    }
+                }
+            }
+            if fs.should_render {
+                let views = xs.views(t).map_err(err)?;
+                if views.len() < 2 {
+                    return Err("the runtime located fewer than two views".into());
+                }
+                let eyes = [eye_view(&views[0]), eye_view(&views[1])];
+                renderer.update(&live.snapshot());
+                let multiview = gpu.multiview;
+                draw(&mut xs, &mut renderer, eye, &eyes, multiview).map_err(err)?;
+                xs.end_frame(&mut stream, t, &views).map_err(err)?;
+                frames += 1;
+            } else {
+                stream
+                    .end(t, xr::EnvironmentBlendMode::OPAQUE, &[])
+                    .map_err(|r| format!("xrEndFrame failed: {r}"))?;
+            }
+            gpu.check().map_err(err)?;
+            let done = opts
+                .duration_s
+                .is_some_and(|d| live.time_s() + dt * 0.5 > d);
+            if done && !exit_asked && machine.focused() {
+                xs.session
+                    .request_exit()
+                    .map_err(|r| format!("xrRequestExitSession failed: {r}"))?;
+                exit_asked = true;
+            }
+        }
+    }
+    let device = gpu.describe();
+    Ok(XrRun {
+        outcome: live.finish(Vec::new()),
+        runtime: app.runtime_name.clone(),
+        frames,
+        sessions,
+        eye_size: eye,
+        device,
+    })
+}
+
+fn draw(
+    xs: &mut XrSession,
+    renderer: &mut Renderer,
+    eye: (u32, u32),
+    eyes: &[EyeView; 2],
+    multiview: bool,
+) -> Result<(), xr_bindings::app::XrError> {
+    xs.draw(|texture| {
+        let (array, layers) = crate::render::gpu::eye_views(texture);
+        let target = if multiview {
+            RenderTarget::Array(&array)
+        } else {
+            RenderTarget::PerEye([&layers[0], &layers[1]])
+        };
+        renderer.render(target, eye, eyes);
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn amplitude_grows_with_force_and_stops_without_contact() {
+        let g = GRASPER_HAPTICS;
+        assert_eq!(g.amplitude(0.0, 0), None);
+        assert_eq!(g.amplitude(0.005, 0), None);
+        let a = g.amplitude(0.5, 0).expect("contact");
+        let b = g.amplitude(1.0, 0).expect("contact");
+        assert!((a - 0.25).abs() < 1e-6 && (b - 0.5).abs() < 1e-6);
+        assert_eq!(g.amplitude(10.0, 0), Some(1.0));
+        assert_eq!(g.amplitude(f32::NAN, 0), None);
+        // The laser buzzes while it cuts, even without a reaction force.
+        assert_eq!(LASER_HAPTICS.amplitude(0.0, 3), Some(0.5));
+        assert_eq!(GRASPER_HAPTICS.amplitude(0.0, 3), None);
+    }
+}

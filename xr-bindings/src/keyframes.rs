@@ -1,0 +1,285 @@
+//! The keyframed trace format (`assets/traces/*.toml`), shared by the application's headless
+//! sessions and the simulated OpenXR runtime, which plays the same file as head and controller
+//! motion. Positions are metres in the operating field's frame (see [`crate::stage`]); each
+//! hand's instrument points from `position` to `target`; values interpolate linearly between
+//! keys and `mark` holds until the next key. `[[head]]` keys are optional (the runtime's
+//! default head is [`crate::stage::DEFAULT_HEAD`]; headless sessions ignore them).
+
+use glam::Vec3;
+use serde::Deserialize;
+
+/// A whole trace file as written.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct KeyframeFile {
+    pub procedure: String,
+    #[serde(default)]
+    pub left: Vec<HandKey>,
+    #[serde(default)]
+    pub right: Vec<HandKey>,
+    #[serde(default)]
+    pub head: Vec<HeadKey>,
+}
+
+/// One keyframe of one hand.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HandKey {
+    /// Time, seconds from the start.
+    pub t_s: f64,
+    /// Where the instrument (the controller's aim pose) is, metres.
+    pub position: [f32; 3],
+    /// A point it points at, metres.
+    pub target: [f32; 3],
+    /// Trigger, 0 to 1.
+    #[serde(default)]
+    pub trigger: f32,
+    /// Grip (squeeze), 0 to 1.
+    #[serde(default)]
+    pub grip: f32,
+    /// The mark button (trackpad click) is down.
+    #[serde(default)]
+    pub mark: bool,
+}
+
+/// One keyframe of the head: where the eyes' midpoint is and a point it looks at, metres.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HeadKey {
+    pub t_s: f64,
+    pub position: [f32; 3],
+    pub target: [f32; 3],
+}
+
+/// What is wrong with a trace: the key (`right[3].t_s`, `toml`) and why.
+#[derive(Debug, Clone, PartialEq)]
+pub struct KeyError {
+    pub key: String,
+    pub message: String,
+}
+
+impl KeyError {
+    fn new(key: String, message: impl Into<String>) -> Self {
+        Self {
+            key,
+            message: message.into(),
+        }
+    }
+}
+
+/// Time, position and target of any keyframe, for the checks both kinds share.
+trait Timed {
+    fn t_s(&self) -> f64;
+    fn ends(&self) -> ([f32; 3], [f32; 3]);
+}
+
+impl Timed for HandKey {
+    fn t_s(&self) -> f64 {
+        self.t_s
+    }
+    fn ends(&self) -> ([f32; 3], [f32; 3]) {
+        (self.position, self.target)
+    }
+}
+
+impl Timed for HeadKey {
+    fn t_s(&self) -> f64 {
+        self.t_s
+    }
+    fn ends(&self) -> ([f32; 3], [f32; 3]) {
+        (self.position, self.target)
+    }
+}
+
+fn check_keys<K: Timed>(name: &str, keys: &[K]) -> Result<(), KeyError> {
+    let mut last = f64::NEG_INFINITY;
+    for (i, k) in keys.iter().enumerate() {
+        let key = |f: &str| format!("{name}[{i}].{f}");
+        let t = k.t_s();
+        if !t.is_finite() || t < 0.0 {
+            return Err(KeyError::new(
+                key("t_s"),
+                format!("must be a finite time >= 0 s, got {t}"),
+            ));
+        }
+        if t < last {
+            return Err(KeyError::new(
+                key("t_s"),
+                format!("time goes backwards: {t} s after {last} s"),
+            ));
+        }
+        last = t;
+        let (position, target) = k.ends();
+        for (f, v) in [("position", position), ("target", target)] {
+            if v.iter().any(|c| !c.is_finite() || c.abs() > 10.0) {
+                return Err(KeyError::new(
+                    key(f),
+                    format!("must be finite metres within 10 m, got {v:?}"),
+                ));
+            }
+        }
+        if Vec3::from(position).distance(Vec3::from(target)) < 1e-6 {
+            return Err(KeyError::new(
+                key("target"),
+                "must differ from position (it sets the pointing direction)",
+            ));
+        }
+    }
+    Ok(())
+}
+
+impl KeyframeFile {
+    /// Parses and checks a trace: both hands have keys, times run forward, positions are
+    /// finite and within 10 m, targets differ from positions, trigger and grip are in [0, 1].
+    pub fn parse(text: &str) -> Result<Self, KeyError> {
+        let t: KeyframeFile = toml::from_str(text).map_err(|e| {
+            KeyError::new("toml".into(), e.to_string().trim_end().replace('\n', " | "))
+        })?;
+        for (name, keys) in [("left", &t.left), ("right", &t.right)] {
+            if keys.is_empty() {
+                return Err(KeyError::new(
+                    name.into(),
+                    format!("needs at least one [[{name}]] keyframe"),
+                ));
+            }
+            check_keys(name, keys)?;
+            for (i, k) in keys.iter().enumerate() {
+                for (f, v) in [("trigger", k.trigger), ("grip", k.grip)] {
+                    if !v.is_finite() || !(0.0..=1.0).contains(&v) {
+                        return Err(KeyError::new(
+                            format!("{name}[{i}].{f}"),
+                            format!("must be between 0 and 1, got {v}"),
+                        ));
+                    }
+                }
+            }
+        }
+        check_keys("head", &t.head)?;
+        Ok(t)
+    }
+
+    /// Time of the last keyframe, seconds.
+    pub fn duration_s(&self) -> f64 {
+        let last = |k: Option<f64>| k.unwrap_or(0.0);
+        last(self.left.last().map(|k| k.t_s))
+            .max(last(self.right.last().map(|k| k.t_s)))
+            .max(last(self.head.last().map(|k| k.t_s)))
+    }
+}
+
+/// A hand's state at one time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HandSample {
+    pub position: Vec3,
+    pub target: Vec3,
+    pub trigger: f32,
+    pub grip: f32,
+    pub mark: bool,
+}
+
+/// The two keys around `t` and how far between them (0 to 1). `keys` must not be empty.
+fn around<K: Timed + Copy>(keys: &[K], t: f64) -> (K, K, f32) {
+    let i = keys.partition_point(|k| k.t_s() <= t);
+    let (a, b) = match i {
+        0 => (keys[0], keys[0]),
+        i if i >= keys.len() => (keys[keys.len() - 1], keys[keys.len() - 1]),
+        i => (keys[i - 1], keys[i]),
+    };
+    let s = if b.t_s() > a.t_s() {
+        ((t - a.t_s()) / (b.t_s() - a.t_s())).clamp(0.0, 1.0) as f32
+    } else {
+        0.0
+    };
+    (a, b, s)
+}
+
+/// A hand at time `t_s`, seconds; `None` for a hand without keys.
+pub fn sample_hand(keys: &[HandKey], t_s: f64) -> Option<HandSample> {
+    if keys.is_empty() {
+        return None;
+    }
+    let (a, b, s) = around(keys, t_s);
+    Some(HandSample {
+        position: Vec3::from(a.position).lerp(Vec3::from(b.position), s),
+        target: Vec3::from(a.target).lerp(Vec3::from(b.target), s),
+        trigger: a.trigger + (b.trigger - a.trigger) * s,
+        grip: a.grip + (b.grip - a.grip) * s,
+        mark: a.mark,
+    })
+}
+
+/// The head (position, looked-at point) at time `t_s`: its keys, or the default head.
+pub fn sample_head(keys: &[HeadKey], t_s: f64) -> (Vec3, Vec3) {
+    if keys.is_empty() {
+        let (p, t) = crate::stage::DEFAULT_HEAD;
+        return (Vec3::from(p), Vec3::from(t));
+    }
+    let (a, b, s) = around(keys, t_s);
+    (
+        Vec3::from(a.position).lerp(Vec3::from(b.position), s),
+        Vec3::from(a.target).lerp(Vec3::from(b.target), s),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const TWO_KEYS: &str = "procedure = \"nephrectomy\"
+[[left]]
+t_s = 0.0
+position = [0.0, 0.1, 0.1]
+target = [0.0, 0.0, 0.0]
+[[right]]
+t_s = 0.0
+position = [0.0, 0.0, 0.1]
+target = [0.0, 0.0, 0.0]
+[[right]]
+t_s = 2.0
+position = [0.2, 0.0, 0.1]
+target = [0.0, 0.0, 0.0]
+trigger = 1.0
+mark = true
+";
+
+    #[test]
+    fn hands_interpolate_and_marks_hold_until_the_next_key() {
+        let f = KeyframeFile::parse(TWO_KEYS).expect("valid");
+        let h = sample_hand(&f.right, 0.5).expect("keys");
+        assert!((h.position.x - 0.05).abs() < 1e-6);
+        assert!((h.trigger - 0.25).abs() < 1e-6);
+        assert!(!h.mark);
+        assert!(sample_hand(&f.right, 3.0).expect("keys").mark);
+        assert_eq!(f.duration_s(), 2.0);
+        // No head keys: the default head.
+        let (p, _) = sample_head(&f.head, 1.0);
+        assert_eq!(p, Vec3::from(crate::stage::DEFAULT_HEAD.0));
+    }
+
+    #[test]
+    fn bad_traces_name_the_key() {
+        let backwards = TWO_KEYS.replace("t_s = 2.0", "t_s = -1.0");
+        assert_eq!(
+            KeyframeFile::parse(&backwards).unwrap_err().key,
+            "right[1].t_s"
+        );
+        let trigger = TWO_KEYS.replace("trigger = 1.0", "trigger = 1.5");
+        assert_eq!(
+            KeyframeFile::parse(&trigger).unwrap_err().key,
+            "right[1].trigger"
+        );
+        let head = format!(
+            "{TWO_KEYS}[[head]]\nt_s = 0.0\nposition = [0.0, 0.0, 0.0]\ntarget = [0.0, 0.0, 0.0]\n"
+        );
+        assert_eq!(
+            KeyframeFile::parse(&head).unwrap_err().key,
+            "head[0].target"
+        );
+        let no_left = TWO_KEYS.replace("[[left]]", "[[head]]");
+        assert_eq!(KeyframeFile::parse(&no_left).unwrap_err().key, "left");
+        assert_eq!(
+            KeyframeFile::parse("procedure = 3").unwrap_err().key,
+            "toml"
+        );
+    }
+}
