@@ -433,18 +433,28 @@ pub const EYE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 
 /// A swapchain image as a two-layer wgpu texture (the runtime keeps ownership).
 fn wrap_image(device: &wgpu::Device, raw: u64, size: (u32, u32)) -> wgpu::Texture {
-    let extent = wgpu::Extent3d {
-        width: size.0,
-        height: size.1,
-        depth_or_array_layers: 2,
-    };
-    let hal_desc = wgpu::hal::TextureDescriptor {
+    let desc = wgpu::TextureDescriptor {
         label: Some("xr swapchain image"),
-        size: extent,
+        size: wgpu::Extent3d {
+            width: size.0,
+            height: size.1,
+            depth_or_array_layers: 2,
+        },
         mip_level_count: 1,
         sample_count: 1,
         dimension: wgpu::TextureDimension::D2,
         format: EYE_FORMAT,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+        view_formats: &[],
+    };
+    // The same texture as wgpu-hal describes it (its usage in hal terms).
+    let hal_desc = wgpu::hal::TextureDescriptor {
+        label: desc.label,
+        size: desc.size,
+        mip_level_count: desc.mip_level_count,
+        sample_count: desc.sample_count,
+        dimension: desc.dimension,
+        format: desc.format,
         usage: wgpu::TextureUses::COLOR_TARGET | wgpu::TextureUses::RESOURCE,
         memory_flags: wgpu::hal::MemoryFlags::empty(),
         view_formats: Vec::new(),
@@ -461,16 +471,6 @@ fn wrap_image(device: &wgpu::Device, raw: u64, size: (u32, u32)) -> wgpu::Textur
                 wgpu::hal::vulkan::TextureMemory::External,
             )
         })
-    };
-    let desc = wgpu::TextureDescriptor {
-        label: Some("xr swapchain image"),
-        size: extent,
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format: EYE_FORMAT,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-        view_formats: &[],
     };
     match hal_texture {
         // SAFETY: the hal texture was made on this device with `desc`'s properties.
