@@ -22,7 +22,8 @@ use xr_bindings::{Command, SessionMachine};
 pub struct HapticProfile {
     /// Force that gives full amplitude, newtons.
     pub full_force_n: f32,
-    /// Force below which there is no vibration, newtons.
+    /// Force at or below which there is no contact to feel, newtons: only rounding noise, so
+    /// that the first touch is felt in the frame it happens.
     pub threshold_n: f32,
     /// Vibration frequency, Hz.
     pub frequency_hz: f32,
@@ -33,10 +34,11 @@ pub struct HapticProfile {
 }
 
 /// Left hand: the grasper. A soft 160 Hz pulse (the Vive's actuator resonates near there),
-/// full at 2 N.
+/// full at 3.5 N, the top of the 0.5-3.5 N that tissue takes in collision and puncture
+/// (interventional-catheter paper, section 3.1).
 pub const GRASPER_HAPTICS: HapticProfile = HapticProfile {
-    full_force_n: 2.0,
-    threshold_n: 0.01,
+    full_force_n: 3.5,
+    threshold_n: 1e-6,
     frequency_hz: 160.0,
     pulse_s: 0.025,
     cutting_amplitude: 0.0,
@@ -45,7 +47,7 @@ pub const GRASPER_HAPTICS: HapticProfile = HapticProfile {
 /// removes tissue (the paper's "vibrational feedback" when triangles are cut).
 pub const LASER_HAPTICS: HapticProfile = HapticProfile {
     full_force_n: 1.0,
-    threshold_n: 0.01,
+    threshold_n: 1e-6,
     frequency_hz: 250.0,
     pulse_s: 0.025,
     cutting_amplitude: 0.5,
@@ -116,12 +118,18 @@ fn eye_view(v: &xr::View) -> EyeView {
     }
 }
 
-/// Input between two frames' readings, `s` of the way (0..1).
+/// Input between two frames' readings, `s` of the way (0..1). An instrument that did not
+/// move (a lost controller's) stays exactly where it is.
 fn between(a: &HandInput, b: &HandInput, s: f32) -> HandInput {
+    let (p, q) = (a.pose.position, a.pose.orientation);
     HandInput {
         pose: Pose {
-            position: a.pose.position.lerp(b.pose.position, s),
-            orientation: a.pose.orientation.slerp(b.pose.orientation, s),
+            position: p + (b.pose.position - p) * s,
+            orientation: if q == b.pose.orientation {
+                q
+            } else {
+                q.slerp(b.pose.orientation, s)
+            },
         },
         buttons: Buttons {
             trigger: a.buttons.trigger + (b.buttons.trigger - a.buttons.trigger) * s,
@@ -144,7 +152,8 @@ pub fn run(scenario_text: &str, scenario_file: &str, opts: XrOptions) -> Result<
     let mut machine = SessionMachine::new();
     // The input each hand last gave (a lost controller's instrument stays there).
     let mut held = [HandInput::default(); 2];
-    let mut tracked = [false; 2];
+    // Whether each controller was tracked at the last focused frame (none yet: unknown).
+    let mut tracked: [Option<bool>; 2] = [None; 2];
     let mut buzzing = [false; 2];
     let mut frames = 0u64;
     let mut sessions = 0u32;
@@ -226,15 +235,18 @@ pub fn run(scenario_text: &str, scenario_file: &str, opts: XrOptions) -> Result<
                 let k = h.index();
                 let r = readings[k];
                 let is_tracked = r.aim.is_some();
-                if is_tracked != tracked[k] && machine.focused() {
-                    let hand = h.name().to_string();
-                    live.note(if is_tracked {
-                        EventKind::ControllerRegained { hand }
-                    } else {
-                        EventKind::ControllerLost { hand }
-                    });
+                if machine.focused() {
+                    // A change is an event; the first reading is not.
+                    if tracked[k].is_some_and(|was| was != is_tracked) {
+                        let hand = h.name().to_string();
+                        live.note(if is_tracked {
+                            EventKind::ControllerRegained { hand }
+                        } else {
+                            EventKind::ControllerLost { hand }
+                        });
+                    }
+                    tracked[k] = Some(is_tracked);
                 }
-                tracked[k] = is_tracked;
                 if let Some(aim) = r.aim {
                     now[k] = HandInput {
                         pose: field_pose(aim),
@@ -274,7 +286,7 @@ pub fn run(scenario_text: &str, scenario_file: &str, opts: XrOptions) -> Result<
             if machine.focused() {
                 for (k, profile) in [GRASPER_HAPTICS, LASER_HAPTICS].iter().enumerate() {
                     match profile.amplitude(peak[k], cut[k]) {
-                        Some(a) if tracked[k] => {
+                        Some(a) if tracked[k] == Some(true) => {
                             xs.vibrate(&app.controls, k, a, profile.frequency_hz, profile.pulse_s)
                                 .map_err(err)?;
                             buzzing[k] = true;
@@ -352,9 +364,10 @@ mod tests {
     fn amplitude_grows_with_force_and_stops_without_contact() {
         let g = GRASPER_HAPTICS;
         assert_eq!(g.amplitude(0.0, 0), None);
-        assert_eq!(g.amplitude(0.005, 0), None);
-        let a = g.amplitude(0.5, 0).expect("contact");
-        let b = g.amplitude(1.0, 0).expect("contact");
+        assert_eq!(g.amplitude(1e-7, 0), None);
+        assert_eq!(g.amplitude(1e-4, 0), Some(0.05));
+        let a = g.amplitude(0.875, 0).expect("contact");
+        let b = g.amplitude(1.75, 0).expect("contact");
         assert!((a - 0.25).abs() < 1e-6 && (b - 0.5).abs() < 1e-6);
         assert_eq!(g.amplitude(10.0, 0), Some(1.0));
         assert_eq!(g.amplitude(f32::NAN, 0), None);

@@ -739,6 +739,21 @@ impl SoftBody {
         self.volume.clear();
     }
 
+    /// The spring force (eq 2) pulling point `i` to its goal: its rest position, or for a
+    /// piece cut free, its rest position carried by the piece's motion. Zero for a free point
+    /// of no piece.
+    fn spring_pull(&self, i: usize) -> Vec3 {
+        let k = self.params.spring_n_per_m;
+        if self.anchored[i] {
+            forces::spring_force(k, self.x[i], self.mesh.rest[i])
+        } else if let Some(part) = self.free_parts.get(self.part_of[i] as usize) {
+            let goal = part.rotation * self.mesh.rest[i] + part.translation;
+            forces::spring_force(k, self.x[i], goal)
+        } else {
+            Vec3::ZERO
+        }
+    }
+
     fn next_stamp(&mut self) -> u32 {
         self.stamp_now = self.stamp_now.wrapping_add(1);
         if self.stamp_now == 0 {
@@ -801,12 +816,17 @@ impl SoftBody {
                     if let Some(h) = self.held.iter_mut().find(|h| h.tool == c.tool) {
                         h.rotation = rotation;
                         let (rot, pts) = (h.rotation, h.points.clone());
+                        // The held tissue pulls the jaws back toward its rest (eq 2's springs;
+                        // nothing once the piece is cut free and carried).
+                        let mut pull = Vec3::ZERO;
                         for (i, local) in pts {
                             let target = c.point + rot * local;
                             let i = i as usize;
                             self.wake(i);
                             self.x[i] = target;
+                            pull += self.spring_pull(i);
                         }
+                        out.reactions.push((c.tool, pull));
                         continue;
                     }
                     let q = Aabb::new(
@@ -1077,14 +1097,7 @@ impl TissueModel for SoftBody {
                 self.v[i] = Vec3::ZERO;
                 continue;
             }
-            let mut f = self.force[i];
-            if self.anchored[i] {
-                f += forces::spring_force(p.spring_n_per_m, self.x[i], self.mesh.rest[i]);
-            } else if let Some(part) = self.free_parts.get(self.part_of[i] as usize) {
-                // The spring goal: the point's rest position carried by its piece's motion.
-                let goal = part.rotation * self.mesh.rest[i] + part.translation;
-                f += forces::spring_force(p.spring_n_per_m, self.x[i], goal);
-            }
+            let mut f = self.force[i] + self.spring_pull(i);
             if let Some(&pg) = pressure.get(self.pressure_group[i] as usize) {
                 f += forces::pressure_force(pg, self.normal[i], self.area[i]);
             }
@@ -1102,21 +1115,34 @@ impl TissueModel for SoftBody {
         self.project(dt, out);
         for c in contacts {
             if let ContactKind::Sphere { radius_m } = c.kind {
-                let mut push = Vec3::ZERO;
                 let q = Aabb::new(
                     c.point - Vec3::splat(radius_m * 2.0),
                     c.point + Vec3::splat(radius_m * 2.0),
                 );
                 let found: Vec<u32> = self.bvh.faces_in(&q).collect();
+                let mut held_back = Vec3::ZERO;
                 for f in found {
                     let i = f as usize;
                     let d = self.x[i] - c.point;
                     let len = d.length();
                     if self.alive[i] && !self.kinematic[i] && len < radius_m {
-                        let dir = if len > 1e-9 { d / len } else { c.normal };
-                        let corr = dir * (radius_m - len);
+                        // A point ahead of the tip's centre goes on ahead of it (to the
+                        // sphere, along the way the tool points), so the tip tents the surface
+                        // like a probe; pushed straight out from the centre, the points in
+                        // front would slide aside and let the tip through between them. A
+                        // point behind the centre is pushed straight out.
+                        let ahead = -c.normal;
+                        let along = d.dot(ahead);
+                        let corr = if along >= 0.0 {
+                            let t =
+                                (along * along + radius_m * radius_m - len * len).sqrt() - along;
+                            ahead * t
+                        } else {
+                            let dir = if len > 1e-9 { d / len } else { ahead };
+                            dir * (radius_m - len)
+                        };
                         self.x[i] += corr;
-                        push += corr;
+                        held_back += self.spring_pull(i);
                         if self.pushed[i] == Vec3::ZERO {
                             self.pushed_list.push(i as u32);
                         }
@@ -1124,7 +1150,12 @@ impl TissueModel for SoftBody {
                         self.wake(i);
                     }
                 }
-                out.reactions.push((c.tool, -push / (dt * dt)));
+                // The tissue presses on the tip with the pull of the points the tip holds
+                // away from their rest (eq 2's springs): it grows with depth and is gone the
+                // moment the tip leaves the tissue. The share the dent's rim passes on through
+                // the stretch constraints is left out. (The correction over dt^2 would
+                // measure how fast the tip moves into the tissue, not how hard it presses.)
+                out.reactions.push((c.tool, held_back));
             }
         }
         // Constraint corrections become velocity; points moved by neighbours wake up. A tip's
@@ -1620,6 +1651,47 @@ mod tests {
         }
         assert!((b.positions()[top].z - z0).abs() < 1e-6);
         assert_eq!(b.awake_count(), 0, "everything settles and sleeps");
+    }
+
+    #[test]
+    fn a_tip_feels_the_tissue_push_back_harder_the_deeper_it_presses() {
+        // A 3 mm tip held at depths below the top of an anchored 3 cm ball, 0.6 s each: the
+        // tissue tents ahead of it, and the reaction points out of the surface, is zero
+        // before contact and after, and grows with depth (more points, each further).
+        let m = ball(4, 0.03, Vec3::ZERO);
+        let mut b = body_of(&m, vec![0; m.triangle_count()]);
+        let top = b.positions()[farthest(&b, Vec3::Z)];
+        let r = 0.003;
+        let mut out = ModelOutput::default();
+        let mut held = |b: &mut SoftBody, depth: f32| {
+            let c = [Contact {
+                tool: ToolId::Left,
+                point: top + Vec3::Z * (r - depth),
+                normal: Vec3::Z,
+                kind: ContactKind::Sphere { radius_m: r },
+            }];
+            let mut f = Vec3::ZERO;
+            for _ in 0..300 {
+                out.clear();
+                b.step(0.002, &c, &mut out);
+                f = out.reactions.iter().map(|(_, f)| *f).sum();
+            }
+            f
+        };
+        assert_eq!(held(&mut b, -0.0005), Vec3::ZERO, "half a millimetre above");
+        let forces: Vec<Vec3> = [0.0005, 0.001, 0.002, 0.003]
+            .iter()
+            .map(|&d| held(&mut b, d))
+            .collect();
+        for w in forces.windows(2) {
+            assert!(w[1].length() > w[0].length(), "{forces:?}");
+        }
+        for f in &forces {
+            // Out of the surface, give or take the mesh's unevenness under a 3 mm tip.
+            assert!(f.z > 0.8 * f.length(), "{f} points out of the surface");
+        }
+        assert!(forces[3].length() > 3.0 * forces[1].length(), "{forces:?}");
+        assert_eq!(held(&mut b, -0.02), Vec3::ZERO, "withdrawn");
     }
 
     #[test]
