@@ -15,4 +15,5 @@ pub mod scenario;
 pub mod session;
 pub mod sim;
 pub mod trace;
+pub mod ui;
 pub mod xr;

@@ -25,6 +25,11 @@ const USAGE: &str = "usage:
   vesalius run <procedure> --headless --trace FILE [--out DIR] [--scenario FILE] [--realtime]
               [--frames N] [--eye-size WxH]  save N stereo frames as DIR/frames/{left,right}_NNNN.png
                                              (default eye 1080x1200, the Vive's) and DIR/profiler.csv
+  vesalius run <procedure> [--trace FILE] [--out DIR] [--scenario FILE] [--window-size WxH]
+              [--screenshot FILE [--screenshot-at S]]
+                                            the desktop window: mouse and keyboard, or a trace;
+                                            --screenshot saves the window as PNG at the end (or at
+                                            S simulated seconds) and closes it when the session ends
   vesalius run <procedure> --xr [--out DIR] [--scenario FILE] [--eye-size WxH] [--xr-duration S]
                                             in the headset of the active OpenXR runtime (SteamVR,
                                             Monado); ends at the runtime's exit or after S seconds
@@ -142,6 +147,22 @@ fn dispatch(args: &[String]) -> Result<(), String> {
                 None => 0,
             };
             let eye_size = eye_size(&mut rest)?;
+            let screenshot = take_flag(&mut rest, "--screenshot")?;
+            let screenshot_at = match take_flag(&mut rest, "--screenshot-at")? {
+                Some(v) => Some(
+                    v.parse::<f64>()
+                        .ok()
+                        .filter(|s| s.is_finite() && *s >= 0.0)
+                        .ok_or(format!(
+                            "--screenshot-at: expected simulated seconds (0 or more), got '{v}'"
+                        ))?,
+                ),
+                None => None,
+            };
+            let window_size = match take_flag(&mut rest, "--window-size")? {
+                Some(v) => parse_size("--window-size", &v)?,
+                None => (1600, 900),
+            };
             if rest.is_empty() {
                 return Err(format!("run needs a procedure\n{USAGE}"));
             }
@@ -179,11 +200,21 @@ fn dispatch(args: &[String]) -> Result<(), String> {
                     ),
                 };
             }
+            if screenshot_at.is_some() && screenshot.is_none() {
+                return Err("--screenshot-at needs --screenshot FILE".into());
+            }
             if !headless {
-                return Err(
-                    "the desktop window is not built yet; use --headless --trace FILE, or --xr"
-                        .into(),
+                return run_window(
+                    &procedure,
+                    scenario.as_deref(),
+                    trace.as_deref().map(Path::new),
+                    out.as_deref().map(Path::new),
+                    (screenshot.map(PathBuf::from), screenshot_at),
+                    window_size,
                 );
+            }
+            if screenshot.is_some() {
+                return Err("--screenshot saves the window: drop --headless".into());
             }
             let trace = trace.ok_or("run --headless needs --trace FILE")?;
             if frames > 0 && out.is_none() {
@@ -302,6 +333,66 @@ fn scenario_text(procedure: &str, scenario: Option<&str>) -> Result<(String, Str
     })
 }
 
+/// `run <p>` without `--headless`: the desktop window, played by a trace or driven by the
+/// desktop controls.
+fn run_window(
+    procedure: &str,
+    scenario: Option<&str>,
+    trace: Option<&Path>,
+    out: Option<&Path>,
+    (screenshot, screenshot_at_s): (Option<PathBuf>, Option<f64>),
+    size: (u32, u32),
+) -> Result<(), String> {
+    let (file, text) = scenario_text(procedure, scenario)?;
+    let trace = match trace {
+        Some(t) => {
+            let keys = load_trace(t, procedure)?;
+            let name = t
+                .file_name()
+                .map_or_else(|| t.display().to_string(), |n| n.to_string_lossy().into());
+            Some((keys, name))
+        }
+        None => None,
+    };
+    if let Some(p) = screenshot.as_deref().and_then(Path::parent)
+        && !p.as_os_str().is_empty()
+        && !p.is_dir()
+    {
+        return Err(format!(
+            "--screenshot: folder {} does not exist",
+            p.display()
+        ));
+    }
+    // The sliders' "save" writes back into the scenario file the session runs; with the
+    // built-in scenario, a new file beside the outputs.
+    let save_tuning_to = match (scenario, out) {
+        (Some(f), _) => PathBuf::from(f),
+        (None, Some(dir)) => dir.join(format!("{procedure}-tuned.toml")),
+        (None, None) => PathBuf::from(format!("{procedure}-tuned.toml")),
+    };
+    let run = vesalius::ui::window::run(vesalius::ui::window::WindowOptions {
+        procedure: procedure.to_string(),
+        scenario_text: text,
+        scenario_file: file,
+        trace,
+        out: out.map(Path::to_path_buf),
+        screenshot,
+        screenshot_at_s,
+        size,
+        save_tuning_to,
+    })?;
+    println!("window on {}: {} frames", run.device, run.frames);
+    if let Some(((w, h), path)) = &run.screenshot {
+        println!("screenshot {w}x{h} written to {}", path.display());
+    }
+    // The window wrote the session's files when it ended; report it here like the others.
+    finish(&run.outcome, None)?;
+    if let Some(dir) = out {
+        println!("wrote {}", dir.display());
+    }
+    Ok(())
+}
+
 /// `run <p> --xr`: a session in the headset of whatever OpenXR runtime is active.
 fn run_xr(
     procedure: &str,
@@ -329,14 +420,7 @@ fn run_xr_sim(
     out: &Path,
     eye: Option<(u32, u32)>,
 ) -> Result<(), String> {
-    let keys = KeyTrace::load(trace).map_err(|e| e.to_string())?;
-    if keys.procedure != procedure {
-        return Err(format!(
-            "{}: procedure: trace is for '{}', not '{procedure}'",
-            trace.display(),
-            keys.procedure
-        ));
-    }
+    let keys = load_trace(trace, procedure)?;
     let sim_dir = out.join("xr-sim");
     std::fs::create_dir_all(&sim_dir).map_err(|e| format!("{}: {e}", sim_dir.display()))?;
     let abs = |p: &Path| {
@@ -401,16 +485,33 @@ fn finish(outcome: &session::Outcome, out: Option<&Path>) -> Result<(), String> 
 
 /// `--eye-size WxH`, default the Vive's 1080x1200.
 fn eye_size(args: &mut Vec<String>) -> Result<(u32, u32), String> {
-    let Some(v) = take_flag(args, "--eye-size")? else {
-        return Ok(vesalius::render::camera::VIVE_EYE_SIZE);
-    };
-    let parsed = v
-        .split_once('x')
+    match take_flag(args, "--eye-size")? {
+        Some(v) => parse_size("--eye-size", &v),
+        None => Ok(vesalius::render::camera::VIVE_EYE_SIZE),
+    }
+}
+
+/// WIDTHxHEIGHT in pixels, each 16 to 8192.
+fn parse_size(flag: &str, v: &str) -> Result<(u32, u32), String> {
+    v.split_once('x')
         .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
-        .filter(|&(w, h)| (16..=8192).contains(&w) && (16..=8192).contains(&h));
-    parsed.ok_or(format!(
-        "--eye-size: expected WIDTHxHEIGHT in pixels, each 16 to 8192, got '{v}'"
-    ))
+        .filter(|&(w, h)| (16..=8192).contains(&w) && (16..=8192).contains(&h))
+        .ok_or(format!(
+            "{flag}: expected WIDTHxHEIGHT in pixels, each 16 to 8192, got '{v}'"
+        ))
+}
+
+/// A keyframed trace, checked to be for `procedure`.
+fn load_trace(path: &Path, procedure: &str) -> Result<KeyTrace, String> {
+    let keys = KeyTrace::load(path).map_err(|e| e.to_string())?;
+    if keys.procedure != procedure {
+        return Err(format!(
+            "{}: procedure: trace is for '{}', not '{procedure}'",
+            path.display(),
+            keys.procedure
+        ));
+    }
+    Ok(keys)
 }
 
 fn run(
@@ -422,14 +523,7 @@ fn run(
     (frames, eye_size): (u32, (u32, u32)),
 ) -> Result<(), String> {
     let (file, text) = scenario_text(procedure, scenario)?;
-    let keys = KeyTrace::load(trace).map_err(|e| e.to_string())?;
-    if keys.procedure != procedure {
-        return Err(format!(
-            "{}: procedure: trace is for '{}', not '{procedure}'",
-            trace.display(),
-            keys.procedure
-        ));
-    }
+    let keys = load_trace(trace, procedure)?;
     let pacing = if realtime {
         Pacing::RealTime
     } else {
@@ -581,10 +675,11 @@ fn profile(
 fn replay(recorded: &Path, out: &Path) -> Result<(), String> {
     let rec = Recording::read(recorded).map_err(|e| e.to_string())?;
     let file = format!("{} (embedded scenario)", recorded.display());
+    let scenario = rec.scenario.clone();
     let outcome = session::run(
-        &rec.scenario,
+        &scenario,
         &file,
-        Input::Recorded(rec.frames),
+        Input::Recorded(rec),
         Pacing::AsFastAsPossible,
         None,
     )

@@ -135,6 +135,71 @@ pub struct Weights {
 }
 
 /// The scenario shipped for a procedure.
+/// The scenario `text` with the kidney's tunable values set to `t`, comments and layout kept:
+/// each `key = value` line of the `[kidney]` table gets the new value (a missing key is added at
+/// the end of the table). The result is checked to parse, with exactly these values.
+pub fn with_kidney_tuning(
+    file: &str,
+    text: &str,
+    t: &crate::models::Tuning,
+) -> Result<String, InputError> {
+    let names = crate::models::Tuning::RANGES.map(|r| r.0);
+    let values = t.values();
+    let mut out: Vec<String> = Vec::new();
+    let mut in_kidney = false;
+    let mut seen = [false; 4];
+    let mut table_end = None;
+    for line in text.lines() {
+        let trimmed = line.trim_start();
+        if trimmed.starts_with('[') {
+            if in_kidney {
+                table_end = Some(out.len());
+            }
+            in_kidney = trimmed.starts_with("[kidney]");
+        }
+        let key = trimmed.split('=').next().unwrap_or("").trim();
+        match names.iter().position(|n| *n == key) {
+            Some(k) if in_kidney && trimmed.contains('=') => {
+                let indent = &line[..line.len() - trimmed.len()];
+                let comment = line.find('#').map_or("", |c| &line[c..]);
+                let pad = if comment.is_empty() { "" } else { "   " };
+                out.push(format!("{indent}{key} = {:?}{pad}{comment}", values[k]));
+                seen[k] = true;
+            }
+            _ => out.push(line.to_string()),
+        }
+    }
+    let at = match (table_end, in_kidney) {
+        (Some(e), _) => e,
+        (None, true) => out.len(),
+        (None, false) => {
+            return Err(InputError::new(
+                file,
+                "kidney",
+                "no [kidney] table to write into",
+            ));
+        }
+    };
+    let missing: Vec<String> = (0..4)
+        .filter(|&k| !seen[k])
+        .map(|k| format!("{} = {:?}", names[k], values[k]))
+        .collect();
+    out.splice(at..at, missing);
+    let mut written = out.join("\n");
+    if text.ends_with('\n') {
+        written.push('\n');
+    }
+    let parsed = Scenario::parse(file, &written)?;
+    if crate::models::Tuning::of(&parsed.kidney) != *t {
+        return Err(InputError::new(
+            file,
+            "kidney",
+            "the tuned values did not read back",
+        ));
+    }
+    Ok(written)
+}
+
 pub fn builtin(procedure: &str) -> Option<&'static str> {
     match procedure {
         "nephrectomy" => Some(include_str!("../assets/scenarios/nephrectomy.toml")),
@@ -408,5 +473,46 @@ impl Scenario {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::models::Tuning;
+
+    #[test]
+    fn tuned_values_are_written_into_the_kidney_table_keeping_comments() {
+        let text = builtin("nephrectomy").expect("builtin");
+        let before = Scenario::parse("s.toml", text).expect("parses");
+        let t = Tuning {
+            spring_n_per_m: 55.5,
+            damping_per_s: 3.0,
+            pressure_pa: 2000.0,
+            offset_m: 0.004,
+        };
+        let out = with_kidney_tuning("s.toml", text, &t).expect("written");
+        let after = Scenario::parse("s.toml", &out).expect("parses");
+        assert_eq!(Tuning::of(&after.kidney), t);
+        // The vessels keep their own values; every comment line survives; one line a key.
+        assert_eq!(after.vessels, before.vessels);
+        assert_eq!(out.lines().count(), text.lines().count());
+        assert!(out.contains("spring_n_per_m = 55.5   # pull of each point"));
+        assert!(out.contains("spring_n_per_m = 120.0"));
+        // A missing key is added to the table; no kidney table is an error naming it.
+        let short: String = text
+            .lines()
+            .filter(|l| !l.starts_with("offset_m = 0.002"))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        assert_ne!(short, text);
+        let out = with_kidney_tuning("s.toml", &short, &t).expect("written");
+        assert_eq!(
+            Tuning::of(&Scenario::parse("s.toml", &out).expect("ok").kidney),
+            t
+        );
+        let e = with_kidney_tuning("s.toml", "procedure = \"nephrectomy\"\n", &t)
+            .expect_err("no table");
+        assert!(e.to_string().contains("s.toml") && e.to_string().contains("kidney"));
     }
 }

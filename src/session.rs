@@ -1,6 +1,7 @@
 //! A headless session: a procedure driven by a trace at a fixed step, recorded, and reported.
 
 use crate::assess;
+use crate::models::Tuning;
 use crate::procedures::Nephrectomy;
 use crate::scenario::{InputError, Scenario};
 use crate::sim::{Clock, InputFrame, Pacing, SimEvent, Snapshot, SnapshotBus, TissueModel};
@@ -14,7 +15,36 @@ use std::time::Instant;
 /// Where the inputs come from.
 pub enum Input {
     Keys(KeyTrace),
-    Recorded(Vec<InputFrame>),
+    /// A recording: its frames, and its tissue tunings at their steps.
+    Recorded(Recording),
+}
+
+/// A session's state at one step, as the supervisor's panels show it.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Status {
+    pub step: u64,
+    /// Simulated time, seconds.
+    pub time_s: f64,
+    /// Instrument tip path length so far (left, right), metres.
+    pub path_m: [f32; 2],
+    /// Length cut so far, metres, and triangles removed.
+    pub cut_length_m: f32,
+    pub cut_faces: u32,
+    /// Errors: vulnerable-structure contacts and torn ties.
+    pub errors: u32,
+    /// Score so far (0-100), by the scenario's weights.
+    pub score: f32,
+    /// Task steps done, in order.
+    pub steps_done: Vec<String>,
+    pub completed: bool,
+    /// Contact force on each tool, newtons.
+    pub force_n: [f32; 2],
+    /// Whether each tool touches a vulnerable structure.
+    pub touching: [bool; 2],
+    /// The nearest vulnerable structure near each tool, and its distance, metres.
+    pub near: [Option<(String, f32)>; 2],
+    /// The kidney's tunable parameters now.
+    pub tuning: Tuning,
 }
 
 /// Extra simulated time after the trace ends, seconds, so that motion settles.
@@ -93,6 +123,7 @@ pub struct Live {
     proc_: Nephrectomy,
     clock: Clock,
     frames: Vec<InputFrame>,
+    tunings: Vec<(u64, Tuning)>,
     events: Vec<SimEvent>,
     start: Instant,
 }
@@ -111,6 +142,7 @@ impl Live {
             scenario_text: scenario_text.to_string(),
             proc_,
             frames: Vec::new(),
+            tunings: Vec::new(),
             events: Vec::new(),
             start: Instant::now(),
         })
@@ -125,6 +157,18 @@ impl Live {
         self.clock.time_s()
     }
 
+    /// Steps between two snapshots published for renderers (the scenario's `publish_hz`).
+    pub fn publish_every(&self) -> u64 {
+        ((1.0 / self.scenario.publish_hz) / self.scenario.dt_s)
+            .round()
+            .max(1.0) as u64
+    }
+
+    /// Steps that cover `duration_s` of simulated time.
+    pub fn steps_for(&self, duration_s: f64) -> u64 {
+        (duration_s / f64::from(self.scenario.dt_s)).ceil() as u64
+    }
+
     pub fn step_count(&self) -> u64 {
         self.clock.step()
     }
@@ -137,6 +181,24 @@ impl Live {
         self.frames.push(frame);
         self.clock.tick();
         &self.events[before..]
+    }
+
+    /// Changes the kidney's spring, damping, pressure and offset from the next step on; the
+    /// change is recorded (a replay makes it at the same step) and raised as an event.
+    pub fn tune(&mut self, t: Tuning) -> Result<(), String> {
+        t.check().map_err(|(key, m)| format!("kidney.{key}: {m}"))?;
+        self.proc_.tune_kidney(&t);
+        self.tunings.push((self.clock.step(), t));
+        self.note(crate::sim::EventKind::TissueTuned {
+            model: "kidney".into(),
+            tuning: t,
+        });
+        Ok(())
+    }
+
+    /// The kidney's tunable parameters now.
+    pub fn tuning(&self) -> Tuning {
+        Tuning::of(&self.proc_.scenario.kidney)
     }
 
     /// Adds an event from outside the simulation (a controller lost, a session restarted).
@@ -156,6 +218,29 @@ impl Live {
     /// Reaction force on each tool (left, right) after the last step, newtons.
     pub fn reactions(&self) -> [glam::Vec3; 2] {
         self.proc_.reactions()
+    }
+
+    /// How the session stands now, for the supervisor's panels; vulnerable structures are
+    /// looked for within `near_m` of the tools.
+    pub fn status(&self, near_m: f32) -> Status {
+        let m = &self.proc_.metrics;
+        let (score, _) = assess::score(&self.scenario, m);
+        let f = self.proc_.reactions();
+        Status {
+            step: self.clock.step(),
+            time_s: self.clock.time_s(),
+            path_m: [m.path_length_left_m, m.path_length_right_m],
+            cut_length_m: m.cut_length_m,
+            cut_faces: m.cut_faces,
+            errors: m.vessel_contacts + m.ties_torn,
+            score,
+            steps_done: m.steps_done.clone(),
+            completed: self.proc_.is_completed(),
+            force_n: [f[0].length(), f[1].length()],
+            touching: self.proc_.touching_vulnerable(),
+            near: self.proc_.vulnerable_near(near_m),
+            tuning: self.tuning(),
+        }
     }
 
     /// The report, events and recording of the session so far.
@@ -208,6 +293,7 @@ impl Live {
                 dt_s: dt,
                 scenario: self.scenario_text,
                 frames: self.frames,
+                tunings: self.tunings,
             },
             wall_s,
             captured,
@@ -225,11 +311,10 @@ pub fn run_capturing(
     frames_wanted: u32,
 ) -> Result<Outcome, SessionError> {
     let mut live = Live::new(scenario_text, scenario_file, pacing)?;
-    let dt = live.dt_s();
-    let publish_every = ((1.0 / live.scenario.publish_hz) / dt).round().max(1.0) as u64;
+    let publish_every = live.publish_every();
     let total_steps = match &input {
-        Input::Keys(k) => ((k.duration_s() + SETTLE_S) / dt as f64).ceil() as u64,
-        Input::Recorded(f) => f.len() as u64,
+        Input::Keys(k) => live.steps_for(k.duration_s() + SETTLE_S),
+        Input::Recorded(r) => r.frames.len() as u64,
     };
     let n = frames_wanted as u64;
     let capture_at: Vec<u64> = (1..=n)
@@ -240,7 +325,14 @@ pub fn run_capturing(
         let step = live.step_count();
         let frame = match &input {
             Input::Keys(k) => k.sample(live.time_s()),
-            Input::Recorded(f) => f[step as usize],
+            Input::Recorded(r) => {
+                for (_, t) in r.tunings.iter().filter(|(s, _)| *s == step) {
+                    live.tune(*t).map_err(|m| {
+                        SessionError::Input(InputError::new(scenario_file, "tunings", m))
+                    })?;
+                }
+                r.frames[step as usize]
+            }
         };
         live.step(frame);
         if capture_at.binary_search(&step).is_ok() {

@@ -1,6 +1,7 @@
 //! Input traces. A keyframed TOML trace is written by hand and sampled once per step; every
 //! session records what it sampled in a compact binary file that replays bit for bit.
 
+use crate::models::Tuning;
 use crate::scenario::{InputError, check_procedure};
 use crate::sim::{Buttons, Hand, HandInput, InputFrame, Pose};
 use glam::{Quat, Vec3};
@@ -76,17 +77,22 @@ impl KeyTrace {
 }
 
 const MAGIC: &[u8; 8] = b"VSLTRACE";
-const VERSION: u32 = 1;
+/// Version 2 adds the tissue tunings made during the session (version 1 files still read).
+const VERSION: u32 = 2;
+/// Bytes per tuning: the step (u64) and four floats.
+const TUNING_BYTES: usize = 8 + 4 * 4;
 /// Bytes per hand per step: 3 + 4 + 2 floats, one flag byte.
 const HAND_BYTES: usize = 9 * 4 + 1;
 
-/// A recorded session input: the scenario text it ran with and every sampled frame.
+/// A recorded session input: the scenario text it ran with, every sampled frame, and the
+/// tissue parameters changed during the session (applied before the step they name).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Recording {
     pub procedure: String,
     pub dt_s: f32,
     pub scenario: String,
     pub frames: Vec<InputFrame>,
+    pub tunings: Vec<(u64, Tuning)>,
 }
 
 impl Recording {
@@ -113,6 +119,13 @@ impl Recording {
                     buf.extend_from_slice(&v.to_le_bytes());
                 }
                 buf.push(h.buttons.mark as u8);
+            }
+        }
+        buf.extend_from_slice(&(self.tunings.len() as u32).to_le_bytes());
+        for (step, t) in &self.tunings {
+            buf.extend_from_slice(&step.to_le_bytes());
+            for v in t.values() {
+                buf.extend_from_slice(&v.to_le_bytes());
             }
         }
         // Write to a temporary file and rename, so a crash never leaves half a recording.
@@ -150,11 +163,11 @@ impl Recording {
             ));
         }
         let version = r.u32("version")?;
-        if version != VERSION {
+        if !(1..=VERSION).contains(&version) {
             return Err(InputError::new(
                 file,
                 "version",
-                format!("unsupported version {version}, expected {VERSION}"),
+                format!("unsupported version {version}, expected 1 to {VERSION}"),
             ));
         }
         let procedure = r.string("procedure")?;
@@ -169,15 +182,13 @@ impl Recording {
             ));
         }
         let n = r.u64("frames")? as usize;
-        if r.b.len() - r.at != n * 2 * HAND_BYTES {
+        let left = r.b.len() - r.at;
+        let frame_bytes = n.saturating_mul(2 * HAND_BYTES);
+        if (version == 1 && left != frame_bytes) || left < frame_bytes {
             return Err(InputError::new(
                 file,
                 "frames",
-                format!(
-                    "expected {} bytes of frames for {n} frames, found {}",
-                    n * 2 * HAND_BYTES,
-                    r.b.len() - r.at
-                ),
+                format!("expected {frame_bytes} bytes of frames for {n} frames, found {left}"),
             ));
         }
         let mut frames = Vec::with_capacity(n);
@@ -210,11 +221,51 @@ impl Recording {
             }
             frames.push(frame);
         }
+        let mut tunings = Vec::new();
+        if version >= 2 {
+            let k = r.u32("tunings")? as usize;
+            let left = r.b.len() - r.at;
+            if left != k * TUNING_BYTES {
+                return Err(InputError::new(
+                    file,
+                    "tunings",
+                    format!(
+                        "expected {} bytes for {k} tunings, found {left}",
+                        k * TUNING_BYTES
+                    ),
+                ));
+            }
+            for j in 0..k {
+                let step = r.u64("tunings")?;
+                let mut v = [0f32; 4];
+                for c in &mut v {
+                    *c = r.f32("tunings")?;
+                }
+                let t = Tuning {
+                    spring_n_per_m: v[0],
+                    damping_per_s: v[1],
+                    pressure_pa: v[2],
+                    offset_m: v[3],
+                };
+                let key = format!("tuning {j}");
+                t.check()
+                    .map_err(|(name, m)| InputError::new(file, &format!("{key}: {name}"), m))?;
+                if step > n as u64 || tunings.last().is_some_and(|(s, _)| *s > step) {
+                    return Err(InputError::new(
+                        file,
+                        &key,
+                        format!("step {step} is out of order or past the last frame ({n})"),
+                    ));
+                }
+                tunings.push((step, t));
+            }
+        }
         Ok(Self {
             procedure,
             dt_s,
             scenario,
             frames,
+            tunings,
         })
     }
 }

@@ -131,6 +131,15 @@ fn a_truncated_or_corrupt_recording_is_rejected() {
         dt_s: 0.002,
         scenario: scenario(),
         frames: vec![Default::default(); 3],
+        tunings: vec![(
+            1,
+            vesalius::models::Tuning {
+                spring_n_per_m: 60.0,
+                damping_per_s: 4.0,
+                pressure_pa: 1500.0,
+                offset_m: 0.002,
+            },
+        )],
     };
     let dir = std::env::temp_dir().join(format!("vesalius-bad-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("dir");
@@ -140,12 +149,22 @@ fn a_truncated_or_corrupt_recording_is_rejected() {
     let bytes = std::fs::read(&path).expect("read");
     let e = Recording::decode("r.vtrace", &bytes[..bytes.len() - 5]).expect_err("truncated");
     assert!(e.to_string().contains("r.vtrace"), "{e}");
+    // The last frame's first float: before the tuning count (4 bytes) and one tuning (24).
     let mut bad = bytes.clone();
     let n = bad.len();
-    bad[n - 37..n - 33].copy_from_slice(&f32::NAN.to_le_bytes());
+    let last_frame = n - 28 - 37;
+    bad[last_frame..last_frame + 4].copy_from_slice(&f32::NAN.to_le_bytes());
     let e = Recording::decode("r.vtrace", &bad).expect_err("nan pose");
     assert!(
         e.to_string().contains("frame 2") && e.to_string().contains("finite"),
+        "{e}"
+    );
+    // A tuning out of its range: the damping (the tuning's second float).
+    let mut bad = bytes.clone();
+    bad[n - 12..n - 8].copy_from_slice(&(-3.0f32).to_le_bytes());
+    let e = Recording::decode("r.vtrace", &bad).expect_err("negative damping");
+    assert!(
+        e.to_string().contains("tuning 0: damping_per_s") && e.to_string().contains("-3"),
         "{e}"
     );
 }
@@ -177,4 +196,68 @@ fn the_cli_reports_bad_files_and_exits_non_zero() {
         .expect("runs");
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("unknown procedure"));
+}
+
+#[test]
+fn window_flags_without_a_display_or_with_a_bad_path_are_clear_errors() {
+    let run = |args: &[&str], no_display: bool| {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_vesalius"));
+        c.args(args);
+        if no_display {
+            c.env_remove("DISPLAY").env_remove("WAYLAND_DISPLAY");
+        }
+        let o = c.output().expect("runs");
+        assert!(!o.status.success());
+        String::from_utf8_lossy(&o.stderr).to_string()
+    };
+    let e = run(&["run", "nephrectomy"], true);
+    assert!(
+        e.contains("cannot open a window") && e.contains("xvfb-run"),
+        "{e}"
+    );
+    let e = run(
+        &[
+            "run",
+            "nephrectomy",
+            "--screenshot",
+            "/no/such/folder/shot.png",
+        ],
+        false,
+    );
+    assert!(
+        e.contains("--screenshot: folder /no/such/folder does not exist"),
+        "{e}"
+    );
+    let e = run(&["run", "nephrectomy", "--screenshot-at", "3"], false);
+    assert!(e.contains("--screenshot-at needs --screenshot FILE"), "{e}");
+    let e = run(
+        &[
+            "run",
+            "nephrectomy",
+            "--screenshot",
+            "s.png",
+            "--screenshot-at",
+            "-1",
+        ],
+        false,
+    );
+    assert!(
+        e.contains("--screenshot-at: expected simulated seconds"),
+        "{e}"
+    );
+    let e = run(&["run", "nephrectomy", "--window-size", "12x9000"], false);
+    assert!(e.contains("--window-size: expected WIDTHxHEIGHT"), "{e}");
+    let e = run(
+        &[
+            "run",
+            "nephrectomy",
+            "--headless",
+            "--trace",
+            "x.toml",
+            "--screenshot",
+            "s.png",
+        ],
+        false,
+    );
+    assert!(e.contains("--screenshot saves the window"), "{e}");
 }

@@ -162,3 +162,61 @@ fn check_accepts_the_shipped_files_and_bench_prints_json_lines() {
         "{s}"
     );
 }
+
+/// A supervisor's live change of the kidney's parameters is part of the record: the replay
+/// makes it at the same step and ends in the same state; without it the state differs.
+#[test]
+fn a_live_tissue_tuning_is_recorded_and_replayed_at_its_step() {
+    let text = coarse();
+    let keys = demo_trace();
+    let run = |tune_at: Option<u64>| {
+        let mut live =
+            session::Live::new(&text, "coarse", Pacing::AsFastAsPossible).expect("scenario");
+        let steps = live.steps_for(7.0);
+        let mut t = live.tuning();
+        t.spring_n_per_m *= 4.0;
+        t.damping_per_s = 2.0;
+        while live.step_count() < steps {
+            if Some(live.step_count()) == tune_at {
+                live.tune(t).expect("in range");
+            }
+            let frame = keys.sample(live.time_s());
+            live.step(frame);
+        }
+        assert_eq!(live.tuning() == t, tune_at.is_some());
+        live.finish(Vec::new())
+    };
+    let tuned = run(Some(2700));
+    assert_eq!(tuned.recording.tunings.len(), 1);
+    assert_eq!(tuned.recording.tunings[0].0, 2700);
+    assert_eq!(tuned.report.events.get("tissue_tuned"), Some(&1));
+    let plain = run(None);
+    assert_ne!(tuned.report.state_hash, plain.report.state_hash);
+    // Through the file and back, then replayed.
+    let dir = tmp("tuning");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let path = dir.join("input.vtrace");
+    tuned.recording.write(&path).expect("write");
+    let rec = vesalius::trace::Recording::read(&path).expect("read");
+    assert_eq!(rec, tuned.recording);
+    let scenario = rec.scenario.clone();
+    let replayed = session::run(
+        &scenario,
+        "replay",
+        Input::Recorded(rec),
+        Pacing::AsFastAsPossible,
+        None,
+    )
+    .expect("replays");
+    assert_eq!(replayed.report.state_hash, tuned.report.state_hash);
+    assert_eq!(replayed.recording.tunings, tuned.recording.tunings);
+    // Out of range is refused, and changes nothing.
+    let mut live = session::Live::new(&text, "coarse", Pacing::AsFastAsPossible).expect("ok");
+    let before = live.tuning();
+    let mut bad = before;
+    bad.offset_m = f32::NAN;
+    let e = live.tune(bad).expect_err("NaN offset");
+    assert!(e.contains("kidney.offset_m"), "{e}");
+    assert_eq!(live.tuning(), before);
+    let _ = std::fs::remove_dir_all(&dir);
+}

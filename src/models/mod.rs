@@ -6,4 +6,4 @@ mod softbody;
 pub mod xpbd;
 
 pub use simplex::{RenderVertex, SimplexMesh};
-pub use softbody::{Fnv, SoftBody, SoftBodyParams, Tie};
+pub use softbody::{Fnv, SoftBody, SoftBodyParams, Tie, Tuning};

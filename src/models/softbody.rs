@@ -60,6 +60,66 @@ pub struct SoftBodyParams {
     pub sleep_speed_m_per_s: f32,
 }
 
+/// The soft body's parameters a supervisor may change while a session runs (the nephrectomy
+/// paper lets users tune the soft-body variables live, its Figure 5).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Tuning {
+    /// Spring to the rest position, N/m per unit-mass point (eq 2).
+    pub spring_n_per_m: f32,
+    /// Velocity damping, 1/s (eq 5).
+    pub damping_per_s: f32,
+    /// Pressure of a pressing tool, Pa (eq 4).
+    pub pressure_pa: f32,
+    /// Lift of the force origin above the contact, m.
+    pub offset_m: f32,
+}
+
+impl Tuning {
+    /// Each value's name and allowed range (the sliders' ends).
+    pub const RANGES: [(&'static str, f32, f32); 4] = [
+        ("spring_n_per_m", 1.0, 400.0),
+        ("damping_per_s", 0.0, 50.0),
+        ("pressure_pa", 0.0, 10_000.0),
+        ("offset_m", 0.0, 0.01),
+    ];
+
+    pub fn of(p: &SoftBodyParams) -> Tuning {
+        Tuning {
+            spring_n_per_m: p.spring_n_per_m,
+            damping_per_s: p.damping_per_s,
+            pressure_pa: p.pressure_pa,
+            offset_m: p.offset_m,
+        }
+    }
+
+    pub fn values(&self) -> [f32; 4] {
+        [
+            self.spring_n_per_m,
+            self.damping_per_s,
+            self.pressure_pa,
+            self.offset_m,
+        ]
+    }
+
+    /// `Err(key, message)` for the first value outside its range or not a number.
+    pub fn check(&self) -> Result<(), (&'static str, String)> {
+        for ((key, lo, hi), v) in Tuning::RANGES.iter().zip(self.values()) {
+            if !(v.is_finite() && (*lo..=*hi).contains(&v)) {
+                return Err((key, format!("must be {lo} to {hi}, got {v}")));
+            }
+        }
+        Ok(())
+    }
+
+    /// These values written into `p`.
+    pub fn apply(&self, p: &mut SoftBodyParams) {
+        p.spring_n_per_m = self.spring_n_per_m;
+        p.damping_per_s = self.damping_per_s;
+        p.pressure_pa = self.pressure_pa;
+        p.offset_m = self.offset_m;
+    }
+}
+
 impl Default for SoftBodyParams {
     fn default() -> Self {
         Self {
@@ -348,6 +408,17 @@ impl SoftBody {
 
     pub fn positions(&self) -> &[Vec3] {
         &self.x
+    }
+
+    /// Changes the tunable parameters from the next step on (points at rest stay asleep:
+    /// at rest none of these four moves them).
+    pub fn tune(&mut self, t: &Tuning) {
+        t.apply(&mut self.params);
+    }
+
+    /// The model's name in the scenario ("kidney", "renal_artery", ...).
+    pub fn name(&self) -> &str {
+        &self.name
     }
 
     pub fn regions(&self) -> &[u8] {

@@ -261,6 +261,36 @@ impl Nephrectomy {
         &mut self.models
     }
 
+    /// Changes the kidney's tunable parameters from the next step on.
+    pub fn tune_kidney(&mut self, t: &crate::models::Tuning) {
+        self.models[KIDNEY].tune(t);
+        t.apply(&mut self.scenario.kidney);
+    }
+
+    /// Whether each tool (left, right) touches a vulnerable structure now.
+    pub fn touching_vulnerable(&self) -> [bool; 2] {
+        self.vessel_touch
+    }
+
+    /// The nearest vulnerable structure within `within_m` of each tool's working point (the
+    /// grasper's tip; where the laser's beam lands), and how far it is, metres.
+    pub fn vulnerable_near(&self, within_m: f32) -> [Option<(String, f32)>; 2] {
+        let points = [Some(self.tools[0].tip), self.tools[1].beam_end];
+        points.map(|point| {
+            let point = point?;
+            self.models
+                .iter()
+                .zip(&self.vulnerable)
+                .filter(|(_, v)| **v)
+                .filter_map(|(m, _)| {
+                    nearest_within(&m.surface(), point, within_m)
+                        .first()
+                        .map(|&(d, _)| (m.name().to_string(), d))
+                })
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+        })
+    }
+
     pub fn is_completed(&self) -> bool {
         self.removed
     }

@@ -235,81 +235,94 @@ impl EyeTarget {
 
     /// Both eyes' pixels, tightly packed RGBA8 rows, top row first.
     pub fn read(&self, gpu: &Gpu) -> Result<[Vec<u8>; 2], RenderError> {
-        let (w, h) = self.size;
-        let row = w * 4;
-        let padded = row.next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
-        let layer_bytes = padded as u64 * h as u64;
-        let buffer = Tracked::new(
-            gpu.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("readback"),
-                size: layer_bytes * 2,
-                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-                mapped_at_creation: false,
-            }),
-            layer_bytes * 2,
-            Category::Staging,
-            &gpu.ledger,
-        );
-        let mut encoder = gpu
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("readback"),
-            });
-        for layer in 0..2u32 {
-            encoder.copy_texture_to_buffer(
-                wgpu::TexelCopyTextureInfo {
-                    texture: &self.texture,
-                    mip_level: 0,
-                    origin: wgpu::Origin3d {
-                        x: 0,
-                        y: 0,
-                        z: layer,
-                    },
-                    aspect: wgpu::TextureAspect::All,
-                },
-                wgpu::TexelCopyBufferInfo {
-                    buffer: &buffer,
-                    layout: wgpu::TexelCopyBufferLayout {
-                        offset: layer as u64 * layer_bytes,
-                        bytes_per_row: Some(padded),
-                        rows_per_image: Some(h),
-                    },
-                },
-                wgpu::Extent3d {
-                    width: w,
-                    height: h,
-                    depth_or_array_layers: 1,
-                },
-            );
-        }
-        gpu.queue.submit([encoder.finish()]);
-        let (tx, rx) = std::sync::mpsc::channel();
-        buffer.slice(..).map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
+        let mut layers = read_texture(gpu, &self.texture, self.size, 2)?.into_iter();
+        let mut next = || layers.next().unwrap_or_default();
+        Ok([next(), next()])
+    }
+}
+
+/// The first `layers` layers of a 4-byte-per-pixel colour texture of `size` (made with
+/// `COPY_SRC`), each as tightly packed rows, top row first.
+pub fn read_texture(
+    gpu: &Gpu,
+    texture: &wgpu::Texture,
+    size: (u32, u32),
+    layers: u32,
+) -> Result<Vec<Vec<u8>>, RenderError> {
+    let (w, h) = size;
+    let row = w * 4;
+    let padded = row.next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+    let layer_bytes = padded as u64 * h as u64;
+    let buffer = Tracked::new(
+        gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: layer_bytes * layers as u64,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        }),
+        layer_bytes * layers as u64,
+        Category::Staging,
+        &gpu.ledger,
+    );
+    let mut encoder = gpu
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("readback"),
         });
-        gpu.device
-            .poll(wgpu::PollType::wait_indefinitely())
+    for layer in 0..layers {
+        encoder.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d {
+                    x: 0,
+                    y: 0,
+                    z: layer,
+                },
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: layer as u64 * layer_bytes,
+                    bytes_per_row: Some(padded),
+                    rows_per_image: Some(h),
+                },
+            },
+            wgpu::Extent3d {
+                width: w,
+                height: h,
+                depth_or_array_layers: 1,
+            },
+        );
+    }
+    gpu.queue.submit([encoder.finish()]);
+    let (tx, rx) = std::sync::mpsc::channel();
+    buffer.slice(..).map_async(wgpu::MapMode::Read, move |r| {
+        let _ = tx.send(r);
+    });
+    gpu.device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| RenderError::Readback(e.to_string()))?;
+    rx.recv()
+        .map_err(|e| RenderError::Readback(e.to_string()))?
+        .map_err(|e| RenderError::Readback(e.to_string()))?;
+    let mut out = vec![Vec::new(); layers as usize];
+    {
+        let data = buffer
+            .slice(..)
+            .get_mapped_range()
             .map_err(|e| RenderError::Readback(e.to_string()))?;
-        rx.recv()
-            .map_err(|e| RenderError::Readback(e.to_string()))?
-            .map_err(|e| RenderError::Readback(e.to_string()))?;
-        let mut out = [Vec::new(), Vec::new()];
-        {
-            let data = buffer
-                .slice(..)
-                .get_mapped_range()
-                .map_err(|e| RenderError::Readback(e.to_string()))?;
-            for (layer, img) in out.iter_mut().enumerate() {
-                img.reserve_exact((row * h) as usize);
-                for y in 0..h as usize {
-                    let start = layer * layer_bytes as usize + y * padded as usize;
-                    img.extend_from_slice(&data[start..start + row as usize]);
-                }
+        for (layer, img) in out.iter_mut().enumerate() {
+            img.reserve_exact((row * h) as usize);
+            for y in 0..h as usize {
+                let start = layer * layer_bytes as usize + y * padded as usize;
+                img.extend_from_slice(&data[start..start + row as usize]);
             }
         }
-        buffer.unmap();
-        Ok(out)
     }
+    buffer.unmap();
+    Ok(out)
 }
 
 /// Writes tightly packed RGBA8 pixels as a PNG (via a temporary file and a rename, so a reader

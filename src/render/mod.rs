@@ -108,10 +108,12 @@ struct GpuMesh {
     index_count: u32,
 }
 
-/// Where to draw: both eyes' layers of one array texture (multiview), or one view per eye.
+/// Where to draw: both eyes' layers of one array texture (multiview), one view per eye, or
+/// one view seen by the first eye only (a desktop window; not with a multiview renderer).
 pub enum RenderTarget<'a> {
     Array(&'a wgpu::TextureView),
     PerEye([&'a wgpu::TextureView; 2]),
+    Single(&'a wgpu::TextureView),
 }
 
 struct Depth {
@@ -487,7 +489,8 @@ impl Renderer {
                     (v[0], &depth.layers[0], None),
                     (v[1], &depth.layers[1], None),
                 ],
-                (RenderTarget::Array(_), false) => Vec::new(),
+                (RenderTarget::Single(v), false) => vec![(*v, &depth.layers[0], None)],
+                (RenderTarget::Array(_), false) | (RenderTarget::Single(_), true) => Vec::new(),
             };
         for (k, (colour, depth_view, mask)) in passes.iter().enumerate() {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {

@@ -79,6 +79,11 @@ pub enum EventKind {
     SessionLost,
     /// A new XR session took over after a loss.
     SessionRestarted,
+    /// The supervisor changed a model's tunable parameters (applied from this step on).
+    TissueTuned {
+        model: String,
+        tuning: crate::models::Tuning,
+    },
 }
 
 impl EventKind {
@@ -101,6 +106,7 @@ impl EventKind {
             EventKind::ControllerRegained { .. } => "controller_regained",
             EventKind::SessionLost => "session_lost",
             EventKind::SessionRestarted => "session_restarted",
+            EventKind::TissueTuned { .. } => "tissue_tuned",
         }
     }
 

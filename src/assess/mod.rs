@@ -1,5 +1,7 @@
 //! Scoring of a nephrectomy session: five weighted components, each in [0, 1].
 
+pub mod alarms;
+
 use crate::procedures::nephrectomy::Metrics;
 use crate::scenario::Scenario;
 use serde::Serialize;

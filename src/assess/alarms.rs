@@ -1,0 +1,195 @@
+//! Alarms for the supervising surgeon: an instrument touching or nearing a vulnerable
+//! structure, or the grasper pressing too hard. The rectum paper's dynamic assessment warns the
+//! trainee in real time when a tool comes near vulnerable tissue; the force limit is the top of
+//! the 0.5-3.5 N range tissue takes in collision and puncture (interventional-catheter paper,
+//! section 3.1). The laser has no force alarm: the force its beam applies is the paper's
+//! deforming pressure, added at every point it reaches (eq 4), not a load on an instrument.
+
+use crate::session::Status;
+use crate::sim::Hand;
+
+/// When to raise an alarm.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AlarmRules {
+    /// A tool within this distance of a vulnerable structure, metres. Default 5 mm.
+    pub near_m: f32,
+    /// A grasper contact force above this, newtons. Default 3.5 N.
+    pub force_n: f32,
+}
+
+impl Default for AlarmRules {
+    fn default() -> Self {
+        AlarmRules {
+            near_m: 0.005,
+            force_n: 3.5,
+        }
+    }
+}
+
+/// What is wrong.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Reason {
+    Touching { structure: String },
+    Near { structure: String, distance_m: f32 },
+    Force { force_n: f32 },
+}
+
+/// One alarm: which instrument, why, and when it was raised (simulated seconds).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Alarm {
+    pub time_s: f64,
+    pub hand: Hand,
+    pub reason: Reason,
+}
+
+/// The instrument each hand holds in the nephrectomy.
+pub fn instrument(hand: Hand) -> &'static str {
+    match hand {
+        Hand::Left => "grasper",
+        Hand::Right => "laser",
+    }
+}
+
+impl Alarm {
+    /// The banner's text, e.g. "grasper touches renal_artery".
+    pub fn message(&self) -> String {
+        let tool = instrument(self.hand);
+        match &self.reason {
+            Reason::Touching { structure } => format!("{tool} touches {structure}"),
+            Reason::Near {
+                structure,
+                distance_m,
+            } => format!("{tool} {:.1} mm from {structure}", distance_m * 1000.0),
+            Reason::Force { force_n } => format!("{tool} presses with {force_n:.1} N"),
+        }
+    }
+
+    /// Kind of alarm, to tell one condition from another.
+    fn kind(&self) -> usize {
+        match self.reason {
+            Reason::Touching { .. } => 0,
+            Reason::Near { .. } => 1,
+            Reason::Force { .. } => 2,
+        }
+    }
+}
+
+/// The alarms a status shows, worst first for each hand: touching before near (a tool that
+/// touches is also near), then force.
+pub fn conditions(rules: &AlarmRules, s: &Status) -> Vec<Alarm> {
+    let mut out = Vec::new();
+    for hand in Hand::BOTH {
+        let k = hand.index();
+        let near = s.near[k].as_ref();
+        let mut push = |reason| {
+            out.push(Alarm {
+                time_s: s.time_s,
+                hand,
+                reason,
+            })
+        };
+        if s.touching[k] {
+            push(Reason::Touching {
+                structure: near.map_or("a vessel".to_string(), |n| n.0.clone()),
+            });
+        } else if let Some((structure, d)) = near.filter(|n| n.1 <= rules.near_m) {
+            push(Reason::Near {
+                structure: structure.clone(),
+                distance_m: *d,
+            });
+        }
+        if hand == Hand::Left && s.force_n[k].is_finite() && s.force_n[k] > rules.force_n {
+            push(Reason::Force {
+                force_n: s.force_n[k],
+            });
+        }
+    }
+    out
+}
+
+/// Turns a stream of statuses into alarms raised once per episode: an alarm is logged when
+/// its condition begins, not again while it lasts.
+#[derive(Debug, Default)]
+pub struct AlarmWatch {
+    pub rules: AlarmRules,
+    /// Conditions seen at the last update, by hand and kind.
+    on: [[bool; 3]; 2],
+}
+
+impl AlarmWatch {
+    pub fn new(rules: AlarmRules) -> Self {
+        AlarmWatch {
+            rules,
+            on: [[false; 3]; 2],
+        }
+    }
+
+    /// The current conditions, and those of them that just began.
+    pub fn update(&mut self, s: &Status) -> (Vec<Alarm>, Vec<Alarm>) {
+        let now = conditions(&self.rules, s);
+        let mut on = [[false; 3]; 2];
+        for a in &now {
+            on[a.hand.index()][a.kind()] = true;
+        }
+        // Touching and near are one episode: coming close, then touching, is raised at each.
+        let raised = now
+            .iter()
+            .filter(|a| !self.on[a.hand.index()][a.kind()])
+            .cloned()
+            .collect();
+        self.on = on;
+        (now, raised)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn status(t: f64) -> Status {
+        Status {
+            time_s: t,
+            ..Status::default()
+        }
+    }
+
+    #[test]
+    fn an_approach_raises_near_then_touching_once_each_and_force_on_its_own() {
+        let mut w = AlarmWatch::new(AlarmRules::default());
+        let mut s = status(1.0);
+        s.near[0] = Some(("renal_artery".into(), 0.008));
+        assert_eq!(w.update(&s), (vec![], vec![]), "8 mm is not near");
+        s.time_s = 1.5;
+        s.near[0] = Some(("renal_artery".into(), 0.004));
+        let (now, raised) = w.update(&s);
+        assert_eq!(now, raised);
+        assert_eq!(raised.len(), 1);
+        assert_eq!(raised[0].message(), "grasper 4.0 mm from renal_artery");
+        assert_eq!(raised[0].time_s, 1.5);
+        // Still near: shown, not raised again.
+        s.time_s = 1.6;
+        s.near[0] = Some(("renal_artery".into(), 0.003));
+        let (now, raised) = w.update(&s);
+        assert_eq!((now.len(), raised.len()), (1, 0));
+        // Touching and pressing too hard; the laser's beam force raises nothing.
+        s.time_s = 1.7;
+        s.touching[0] = true;
+        s.force_n = [4.2, 12.0];
+        let (_, raised) = w.update(&s);
+        let msgs: Vec<String> = raised.iter().map(Alarm::message).collect();
+        assert_eq!(
+            msgs,
+            ["grasper touches renal_artery", "grasper presses with 4.2 N"]
+        );
+        // All clear, then the same force again: a new episode.
+        w.update(&status(2.0));
+        let mut again = status(2.5);
+        again.force_n[0] = 3.6;
+        let (_, raised) = w.update(&again);
+        assert_eq!(raised.len(), 1);
+        // NaN force never alarms (nor passes for a number).
+        let mut bad = status(3.0);
+        bad.force_n[0] = f32::NAN;
+        assert!(w.update(&bad).0.is_empty());
+    }
+}

@@ -1,0 +1,481 @@
+//! The supervising surgeon's panels: the procedure's steps as a checklist, live metrics, the
+//! alarm banner and log, the profiler's counters with a time plot, and at the end the session
+//! report. The state here is plain data fed from the simulation's status and the renderer's
+//! counters; `show` draws it with egui, so the panels can be tested without a window.
+
+use crate::assess::alarms::{Alarm, AlarmRules, AlarmWatch};
+use crate::models::Tuning;
+use crate::profiler::FrameCounters;
+use crate::session::{Report, Status};
+use std::collections::VecDeque;
+
+/// The nephrectomy's task steps, as the procedure names them, with what the trainee does.
+pub const NEPHRECTOMY_STEPS: [(&str, &str); 4] = [
+    ("identify", "Identify the tumour with the laser"),
+    ("mark", "Mark the resection margin"),
+    ("cut", "Cut around the tumour"),
+    ("remove", "Lift the tumour out"),
+];
+
+/// Samples of the profiler plot kept (about 10 s at 90 frames a second).
+const PLOT_SAMPLES: usize = 900;
+/// Past alarms shown in the log.
+const LOG_LINES: usize = 200;
+
+/// One frame's timings for the plot, milliseconds.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameTimes {
+    pub time_s: f64,
+    pub frame_ms: f32,
+    pub render_ms: f32,
+    pub ui_ms: f32,
+}
+
+/// The end of a session: the report's headline and where its files went.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Summary {
+    pub completed: bool,
+    pub score: f32,
+    pub simulated_s: f64,
+    pub cuts: u64,
+    pub errors: u32,
+    pub written_to: Option<String>,
+}
+
+impl Summary {
+    pub fn from_report(r: &Report, written_to: Option<String>) -> Summary {
+        Summary {
+            completed: r.completed,
+            score: r.score,
+            simulated_s: r.simulated_s,
+            cuts: r.events.get("cut").copied().unwrap_or(0),
+            errors: r.metrics.vessel_contacts + r.metrics.ties_torn,
+            written_to,
+        }
+    }
+}
+
+/// What the panels show.
+pub struct Dashboard {
+    pub procedure: String,
+    /// Where the view and input come from ("trace nephrectomy-demo.toml", "mouse and keyboard").
+    pub source: String,
+    pub status: Status,
+    watch: AlarmWatch,
+    /// Alarms whose condition holds now (the banner).
+    pub active: Vec<Alarm>,
+    /// Alarms raised so far, oldest first.
+    pub log: VecDeque<Alarm>,
+    pub counters: FrameCounters,
+    pub plot: VecDeque<FrameTimes>,
+    pub summary: Option<Summary>,
+    /// Lines of the key map shown under the view (desktop mode).
+    pub key_map: Vec<(String, String)>,
+    /// The instrument the mouse drives (desktop mode).
+    pub driving: Option<&'static str>,
+    /// The tissue sliders' values (from the simulation until the first edit).
+    pub edit: Option<Tuning>,
+    /// Where the tuned scenario was last written, or why it was not.
+    pub saved: Option<String>,
+}
+
+/// What the supervisor asked for this frame.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Actions {
+    /// Apply these kidney parameters now.
+    pub tune: Option<Tuning>,
+    /// Write the current parameters into the scenario file.
+    pub save: bool,
+}
+
+/// Slider labels with units, in the order of `Tuning::RANGES`.
+const SLIDERS: [&str; 4] = [
+    "spring (N/m)",
+    "damping (1/s)",
+    "pressure (Pa)",
+    "offset (mm)",
+];
+
+impl Dashboard {
+    pub fn new(procedure: &str, source: &str, rules: AlarmRules) -> Dashboard {
+        Dashboard {
+            procedure: procedure.to_string(),
+            source: source.to_string(),
+            status: Status::default(),
+            watch: AlarmWatch::new(rules),
+            active: Vec::new(),
+            log: VecDeque::new(),
+            counters: FrameCounters::default(),
+            plot: VecDeque::new(),
+            summary: None,
+            key_map: Vec::new(),
+            driving: None,
+            edit: None,
+            saved: None,
+        }
+    }
+
+    /// Takes the simulation's newest status: updates the metrics, the banner and the log.
+    pub fn update(&mut self, status: Status) {
+        let (now, raised) = self.watch.update(&status);
+        self.active = now;
+        for a in raised {
+            if self.log.len() == LOG_LINES {
+                self.log.pop_front();
+            }
+            self.log.push_back(a);
+        }
+        self.status = status;
+    }
+
+    /// Takes one rendered frame's counters and timings.
+    pub fn frame(&mut self, counters: FrameCounters, times: FrameTimes) {
+        self.counters = counters;
+        if self.plot.len() == PLOT_SAMPLES {
+            self.plot.pop_front();
+        }
+        self.plot.push_back(times);
+    }
+
+    /// Index of the step the trainee is on (the first not done), `None` when all are done.
+    pub fn current_step(&self) -> Option<usize> {
+        NEPHRECTOMY_STEPS
+            .iter()
+            .position(|(name, _)| !self.status.steps_done.iter().any(|d| d == name))
+    }
+
+    /// The metrics panel's rows: label and value.
+    pub fn metric_rows(&self) -> Vec<(&'static str, String)> {
+        let s = &self.status;
+        vec![
+            ("Elapsed", format!("{:.1} s", s.time_s)),
+            ("Path, grasper", format!("{:.0} mm", s.path_m[0] * 1000.0)),
+            ("Path, laser", format!("{:.0} mm", s.path_m[1] * 1000.0)),
+            (
+                "Cut",
+                format!(
+                    "{:.0} mm, {} triangles",
+                    s.cut_length_m * 1000.0,
+                    s.cut_faces
+                ),
+            ),
+            ("Errors", s.errors.to_string()),
+            ("Grasper force", format!("{:.2} N", s.force_n[0])),
+            ("Score so far", format!("{:.1}", s.score)),
+        ]
+    }
+
+    /// Draws the panels around `view`, which draws the 3D view into the central panel; returns
+    /// what the supervisor asked for.
+    pub fn show(&mut self, ui: &mut egui::Ui, view: impl FnOnce(&mut egui::Ui)) -> Actions {
+        let mut actions = Actions::default();
+        egui::Panel::top("title").show(ui, |ui| {
+            ui.horizontal(|ui| {
+                ui.heading(format!("Vesalius: {}", self.procedure));
+                ui.separator();
+                ui.label(&self.source);
+                if let Some(tool) = self.driving {
+                    ui.separator();
+                    ui.strong(format!("the mouse drives {tool}"));
+                }
+            });
+            self.banner(ui);
+        });
+        egui::Panel::left("task")
+            .default_size(270.0)
+            .show(ui, |ui| {
+                self.steps(ui);
+                ui.separator();
+                self.metrics(ui);
+                ui.separator();
+                self.alarm_log(ui);
+            });
+        egui::Panel::right("profiler")
+            .default_size(300.0)
+            .show(ui, |ui| {
+                egui::ScrollArea::vertical().show(ui, |ui| {
+                    self.profiler(ui);
+                    ui.separator();
+                    actions = self.tissue(ui);
+                    if let Some(s) = &self.summary {
+                        ui.separator();
+                        summary(ui, s);
+                    }
+                });
+            });
+        if !self.key_map.is_empty() {
+            egui::Panel::bottom("keys").show(ui, |ui| {
+                ui.horizontal_wrapped(|ui| {
+                    for (key, what) in &self.key_map {
+                        ui.strong(key);
+                        ui.label(what);
+                        ui.separator();
+                    }
+                });
+            });
+        }
+        egui::CentralPanel::no_frame().show(ui, view);
+        actions
+    }
+
+    /// The kidney's sliders: applied when a slider is let go, and saved on request.
+    fn tissue(&mut self, ui: &mut egui::Ui) -> Actions {
+        ui.heading("Tissue (kidney)");
+        let mut t = *self.edit.get_or_insert(self.status.tuning);
+        let mut values = t.values();
+        // Offset shown in millimetres.
+        values[3] *= 1000.0;
+        let mut apply = false;
+        for (k, ((_, lo, hi), label)) in Tuning::RANGES.iter().zip(SLIDERS).enumerate() {
+            let scale = if k == 3 { 1000.0 } else { 1.0 };
+            let r = ui.add(egui::Slider::new(&mut values[k], lo * scale..=hi * scale).text(label));
+            apply |= r.drag_stopped() || (r.changed() && !r.dragged());
+        }
+        t = Tuning {
+            spring_n_per_m: values[0],
+            damping_per_s: values[1],
+            pressure_pa: values[2],
+            offset_m: values[3] / 1000.0,
+        };
+        self.edit = Some(t);
+        let mut actions = Actions {
+            tune: (apply && t != self.status.tuning).then_some(t),
+            save: false,
+        };
+        actions.save = ui.button("Save to scenario file").clicked();
+        if let Some(s) = &self.saved {
+            ui.label(s);
+        }
+        actions
+    }
+
+    fn banner(&self, ui: &mut egui::Ui) {
+        if self.active.is_empty() {
+            ui.colored_label(egui::Color32::from_rgb(90, 170, 90), "No alarm");
+            return;
+        }
+        egui::Frame::new()
+            .fill(egui::Color32::from_rgb(170, 30, 30))
+            .inner_margin(6.0)
+            .show(ui, |ui| {
+                for a in &self.active {
+                    ui.colored_label(egui::Color32::WHITE, format!("ALARM: {}", a.message()));
+                }
+            });
+    }
+
+    fn steps(&self, ui: &mut egui::Ui) {
+        ui.heading("Procedure");
+        let current = self.current_step();
+        for (k, (name, what)) in NEPHRECTOMY_STEPS.iter().enumerate() {
+            let done = self.status.steps_done.iter().any(|d| d == name);
+            let mark = if done { "[x]" } else { "[ ]" };
+            let text = egui::RichText::new(format!("{mark} {what}"));
+            if current == Some(k) {
+                ui.label(text.strong().color(egui::Color32::from_rgb(240, 200, 60)));
+            } else {
+                ui.label(text);
+            }
+        }
+    }
+
+    fn metrics(&self, ui: &mut egui::Ui) {
+        ui.heading("Metrics");
+        egui::Grid::new("metrics").striped(true).show(ui, |ui| {
+            for (label, value) in self.metric_rows() {
+                ui.label(label);
+                ui.label(value);
+                ui.end_row();
+            }
+        });
+    }
+
+    fn alarm_log(&self, ui: &mut egui::Ui) {
+        ui.heading("Alarms");
+        if self.log.is_empty() {
+            ui.label("none so far");
+        }
+        egui::ScrollArea::vertical()
+            .max_height(160.0)
+            .stick_to_bottom(true)
+            .show(ui, |ui| {
+                for a in &self.log {
+                    ui.label(format!("{:6.2} s  {}", a.time_s, a.message()));
+                }
+            });
+    }
+
+    fn profiler(&self, ui: &mut egui::Ui) {
+        ui.heading("Profiler");
+        let c = &self.counters;
+        let mb = |b: u64| format!("{:.1} MB", b as f64 / 1e6);
+        egui::Grid::new("counters").striped(true).show(ui, |ui| {
+            for (label, value) in [
+                ("Batches", c.batches.to_string()),
+                ("Draw calls", c.draw_calls.to_string()),
+                ("SetPass calls", c.setpass_calls.to_string()),
+                ("Triangles", c.triangles.to_string()),
+                ("Vertices", c.vertices.to_string()),
+                ("VRAM", mb(c.vram_bytes)),
+                ("Total memory", mb(c.total_memory_bytes)),
+                ("Objects", c.objects.to_string()),
+            ] {
+                ui.label(label);
+                ui.label(value);
+                ui.end_row();
+            }
+        });
+        if let Some(last) = self.plot.back() {
+            ui.label(format!(
+                "frame {:.1} ms (render {:.1}, panels {:.1})",
+                last.frame_ms, last.render_ms, last.ui_ms
+            ));
+        }
+        let line = |pick: fn(&FrameTimes) -> f32, name: &str| {
+            let points: Vec<[f64; 2]> = self
+                .plot
+                .iter()
+                .map(|t| [t.time_s, f64::from(pick(t))])
+                .collect();
+            egui_plot::Line::new(name, egui_plot::PlotPoints::from(points))
+        };
+        egui_plot::Plot::new("frame times")
+            .height(140.0)
+            .legend(egui_plot::Legend::default())
+            .allow_scroll(false)
+            .allow_drag(false)
+            .allow_zoom(false)
+            .show(ui, |p| {
+                p.line(line(|t| t.frame_ms, "frame ms"));
+                p.line(line(|t| t.render_ms, "render ms"));
+                p.line(line(|t| t.ui_ms, "panels ms"));
+            });
+    }
+}
+
+fn summary(ui: &mut egui::Ui, s: &Summary) {
+    ui.heading("Session report");
+    ui.label(if s.completed {
+        "Procedure completed"
+    } else {
+        "Procedure not completed"
+    });
+    ui.label(format!("Score {:.1} / 100", s.score));
+    ui.label(format!(
+        "{:.2} s simulated, {} cuts, {} errors",
+        s.simulated_s, s.cuts, s.errors
+    ));
+    match &s.written_to {
+        Some(dir) => ui.label(format!("Written to {dir}")),
+        None => ui.label("Not saved (no --out)"),
+    };
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use egui_kittest::Harness;
+    use egui_kittest::kittest::Queryable;
+
+    fn dashboard() -> Dashboard {
+        Dashboard::new("nephrectomy", "playing demo.toml", AlarmRules::default())
+    }
+
+    #[test]
+    fn a_grasper_near_an_artery_shows_a_banner_logs_once_and_the_checklist_moves_on() {
+        let mut d = dashboard();
+        let mut s = Status {
+            time_s: 1.5,
+            steps_done: vec!["identify".into()],
+            score: 31.25,
+            path_m: [0.12, 0.4],
+            ..Status::default()
+        };
+        s.near[0] = Some(("renal_artery".into(), 0.004));
+        d.update(s.clone());
+        s.time_s = 1.6;
+        d.update(s);
+        assert_eq!(d.current_step(), Some(1));
+        assert_eq!(d.log.len(), 1, "one episode, one log line");
+        let harness = Harness::new_ui(|ui| {
+            d.show(ui, |_| {});
+        });
+        harness.get_by_label("ALARM: grasper 4.0 mm from renal_artery");
+        harness.get_by_label_contains("1.50 s  grasper 4.0 mm from renal_artery");
+        harness.get_by_label("[x] Identify the tumour with the laser");
+        harness.get_by_label("[ ] Mark the resection margin");
+        harness.get_by_label("31.2");
+        harness.get_by_label("120 mm");
+        assert!(harness.query_by_label("No alarm").is_none());
+        assert!(harness.query_by_label("Session report").is_none());
+    }
+
+    #[test]
+    fn the_end_of_a_session_shows_its_report_and_where_it_went() {
+        let mut d = dashboard();
+        d.update(Status {
+            time_s: 22.9,
+            steps_done: NEPHRECTOMY_STEPS.iter().map(|s| s.0.to_string()).collect(),
+            ..Status::default()
+        });
+        d.summary = Some(Summary {
+            completed: true,
+            score: 95.2,
+            simulated_s: 22.95,
+            cuts: 199,
+            errors: 0,
+            written_to: Some("/tmp/session".into()),
+        });
+        assert_eq!(d.current_step(), None);
+        let harness = Harness::new_ui(|ui| {
+            d.show(ui, |_| {});
+        });
+        harness.get_by_label("No alarm");
+        harness.get_by_label("Procedure completed");
+        harness.get_by_label("Score 95.2 / 100");
+        harness.get_by_label("22.95 s simulated, 199 cuts, 0 errors");
+        harness.get_by_label("Written to /tmp/session");
+        harness.get_by_label("[x] Lift the tumour out");
+    }
+
+    #[test]
+    fn a_slider_moved_with_the_keyboard_asks_for_the_new_tuning_and_save_asks_to_save() {
+        let mut d = dashboard();
+        let start = Tuning {
+            spring_n_per_m: 40.0,
+            damping_per_s: 8.0,
+            pressure_pa: 1500.0,
+            offset_m: 0.002,
+        };
+        d.update(Status {
+            tuning: start,
+            ..Status::default()
+        });
+        let mut asked = Vec::new();
+        {
+            let mut harness = Harness::new_ui(|ui| {
+                let a = d.show(ui, |_| {});
+                if a != Actions::default() {
+                    asked.push(a);
+                }
+            });
+            harness
+                .get_by_role_and_label(egui::accesskit::Role::Slider, "spring (N/m)")
+                .focus();
+            harness.run();
+            harness.key_press(egui::Key::ArrowRight);
+            harness.run();
+            harness.get_by_label("Save to scenario file").click();
+            harness.run();
+        }
+        let tuned: Vec<Tuning> = asked.iter().filter_map(|a| a.tune).collect();
+        assert_eq!(tuned.len(), 1, "{asked:?}");
+        assert!(tuned[0].spring_n_per_m > start.spring_n_per_m, "{tuned:?}");
+        assert_eq!(
+            (tuned[0].damping_per_s, tuned[0].pressure_pa),
+            (start.damping_per_s, start.pressure_pa)
+        );
+        assert!((tuned[0].offset_m - start.offset_m).abs() < 1e-9);
+        assert_eq!(asked.iter().filter(|a| a.save).count(), 1);
+    }
+}

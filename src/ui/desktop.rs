@@ -1,0 +1,334 @@
+//! The desktop's laparoscope: a camera that orbits, pans and zooms about a point in the
+//! operating field, driven from the keyboard (the cholecystectomy paper adjusts its viewpoint
+//! by keyboard), seen through one symmetric field of view.
+
+use crate::render::{EyeView, Fov};
+use crate::sim::{Buttons, Hand, HandInput, InputFrame, Pose};
+use glam::{Quat, Vec2, Vec3};
+
+/// Vertical field of view of the desktop view, radians (a laparoscope's is wider than the
+/// Vive's per-eye 110 degrees diagonal would make a monitor look; 50 degrees reads well).
+pub const VERTICAL_FOV_RAD: f32 = 50.0 * std::f32::consts::PI / 180.0;
+
+/// An orbiting camera: it looks at `target` from `distance_m` away, turned `yaw` about +Y
+/// and tilted `pitch` above the horizontal (radians). SI units, field frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OrbitCamera {
+    pub target: Vec3,
+    pub yaw: f32,
+    pub pitch: f32,
+    pub distance_m: f32,
+}
+
+/// Closest and furthest the camera comes to its target, metres.
+const DISTANCE_RANGE_M: (f32, f32) = (0.03, 1.0);
+/// The camera stays this far short of straight above or below, radians.
+const PITCH_LIMIT: f32 = 1.5;
+
+impl Default for OrbitCamera {
+    /// The headless and headset viewpoint: over the kidney's anterior face, where a surgeon's
+    /// head would be over the port site.
+    fn default() -> Self {
+        OrbitCamera::looking(Vec3::new(0.0, 0.07, 0.16), Vec3::new(0.005, 0.01, 0.0))
+    }
+}
+
+impl OrbitCamera {
+    /// The camera at `eye` looking at `target`.
+    pub fn looking(eye: Vec3, target: Vec3) -> OrbitCamera {
+        let d = eye - target;
+        let distance_m = d.length().max(DISTANCE_RANGE_M.0);
+        OrbitCamera {
+            target,
+            yaw: d.x.atan2(d.z),
+            pitch: (d.y / distance_m).clamp(-1.0, 1.0).asin(),
+            distance_m,
+        }
+    }
+
+    /// Where the camera is.
+    pub fn eye(&self) -> Vec3 {
+        let (sy, cy) = self.yaw.sin_cos();
+        let (sp, cp) = self.pitch.sin_cos();
+        self.target + Vec3::new(sy * cp, sp, cy * cp) * self.distance_m
+    }
+
+    fn orientation(&self) -> Quat {
+        Quat::from_rotation_y(self.yaw) * Quat::from_rotation_x(-self.pitch)
+    }
+
+    /// Turns about the target: `yaw` right, `pitch` up, radians.
+    pub fn orbit(&mut self, yaw: f32, pitch: f32) {
+        self.yaw += yaw;
+        self.pitch = (self.pitch + pitch).clamp(-PITCH_LIMIT, PITCH_LIMIT);
+    }
+
+    /// Moves camera and target together, in the view's right and up directions, metres.
+    pub fn pan(&mut self, right_m: f32, up_m: f32) {
+        let q = self.orientation();
+        self.target += q * Vec3::X * right_m + q * Vec3::Y * up_m;
+    }
+
+    /// Moves toward the target by `factor` of the distance (negative: away), within range.
+    pub fn zoom(&mut self, factor: f32) {
+        self.distance_m =
+            (self.distance_m * (1.0 - factor)).clamp(DISTANCE_RANGE_M.0, DISTANCE_RANGE_M.1);
+    }
+
+    /// The view for an image `aspect` (width / height) wide.
+    pub fn view(&self, aspect: f32) -> EyeView {
+        let half_v = VERTICAL_FOV_RAD * 0.5;
+        let half_h = (half_v.tan() * aspect.max(1e-3)).atan();
+        EyeView {
+            position: self.eye(),
+            orientation: self.orientation(),
+            fov: Fov {
+                left: -half_h,
+                right: half_h,
+                up: half_v,
+                down: -half_v,
+            },
+        }
+    }
+}
+
+/// The ray from the eye through a point of the image, `ndc` from (-1, -1) bottom left to
+/// (1, 1) top right: its origin and unit direction.
+pub fn ray(view: &EyeView, ndc: Vec2) -> (Vec3, Vec3) {
+    let x = if ndc.x >= 0.0 {
+        ndc.x * view.fov.right.tan()
+    } else {
+        -ndc.x * view.fov.left.tan()
+    };
+    let y = if ndc.y >= 0.0 {
+        ndc.y * view.fov.up.tan()
+    } else {
+        -ndc.y * view.fov.down.tan()
+    };
+    let dir = view.orientation * Vec3::new(x, y, -1.0).normalize();
+    (view.position, dir)
+}
+
+/// Depth range of the instrument driven by the mouse, along the cursor's ray, metres.
+pub const DEPTH_RANGE_M: (f32, f32) = (0.04, 0.5);
+/// Depth change per mouse-wheel notch, metres.
+pub const WHEEL_STEP_M: f32 = 0.002;
+
+/// The instruments on the desktop: the mouse drives the selected one. The grasper's tip sits
+/// on the cursor's ray at a depth the wheel sets, pointing away from the eye (an instrument
+/// through a port beside the laparoscope); the laser's beam leaves from just below the eye
+/// along the cursor's ray, so it lands on what the cursor shows. Left button: grip (grasper)
+/// or trigger (laser, cuts); right button: place a margin mark (laser).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DesktopHands {
+    pub selected: Hand,
+    /// Each instrument's depth along the cursor's ray, metres.
+    pub depth_m: [f32; 2],
+    pub frame: InputFrame,
+}
+
+impl Default for DesktopHands {
+    /// Both instruments parked where the demo trace starts them, over the field.
+    fn default() -> Self {
+        let target = Vec3::new(0.01163, 0.02678, 0.02836);
+        let mut frame = InputFrame::default();
+        frame.hands[0].pose = Pose::looking_at(Vec3::new(-0.03135, 0.04888, 0.14317), target);
+        frame.hands[1].pose = Pose::looking_at(Vec3::new(0.09865, 0.04888, 0.14317), target);
+        DesktopHands {
+            selected: Hand::Right,
+            depth_m: [0.12, 0.12],
+            frame,
+        }
+    }
+}
+
+/// The mouse over the 3D view this frame.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Pointer {
+    /// Where the cursor is, in the view's normalised coordinates; none: not over the view.
+    pub ndc: Option<Vec2>,
+    pub primary_down: bool,
+    pub secondary_down: bool,
+    /// Wheel notches this frame (away from the user: positive).
+    pub wheel: f32,
+}
+
+impl DesktopHands {
+    /// Moves the selected instrument with the mouse, seen through `view`.
+    pub fn pointer(&mut self, view: &EyeView, p: Pointer) {
+        let k = self.selected.index();
+        self.depth_m[k] =
+            (self.depth_m[k] + p.wheel * WHEEL_STEP_M).clamp(DEPTH_RANGE_M.0, DEPTH_RANGE_M.1);
+        let Some(ndc) = p.ndc else {
+            // Off the view: the instrument stays, its buttons let go.
+            self.frame.hands[k].buttons = Buttons::default();
+            return;
+        };
+        let (eye, dir) = ray(view, ndc.clamp(Vec2::splat(-1.0), Vec2::splat(1.0)));
+        let down = view.orientation * Vec3::NEG_Y;
+        self.frame.hands[k] = match self.selected {
+            Hand::Left => HandInput {
+                pose: Pose::looking_at(eye + dir * self.depth_m[k], eye + dir * 1.0),
+                buttons: Buttons {
+                    grip: if p.primary_down { 1.0 } else { 0.0 },
+                    ..Buttons::default()
+                },
+            },
+            Hand::Right => {
+                let from = eye + down * 0.01;
+                HandInput {
+                    pose: Pose::looking_at(from, eye + dir * self.depth_m[k]),
+                    buttons: Buttons {
+                        trigger: if p.primary_down { 1.0 } else { 0.0 },
+                        mark: p.secondary_down,
+                        ..Buttons::default()
+                    },
+                }
+            }
+        };
+    }
+
+    /// The key map shown under the view.
+    pub fn key_map() -> Vec<(String, String)> {
+        [
+            ("1 / 2", "grasper / laser"),
+            ("mouse", "move the instrument"),
+            ("wheel", "deeper / shallower"),
+            ("left button", "grip (grasper), cut (laser)"),
+            ("right button", "mark the margin (laser)"),
+            ("arrows", "orbit the camera"),
+            ("shift + arrows", "pan"),
+            ("PgUp / PgDn", "zoom"),
+            ("R", "reset the camera"),
+        ]
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn close(a: Vec3, b: Vec3) -> bool {
+        a.distance(b) < 1e-5
+    }
+
+    #[test]
+    fn the_target_is_in_the_middle_of_the_view_wherever_the_camera_goes() {
+        let mut c = OrbitCamera::default();
+        assert!(close(c.eye(), Vec3::new(0.0, 0.07, 0.16)), "{}", c.eye());
+        for (yaw, pitch, pan, zoom) in [
+            (0.0, 0.0, (0.0, 0.0), 0.0),
+            (0.7, 0.3, (0.01, -0.02), 0.5),
+            (-2.0, -0.9, (-0.03, 0.0), -0.4),
+        ] {
+            c.orbit(yaw, pitch);
+            c.pan(pan.0, pan.1);
+            c.zoom(zoom);
+            let v = c.view(16.0 / 9.0);
+            let p = v.project(c.target, (1600, 900)).expect("in front");
+            assert!(
+                (p.x - 800.0).abs() < 0.01 && (p.y - 450.0).abs() < 0.01,
+                "{p}"
+            );
+            // Up in the field stays up on screen.
+            let above = v
+                .project(c.target + Vec3::Y * 0.01, (1600, 900))
+                .expect("in front");
+            assert!(above.y < p.y);
+            assert!((c.eye().distance(c.target) - c.distance_m).abs() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn orbit_pitch_and_zoom_stay_in_range() {
+        let mut c = OrbitCamera::default();
+        c.orbit(0.0, 10.0);
+        assert_eq!(c.pitch, PITCH_LIMIT);
+        for _ in 0..100 {
+            c.zoom(0.5);
+        }
+        assert_eq!(c.distance_m, DISTANCE_RANGE_M.0);
+        for _ in 0..100 {
+            c.zoom(-0.5);
+        }
+        assert_eq!(c.distance_m, DISTANCE_RANGE_M.1);
+    }
+}
+
+#[cfg(test)]
+mod hand_tests {
+    use super::*;
+
+    #[test]
+    fn the_grasper_goes_under_the_cursor_at_the_wheel_depth_and_grips_with_the_button() {
+        let cam = OrbitCamera::default();
+        let view = cam.view(1.5);
+        let mut h = DesktopHands {
+            selected: Hand::Left,
+            ..DesktopHands::default()
+        };
+        let laser_before = h.frame.hands[1];
+        let at = Vec2::new(0.25, -0.5);
+        h.pointer(
+            &view,
+            Pointer {
+                ndc: Some(at),
+                primary_down: true,
+                wheel: 5.0,
+                ..Pointer::default()
+            },
+        );
+        let g = h.frame.hands[0];
+        assert!((h.depth_m[0] - 0.13).abs() < 1e-6);
+        assert!((g.pose.position.distance(view.position) - 0.13).abs() < 1e-5);
+        // It lands where the cursor is, in a 1500 x 1000 image.
+        let px = view
+            .project(g.pose.position, (1500, 1000))
+            .expect("in front");
+        let want = Vec2::new((at.x * 0.5 + 0.5) * 1500.0, (0.5 - at.y * 0.5) * 1000.0);
+        assert!(px.distance(want) < 0.05, "{px} vs {want}");
+        assert_eq!(g.buttons.grip, 1.0);
+        assert!(g.pose.forward().dot(g.pose.position - view.position) > 0.0);
+        assert_eq!(h.frame.hands[1], laser_before, "the other instrument stays");
+        // Off the view, it stays and lets go.
+        h.pointer(&view, Pointer::default());
+        assert_eq!(h.frame.hands[0].pose, g.pose);
+        assert_eq!(h.frame.hands[0].buttons.grip, 0.0);
+    }
+
+    #[test]
+    fn the_laser_beam_follows_the_cursor_ray_and_cuts_or_marks_with_the_buttons() {
+        let view = OrbitCamera::default().view(16.0 / 9.0);
+        let mut h = DesktopHands::default();
+        assert_eq!(h.selected, Hand::Right);
+        h.pointer(
+            &view,
+            Pointer {
+                ndc: Some(Vec2::new(-0.3, 0.2)),
+                primary_down: true,
+                secondary_down: true,
+                ..Pointer::default()
+            },
+        );
+        let l = h.frame.hands[1];
+        let (eye, dir) = ray(&view, Vec2::new(-0.3, 0.2));
+        // The beam starts 1 cm below the eye and crosses the cursor ray at the laser's depth.
+        assert!((l.pose.position.distance(eye) - 0.01).abs() < 1e-5);
+        let hit = eye + dir * h.depth_m[1];
+        let along = (hit - l.pose.position).normalize();
+        assert!(l.pose.forward().dot(along) > 0.99999);
+        assert_eq!((l.buttons.trigger, l.buttons.mark), (1.0, true));
+        // The wheel stops at the depth range.
+        h.pointer(
+            &view,
+            Pointer {
+                wheel: -1000.0,
+                ..Pointer::default()
+            },
+        );
+        assert_eq!(h.depth_m[1], DEPTH_RANGE_M.0);
+    }
+}

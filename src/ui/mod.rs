@@ -1,0 +1,7 @@
+//! The desktop: the supervisor's window with its panels, the simulation thread behind it, and
+//! the desktop laparoscope camera.
+
+pub mod dashboard;
+pub mod desktop;
+pub mod runner;
+pub mod window;

@@ -1,0 +1,133 @@
+//! The simulation on its own thread for the window: it steps in real time, takes its input from
+//! a trace or from the desktop controls, and publishes snapshots for the renderer and a status
+//! for the panels, never waiting on the window.
+
+use crate::models::Tuning;
+use crate::session::{Live, Outcome, SETTLE_S, SessionError, Status};
+use crate::sim::{InputFrame, Pacing, SnapshotBus};
+use crate::trace::KeyTrace;
+use arc_swap::ArcSwap;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, Sender, channel};
+use std::thread::JoinHandle;
+
+/// Where the instruments' input comes from.
+pub enum Source {
+    /// A keyframed trace, sampled per step; the session ends with it.
+    Trace(KeyTrace),
+    /// The desktop controls, which the window updates; the session ends when asked.
+    Live(Arc<ArcSwap<InputFrame>>),
+}
+
+/// What the window asks of the simulation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Command {
+    /// New kidney parameters from the next step (recorded with the session).
+    Tune(Tuning),
+}
+
+/// The simulation thread and what it publishes.
+pub struct SimThread {
+    pub bus: Arc<SnapshotBus>,
+    pub commands: Sender<Command>,
+    pub status: Arc<ArcSwap<Status>>,
+    stop: Arc<AtomicBool>,
+    done: Arc<AtomicBool>,
+    handle: Option<JoinHandle<Result<Outcome, SessionError>>>,
+}
+
+/// Vulnerable structures are reported in the status within this distance, metres (the
+/// alarms use a nearer limit of their own).
+const LOOK_M: f32 = 0.01;
+
+impl SimThread {
+    /// Builds the procedure (here, so a bad scenario is reported before any window opens)
+    /// and starts stepping it.
+    pub fn start(
+        scenario_text: &str,
+        scenario_file: &str,
+        source: Source,
+        pacing: Pacing,
+    ) -> Result<SimThread, SessionError> {
+        let mut live = Live::new(scenario_text, scenario_file, pacing)?;
+        let bus = Arc::new(SnapshotBus::new());
+        bus.publish(live.snapshot());
+        let status = Arc::new(ArcSwap::from_pointee(live.status(LOOK_M)));
+        let stop = Arc::new(AtomicBool::new(false));
+        let done = Arc::new(AtomicBool::new(false));
+        let (b, st, s, d) = (bus.clone(), status.clone(), stop.clone(), done.clone());
+        let (commands, inbox): (Sender<Command>, Receiver<Command>) = channel();
+        let handle = std::thread::Builder::new()
+            .name("simulation".into())
+            .spawn(move || {
+                let publish_every = live.publish_every();
+                // A trace plays for as many steps as it would headless, so the report is the same.
+                let end = match &source {
+                    Source::Trace(t) => Some(live.steps_for(t.duration_s() + SETTLE_S)),
+                    Source::Live(_) => None,
+                };
+                while !s.load(Ordering::Relaxed) {
+                    if end.is_some_and(|e| live.step_count() >= e) {
+                        break;
+                    }
+                    while let Ok(Command::Tune(t)) = inbox.try_recv() {
+                        // The sliders stay inside the allowed ranges; a value outside them
+                        // is refused by `tune` and changes nothing.
+                        let _ = live.tune(t);
+                    }
+                    let frame = match &source {
+                        Source::Trace(t) => t.sample(live.time_s()),
+                        Source::Live(input) => **input.load(),
+                    };
+                    live.step(frame);
+                    if live.step_count().is_multiple_of(publish_every) {
+                        b.publish(live.snapshot());
+                        st.store(Arc::new(live.status(LOOK_M)));
+                    }
+                }
+                b.publish(live.snapshot());
+                st.store(Arc::new(live.status(LOOK_M)));
+                d.store(true, Ordering::Release);
+                Ok(live.finish(Vec::new()))
+            })
+            .map_err(|e| SessionError::Io {
+                path: "simulation thread".into(),
+                source: e,
+            })?;
+        Ok(SimThread {
+            bus,
+            commands,
+            status,
+            stop,
+            done,
+            handle: Some(handle),
+        })
+    }
+
+    /// Whether the session has ended (its trace played out, or stopped).
+    pub fn finished(&self) -> bool {
+        self.done.load(Ordering::Acquire)
+    }
+
+    /// Stops the session (if it still runs) and returns its outcome.
+    pub fn finish(mut self) -> Result<Outcome, SessionError> {
+        self.stop.store(true, Ordering::Relaxed);
+        match self.handle.take().map(JoinHandle::join) {
+            Some(Ok(r)) => r,
+            _ => Err(SessionError::Io {
+                path: "simulation thread".into(),
+                source: std::io::Error::other("the simulation thread panicked"),
+            }),
+        }
+    }
+}
+
+impl Drop for SimThread {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(h) = self.handle.take() {
+            let _ = h.join();
+        }
+    }
+}

@@ -1,0 +1,185 @@
+//! The desktop window under Xvfb (CI installs `xvfb xauth` and the X11 client libraries): the
+//! demo trace plays in the window in real time, and `--screenshot` saves the whole window at
+//! the end. The screenshot must show the kidney in the 3D view and text in the side panels,
+//! and the session's report must be the headless one.
+
+use std::path::Path;
+use std::process::Command;
+
+fn read_png(p: &Path) -> (u32, u32, Vec<u8>) {
+    let d = png::Decoder::new(std::io::BufReader::new(
+        std::fs::File::open(p).expect("screenshot written"),
+    ));
+    let mut r = d.read_info().expect("png");
+    let mut buf = vec![0; r.output_buffer_size().expect("size")];
+    let info = r.next_frame(&mut buf).expect("frame");
+    buf.truncate(info.buffer_size());
+    assert_eq!(info.color_type, png::ColorType::Rgba);
+    (info.width, info.height, buf)
+}
+
+/// Fraction of the pixels in the box (fractions of width and height) that `pick` accepts.
+fn share(img: &(u32, u32, Vec<u8>), x: (f32, f32), y: (f32, f32), pick: fn(&[u8]) -> bool) -> f64 {
+    let (w, h, px) = img;
+    let (x0, x1) = ((x.0 * *w as f32) as usize, (x.1 * *w as f32) as usize);
+    let (y0, y1) = ((y.0 * *h as f32) as usize, (y.1 * *h as f32) as usize);
+    let mut n = 0usize;
+    for yy in y0..y1 {
+        for xx in x0..x1 {
+            let i = (yy * *w as usize + xx) * 4;
+            n += usize::from(pick(&px[i..i + 4]));
+        }
+    }
+    n as f64 / ((x1 - x0) * (y1 - y0)) as f64
+}
+
+/// Kidney parenchyma: dark red, red well above green and blue.
+fn kidney(p: &[u8]) -> bool {
+    p[0] > 60 && f32::from(p[0]) > 2.0 * f32::from(p[1]) && f32::from(p[0]) > 2.0 * f32::from(p[2])
+}
+
+/// Text on the panels' dark grey (27-32): a light pixel (egui's text is 140 grey).
+fn light(p: &[u8]) -> bool {
+    p[0] > 100 && p[1] > 100 && p[2] > 100
+}
+
+#[test]
+fn the_demo_plays_in_a_window_and_the_screenshot_shows_the_kidney_and_the_panels() {
+    let dir = std::env::temp_dir().join(format!("vesalius-window-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let shot = dir.join("shot.png");
+    let trace = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/traces/nephrectomy-demo.toml");
+    let o = Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 1920x1080x24"])
+        .arg(env!("CARGO_BIN_EXE_vesalius"))
+        .args(["run", "nephrectomy", "--trace"])
+        .arg(&trace)
+        .arg("--screenshot")
+        .arg(&shot)
+        .arg("--out")
+        .arg(dir.join("out"))
+        .output()
+        .expect("xvfb-run (apt-get install xvfb xauth)");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    // The window's session is the headless session: same trace, same report.
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("out/report.json")).expect("report.json"))
+            .expect("JSON");
+    assert_eq!(report["completed"], true, "{report}");
+    let headless = Command::new(env!("CARGO_BIN_EXE_vesalius"))
+        .args(["run", "nephrectomy", "--headless", "--trace"])
+        .arg(&trace)
+        .arg("--out")
+        .arg(dir.join("headless"))
+        .output()
+        .expect("runs");
+    assert!(headless.status.success());
+    let same: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(dir.join("headless/report.json")).expect("report.json"),
+    )
+    .expect("JSON");
+    assert_eq!(report["state_hash"], same["state_hash"]);
+    // The screenshot: the whole 1600x900 window.
+    let img = read_png(&shot);
+    assert!(img.0 >= 1280 && img.1 >= 720, "{}x{}", img.0, img.1);
+    assert!(stdout.contains(&format!("screenshot {}x{}", img.0, img.1)));
+    // The kidney fills a good part of the middle of the 3D view (between the panels).
+    let organ = share(&img, (0.3, 0.7), (0.2, 0.9), kidney);
+    assert!(
+        organ > 0.08,
+        "kidney in {:.1}% of the view's middle",
+        organ * 100.0
+    );
+    // Side panels: text (light pixels, a few percent), not empty, not a flood of white.
+    for (name, x) in [("left", (0.0, 0.15)), ("right", (0.83, 1.0))] {
+        let text = share(&img, x, (0.05, 0.27), light);
+        assert!(
+            (0.003..0.3).contains(&text),
+            "{name} panel: {:.2}% light pixels",
+            text * 100.0
+        );
+        // No kidney colours there: the 3D view stays in the middle.
+        let red = share(&img, x, (0.05, 0.27), kidney);
+        assert!(red < 0.01, "{name} panel: {:.2}% kidney red", red * 100.0);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Desktop mode, driven like a trainee would: xdotool moves the mouse onto the kidney and
+/// holds the left button, so the laser (the mouse's instrument at start) finds the tumour and
+/// cuts; the screenshot at 12 s ends the session.
+#[test]
+fn desktop_mode_the_mouse_points_the_laser_and_the_button_cuts() {
+    let dir = std::env::temp_dir().join(format!("vesalius-desktop-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    // The window opens at the top left of the virtual screen: its 3D view spans about 270 to
+    // 1300 pixels across, and the kidney and tumour sit in its middle.
+    let script = r#"
+"$0" run nephrectomy --screenshot "$1/shot.png" --screenshot-at 12 --out "$1/out" &
+app=$!
+xdotool search --sync --name "Vesalius" > /dev/null
+sleep 1
+xdotool mousemove 760 420
+sleep 0.5
+xdotool mousedown 1
+for x in 765 770 775 780 785 790 795 800; do xdotool mousemove $x 430; sleep 0.2; done
+xdotool mouseup 1
+wait $app
+"#;
+    let o = Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 1920x1080x24", "sh", "-c", script])
+        .arg(env!("CARGO_BIN_EXE_vesalius"))
+        .arg(&dir)
+        .output()
+        .expect("xvfb-run (apt-get install xvfb xauth xdotool)");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("out/report.json")).expect("report.json"))
+            .expect("JSON");
+    // The laser found the tumour and cut tissue.
+    assert!(
+        report["events"]["cut"].as_u64().unwrap_or(0) >= 1,
+        "{report}"
+    );
+    assert!(report["metrics"]["cut_faces"].as_u64().unwrap_or(0) > 0);
+    let steps = report["metrics"]["steps_done"].to_string();
+    assert!(steps.contains("identify"), "{steps}");
+    let simulated = report["simulated_s"].as_f64().expect("simulated_s");
+    assert!((12.0..13.0).contains(&simulated), "ended at {simulated} s");
+    // The recorded input has the trigger pulled while the beam swept to the right.
+    let rec = vesalius::trace::Recording::read(&dir.join("out/input.vtrace")).expect("recording");
+    let pulled: Vec<glam::Vec3> = rec
+        .frames
+        .iter()
+        .filter(|f| f.hands[1].buttons.trigger == 1.0)
+        .map(|f| f.hands[1].pose.forward())
+        .collect();
+    assert!(
+        pulled.len() > 100,
+        "{} steps with the trigger pulled",
+        pulled.len()
+    );
+    let (first, last) = (pulled[0], pulled[pulled.len() - 1]);
+    assert!(last.x > first.x, "the beam swept right: {first} -> {last}");
+    // The screenshot shows the key map under the view.
+    let img = read_png(&dir.join("shot.png"));
+    let keys = share(&img, (0.2, 0.8), (0.96, 1.0), light);
+    assert!(
+        keys > 0.01,
+        "{:.2}% light pixels in the key map",
+        keys * 100.0
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
