@@ -31,8 +31,10 @@ const USAGE: &str = "usage:
                                             --screenshot saves the window as PNG at the end (or at
                                             S simulated seconds) and closes it when the session ends
   vesalius run <procedure> --xr [--out DIR] [--scenario FILE] [--eye-size WxH] [--xr-duration S]
+              [--no-window | --screenshot FILE [--screenshot-at S]]
                                             in the headset of the active OpenXR runtime (SteamVR,
-                                            Monado); ends at the runtime's exit or after S seconds
+                                            Monado); ends at the runtime's exit or after S seconds;
+                                            the desktop mirror opens where there is a display
   vesalius run <procedure> --xr-sim TRACE --out DIR [--eye-size WxH]
                                             the same under the simulated runtime playing TRACE;
                                             its haptics.jsonl, frames/ and session-states.log go
@@ -123,6 +125,7 @@ fn dispatch(args: &[String]) -> Result<(), String> {
             let headless = take_switch(&mut rest, "--headless");
             let xr = take_switch(&mut rest, "--xr");
             let xr_sim = take_flag(&mut rest, "--xr-sim")?;
+            let no_window = take_switch(&mut rest, "--no-window");
             let xr_duration = match take_flag(&mut rest, "--xr-duration")? {
                 Some(v) => Some(
                     v.parse::<f64>()
@@ -169,6 +172,15 @@ fn dispatch(args: &[String]) -> Result<(), String> {
             let procedure = rest.remove(0);
             no_more(&rest)?;
             check_procedure("command line", "procedure", &procedure).map_err(|e| e.to_string())?;
+            if screenshot_at.is_some() && screenshot.is_none() {
+                return Err("--screenshot-at needs --screenshot FILE".into());
+            }
+            let window = WindowArgs {
+                screenshot: screenshot.map(PathBuf::from),
+                screenshot_at,
+                size: window_size,
+                no_window,
+            };
             if xr || xr_sim.is_some() {
                 if headless || trace.is_some() {
                     return Err(
@@ -184,9 +196,9 @@ fn dispatch(args: &[String]) -> Result<(), String> {
                         run_xr_sim(
                             &procedure,
                             scenario.as_deref(),
-                            Path::new(&t),
-                            Path::new(&out),
+                            (Path::new(&t), Path::new(&out)),
                             eye,
+                            &window,
                         )
                     }
                     None => run_xr(
@@ -197,23 +209,24 @@ fn dispatch(args: &[String]) -> Result<(), String> {
                             duration_s: xr_duration,
                             eye_size: eye,
                         },
+                        window,
                     ),
                 };
             }
-            if screenshot_at.is_some() && screenshot.is_none() {
-                return Err("--screenshot-at needs --screenshot FILE".into());
-            }
             if !headless {
+                if no_window {
+                    return Err("--no-window: without a window, use --headless (or --xr)".into());
+                }
                 return run_window(
                     &procedure,
                     scenario.as_deref(),
                     trace.as_deref().map(Path::new),
                     out.as_deref().map(Path::new),
-                    (screenshot.map(PathBuf::from), screenshot_at),
-                    window_size,
+                    window,
+                    None,
                 );
             }
-            if screenshot.is_some() {
+            if window.screenshot.is_some() {
                 return Err("--screenshot saves the window: drop --headless".into());
             }
             let trace = trace.ok_or("run --headless needs --trace FILE")?;
@@ -333,16 +346,38 @@ fn scenario_text(procedure: &str, scenario: Option<&str>) -> Result<(String, Str
     })
 }
 
+/// The window's flags.
+struct WindowArgs {
+    screenshot: Option<PathBuf>,
+    screenshot_at: Option<f64>,
+    size: (u32, u32),
+    /// Under XR: the headset only, no desktop mirror.
+    no_window: bool,
+}
+
+/// Whether a window can open here (an X11 or Wayland display is named).
+fn display_available() -> bool {
+    ["DISPLAY", "WAYLAND_DISPLAY"]
+        .iter()
+        .any(|v| std::env::var_os(v).is_some_and(|s| !s.is_empty()))
+}
+
 /// `run <p>` without `--headless`: the desktop window, played by a trace or driven by the
-/// desktop controls.
+/// desktop controls; with `xr`, the mirror of a headset session.
 fn run_window(
     procedure: &str,
     scenario: Option<&str>,
     trace: Option<&Path>,
     out: Option<&Path>,
-    (screenshot, screenshot_at_s): (Option<PathBuf>, Option<f64>),
-    size: (u32, u32),
+    window: WindowArgs,
+    xr: Option<vesalius::xr::XrOptions>,
 ) -> Result<(), String> {
+    let WindowArgs {
+        screenshot,
+        screenshot_at: screenshot_at_s,
+        size,
+        ..
+    } = window;
     let (file, text) = scenario_text(procedure, scenario)?;
     let trace = match trace {
         Some(t) => {
@@ -380,8 +415,18 @@ fn run_window(
         screenshot_at_s,
         size,
         save_tuning_to,
+        xr,
     })?;
-    println!("window on {}: {} frames", run.device, run.frames);
+    if let Some((runtime, frames, sessions, (w, h))) = &run.xr {
+        println!(
+            "XR runtime '{runtime}' on {}: {frames} stereo frames at {w}x{h} per eye, {sessions} session(s)",
+            run.device
+        );
+    }
+    println!(
+        "window on {}: {} frames, {} of them drawing the scene (the rest mirrored an eye)",
+        run.device, run.frames, run.scene_renders
+    );
     if let Some(((w, h), path)) = &run.screenshot {
         println!("screenshot {w}x{h} written to {}", path.display());
     }
@@ -399,7 +444,20 @@ fn run_xr(
     scenario: Option<&str>,
     out: Option<&Path>,
     opts: vesalius::xr::XrOptions,
+    window: WindowArgs,
 ) -> Result<(), String> {
+    // The supervisor's mirror opens beside the headset wherever there is a display.
+    if !window.no_window && display_available() {
+        return run_window(procedure, scenario, None, out, window, Some(opts));
+    }
+    if window.screenshot.is_some() {
+        return Err(
+            "--screenshot needs a window: no DISPLAY (try xvfb-run), or drop --no-window".into(),
+        );
+    }
+    if !window.no_window {
+        eprintln!("no display: running in the headset only (--no-window to say so)");
+    }
     let (file, text) = scenario_text(procedure, scenario)?;
     let run = vesalius::xr::run(&text, &file, opts)?;
     println!(
@@ -416,9 +474,9 @@ fn run_xr(
 fn run_xr_sim(
     procedure: &str,
     scenario: Option<&str>,
-    trace: &Path,
-    out: &Path,
+    (trace, out): (&Path, &Path),
     eye: Option<(u32, u32)>,
+    window: &WindowArgs,
 ) -> Result<(), String> {
     let keys = load_trace(trace, procedure)?;
     let sim_dir = out.join("xr-sim");
@@ -451,6 +509,17 @@ fn run_xr_sim(
     if let Some((w, h)) = eye {
         cmd.args(["--eye-size", &format!("{w}x{h}")]);
     }
+    if window.no_window {
+        cmd.arg("--no-window");
+    }
+    if let Some(s) = &window.screenshot {
+        cmd.arg("--screenshot").arg(s);
+    }
+    if let Some(at) = window.screenshot_at {
+        cmd.args(["--screenshot-at", &at.to_string()]);
+    }
+    let (w, h) = window.size;
+    cmd.args(["--window-size", &format!("{w}x{h}")]);
     let status = cmd
         .status()
         .map_err(|e| format!("cannot start the XR session: {e}"))?;

@@ -9,6 +9,7 @@
 //! freezes its instrument and raises `controller_lost`; a lost session stops the simulation,
 //! keeps its record, and a new session carries on when the headset returns.
 
+use crate::profiler::FrameCounters;
 use crate::render::{EyeView, Fov, Gpu, RenderTarget, Renderer};
 use crate::session::{Live, Outcome};
 use crate::sim::{Buttons, EventKind, Hand, HandInput, InputFrame, Pacing, Pose};
@@ -139,203 +140,359 @@ fn between(a: &HandInput, b: &HandInput, s: f32) -> HandInput {
     }
 }
 
-/// Runs the procedure in the headset until `duration_s` or the menu button.
-pub fn run(scenario_text: &str, scenario_file: &str, opts: XrOptions) -> Result<XrRun, String> {
-    let (app, xg) = XrApp::open("vesalius").map_err(err)?;
-    let gpu = Gpu::from_parts(xg.instance, xg.adapter, xg.device, xg.queue, xg.multiview);
-    let mut renderer = Renderer::new(&gpu, EYE_FORMAT);
-    let eye = opts.eye_size.unwrap_or(app.eye_size);
-    gpu.check_eye_size(eye).map_err(err)?;
-    let mut live =
-        Live::new(scenario_text, scenario_file, Pacing::AsFastAsPossible).map_err(err)?;
-    let dt = f64::from(live.dt_s());
-    let mut machine = SessionMachine::new();
-    // The input each hand last gave (a lost controller's instrument stays there).
-    let mut held = [HandInput::default(); 2];
-    // Whether each controller was tracked at the last focused frame (none yet: unknown).
-    let mut tracked: [Option<bool>; 2] = [None; 2];
-    let mut buzzing = [false; 2];
-    let mut frames = 0u64;
-    let mut sessions = 0u32;
-    // Display time (ns) that corresponds to simulated time 0 in the current session.
-    let mut origin: Option<i64> = None;
-    let mut last_t_s = 0.0f64;
-    let mut exit_asked = false;
-    let mut buf = xr::EventDataBuffer::new();
-    'sessions: loop {
-        let (mut xs, mut waiter, mut stream) = app.session(&gpu.device, eye).map_err(err)?;
-        sessions += 1;
-        if sessions > 1 {
-            live.note(EventKind::SessionRestarted);
-            machine.recreated();
-            origin = None;
-            exit_asked = false;
+/// Which picture the desktop mirror shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MirrorEye {
+    Left,
+    Right,
+}
+
+/// A copy of one eye of each submitted frame, for the desktop mirror: the swapchain layer is
+/// copied on the GPU before the image goes back to the runtime, so the scene is not drawn again.
+pub struct Mirror {
+    pub eye: MirrorEye,
+    pub size: (u32, u32),
+    pub texture: wgpu::Texture,
+    pub view: wgpu::TextureView,
+}
+
+impl Mirror {
+    fn new(device: &wgpu::Device, size: (u32, u32), eye: MirrorEye) -> Mirror {
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("xr mirror"),
+            size: wgpu::Extent3d {
+                width: size.0,
+                height: size.1,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: EYE_FORMAT,
+            usage: wgpu::TextureUsages::COPY_DST | wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
+        Mirror {
+            eye,
+            size,
+            texture,
+            view,
         }
-        loop {
-            while let Some(ev) = app.poll(&mut buf).map_err(err)? {
-                let xr::Event::SessionStateChanged(e) = ev else {
-                    continue;
+    }
+}
+
+/// What one pass of the frame loop did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Tick {
+    /// A frame was submitted (with `rendered` stereo images or an empty one).
+    Frame { rendered: bool },
+    /// The session is not running frames yet (or any more): nothing was submitted.
+    Idle,
+    /// The runtime ended the session; call [`XrLoop::finish`].
+    Exit,
+}
+
+/// The XR frame loop, one frame a [`XrLoop::tick`], so that a desktop window can run beside
+/// it on the same thread (winit owns the main thread; OpenXR's frame calls may come from it).
+pub struct XrLoop {
+    app: XrApp,
+    pub gpu: Gpu,
+    renderer: Renderer,
+    eye: (u32, u32),
+    live: Live,
+    opts: XrOptions,
+    dt: f64,
+    machine: SessionMachine,
+    session: Option<(XrSession, xr::FrameWaiter, xr::FrameStream<xr::Vulkan>)>,
+    /// The input each hand last gave (a lost controller's instrument stays there).
+    held: [HandInput; 2],
+    /// Whether each controller was tracked at the last focused frame (none yet: unknown).
+    tracked: [Option<bool>; 2],
+    buzzing: [bool; 2],
+    frames: u64,
+    sessions: u32,
+    /// Display time (ns) that corresponds to simulated time 0 in the current session.
+    origin: Option<i64>,
+    last_t_s: f64,
+    exit_asked: bool,
+    buf: xr::EventDataBuffer,
+    /// The desktop mirror's copy of one eye, if a window wants it.
+    pub mirror: Option<Mirror>,
+    /// The last stereo frame's profiler counters.
+    pub counters: FrameCounters,
+}
+
+impl XrLoop {
+    /// Opens the runtime, its Vulkan device and the procedure; the first session starts at
+    /// the first [`XrLoop::tick`].
+    pub fn open(
+        scenario_text: &str,
+        scenario_file: &str,
+        opts: XrOptions,
+    ) -> Result<XrLoop, String> {
+        let (app, xg) = XrApp::open("vesalius").map_err(err)?;
+        let gpu = Gpu::from_parts(xg.instance, xg.adapter, xg.device, xg.queue, xg.multiview);
+        let renderer = Renderer::new(&gpu, EYE_FORMAT);
+        let eye = opts.eye_size.unwrap_or(app.eye_size);
+        gpu.check_eye_size(eye).map_err(err)?;
+        let live =
+            Live::new(scenario_text, scenario_file, Pacing::AsFastAsPossible).map_err(err)?;
+        let dt = f64::from(live.dt_s());
+        Ok(XrLoop {
+            app,
+            gpu,
+            renderer,
+            eye,
+            live,
+            opts,
+            dt,
+            machine: SessionMachine::new(),
+            session: None,
+            held: [HandInput::default(); 2],
+            tracked: [None; 2],
+            buzzing: [false; 2],
+            frames: 0,
+            sessions: 0,
+            origin: None,
+            last_t_s: 0.0,
+            exit_asked: false,
+            buf: xr::EventDataBuffer::new(),
+            mirror: None,
+            counters: FrameCounters::default(),
+        })
+    }
+
+    /// Starts copying `eye` of every frame into [`XrLoop::mirror`].
+    pub fn mirror_eye(&mut self, eye: MirrorEye) {
+        match &mut self.mirror {
+            Some(m) => m.eye = eye,
+            None => self.mirror = Some(Mirror::new(&self.gpu.device, self.eye, eye)),
+        }
+    }
+
+    /// The runtime's name ("SteamVR/OpenXR", "Monado", ...).
+    pub fn runtime_name(&self) -> &str {
+        &self.app.runtime_name
+    }
+
+    /// The simulation, for the panels (status) and a third-person view (snapshot).
+    pub fn live(&mut self) -> &mut Live {
+        &mut self.live
+    }
+
+    /// Polls the runtime's events, then waits for, simulates, draws and submits one frame
+    /// when the session runs.
+    pub fn tick(&mut self) -> Result<Tick, String> {
+        if self.session.is_none() {
+            let s = self.app.session(&self.gpu.device, self.eye).map_err(err)?;
+            self.session = Some(s);
+            self.sessions += 1;
+            if self.sessions > 1 {
+                self.live.note(EventKind::SessionRestarted);
+                self.machine.recreated();
+                self.origin = None;
+                self.exit_asked = false;
+            }
+        }
+        while let Some(ev) = self.app.poll(&mut self.buf).map_err(err)? {
+            let xr::Event::SessionStateChanged(e) = ev else {
+                continue;
+            };
+            let Some((xs, _, _)) = self.session.as_ref() else {
+                break;
+            };
+            match self.machine.on_state(e.state()) {
+                Some(Command::BeginSession) => {
+                    xs.session
+                        .begin(xr::ViewConfigurationType::PRIMARY_STEREO)
+                        .map_err(|r| format!("xrBeginSession failed: {r}"))?;
+                }
+                Some(Command::EndSession) => {
+                    xs.session
+                        .end()
+                        .map_err(|r| format!("xrEndSession failed: {r}"))?;
+                }
+                Some(Command::Exit) => return Ok(Tick::Exit),
+                Some(Command::Recreate) => {
+                    self.live.note(EventKind::SessionLost);
+                    self.buzzing = [false; 2];
+                    self.session = None;
+                    // Wait for the headset to come back (a real runtime: minutes at most).
+                    let mut tries = 0u32;
+                    while !self.app.headset_present() {
+                        tries += 1;
+                        if tries > 600 {
+                            return Err("the headset did not come back within 60 s".into());
+                        }
+                        std::thread::sleep(std::time::Duration::from_millis(100));
+                    }
+                    return Ok(Tick::Idle);
+                }
+                _ => {}
+            }
+        }
+        if !self.machine.submits_frames() {
+            std::thread::sleep(std::time::Duration::from_millis(1));
+            return Ok(Tick::Idle);
+        }
+        self.frame()
+    }
+
+    fn frame(&mut self) -> Result<Tick, String> {
+        let dt = self.dt;
+        let Some((xs, waiter, stream)) = self.session.as_mut() else {
+            return Ok(Tick::Idle);
+        };
+        let fs = waiter
+            .wait()
+            .map_err(|r| format!("xrWaitFrame failed: {r}"))?;
+        stream
+            .begin()
+            .map_err(|r| format!("xrBeginFrame failed: {r}"))?;
+        let t = fs.predicted_display_time;
+        let live = &mut self.live;
+        let o = *self
+            .origin
+            .get_or_insert(t.as_nanos() - (live.time_s() * 1e9).round() as i64);
+        let mut target_s = (t.as_nanos() - o) as f64 / 1e9;
+        if let Some(d) = self.opts.duration_s {
+            target_s = target_s.min(d);
+        }
+        let focused = self.machine.focused();
+        let readings = if focused {
+            xs.read_hands(&self.app.controls, t).map_err(err)?
+        } else {
+            [HandReading::default(); 2]
+        };
+        let before = self.held;
+        let mut now = self.held;
+        for h in Hand::BOTH {
+            let k = h.index();
+            let r = readings[k];
+            let is_tracked = r.aim.is_some();
+            if focused {
+                // A change is an event; the first reading is not.
+                if self.tracked[k].is_some_and(|was| was != is_tracked) {
+                    let hand = h.name().to_string();
+                    live.note(if is_tracked {
+                        EventKind::ControllerRegained { hand }
+                    } else {
+                        EventKind::ControllerLost { hand }
+                    });
+                }
+                self.tracked[k] = Some(is_tracked);
+            }
+            if let Some(aim) = r.aim {
+                now[k] = HandInput {
+                    pose: field_pose(aim),
+                    buttons: Buttons {
+                        trigger: r.trigger,
+                        grip: if r.squeeze { 1.0 } else { 0.0 },
+                        mark: r.click,
+                    },
                 };
-                match machine.on_state(e.state()) {
-                    Some(Command::BeginSession) => {
-                        xs.session
-                            .begin(xr::ViewConfigurationType::PRIMARY_STEREO)
-                            .map_err(|r| format!("xrBeginSession failed: {r}"))?;
+            }
+        }
+        // Step the simulation up to the display time, inputs interpolated.
+        let mut peak = [0.0f32; 2];
+        let mut cut = [0u32; 2];
+        let span = (target_s - self.last_t_s).max(1e-9);
+        while live.time_s() + dt * 0.5 <= target_s {
+            let s = ((live.time_s() - self.last_t_s) / span).clamp(0.0, 1.0) as f32;
+            let frame = InputFrame {
+                hands: [
+                    between(&before[0], &now[0], s),
+                    between(&before[1], &now[1], s),
+                ],
+            };
+            for e in live.step(frame) {
+                if let EventKind::Cut { faces, .. } = e.kind {
+                    cut[Hand::Right.index()] += faces;
+                }
+            }
+            let f = live.reactions();
+            for k in 0..2 {
+                peak[k] = peak[k].max(f[k].length());
+            }
+        }
+        self.last_t_s = live.time_s();
+        self.held = now;
+        // Vibration while in contact, stopped when contact ends.
+        if focused {
+            for (k, profile) in [GRASPER_HAPTICS, LASER_HAPTICS].iter().enumerate() {
+                match profile.amplitude(peak[k], cut[k]) {
+                    Some(a) if self.tracked[k] == Some(true) => {
+                        xs.vibrate(
+                            &self.app.controls,
+                            k,
+                            a,
+                            profile.frequency_hz,
+                            profile.pulse_s,
+                        )
+                        .map_err(err)?;
+                        self.buzzing[k] = true;
                     }
-                    Some(Command::EndSession) => {
-                        xs.session
-                            .end()
-                            .map_err(|r| format!("xrEndSession failed: {r}"))?;
-                    }
-                    Some(Command::Exit) => break 'sessions,
-                    Some(Command::Recreate) => {
-                        live.note(EventKind::SessionLost);
-                        for h in 0..2 {
-                            buzzing[h] = false;
-                        }
-                        drop((xs, waiter, stream));
-                        // Wait for the headset to come back (a real runtime: minutes at most).
-                        let mut tries = 0u32;
-                        while !app.headset_present() {
-                            tries += 1;
-                            if tries > 600 {
-                                return Err("the headset did not come back within 60 s".into());
-                            }
-                            std::thread::sleep(std::time::Duration::from_millis(100));
-                        }
-                        continue 'sessions;
+                    _ if self.buzzing[k] => {
+                        xs.stop_vibration(&self.app.controls, k).map_err(err)?;
+                        self.buzzing[k] = false;
                     }
                     _ => {}
                 }
             }
-            if !machine.submits_frames() {
-                std::thread::sleep(std::time::Duration::from_millis(1));
-                continue;
+        }
+        let rendered = fs.should_render;
+        if rendered {
+            let views = xs.views(t).map_err(err)?;
+            if views.len() < 2 {
+                return Err("the runtime located fewer than two views".into());
             }
-            let fs = waiter
-                .wait()
-                .map_err(|r| format!("xrWaitFrame failed: {r}"))?;
+            let eyes = [eye_view(&views[0]), eye_view(&views[1])];
+            self.renderer.update(&live.snapshot());
+            let multiview = self.gpu.multiview;
+            let copy = self.mirror.as_ref().map(|m| (m, &self.gpu));
+            self.counters =
+                draw(xs, &mut self.renderer, self.eye, &eyes, multiview, copy).map_err(err)?;
+            xs.end_frame(stream, t, &views).map_err(err)?;
+            self.frames += 1;
+        } else {
             stream
-                .begin()
-                .map_err(|r| format!("xrBeginFrame failed: {r}"))?;
-            let t = fs.predicted_display_time;
-            let o = *origin.get_or_insert(t.as_nanos() - (live.time_s() * 1e9).round() as i64);
-            let mut target_s = (t.as_nanos() - o) as f64 / 1e9;
-            if let Some(d) = opts.duration_s {
-                target_s = target_s.min(d);
-            }
-            let readings = if machine.focused() {
-                xs.read_hands(&app.controls, t).map_err(err)?
-            } else {
-                [HandReading::default(); 2]
-            };
-            let before = held;
-            let mut now = held;
-            for h in Hand::BOTH {
-                let k = h.index();
-                let r = readings[k];
-                let is_tracked = r.aim.is_some();
-                if machine.focused() {
-                    // A change is an event; the first reading is not.
-                    if tracked[k].is_some_and(|was| was != is_tracked) {
-                        let hand = h.name().to_string();
-                        live.note(if is_tracked {
-                            EventKind::ControllerRegained { hand }
-                        } else {
-                            EventKind::ControllerLost { hand }
-                        });
-                    }
-                    tracked[k] = Some(is_tracked);
-                }
-                if let Some(aim) = r.aim {
-                    now[k] = HandInput {
-                        pose: field_pose(aim),
-                        buttons: Buttons {
-                            trigger: r.trigger,
-                            grip: if r.squeeze { 1.0 } else { 0.0 },
-                            mark: r.click,
-                        },
-                    };
-                }
-            }
-            // Step the simulation up to the display time, inputs interpolated.
-            let mut peak = [0.0f32; 2];
-            let mut cut = [0u32; 2];
-            let span = (target_s - last_t_s).max(1e-9);
-            while live.time_s() + dt * 0.5 <= target_s {
-                let s = ((live.time_s() - last_t_s) / span).clamp(0.0, 1.0) as f32;
-                let frame = InputFrame {
-                    hands: [
-                        between(&before[0], &now[0], s),
-                        between(&before[1], &now[1], s),
-                    ],
-                };
-                for e in live.step(frame) {
-                    if let EventKind::Cut { faces, .. } = e.kind {
-                        cut[Hand::Right.index()] += faces;
-                    }
-                }
-                let f = live.reactions();
-                for k in 0..2 {
-                    peak[k] = peak[k].max(f[k].length());
-                }
-            }
-            last_t_s = live.time_s();
-            held = now;
-            // Vibration while in contact, stopped when contact ends.
-            if machine.focused() {
-                for (k, profile) in [GRASPER_HAPTICS, LASER_HAPTICS].iter().enumerate() {
-                    match profile.amplitude(peak[k], cut[k]) {
-                        Some(a) if tracked[k] == Some(true) => {
-                            xs.vibrate(&app.controls, k, a, profile.frequency_hz, profile.pulse_s)
-                                .map_err(err)?;
-                            buzzing[k] = true;
-                        }
-                        _ if buzzing[k] => {
-                            xs.stop_vibration(&app.controls, k).map_err(err)?;
-                            buzzing[k] = false;
-                        }
-                        _ => {}
-                    }
-                }
-            }
-            if fs.should_render {
-                let views = xs.views(t).map_err(err)?;
-                if views.len() < 2 {
-                    return Err("the runtime located fewer than two views".into());
-                }
-                let eyes = [eye_view(&views[0]), eye_view(&views[1])];
-                renderer.update(&live.snapshot());
-                let multiview = gpu.multiview;
-                draw(&mut xs, &mut renderer, eye, &eyes, multiview).map_err(err)?;
-                xs.end_frame(&mut stream, t, &views).map_err(err)?;
-                frames += 1;
-            } else {
-                stream
-                    .end(t, xr::EnvironmentBlendMode::OPAQUE, &[])
-                    .map_err(|r| format!("xrEndFrame failed: {r}"))?;
-            }
-            gpu.check().map_err(err)?;
-            let done = opts
-                .duration_s
-                .is_some_and(|d| live.time_s() + dt * 0.5 > d);
-            if done && !exit_asked && machine.focused() {
-                xs.session
-                    .request_exit()
-                    .map_err(|r| format!("xrRequestExitSession failed: {r}"))?;
-                exit_asked = true;
-            }
+                .end(t, xr::EnvironmentBlendMode::OPAQUE, &[])
+                .map_err(|r| format!("xrEndFrame failed: {r}"))?;
+        }
+        self.gpu.check().map_err(err)?;
+        let done = self
+            .opts
+            .duration_s
+            .is_some_and(|d| live.time_s() + dt * 0.5 > d);
+        if done && !self.exit_asked && self.machine.focused() {
+            xs.session
+                .request_exit()
+                .map_err(|r| format!("xrRequestExitSession failed: {r}"))?;
+            self.exit_asked = true;
+        }
+        Ok(Tick::Frame { rendered })
+    }
+
+    /// Ends the loop: the session's outcome and what ran it.
+    pub fn finish(self) -> XrRun {
+        let device = self.gpu.describe();
+        XrRun {
+            outcome: self.live.finish(Vec::new()),
+            runtime: self.app.runtime_name.clone(),
+            frames: self.frames,
+            sessions: self.sessions,
+            eye_size: self.eye,
+            device,
         }
     }
-    let device = gpu.describe();
-    Ok(XrRun {
-        outcome: live.finish(Vec::new()),
-        runtime: app.runtime_name.clone(),
-        frames,
-        sessions,
-        eye_size: eye,
-        device,
-    })
+}
+
+/// Runs the procedure in the headset until `duration_s` or the menu button.
+pub fn run(scenario_text: &str, scenario_file: &str, opts: XrOptions) -> Result<XrRun, String> {
+    let mut xr_loop = XrLoop::open(scenario_text, scenario_file, opts)?;
+    while xr_loop.tick()? != Tick::Exit {}
+    Ok(xr_loop.finish())
 }
 
 fn draw(
@@ -344,7 +501,9 @@ fn draw(
     eye: (u32, u32),
     eyes: &[EyeView; 2],
     multiview: bool,
-) -> Result<(), xr_bindings::app::XrError> {
+    mirror: Option<(&Mirror, &Gpu)>,
+) -> Result<FrameCounters, xr_bindings::app::XrError> {
+    let mut counters = FrameCounters::default();
     xs.draw(|texture| {
         let (array, layers) = crate::render::gpu::eye_views(texture);
         let target = if multiview {
@@ -352,8 +511,45 @@ fn draw(
         } else {
             RenderTarget::PerEye([&layers[0], &layers[1]])
         };
-        renderer.render(target, eye, eyes);
-    })
+        counters = renderer.render(target, eye, eyes);
+        // The mirror's eye, copied before the image goes back to the runtime.
+        if let Some((m, gpu)) = mirror {
+            let layer = match m.eye {
+                MirrorEye::Left => 0,
+                MirrorEye::Right => 1,
+            };
+            let mut encoder = gpu
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("mirror copy"),
+                });
+            encoder.copy_texture_to_texture(
+                wgpu::TexelCopyTextureInfo {
+                    texture,
+                    mip_level: 0,
+                    origin: wgpu::Origin3d {
+                        x: 0,
+                        y: 0,
+                        z: layer,
+                    },
+                    aspect: wgpu::TextureAspect::All,
+                },
+                wgpu::TexelCopyTextureInfo {
+                    texture: &m.texture,
+                    mip_level: 0,
+                    origin: wgpu::Origin3d::ZERO,
+                    aspect: wgpu::TextureAspect::All,
+                },
+                wgpu::Extent3d {
+                    width: m.size.0,
+                    height: m.size.1,
+                    depth_or_array_layers: 1,
+                },
+            );
+            gpu.queue.submit([encoder.finish()]);
+        }
+    })?;
+    Ok(counters)
 }
 
 #[cfg(test)]

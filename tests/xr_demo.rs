@@ -14,7 +14,7 @@ fn run(out: &Path) -> serde_json::Value {
         .arg("--out")
         .arg(out)
         // A quarter of the Vive's panel per side: the same path, less software rasterising.
-        .args(["--eye-size", "270x300"])
+        .args(["--eye-size", "270x300", "--no-window"])
         .output()
         .expect("runs");
     assert!(

@@ -65,7 +65,15 @@ fn run_xr(dir: &Path, trace: &str, inject: &str, duration_s: f64) -> Run {
     assert!(m.status.success(), "{}", String::from_utf8_lossy(&m.stderr));
     let out = dir.join("out");
     let o = Command::new(env!("CARGO_BIN_EXE_vesalius"))
-        .args(["run", "nephrectomy", "--xr", "--eye-size", EYE, "--out"])
+        .args([
+            "run",
+            "nephrectomy",
+            "--xr",
+            "--no-window",
+            "--eye-size",
+            EYE,
+            "--out",
+        ])
         .arg(&out)
         .args(["--xr-duration", &duration_s.to_string()])
         .env("XR_RUNTIME_JSON", &manifest)

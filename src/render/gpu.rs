@@ -25,7 +25,9 @@ pub enum RenderError {
     TooLarge(u32, u32, u32),
 }
 
-/// A wgpu device and queue with what we learned about the adapter.
+/// A wgpu device and queue with what we learned about the adapter. Clones share the device
+/// (the desktop mirror draws with the XR session's device).
+#[derive(Clone)]
 pub struct Gpu {
     pub instance: wgpu::Instance,
     pub adapter: wgpu::Adapter,

@@ -151,8 +151,14 @@ fn uniform_bytes() -> u64 {
 impl Renderer {
     /// A renderer for targets of `format` on `gpu`'s device; multiview when the device has it.
     pub fn new(gpu: &Gpu, format: wgpu::TextureFormat) -> Self {
+        Self::with_multiview(gpu, format, gpu.multiview)
+    }
+
+    /// A renderer that draws one view per pass even on a multiview device (a desktop view
+    /// beside the headset's), or both eyes in one pass where `multiview` and the device allow.
+    pub fn with_multiview(gpu: &Gpu, format: wgpu::TextureFormat, multiview: bool) -> Self {
         let device = gpu.device.clone();
-        let multiview = gpu.multiview;
+        let multiview = multiview && gpu.multiview;
         let source = if multiview {
             SHADER
                 .replace("/*VIEW_INDEX*/", ", @builtin(view_index) view: u32")

@@ -73,6 +73,8 @@ pub struct Dashboard {
     pub key_map: Vec<(String, String)>,
     /// The instrument the mouse drives (desktop mode).
     pub driving: Option<&'static str>,
+    /// What the 3D view shows of an XR session.
+    pub viewing: Option<&'static str>,
     /// The tissue sliders' values (from the simulation until the first edit).
     pub edit: Option<Tuning>,
     /// Where the tuned scenario was last written, or why it was not.
@@ -110,6 +112,7 @@ impl Dashboard {
             summary: None,
             key_map: Vec::new(),
             driving: None,
+            viewing: None,
             edit: None,
             saved: None,
         }
@@ -177,6 +180,10 @@ impl Dashboard {
                 if let Some(tool) = self.driving {
                     ui.separator();
                     ui.strong(format!("the mouse drives {tool}"));
+                }
+                if let Some(what) = self.viewing {
+                    ui.separator();
+                    ui.strong(format!("showing {what}"));
                 }
             });
             self.banner(ui);

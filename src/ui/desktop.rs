@@ -128,7 +128,8 @@ pub struct DesktopHands {
 }
 
 impl Default for DesktopHands {
-    /// Both instruments parked where the demo trace starts them, over the field.
+    /// Both instruments parked where the demo trace starts them, over the field; on the
+    /// cursor, each 15 cm out, about where the kidney's front lies from the default camera.
     fn default() -> Self {
         let target = Vec3::new(0.01163, 0.02678, 0.02836);
         let mut frame = InputFrame::default();
@@ -136,7 +137,7 @@ impl Default for DesktopHands {
         frame.hands[1].pose = Pose::looking_at(Vec3::new(0.09865, 0.04888, 0.14317), target);
         DesktopHands {
             selected: Hand::Right,
-            depth_m: [0.12, 0.12],
+            depth_m: [0.15, 0.15],
             frame,
         }
     }
@@ -282,8 +283,8 @@ mod hand_tests {
             },
         );
         let g = h.frame.hands[0];
-        assert!((h.depth_m[0] - 0.13).abs() < 1e-6);
-        assert!((g.pose.position.distance(view.position) - 0.13).abs() < 1e-5);
+        assert!((h.depth_m[0] - 0.16).abs() < 1e-6);
+        assert!((g.pose.position.distance(view.position) - 0.16).abs() < 1e-5);
         // It lands where the cursor is, in a 1500 x 1000 image.
         let px = view
             .project(g.pose.position, (1500, 1000))

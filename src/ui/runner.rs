@@ -39,7 +39,7 @@ pub struct SimThread {
 
 /// Vulnerable structures are reported in the status within this distance, metres (the
 /// alarms use a nearer limit of their own).
-const LOOK_M: f32 = 0.01;
+pub const LOOK_M: f32 = 0.01;
 
 impl SimThread {
     /// Builds the procedure (here, so a bad scenario is reported before any window opens)

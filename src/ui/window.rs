@@ -13,6 +13,7 @@ use crate::render::gpu::EYE_FORMAT;
 use crate::render::{Gpu, RenderTarget, Renderer};
 use crate::session::Outcome;
 use crate::sim::{Hand, InputFrame, Pacing};
+use crate::xr::{MirrorEye, Tick, XrLoop, XrOptions};
 use arc_swap::ArcSwap;
 use glam::Vec2;
 use std::path::PathBuf;
@@ -41,6 +42,18 @@ pub struct WindowOptions {
     pub size: (u32, u32),
     /// Where "Save to scenario file" writes the tuned scenario.
     pub save_tuning_to: PathBuf,
+    /// Mirror an XR session (the headset drives; the window shows an eye or a free camera)
+    /// instead of running a desktop session.
+    pub xr: Option<XrOptions>,
+}
+
+/// What the 3D view shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum ViewMode {
+    /// The headset's left or right eye, copied from the frame the headset got.
+    Eye(MirrorEye),
+    /// The window's own orbiting camera (drawn for the window).
+    Free,
 }
 
 /// Writes `text` to `path` through a temporary file and a rename: never half a file.
@@ -57,7 +70,11 @@ fn write_atomic(path: &std::path::Path, text: &str) -> Result<(), String> {
 /// What a window session did.
 pub struct WindowRun {
     pub outcome: Outcome,
+    /// Window frames drawn, and how many of them drew the scene (not a mirrored eye).
     pub frames: u64,
+    pub scene_renders: u64,
+    /// The XR session's figures, when the window mirrored one.
+    pub xr: Option<(String, u64, u32, (u32, u32))>,
     pub screenshot: Option<((u32, u32), PathBuf)>,
     pub device: String,
 }
@@ -70,32 +87,68 @@ pub fn run(opts: WindowOptions) -> Result<WindowRun, String> {
         Some((t, _)) => Source::Trace(t.clone()),
         None => Source::Live(desk.clone()),
     };
-    // The procedure is built (and a bad scenario reported) before any window opens.
-    let sim = SimThread::start(
-        &opts.scenario_text,
-        &opts.scenario_file,
-        source,
-        Pacing::RealTime,
-    )
-    .map_err(|e| e.to_string())?;
+    // The procedure is built (and a bad scenario reported) before any window opens; under XR
+    // the runtime and its Vulkan device are opened first, and the window shares that device.
+    let (sim, xr) = match opts.xr {
+        Some(x) => {
+            let mut l = XrLoop::open(&opts.scenario_text, &opts.scenario_file, x)?;
+            l.mirror_eye(MirrorEye::Left);
+            (None, Some(l))
+        }
+        None => (
+            Some(
+                SimThread::start(
+                    &opts.scenario_text,
+                    &opts.scenario_file,
+                    source,
+                    Pacing::RealTime,
+                )
+                .map_err(|e| e.to_string())?,
+            ),
+            None,
+        ),
+    };
     let event_loop = EventLoop::new().map_err(|e| {
         format!("cannot open a window ({e}); is DISPLAY set? (headless: xvfb-run, or --headless)")
     })?;
-    let source = match &opts.trace {
-        Some((_, name)) => format!("playing {name}"),
-        None => "mouse and keyboard".to_string(),
+    let source = match (&opts.trace, &xr) {
+        (_, Some(l)) => format!("headset ({})", l.runtime_name()),
+        (Some((_, name)), None) => format!("playing {name}"),
+        (None, None) => "mouse and keyboard".to_string(),
     };
     let mut dashboard = Dashboard::new(&opts.procedure, &source, AlarmRules::default());
-    let desktop = opts.trace.is_none().then(|| {
+    let desktop = (opts.trace.is_none() && xr.is_none()).then(|| {
         dashboard.key_map = DesktopHands::key_map();
         (hands, desk)
     });
+    if xr.is_some() {
+        dashboard.key_map = [
+            ("V", "left eye / right eye / free camera"),
+            ("arrows, shift + arrows", "orbit, pan (free camera)"),
+            ("PgUp / PgDn, R", "zoom, reset (free camera)"),
+        ]
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect();
+    }
+    let view_mode = if xr.is_some() {
+        ViewMode::Eye(MirrorEye::Left)
+    } else {
+        ViewMode::Free
+    };
     let mut app = App {
         dashboard,
         desktop,
         shift: false,
         opts,
-        sim: Some(sim),
+        sim,
+        xr,
+        xr_run: None,
+        view_mode,
+        mirror_id: None,
+        mirror_size: (1, 1),
+        scene_renders: 0,
+        last_window_frame: None,
         view: None,
         camera: OrbitCamera::default(),
         outcome: None,
@@ -109,15 +162,13 @@ pub fn run(opts: WindowOptions) -> Result<WindowRun, String> {
     if let Some(e) = app.error.take() {
         return Err(e);
     }
-    let outcome = match app.outcome.take() {
-        Some(o) => o,
-        None => app
-            .sim
-            .take()
-            .ok_or("the session ended without an outcome")?
-            .finish()
-            .map_err(|e| e.to_string())?,
-    };
+    if app.outcome.is_none() {
+        app.end_session()?;
+    }
+    let outcome = app
+        .outcome
+        .take()
+        .ok_or("the session ended without an outcome")?;
     let device = app
         .view
         .as_ref()
@@ -125,6 +176,8 @@ pub fn run(opts: WindowOptions) -> Result<WindowRun, String> {
     Ok(WindowRun {
         outcome,
         frames: app.frames,
+        scene_renders: app.scene_renders,
+        xr: app.xr_run.take(),
         screenshot: app.shot,
         device,
     })
@@ -158,6 +211,16 @@ struct App {
     desktop: Option<(DesktopHands, Arc<ArcSwap<InputFrame>>)>,
     shift: bool,
     sim: Option<SimThread>,
+    xr: Option<XrLoop>,
+    /// Runtime, stereo frames, sessions and eye size of a finished XR session.
+    xr_run: Option<(String, u64, u32, (u32, u32))>,
+    view_mode: ViewMode,
+    /// The mirrored eye's texture in egui.
+    mirror_id: Option<egui::TextureId>,
+    mirror_size: (u32, u32),
+    scene_renders: u64,
+    /// Simulated and wall time of the last window frame under XR.
+    last_window_frame: Option<(f64, Instant)>,
     view: Option<View>,
     camera: OrbitCamera,
     outcome: Option<Outcome>,
@@ -181,86 +244,128 @@ impl App {
             .with_inner_size(winit::dpi::LogicalSize::new(w, h))
             .with_min_inner_size(winit::dpi::LogicalSize::new(800, 500));
         let window = Arc::new(el.create_window(attrs).map_err(|e| e.to_string())?);
-        let mut desc =
-            wgpu::InstanceDescriptor::new_with_display_handle(Box::new(el.owned_display_handle()));
-        desc.backends = wgpu::Backends::VULKAN;
-        let instance = wgpu::Instance::new(desc);
-        let surface = instance
-            .create_surface(window.clone())
-            .map_err(|e| format!("cannot draw into the window: {e}"))?;
-        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            force_fallback_adapter: false,
-            compatible_surface: Some(&surface),
-            apply_limit_buckets: false,
-        }))
-        .map_err(|e| format!("no Vulkan adapter can draw into the window: {e}"))?;
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("vesalius window"),
-            required_limits: wgpu::Limits::default().using_resolution(adapter.limits()),
-            ..Default::default()
-        }))
-        .map_err(|e| format!("cannot open the GPU: {e}"))?;
-        // One view, no headset: the renderer's two-pass path, drawing one eye.
-        let gpu = Gpu::from_parts(instance, adapter, device, queue, false);
-        let caps = surface.get_capabilities(&gpu.adapter);
-        // egui blends in gamma space: it prefers a plain (non-sRGB) 8-bit target.
-        let format = [
-            wgpu::TextureFormat::Bgra8Unorm,
-            wgpu::TextureFormat::Rgba8Unorm,
-        ]
-        .into_iter()
-        .find(|f| caps.formats.contains(f))
-        .or_else(|| caps.formats.first().copied())
-        .ok_or("the window's surface offers no format")?;
-        let size = window.inner_size();
-        let config = wgpu::SurfaceConfiguration {
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-            format,
-            width: size.width.max(1),
-            height: size.height.max(1),
-            present_mode: wgpu::PresentMode::AutoVsync,
-            desired_maximum_frame_latency: 2,
-            alpha_mode: caps
-                .alpha_modes
-                .first()
-                .copied()
-                .unwrap_or(wgpu::CompositeAlphaMode::Auto),
-            view_formats: vec![],
-            color_space: wgpu::SurfaceColorSpace::Auto,
+        let (gpu, surface) = match &self.xr {
+            Some(x) => {
+                // The headset's device draws the window too: its frames are copied, not sent
+                // across devices.
+                let surface = x
+                    .gpu
+                    .instance
+                    .create_surface(window.clone())
+                    .map_err(|e| format!("cannot draw into the window: {e}"))?;
+                (x.gpu.clone(), surface)
+            }
+            None => own_gpu(el, &window)?,
         };
-        surface.configure(&gpu.device, &config);
-        let renderer = Renderer::new(&gpu, EYE_FORMAT);
-        let ctx = egui::Context::default();
-        let egui = egui_winit::State::new(
-            ctx,
-            egui::ViewportId::ROOT,
-            &window,
-            Some(window.scale_factor() as f32),
-            None,
-            Some(gpu.device.limits().max_texture_dimension_2d as usize),
-        );
-        let painter =
-            egui_wgpu::Renderer::new(&gpu.device, format, egui_wgpu::RendererOptions::default());
-        Ok(View {
-            window,
-            gpu,
-            surface,
-            config,
-            renderer,
-            egui,
-            painter,
-            scene: None,
-            last_step: None,
-        })
+        finish_open(window, gpu, surface)
     }
+}
 
+/// A Vulkan device of the window's own (no headset).
+fn own_gpu(
+    el: &ActiveEventLoop,
+    window: &Arc<Window>,
+) -> Result<(Gpu, wgpu::Surface<'static>), String> {
+    let mut desc =
+        wgpu::InstanceDescriptor::new_with_display_handle(Box::new(el.owned_display_handle()));
+    desc.backends = wgpu::Backends::VULKAN;
+    let instance = wgpu::Instance::new(desc);
+    let surface = instance
+        .create_surface(window.clone())
+        .map_err(|e| format!("cannot draw into the window: {e}"))?;
+    let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+        power_preference: wgpu::PowerPreference::HighPerformance,
+        force_fallback_adapter: false,
+        compatible_surface: Some(&surface),
+        apply_limit_buckets: false,
+    }))
+    .map_err(|e| format!("no Vulkan adapter can draw into the window: {e}"))?;
+    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        label: Some("vesalius window"),
+        required_limits: wgpu::Limits::default().using_resolution(adapter.limits()),
+        ..Default::default()
+    }))
+    .map_err(|e| format!("cannot open the GPU: {e}"))?;
+    // One view, no headset: no multiview.
+    Ok((
+        Gpu::from_parts(instance, adapter, device, queue, false),
+        surface,
+    ))
+}
+
+fn finish_open(
+    window: Arc<Window>,
+    gpu: Gpu,
+    surface: wgpu::Surface<'static>,
+) -> Result<View, String> {
+    let caps = surface.get_capabilities(&gpu.adapter);
+    if caps.formats.is_empty() {
+        return Err("this GPU cannot draw into the window".into());
+    }
+    // egui blends in gamma space: it prefers a plain (non-sRGB) 8-bit target.
+    let format = [
+        wgpu::TextureFormat::Bgra8Unorm,
+        wgpu::TextureFormat::Rgba8Unorm,
+    ]
+    .into_iter()
+    .find(|f| caps.formats.contains(f))
+    .or_else(|| caps.formats.first().copied())
+    .ok_or("the window's surface offers no format")?;
+    let size = window.inner_size();
+    let config = wgpu::SurfaceConfiguration {
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+        format,
+        width: size.width.max(1),
+        height: size.height.max(1),
+        present_mode: wgpu::PresentMode::AutoVsync,
+        desired_maximum_frame_latency: 2,
+        alpha_mode: caps
+            .alpha_modes
+            .first()
+            .copied()
+            .unwrap_or(wgpu::CompositeAlphaMode::Auto),
+        view_formats: vec![],
+        color_space: wgpu::SurfaceColorSpace::Auto,
+    };
+    surface.configure(&gpu.device, &config);
+    // One view a pass (the device may have multiview for the headset).
+    let renderer = Renderer::with_multiview(&gpu, EYE_FORMAT, false);
+    let ctx = egui::Context::default();
+    let egui = egui_winit::State::new(
+        ctx,
+        egui::ViewportId::ROOT,
+        &window,
+        Some(window.scale_factor() as f32),
+        None,
+        Some(gpu.device.limits().max_texture_dimension_2d as usize),
+    );
+    let painter =
+        egui_wgpu::Renderer::new(&gpu.device, format, egui_wgpu::RendererOptions::default());
+    Ok(View {
+        window,
+        gpu,
+        surface,
+        config,
+        renderer,
+        egui,
+        painter,
+        scene: None,
+        last_step: None,
+    })
+}
+
+impl App {
     /// The session ended: keep its outcome, write its files, show its report.
     fn end_session(&mut self) -> Result<(), String> {
-        let Some(sim) = self.sim.take() else {
+        let outcome = if let Some(sim) = self.sim.take() {
+            sim.finish().map_err(|e| e.to_string())?
+        } else if let Some(x) = self.xr.take() {
+            let run = x.finish();
+            self.xr_run = Some((run.runtime, run.frames, run.sessions, run.eye_size));
+            run.outcome
+        } else {
             return Ok(());
         };
-        let outcome = sim.finish().map_err(|e| e.to_string())?;
         let written = match &self.opts.out {
             Some(dir) => {
                 crate::session::write_outputs(&outcome, dir).map_err(|e| e.to_string())?;
@@ -292,6 +397,7 @@ impl App {
                 "r" | "R" => *c = OrbitCamera::default(),
                 "1" => self.select(Hand::Left),
                 "2" => self.select(Hand::Right),
+                "v" | "V" if self.xr.is_some() => self.next_view(),
                 _ => {}
             },
             _ => {}
@@ -322,6 +428,18 @@ impl App {
         }
     }
 
+    /// Left eye, right eye, free camera, and round again.
+    fn next_view(&mut self) {
+        self.view_mode = match self.view_mode {
+            ViewMode::Eye(MirrorEye::Left) => ViewMode::Eye(MirrorEye::Right),
+            ViewMode::Eye(MirrorEye::Right) => ViewMode::Free,
+            ViewMode::Free => ViewMode::Eye(MirrorEye::Left),
+        };
+        if let (ViewMode::Eye(e), Some(x)) = (self.view_mode, self.xr.as_mut()) {
+            x.mirror_eye(e);
+        }
+    }
+
     fn select(&mut self, hand: Hand) {
         if let Some((h, _)) = self.desktop.as_mut() {
             h.selected = hand;
@@ -336,14 +454,41 @@ impl App {
         let Some(v) = self.view.as_mut() else {
             return Ok(());
         };
-        // The newest simulation state.
-        let snapshot = match (&self.sim, &self.outcome) {
+        // The newest simulation state (a free camera under XR takes a snapshot of its own).
+        // After the session, the last mirrored frame stays on screen.
+        let mirrored = matches!(self.view_mode, ViewMode::Eye(_))
+            && (self.mirror_id.is_some() || self.xr.is_some());
+        let snapshot = match (&self.sim, self.xr.as_mut()) {
             (Some(sim), _) => {
                 self.dashboard.update((**sim.status.load()).clone());
                 Some(sim.bus.latest())
             }
+            (None, Some(x)) => {
+                self.dashboard
+                    .update(x.live().status(super::runner::LOOK_M));
+                (!mirrored).then(|| Arc::new(x.live().snapshot()))
+            }
             _ => None,
         };
+        if self.mirror_id.is_none()
+            && let Some(m) = self.xr.as_ref().and_then(|x| x.mirror.as_ref())
+        {
+            self.mirror_id = Some(v.painter.register_native_texture(
+                &v.gpu.device,
+                &m.view,
+                wgpu::FilterMode::Linear,
+            ));
+            self.mirror_size = m.size;
+        }
+        let mirror = self
+            .mirror_id
+            .map(|id| (self.mirror_size, id))
+            .filter(|_| mirrored);
+        self.dashboard.viewing = self.xr.is_some().then_some(match self.view_mode {
+            ViewMode::Eye(MirrorEye::Left) => "the headset's left eye",
+            ViewMode::Eye(MirrorEye::Right) => "the headset's right eye",
+            ViewMode::Free => "a free camera",
+        });
         if let Some(s) = &snapshot
             && v.last_step != Some(s.step)
         {
@@ -370,7 +515,18 @@ impl App {
                     ((rect.width() * ppp).round() as u32).max(1),
                     ((rect.height() * ppp).round() as u32).max(1),
                 );
-                if let Some(id) = scene_id {
+                if let Some(((w, h), id)) = mirror {
+                    // The eye's picture, whole, centred at its own aspect ratio.
+                    let scale = (rect.width() / w as f32).min(rect.height() / h as f32);
+                    let fit = egui::Rect::from_center_size(
+                        rect.center(),
+                        egui::vec2(w as f32 * scale, h as f32 * scale),
+                    );
+                    ui.put(
+                        fit,
+                        egui::Image::new(egui::load::SizedTexture::new(id, fit.size())),
+                    );
+                } else if let Some(id) = scene_id {
                     let r = ui.put(
                         rect,
                         egui::Image::new(egui::load::SizedTexture::new(id, rect.size()))
@@ -390,8 +546,13 @@ impl App {
         // The 3D view, at the central panel's size.
         let render_start = Instant::now();
         ensure_scene(v, view_px);
-        let mut counters = Default::default();
-        if let Some(scene) = &v.scene {
+        // Mirroring, the headset's renderer did the frame's work: its counters.
+        let mut counters = match (&self.xr, mirror.is_some()) {
+            (Some(x), true) => x.counters.clone(),
+            _ => Default::default(),
+        };
+        if let Some(scene) = v.scene.as_ref().filter(|_| mirror.is_none()) {
+            self.scene_renders += 1;
             let aspect = scene.size.0 as f32 / scene.size.1 as f32;
             let eye = self.camera.view(aspect);
             if let Some((hands, shared)) = self.desktop.as_mut() {
@@ -682,8 +843,33 @@ impl ApplicationHandler for App {
         }
     }
 
-    fn about_to_wait(&mut self, _el: &ActiveEventLoop) {
-        if let Some(v) = &self.view {
+    fn about_to_wait(&mut self, el: &ActiveEventLoop) {
+        // Under XR the headset sets the pace: one frame of it each pass, and the window
+        // redrawn at most 30 times a second beside it (or as soon as the session ends).
+        let mut due = true;
+        if let Some(x) = self.xr.as_mut() {
+            el.set_control_flow(winit::event_loop::ControlFlow::Poll);
+            match x.tick() {
+                Ok(Tick::Exit) => {
+                    if let Err(e) = self.end_session() {
+                        self.fail(el, e);
+                    }
+                }
+                Ok(_) => {
+                    // 30 window frames a second of the headset's time (a simulated runtime's
+                    // clock runs as fast as frames are made), and at least 10 of wall time
+                    // while the session waits.
+                    let t = x.live().time_s();
+                    due = self.last_window_frame.is_none_or(|(s, wall)| {
+                        t - s >= 1.0 / 30.0 || wall.elapsed().as_secs_f64() >= 0.1
+                    });
+                }
+                Err(e) => self.fail(el, e),
+            }
+        }
+        if due && let Some(v) = &self.view {
+            let t = self.xr.as_mut().map_or(0.0, |x| x.live().time_s());
+            self.last_window_frame = Some((t, Instant::now()));
             v.window.request_redraw();
         }
     }

@@ -205,7 +205,8 @@ impl XrApp {
             session.create_swapchain(&xr::SwapchainCreateInfo {
                 create_flags: xr::SwapchainCreateFlags::EMPTY,
                 usage_flags: xr::SwapchainUsageFlags::COLOR_ATTACHMENT
-                    | xr::SwapchainUsageFlags::SAMPLED,
+                    | xr::SwapchainUsageFlags::SAMPLED
+                    | xr::SwapchainUsageFlags::TRANSFER_SRC,
                 format: want,
                 sample_count: 1,
                 width: eye_size.0,
@@ -444,7 +445,9 @@ fn wrap_image(device: &wgpu::Device, raw: u64, size: (u32, u32)) -> wgpu::Textur
         sample_count: 1,
         dimension: wgpu::TextureDimension::D2,
         format: EYE_FORMAT,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_SRC,
         view_formats: &[],
     };
     // The same texture as wgpu-hal describes it (its usage in hal terms).
@@ -455,12 +458,14 @@ fn wrap_image(device: &wgpu::Device, raw: u64, size: (u32, u32)) -> wgpu::Textur
         sample_count: desc.sample_count,
         dimension: desc.dimension,
         format: desc.format,
-        usage: wgpu::TextureUses::COLOR_TARGET | wgpu::TextureUses::RESOURCE,
+        usage: wgpu::TextureUses::COLOR_TARGET
+            | wgpu::TextureUses::RESOURCE
+            | wgpu::TextureUses::COPY_SRC,
         memory_flags: wgpu::hal::MemoryFlags::empty(),
         view_formats: Vec::new(),
     };
     // SAFETY: the image was made by the runtime on this device with this size, format, two
-    // layers and colour-attachment + sampled usage; the no-op drop callback leaves it to the
+    // layers and colour-attachment + sampled + transfer-source usage; the no-op drop callback leaves it to the
     // runtime, which outlives the texture (the session is dropped after the textures).
     let hal_texture = unsafe {
         device.as_hal::<HalVulkan>().map(|d| {
