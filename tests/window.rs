@@ -204,7 +204,9 @@ fn the_xr_mirror_shows_the_headsets_eye_without_drawing_the_scene_again() {
     )
     .expect("trace written");
     let shot = dir.join("shot.png");
+    // A monitor at 1.25 device pixels per point: the window and its panels scale with it.
     let o = Command::new("xvfb-run")
+        .env("WINIT_X11_SCALE_FACTOR", "1.25")
         .args(["-a", "-s", "-screen 0 1920x1080x24"])
         .arg(env!("CARGO_BIN_EXE_vesalius"))
         .args(["run", "nephrectomy", "--xr-sim"])
@@ -242,7 +244,7 @@ fn the_xr_mirror_shows_the_headsets_eye_without_drawing_the_scene_again() {
     // The mirrored eye shows the kidney in the middle of the view (the headset sees the field
     // from 16 cm; it is small in a 110-degree eye).
     let img = read_png(&shot);
-    assert_eq!((img.0, img.1), (1280, 720));
+    assert_eq!((img.0, img.1), (1600, 900), "1280 x 720 points at 1.25");
     let organ = share(&img, (0.35, 0.65), (0.3, 0.8), kidney);
     assert!(
         organ > 0.01,

@@ -128,13 +128,20 @@ pub struct DesktopHands {
 }
 
 impl Default for DesktopHands {
-    /// Both instruments parked where the demo trace starts them, over the field; on the
-    /// cursor, each 15 cm out, about where the kidney's front lies from the default camera.
+    /// Both instruments parked where the demo trace starts them, over the field, pointing up
+    /// and away from it (so nothing is touched or identified before the trainee moves); on
+    /// the cursor, each 15 cm out, about where the kidney's front lies from the default camera.
     fn default() -> Self {
-        let target = Vec3::new(0.01163, 0.02678, 0.02836);
         let mut frame = InputFrame::default();
-        frame.hands[0].pose = Pose::looking_at(Vec3::new(-0.03135, 0.04888, 0.14317), target);
-        frame.hands[1].pose = Pose::looking_at(Vec3::new(0.09865, 0.04888, 0.14317), target);
+        for (k, at) in [
+            Vec3::new(-0.03135, 0.04888, 0.14317),
+            Vec3::new(0.09865, 0.04888, 0.14317),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            frame.hands[k].pose = Pose::looking_at(at, at + Vec3::Y);
+        }
         DesktopHands {
             selected: Hand::Right,
             depth_m: [0.15, 0.15],
