@@ -423,10 +423,14 @@ fn run_window(
             run.device
         );
     }
-    println!(
-        "window on {}: {} frames, {} of them drawing the scene (the rest mirrored an eye)",
-        run.device, run.frames, run.scene_renders
-    );
+    if run.xr.is_some() {
+        println!(
+            "window on {}: {} frames, {} of them drawing the scene (the rest mirrored an eye)",
+            run.device, run.frames, run.scene_renders
+        );
+    } else {
+        println!("window on {}: {} frames", run.device, run.frames);
+    }
     if let Some(((w, h), path)) = &run.screenshot {
         println!("screenshot {w}x{h} written to {}", path.display());
     }
