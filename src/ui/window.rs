@@ -160,7 +160,17 @@ pub fn run(opts: WindowOptions) -> Result<WindowRun, String> {
     };
     event_loop.run_app(&mut app).map_err(|e| e.to_string())?;
     if let Some(e) = app.error.take() {
-        return Err(e);
+        // Keep what the session did before the failure: its record is written all the same.
+        let kept = match app.end_session() {
+            Ok(()) => app
+                .opts
+                .out
+                .as_ref()
+                .map(|d| format!(" (the session so far is in {})", d.display()))
+                .unwrap_or_default(),
+            Err(e2) => format!(" (and its record could not be written: {e2})"),
+        };
+        return Err(format!("{e}{kept}"));
     }
     if app.outcome.is_none() {
         app.end_session()?;
