@@ -321,15 +321,18 @@ pub fn run_capturing(
         .map(|k| (k * total_steps / n.max(1)).saturating_sub(1))
         .collect();
     let mut captured = Vec::with_capacity(capture_at.len());
+    // The next recorded tuning to make (they are in step order).
+    let mut next_tuning = 0;
     while live.step_count() < total_steps {
         let step = live.step_count();
         let frame = match &input {
             Input::Keys(k) => k.sample(live.time_s()),
             Input::Recorded(r) => {
-                for (_, t) in r.tunings.iter().filter(|(s, _)| *s == step) {
+                while let Some((_, t)) = r.tunings.get(next_tuning).filter(|(s, _)| *s == step) {
                     live.tune(*t).map_err(|m| {
                         SessionError::Input(InputError::new(scenario_file, "tunings", m))
                     })?;
+                    next_tuning += 1;
                 }
                 r.frames[step as usize]
             }

@@ -158,20 +158,14 @@ pub struct Mirror {
 
 impl Mirror {
     fn new(device: &wgpu::Device, size: (u32, u32), eye: MirrorEye) -> Mirror {
-        let texture = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("xr mirror"),
-            size: wgpu::Extent3d {
-                width: size.0,
-                height: size.1,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: EYE_FORMAT,
-            usage: wgpu::TextureUsages::COPY_DST | wgpu::TextureUsages::TEXTURE_BINDING,
-            view_formats: &[],
-        });
+        let texture = crate::render::gpu::colour_texture(
+            device,
+            "xr mirror",
+            size,
+            1,
+            EYE_FORMAT,
+            wgpu::TextureUsages::COPY_DST | wgpu::TextureUsages::TEXTURE_BINDING,
+        );
         let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
         Mirror {
             eye,

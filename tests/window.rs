@@ -18,6 +18,23 @@ fn read_png(p: &Path) -> (u32, u32, Vec<u8>) {
     (info.width, info.height, buf)
 }
 
+/// The command's stdout, after checking it succeeded (else its output is the failure).
+fn succeeded(o: &std::process::Output) -> String {
+    let stdout = String::from_utf8_lossy(&o.stdout).to_string();
+    assert!(
+        o.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    stdout
+}
+
+/// A session's report.json.
+fn read_report(dir: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(dir.join("report.json")).expect("report.json"))
+        .expect("JSON")
+}
+
 /// Fraction of the pixels in the box (fractions of width and height) that `pick` accepts.
 fn share(img: &(u32, u32, Vec<u8>), x: (f32, f32), y: (f32, f32), pick: fn(&[u8]) -> bool) -> f64 {
     let (w, h, px) = img;
@@ -61,16 +78,9 @@ fn the_demo_plays_in_a_window_and_the_screenshot_shows_the_kidney_and_the_panels
         .arg(dir.join("out"))
         .output()
         .expect("xvfb-run (apt-get install xvfb xauth)");
-    let stdout = String::from_utf8_lossy(&o.stdout);
-    assert!(
-        o.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    let stdout = succeeded(&o);
     // The window's session is the headless session: same trace, same report.
-    let report: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(dir.join("out/report.json")).expect("report.json"))
-            .expect("JSON");
+    let report = read_report(&dir.join("out"));
     assert_eq!(report["completed"], true, "{report}");
     let headless = Command::new(env!("CARGO_BIN_EXE_vesalius"))
         .args(["run", "nephrectomy", "--headless", "--trace"])
@@ -79,11 +89,8 @@ fn the_demo_plays_in_a_window_and_the_screenshot_shows_the_kidney_and_the_panels
         .arg(dir.join("headless"))
         .output()
         .expect("runs");
-    assert!(headless.status.success());
-    let same: serde_json::Value = serde_json::from_slice(
-        &std::fs::read(dir.join("headless/report.json")).expect("report.json"),
-    )
-    .expect("JSON");
+    succeeded(&headless);
+    let same = read_report(&dir.join("headless"));
     assert_eq!(report["state_hash"], same["state_hash"]);
     // The screenshot: the whole 1600x900 window.
     let img = read_png(&shot);
@@ -139,15 +146,8 @@ wait $app
         .arg(&dir)
         .output()
         .expect("xvfb-run (apt-get install xvfb xauth xdotool)");
-    let stdout = String::from_utf8_lossy(&o.stdout);
-    assert!(
-        o.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    let report: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(dir.join("out/report.json")).expect("report.json"))
-            .expect("JSON");
+    succeeded(&o);
+    let report = read_report(&dir.join("out"));
     // The laser found the tumour and cut tissue.
     assert!(
         report["events"]["cut"].as_u64().unwrap_or(0) >= 1,
@@ -218,12 +218,7 @@ fn the_xr_mirror_shows_the_headsets_eye_without_drawing_the_scene_again() {
         .arg(&shot)
         .output()
         .expect("xvfb-run (apt-get install xvfb xauth)");
-    let stdout = String::from_utf8_lossy(&o.stdout);
-    assert!(
-        o.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    let stdout = succeeded(&o);
     // The headset's session ran its frames; the window drew none of the scene itself.
     assert!(stdout.contains("1 session(s)"), "{stdout}");
     let line = stdout

@@ -155,12 +155,26 @@ pub fn eye_texture(
     wgpu::TextureView,
     [wgpu::TextureView; 2],
 ) {
-    let texture = device.create_texture(&wgpu::TextureDescriptor {
+    let texture = tracked_texture(device, ledger, label, size, 2, format, usage);
+    let (array, layers) = eye_views(&texture);
+    (texture, array, layers)
+}
+
+/// A colour texture of `layers` layers (one mip level, one sample).
+pub fn colour_texture(
+    device: &wgpu::Device,
+    label: &str,
+    size: (u32, u32),
+    layers: u32,
+    format: wgpu::TextureFormat,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
         label: Some(label),
         size: wgpu::Extent3d {
             width: size.0,
             height: size.1,
-            depth_or_array_layers: 2,
+            depth_or_array_layers: layers,
         },
         mip_level_count: 1,
         sample_count: 1,
@@ -168,15 +182,23 @@ pub fn eye_texture(
         format,
         usage,
         view_formats: &[],
-    });
-    let (array, layers) = eye_views(&texture);
+    })
+}
+
+/// [`colour_texture`], entered in the ledger as a texture.
+pub fn tracked_texture(
+    device: &wgpu::Device,
+    ledger: &Arc<Ledger>,
+    label: &str,
+    size: (u32, u32),
+    layers: u32,
+    format: wgpu::TextureFormat,
+    usage: wgpu::TextureUsages,
+) -> Tracked<wgpu::Texture> {
+    let texture = colour_texture(device, label, size, layers, format, usage);
     let texel = format.block_copy_size(None).unwrap_or(4) as u64;
-    let bytes = size.0 as u64 * size.1 as u64 * texel * 2;
-    (
-        Tracked::new(texture, bytes, Category::Texture, ledger),
-        array,
-        layers,
-    )
+    let bytes = size.0 as u64 * size.1 as u64 * texel * layers as u64;
+    Tracked::new(texture, bytes, Category::Texture, ledger)
 }
 
 /// Views of a 2-layer texture: the whole array (multiview) and each eye's layer (two passes).

@@ -9,7 +9,7 @@ use super::desktop::{DesktopHands, OrbitCamera, Pointer};
 use super::runner::{SimThread, Source};
 use crate::assess::alarms::AlarmRules;
 use crate::profiler::Tracked;
-use crate::render::gpu::EYE_FORMAT;
+use crate::render::gpu::{EYE_FORMAT, colour_texture, tracked_texture};
 use crate::render::{Gpu, RenderTarget, Renderer};
 use crate::session::Outcome;
 use crate::sim::{Hand, InputFrame, Pacing};
@@ -679,24 +679,14 @@ fn ensure_scene(v: &mut View, size: (u32, u32)) {
     if v.scene.as_ref().is_some_and(|s| s.size == size) {
         return;
     }
-    let texture = Tracked::new(
-        v.gpu.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("3d view"),
-            size: wgpu::Extent3d {
-                width: size.0,
-                height: size.1,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: EYE_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-            view_formats: &[],
-        }),
-        size.0 as u64 * size.1 as u64 * 4,
-        crate::profiler::Category::Texture,
+    let texture = tracked_texture(
+        &v.gpu.device,
         &v.gpu.ledger,
+        "3d view",
+        size,
+        1,
+        EYE_FORMAT,
+        wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
     );
     let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
     let id = match v.scene.take() {
@@ -771,20 +761,14 @@ fn screenshot(
 ) -> Result<(u32, u32), String> {
     let size = (screen.size_in_pixels[0], screen.size_in_pixels[1]);
     let format = v.config.format;
-    let texture = v.gpu.device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("screenshot"),
-        size: wgpu::Extent3d {
-            width: size.0,
-            height: size.1,
-            depth_or_array_layers: 1,
-        },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
+    let texture = colour_texture(
+        &v.gpu.device,
+        "screenshot",
+        size,
+        1,
         format,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-        view_formats: &[],
-    });
+        wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+    );
     let target = texture.create_view(&wgpu::TextureViewDescriptor::default());
     paint(v, jobs, screen, &target);
     let mut pixels = crate::render::gpu::read_texture(&v.gpu, &texture, size, 1)
