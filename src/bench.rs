@@ -8,7 +8,8 @@ use crate::trace::KeyTrace;
 use serde::Serialize;
 use std::time::Instant;
 
-pub const DEMO_TRACE: &str = include_str!("../assets/traces/nephrectomy-demo.toml");
+/// The nephrectomy's demo trace (kept for callers that predate the registry).
+pub const DEMO_TRACE: &str = crate::procedures::nephrectomy::INFO.demo_trace;
 
 #[derive(Debug, Serialize)]
 pub struct BenchLine {

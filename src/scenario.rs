@@ -14,7 +14,6 @@ pub const PROCEDURES: [&str; 5] = [
     "myotomy",
     "catheter",
 ];
-pub const IMPLEMENTED: [&str; 1] = ["nephrectomy"];
 
 /// An input-file problem, for people: which file, which key or line, what was expected.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -201,10 +200,7 @@ pub fn with_kidney_tuning(
 }
 
 pub fn builtin(procedure: &str) -> Option<&'static str> {
-    match procedure {
-        "nephrectomy" => Some(include_str!("../assets/scenarios/nephrectomy.toml")),
-        _ => None,
-    }
+    crate::procedures::find(procedure).map(|p| p.scenario)
 }
 
 pub fn check_procedure(file: &str, key: &str, name: &str) -> Result<(), InputError> {
@@ -218,13 +214,14 @@ pub fn check_procedure(file: &str, key: &str, name: &str) -> Result<(), InputErr
             ),
         ));
     }
-    if !IMPLEMENTED.contains(&name) {
+    if crate::procedures::find(name).is_none() {
+        let available: Vec<&str> = crate::procedures::names().collect();
         return Err(InputError::new(
             file,
             key,
             format!(
                 "procedure '{name}' is not implemented yet (available: {})",
-                IMPLEMENTED.join(", ")
+                available.join(", ")
             ),
         ));
     }
@@ -309,7 +306,47 @@ impl Ranges<'_> {
     }
 }
 
+/// A direction shorter than this cannot be normalised safely (its square underflows).
+pub const MIN_DIRECTION_LENGTH: f32 = 1e-6;
+/// The most simulated points a scenario may ask for (about 40 times the full-size kidney).
+pub const MAX_NODES: u64 = 2_000_000;
+/// The most point-steps a scripted session may ask for: about five hours of computing at the
+/// 5e7 point-steps per second a 2-core machine manages (a 4-hour session at full size is 4e11).
+pub const MAX_POINT_STEPS: f64 = 1e12;
+/// Point-steps per second assumed for the estimate in messages.
+const POINT_STEPS_PER_S: f64 = 5e7;
+
 impl Scenario {
+    /// Simulated points the anatomy will have, estimated from its sizes before anything is
+    /// built: kidney and tumour (20 x 4^level faces each, one point per face) and three
+    /// vessels (two faces per segment and ring).
+    pub fn estimated_nodes(&self) -> u64 {
+        let a = &self.anatomy;
+        let sphere = 20 * 4u64.saturating_pow(a.level);
+        let tube = 2 * u64::from(a.vessel_segments) * u64::from(a.vessel_rings);
+        2 * sphere + 3 * tube
+    }
+
+    /// Refuses a session of `steps` steps whose cost (points x steps) is absurd, before the
+    /// anatomy is built.
+    pub fn check_cost(&self, file: &str, steps: u64) -> Result<(), InputError> {
+        let cost = self.estimated_nodes() as f64 * steps as f64;
+        if cost > MAX_POINT_STEPS {
+            return Err(InputError::new(
+                file,
+                "anatomy",
+                format!(
+                    "{} points x {steps} steps = {cost:.1e} point-steps, about {:.0} hours of \
+                     computing; at most {MAX_POINT_STEPS:.0e} are run: lower anatomy.level, \
+                     raise dt_s or shorten the trace",
+                    self.estimated_nodes(),
+                    cost / POINT_STEPS_PER_S / 3600.0
+                ),
+            ));
+        }
+        Ok(())
+    }
+
     /// Parses and validates scenario text; `file` names it in errors.
     pub fn parse(file: &str, text: &str) -> Result<Self, InputError> {
         let s: Scenario = toml::from_str(text).map_err(|e| InputError::toml(file, &e))?;
@@ -376,11 +413,17 @@ impl Scenario {
         for (i, c) in a.tumour_direction.iter().enumerate() {
             r.num(&format!("anatomy.tumour_direction[{i}]"), *c, -1e3, 1e3, "")?;
         }
-        if a.tumour_direction.iter().all(|c| *c == 0.0) {
+        let dir = glam::Vec3::from(a.tumour_direction);
+        if dir.length() < MIN_DIRECTION_LENGTH || dir.try_normalize().is_none() {
             return Err(InputError::new(
                 file,
                 "anatomy.tumour_direction",
-                "must not be the zero vector",
+                format!(
+                    "is a direction (normalised on load): its length must be at least \
+                     {MIN_DIRECTION_LENGTH}, got {:?} (length {})",
+                    a.tumour_direction,
+                    dir.length()
+                ),
             ));
         }
         if !(3..=256).contains(&a.vessel_segments) || !(2..=1024).contains(&a.vessel_rings) {
@@ -411,6 +454,19 @@ impl Scenario {
             0.02,
             "m",
         )?;
+        let nodes = self.estimated_nodes();
+        if nodes > MAX_NODES {
+            return Err(InputError::new(
+                file,
+                "anatomy",
+                format!(
+                    "asks for about {nodes} simulated points (level {}, vessels {} x {}); \
+                     at most {MAX_NODES} can be built and stepped: lower anatomy.level or the \
+                     vessel segments and rings",
+                    a.level, a.vessel_segments, a.vessel_rings
+                ),
+            ));
+        }
         r.params("kidney", &self.kidney)?;
         r.params("vessels", &self.vessels)?;
         let t = &self.tools;

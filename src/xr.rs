@@ -224,14 +224,20 @@ impl XrLoop {
         scenario_text: &str,
         scenario_file: &str,
         opts: XrOptions,
+        out: Option<&std::path::Path>,
     ) -> Result<XrLoop, String> {
         let (app, xg) = XrApp::open("vesalius").map_err(err)?;
         let gpu = Gpu::from_parts(xg.instance, xg.adapter, xg.device, xg.queue, xg.multiview);
         let renderer = Renderer::new(&gpu, EYE_FORMAT);
         let eye = opts.eye_size.unwrap_or(app.eye_size);
         gpu.check_eye_size(eye).map_err(err)?;
-        let live =
+        let mut live =
             Live::new(scenario_text, scenario_file, Pacing::AsFastAsPossible).map_err(err)?;
+        if let Some(dir) = out {
+            crate::session::prepare(dir).map_err(err)?;
+            live.stream_to(&dir.join(crate::session::RECORDING))
+                .map_err(err)?;
+        }
         let dt = f64::from(live.dt_s());
         Ok(XrLoop {
             app,
@@ -278,6 +284,11 @@ impl XrLoop {
     /// Polls the runtime's events, then waits for, simulates, draws and submits one frame
     /// when the session runs.
     pub fn tick(&mut self) -> Result<Tick, String> {
+        if crate::session::interrupt::interrupted().is_some() {
+            self.live.set_ended(crate::session::ended::INTERRUPTED);
+            return Ok(Tick::Exit);
+        }
+        self.live.flush_if_due().map_err(err)?;
         if self.session.is_none() {
             let s = self.app.session(&self.gpu.device, self.eye).map_err(err)?;
             self.session = Some(s);
@@ -320,6 +331,7 @@ impl XrLoop {
                             return Err("the headset did not come back within 60 s".into());
                         }
                         std::thread::sleep(std::time::Duration::from_millis(100));
+                        self.live.flush_if_due().map_err(err)?;
                     }
                     return Ok(Tick::Idle);
                 }
@@ -400,7 +412,7 @@ impl XrLoop {
                     between(&before[1], &now[1], s),
                 ],
             };
-            for e in live.step(frame) {
+            for e in live.step(frame).map_err(err)? {
                 if let EventKind::Cut { faces, .. } = e.kind {
                     cut[Hand::Right.index()] += faces;
                 }
@@ -469,24 +481,33 @@ impl XrLoop {
     }
 
     /// Ends the loop: the session's outcome and what ran it.
-    pub fn finish(self) -> XrRun {
+    pub fn finish(mut self) -> Result<XrRun, String> {
         let device = self.gpu.describe();
-        XrRun {
-            outcome: self.live.finish(Vec::new()),
+        if self.live.ended() == crate::session::ended::END_OF_INPUT {
+            self.live.set_ended(crate::session::ended::XR_EXIT);
+        }
+        Ok(XrRun {
+            outcome: self.live.finish(Vec::new()).map_err(err)?,
             runtime: self.app.runtime_name.clone(),
             frames: self.frames,
             sessions: self.sessions,
             eye_size: self.eye,
             device,
-        }
+        })
     }
 }
 
-/// Runs the procedure in the headset until `duration_s` or the menu button.
-pub fn run(scenario_text: &str, scenario_file: &str, opts: XrOptions) -> Result<XrRun, String> {
-    let mut xr_loop = XrLoop::open(scenario_text, scenario_file, opts)?;
+/// Runs the procedure in the headset until `duration_s` or the menu button; the recording
+/// streams into `out` while it runs.
+pub fn run(
+    scenario_text: &str,
+    scenario_file: &str,
+    opts: XrOptions,
+    out: Option<&std::path::Path>,
+) -> Result<XrRun, String> {
+    let mut xr_loop = XrLoop::open(scenario_text, scenario_file, opts, out)?;
     while xr_loop.tick()? != Tick::Exit {}
-    Ok(xr_loop.finish())
+    xr_loop.finish()
 }
 
 fn draw(

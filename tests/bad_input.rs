@@ -3,7 +3,7 @@
 
 use std::process::Command;
 use vesalius::scenario::{Scenario, builtin};
-use vesalius::trace::{KeyTrace, Recording};
+use vesalius::trace::{KeyTrace, Recording, Tail, TuningRecord};
 
 fn scenario() -> String {
     builtin("nephrectomy").expect("builtin").to_string()
@@ -125,21 +125,29 @@ fn a_nan_pose_is_named() {
 }
 
 #[test]
-fn a_truncated_or_corrupt_recording_is_rejected() {
+fn a_truncated_recording_reads_up_to_it_and_a_corrupt_one_is_rejected() {
+    let frame = |x: f32| {
+        let mut f = vesalius::sim::InputFrame::default();
+        f.hands[0].pose.position.x = x;
+        f
+    };
     let rec = Recording {
         procedure: "nephrectomy".into(),
+        session_id: "0123456789abcdef".into(),
         dt_s: 0.002,
         scenario: scenario(),
-        frames: vec![Default::default(); 3],
-        tunings: vec![(
-            1,
-            vesalius::models::Tuning {
-                spring_n_per_m: 60.0,
-                damping_per_s: 4.0,
-                pressure_pa: 1500.0,
-                offset_m: 0.002,
-            },
-        )],
+        frames: (0..3).map(|i| frame(i as f32 * 0.01)).collect(),
+        tunings: vec![TuningRecord {
+            step: 1,
+            model: "kidney".into(),
+            values: vec![
+                ("spring_n_per_m".into(), 60.0),
+                ("damping_per_s".into(), 4.0),
+            ],
+        }],
+        tail: Tail::Ended {
+            how: "end_of_input".into(),
+        },
     };
     let dir = std::env::temp_dir().join(format!("vesalius-bad-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("dir");
@@ -147,26 +155,21 @@ fn a_truncated_or_corrupt_recording_is_rejected() {
     rec.write(&path).expect("write");
     assert_eq!(Recording::read(&path).expect("reads back"), rec);
     let bytes = std::fs::read(&path).expect("read");
-    let e = Recording::decode("r.vtrace", &bytes[..bytes.len() - 5]).expect_err("truncated");
-    assert!(e.to_string().contains("r.vtrace"), "{e}");
-    // The last frame's first float: before the tuning count (4 bytes) and one tuning (24).
-    let mut bad = bytes.clone();
-    let n = bad.len();
-    let last_frame = n - 28 - 37;
-    bad[last_frame..last_frame + 4].copy_from_slice(&f32::NAN.to_le_bytes());
-    let e = Recording::decode("r.vtrace", &bad).expect_err("nan pose");
-    assert!(
-        e.to_string().contains("frame 2") && e.to_string().contains("finite"),
-        "{e}"
-    );
-    // A tuning out of its range: the damping (the tuning's second float).
-    let mut bad = bytes.clone();
-    bad[n - 12..n - 8].copy_from_slice(&(-3.0f32).to_le_bytes());
-    let e = Recording::decode("r.vtrace", &bad).expect_err("negative damping");
-    assert!(
-        e.to_string().contains("tuning 0: damping_per_s") && e.to_string().contains("-3"),
-        "{e}"
-    );
+    // Cut inside its last block: what came before reads, and says it stops short.
+    let cut = Recording::decode("r.vtrace", &bytes[..bytes.len() - 5]).expect("reads the rest");
+    assert!(matches!(cut.tail, Tail::Cut { .. }), "{:?}", cut.tail);
+    assert_eq!(cut.frames, rec.frames[..cut.frames.len()]);
+    // A changed byte anywhere after the header is an error naming the file and a block.
+    for at in (16..bytes.len()).step_by(7) {
+        let mut bad = bytes.clone();
+        bad[at] ^= 0x01;
+        let e = Recording::decode("r.vtrace", &bad).expect_err("corrupt");
+        let e = e.to_string();
+        assert!(
+            e.contains("r.vtrace") && e.contains("block "),
+            "byte {at}: {e}"
+        );
+    }
 }
 
 #[test]
@@ -194,8 +197,12 @@ fn the_cli_reports_bad_files_and_exits_non_zero() {
         .args(["run", "appendectomy", "--headless"])
         .output()
         .expect("runs");
-    assert!(!o.status.success());
-    assert!(String::from_utf8_lossy(&o.stderr).contains("unknown procedure"));
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("invalid value 'appendectomy'") && err.contains("nephrectomy"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -229,7 +236,10 @@ fn window_flags_without_a_display_or_with_a_bad_path_are_clear_errors() {
         "{e}"
     );
     let e = run(&["run", "nephrectomy", "--screenshot-at", "3"], false);
-    assert!(e.contains("--screenshot-at needs --screenshot FILE"), "{e}");
+    assert!(
+        e.contains("required arguments were not provided") && e.contains("--screenshot <FILE>"),
+        "{e}"
+    );
     let e = run(
         &[
             "run",
@@ -242,11 +252,14 @@ fn window_flags_without_a_display_or_with_a_bad_path_are_clear_errors() {
         false,
     );
     assert!(
-        e.contains("--screenshot-at: expected simulated seconds"),
+        e.contains("--screenshot-at <S>': expected seconds (0 or more), got '-1'"),
         "{e}"
     );
     let e = run(&["run", "nephrectomy", "--window-size", "12x9000"], false);
-    assert!(e.contains("--window-size: expected WIDTHxHEIGHT"), "{e}");
+    assert!(
+        e.contains("--window-size <WxH>': expected WIDTHxHEIGHT"),
+        "{e}"
+    );
     let e = run(
         &[
             "run",
@@ -259,5 +272,8 @@ fn window_flags_without_a_display_or_with_a_bad_path_are_clear_errors() {
         ],
         false,
     );
-    assert!(e.contains("--screenshot saves the window"), "{e}");
+    assert!(
+        e.contains("'--headless' cannot be used with '--screenshot <FILE>'"),
+        "{e}"
+    );
 }

@@ -136,14 +136,37 @@ fn run_cli(dir: &Path, threads: &str) -> Vec<u8> {
     std::fs::read(out.join("report.json")).expect("report")
 }
 
+/// A report without its session id (two sessions have two ids; everything else must agree).
+fn without_id(report: &[u8]) -> String {
+    String::from_utf8_lossy(report)
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("\"session_id\""))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
 #[test]
 fn same_trace_gives_the_same_bytes_on_one_and_two_threads() {
-    let a = run_cli(&tmp("t1a"), "1");
-    let b = run_cli(&tmp("t1b"), "1");
-    let c = run_cli(&tmp("t2"), "2");
-    assert_eq!(a, b, "two runs differ");
-    assert_eq!(a, c, "1 and 2 threads differ");
+    let (d1, d2) = (tmp("t1a"), tmp("t2"));
+    let a = run_cli(&d1, "1");
+    let c = run_cli(&d2, "2");
+    assert_ne!(a, c, "two sessions, two session ids");
+    assert_eq!(without_id(&a), without_id(&c), "1 and 2 threads differ");
     assert!(String::from_utf8_lossy(&a).contains("\"state_hash\""));
+    // One recording replayed on 1 and on 2 threads: the same bytes, session id included.
+    let replay = |threads: &str, out: &Path| {
+        let o = bin()
+            .args(["--threads", threads, "replay"])
+            .arg(d1.join("out/input.vtrace"))
+            .arg("--out")
+            .arg(out)
+            .output()
+            .expect("runs");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        std::fs::read(out.join("report.json")).expect("report")
+    };
+    assert_eq!(replay("1", &d1.join("r1")), a);
+    assert_eq!(replay("2", &d1.join("r2")), a);
 }
 
 #[test]
@@ -181,24 +204,29 @@ fn a_live_tissue_tuning_is_recorded_and_replayed_at_its_step() {
                 live.tune(t).expect("in range");
             }
             let frame = keys.sample(live.time_s());
-            live.step(frame);
+            live.step(frame).expect("steps");
         }
         assert_eq!(live.tuning() == t, tune_at.is_some());
-        live.finish(Vec::new())
+        let o = live.finish(Vec::new()).expect("finishes");
+        let session::Recorded::InMemory(rec) = o.recording else {
+            panic!("no output folder: the recording is in memory");
+        };
+        (o.report, rec)
     };
-    let tuned = run(Some(2700));
-    assert_eq!(tuned.recording.tunings.len(), 1);
-    assert_eq!(tuned.recording.tunings[0].0, 2700);
-    assert_eq!(tuned.report.events.get("tissue_tuned"), Some(&1));
-    let plain = run(None);
-    assert_ne!(tuned.report.state_hash, plain.report.state_hash);
+    let (tuned, tuned_rec) = run(Some(2700));
+    assert_eq!(tuned_rec.tunings.len(), 1);
+    assert_eq!(tuned_rec.tunings[0].step, 2700);
+    assert_eq!(tuned_rec.tunings[0].model, "kidney");
+    assert_eq!(tuned.events.get("tissue_tuned"), Some(&1));
+    let (plain, _) = run(None);
+    assert_ne!(tuned.state_hash, plain.state_hash);
     // Through the file and back, then replayed.
     let dir = tmp("tuning");
     std::fs::create_dir_all(&dir).expect("dir");
     let path = dir.join("input.vtrace");
-    tuned.recording.write(&path).expect("write");
+    tuned_rec.write(&path).expect("write");
     let rec = vesalius::trace::Recording::read(&path).expect("read");
-    assert_eq!(rec, tuned.recording);
+    assert_eq!(rec, tuned_rec);
     let scenario = rec.scenario.clone();
     let replayed = session::run(
         &scenario,
@@ -208,8 +236,12 @@ fn a_live_tissue_tuning_is_recorded_and_replayed_at_its_step() {
         None,
     )
     .expect("replays");
-    assert_eq!(replayed.report.state_hash, tuned.report.state_hash);
-    assert_eq!(replayed.recording.tunings, tuned.recording.tunings);
+    assert_eq!(replayed.report.state_hash, tuned.state_hash);
+    assert_eq!(replayed.report.session_id, tuned.session_id);
+    let session::Recorded::InMemory(again) = replayed.recording else {
+        panic!("in memory");
+    };
+    assert_eq!(again.tunings, tuned_rec.tunings);
     // Out of range is refused, and changes nothing.
     let mut live = session::Live::new(&text, "coarse", Pacing::AsFastAsPossible).expect("ok");
     let before = live.tuning();

@@ -14,6 +14,17 @@ use glam::Vec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
+/// The registry's entry.
+pub const INFO: super::ProcedureInfo = super::ProcedureInfo {
+    name: "nephrectomy",
+    title: "Laparoscopic partial nephrectomy",
+    paper: "partial-nephrectomy-vive.txt",
+    scenario: include_str!("../../assets/scenarios/nephrectomy.toml"),
+    demo_trace: include_str!("../../assets/traces/nephrectomy-demo.toml"),
+};
+
+/// The model whose parameters the supervisor tunes live.
+pub const TUNED_MODEL: &str = "kidney";
 pub const REGION_PARENCHYMA: u8 = 0;
 pub const REGION_TUMOUR: u8 = 1;
 const KIDNEY: usize = 0;

@@ -1,9 +1,10 @@
 use std::time::{Duration, Instant};
 
 /// How the clock relates simulated time to the wall clock.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub enum Pacing {
     /// Step as fast as possible (headless, replay, benchmarks).
+    #[default]
     AsFastAsPossible,
     /// Sleep so that simulated time never runs ahead of the wall clock (interactive sessions).
     RealTime,

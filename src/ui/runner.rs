@@ -3,10 +3,11 @@
 //! for the panels, never waiting on the window.
 
 use crate::models::Tuning;
-use crate::session::{Live, Outcome, SETTLE_S, SessionError, Status};
+use crate::session::{self, Live, Outcome, SETTLE_S, SessionError, Status, ended, interrupt};
 use crate::sim::{InputFrame, Pacing, SnapshotBus};
 use crate::trace::KeyTrace;
 use arc_swap::ArcSwap;
+use std::path::Path;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, Sender, channel};
@@ -49,8 +50,13 @@ impl SimThread {
         scenario_file: &str,
         source: Source,
         pacing: Pacing,
+        out: Option<&Path>,
     ) -> Result<SimThread, SessionError> {
         let mut live = Live::new(scenario_text, scenario_file, pacing)?;
+        if let Some(dir) = out {
+            session::prepare(dir)?;
+            live.stream_to(&dir.join(session::RECORDING))?;
+        }
         let bus = Arc::new(SnapshotBus::new());
         bus.publish(live.snapshot());
         let status = Arc::new(ArcSwap::from_pointee(live.status(LOOK_M)));
@@ -61,35 +67,12 @@ impl SimThread {
         let handle = std::thread::Builder::new()
             .name("simulation".into())
             .spawn(move || {
-                let publish_every = live.publish_every();
-                // A trace plays for as many steps as it would headless, so the report is the same.
-                let end = match &source {
-                    Source::Trace(t) => Some(live.steps_for(t.duration_s() + SETTLE_S)),
-                    Source::Live(_) => None,
-                };
-                while !s.load(Ordering::Relaxed) {
-                    if end.is_some_and(|e| live.step_count() >= e) {
-                        break;
-                    }
-                    while let Ok(Command::Tune(t)) = inbox.try_recv() {
-                        // The sliders stay inside the allowed ranges; a value outside them
-                        // is refused by `tune` and changes nothing.
-                        let _ = live.tune(t);
-                    }
-                    let frame = match &source {
-                        Source::Trace(t) => t.sample(live.time_s()),
-                        Source::Live(input) => **input.load(),
-                    };
-                    live.step(frame);
-                    if live.step_count().is_multiple_of(publish_every) {
-                        b.publish(live.snapshot());
-                        st.store(Arc::new(live.status(LOOK_M)));
-                    }
-                }
+                let stepped = play(&mut live, &source, &inbox, (&b, &st, &s));
                 b.publish(live.snapshot());
                 st.store(Arc::new(live.status(LOOK_M)));
                 d.store(true, Ordering::Release);
-                Ok(live.finish(Vec::new()))
+                stepped?;
+                live.finish(Vec::new())
             })
             .map_err(|e| SessionError::Io {
                 path: "simulation thread".into(),
@@ -119,6 +102,48 @@ impl SimThread {
                 path: "simulation thread".into(),
                 source: std::io::Error::other("the simulation thread panicked"),
             }),
+        }
+    }
+}
+
+/// Steps `live` until its trace ends, the window stops it, or a signal asks it to end.
+fn play(
+    live: &mut Live,
+    source: &Source,
+    inbox: &Receiver<Command>,
+    (bus, status, stop): (&SnapshotBus, &ArcSwap<Status>, &AtomicBool),
+) -> Result<(), SessionError> {
+    let publish_every = live.publish_every();
+    // A trace plays for as many steps as it would headless, so the report is the same.
+    let end = match source {
+        Source::Trace(t) => Some(live.steps_for(t.duration_s() + SETTLE_S)),
+        Source::Live(_) => None,
+    };
+    loop {
+        if interrupt::interrupted().is_some() {
+            live.set_ended(ended::INTERRUPTED);
+            return Ok(());
+        }
+        if stop.load(Ordering::Relaxed) {
+            live.set_ended(ended::CLOSED);
+            return Ok(());
+        }
+        if end.is_some_and(|e| live.step_count() >= e) {
+            return Ok(());
+        }
+        while let Ok(Command::Tune(t)) = inbox.try_recv() {
+            // The sliders stay inside the allowed ranges; a value outside them is refused by
+            // `tune` and changes nothing.
+            let _ = live.tune(t);
+        }
+        let frame = match source {
+            Source::Trace(t) => t.sample(live.time_s()),
+            Source::Live(input) => **input.load(),
+        };
+        live.step(frame)?;
+        if live.step_count().is_multiple_of(publish_every) {
+            bus.publish(live.snapshot());
+            status.store(Arc::new(live.status(LOOK_M)));
         }
     }
 }

@@ -91,7 +91,12 @@ pub fn run(opts: WindowOptions) -> Result<WindowRun, String> {
     // the runtime and its Vulkan device are opened first, and the window shares that device.
     let (sim, xr) = match opts.xr {
         Some(x) => {
-            let mut l = XrLoop::open(&opts.scenario_text, &opts.scenario_file, x)?;
+            let mut l = XrLoop::open(
+                &opts.scenario_text,
+                &opts.scenario_file,
+                x,
+                opts.out.as_deref(),
+            )?;
             l.mirror_eye(MirrorEye::Left);
             (None, Some(l))
         }
@@ -102,6 +107,7 @@ pub fn run(opts: WindowOptions) -> Result<WindowRun, String> {
                     &opts.scenario_file,
                     source,
                     Pacing::RealTime,
+                    opts.out.as_deref(),
                 )
                 .map_err(|e| e.to_string())?,
             ),
@@ -370,7 +376,7 @@ impl App {
         let outcome = if let Some(sim) = self.sim.take() {
             sim.finish().map_err(|e| e.to_string())?
         } else if let Some(x) = self.xr.take() {
-            let run = x.finish();
+            let run = x.finish()?;
             self.xr_run = Some((run.runtime, run.frames, run.sessions, run.eye_size));
             run.outcome
         } else {
@@ -838,6 +844,18 @@ impl ApplicationHandler for App {
     }
 
     fn about_to_wait(&mut self, el: &ActiveEventLoop) {
+        // SIGINT or SIGTERM: the session ends as if closed, its files written, and so does
+        // the window.
+        if crate::session::interrupt::interrupted().is_some() && self.outcome.is_none() {
+            if let Some(x) = self.xr.as_mut() {
+                x.live().set_ended(crate::session::ended::INTERRUPTED);
+            }
+            if let Err(e) = self.end_session() {
+                self.fail(el, e);
+            }
+            el.exit();
+            return;
+        }
         // Under XR the headset sets the pace: one frame of it each pass, and the window
         // redrawn at most 30 times a second beside it (or as soon as the session ends).
         let mut due = true;

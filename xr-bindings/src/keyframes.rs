@@ -91,7 +91,10 @@ impl Timed for HeadKey {
     }
 }
 
-fn check_keys<K: Timed>(name: &str, keys: &[K]) -> Result<(), KeyError> {
+/// The longest session a trace may describe unless told otherwise, seconds (4 hours).
+pub const DEFAULT_MAX_SESSION_S: f64 = 4.0 * 3600.0;
+
+fn check_keys<K: Timed>(name: &str, keys: &[K], max_s: f64) -> Result<(), KeyError> {
     let mut last = f64::NEG_INFINITY;
     for (i, k) in keys.iter().enumerate() {
         let key = |f: &str| format!("{name}[{i}].{f}");
@@ -100,6 +103,16 @@ fn check_keys<K: Timed>(name: &str, keys: &[K]) -> Result<(), KeyError> {
             return Err(KeyError::new(
                 key("t_s"),
                 format!("must be a finite time >= 0 s, got {t}"),
+            ));
+        }
+        if t > max_s {
+            return Err(KeyError::new(
+                key("t_s"),
+                format!(
+                    "{t} s is past the longest session allowed, {max_s} s ({:.1} h; \
+                     `--max-session S` allows longer)",
+                    max_s / 3600.0
+                ),
             ));
         }
         if t < last {
@@ -129,9 +142,15 @@ fn check_keys<K: Timed>(name: &str, keys: &[K]) -> Result<(), KeyError> {
 }
 
 impl KeyframeFile {
-    /// Parses and checks a trace: both hands have keys, times run forward, positions are
-    /// finite and within 10 m, targets differ from positions, trigger and grip are in [0, 1].
+    /// Parses and checks a trace no longer than [`DEFAULT_MAX_SESSION_S`].
     pub fn parse(text: &str) -> Result<Self, KeyError> {
+        Self::parse_within(text, DEFAULT_MAX_SESSION_S)
+    }
+
+    /// Parses and checks a trace: both hands have keys, times run forward from 0 to at most
+    /// `max_s`, positions are finite and within 10 m, targets differ from positions, trigger
+    /// and grip are in [0, 1].
+    pub fn parse_within(text: &str, max_s: f64) -> Result<Self, KeyError> {
         let t: KeyframeFile = toml::from_str(text).map_err(|e| {
             KeyError::new("toml".into(), e.to_string().trim_end().replace('\n', " | "))
         })?;
@@ -142,7 +161,7 @@ impl KeyframeFile {
                     format!("needs at least one [[{name}]] keyframe"),
                 ));
             }
-            check_keys(name, keys)?;
+            check_keys(name, keys, max_s)?;
             for (i, k) in keys.iter().enumerate() {
                 for (f, v) in [("trigger", k.trigger), ("grip", k.grip)] {
                     if !v.is_finite() || !(0.0..=1.0).contains(&v) {
@@ -154,7 +173,7 @@ impl KeyframeFile {
                 }
             }
         }
-        check_keys("head", &t.head)?;
+        check_keys("head", &t.head, max_s)?;
         Ok(t)
     }
 
@@ -281,5 +300,17 @@ mark = true
             KeyframeFile::parse("procedure = 3").unwrap_err().key,
             "toml"
         );
+    }
+
+    #[test]
+    fn times_past_the_longest_session_are_refused() {
+        let far = TWO_KEYS.replace("t_s = 2.0", "t_s = 1e300");
+        let e = KeyframeFile::parse(&far).unwrap_err();
+        assert_eq!(e.key, "right[1].t_s");
+        assert!(e.message.contains("--max-session"), "{}", e.message);
+        let five_h = TWO_KEYS.replace("t_s = 2.0", "t_s = 18000.0");
+        assert!(KeyframeFile::parse(&five_h).is_err());
+        let f = KeyframeFile::parse_within(&five_h, 6.0 * 3600.0).expect("allowed when asked");
+        assert_eq!(f.duration_s(), 18000.0);
     }
 }

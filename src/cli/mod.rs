@@ -1,0 +1,392 @@
+//! The `vesalius` command line: subcommands parsed with clap, typed errors, and exit codes
+//! 0 (success), 1 (failure), 2 (usage), 128 + N after signal N ended a session cleanly, and
+//! 141 when standard output is a closed pipe (the command stops quietly, as if by SIGPIPE).
+
+#[macro_use]
+mod output;
+mod session;
+mod tools;
+
+use clap::builder::{PossibleValue, PossibleValuesParser};
+use clap::{Args, Parser, Subcommand};
+use std::path::PathBuf;
+use std::process::ExitCode;
+use vesalius::scenario::InputError;
+use vesalius::session::SessionError;
+
+/// Open-source virtual-reality trainer for minimally invasive surgery.
+#[derive(Debug, Parser)]
+#[command(
+    name = "vesalius",
+    version,
+    propagate_version = true,
+    max_term_width = 100
+)]
+#[command(
+    after_help = "Outputs (--out DIR): report.json, events.jsonl, input.vtrace (streamed while the \
+                  session runs), timing.json; frames/ and profiler.csv when rendering."
+)]
+pub struct Cli {
+    /// Rayon worker threads (default: all cores); results do not depend on it.
+    #[arg(long, global = true, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+    threads: Option<u16>,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Run every procedure's demo trace headless; reports under DIR/<procedure>/.
+    Demo {
+        /// Output folder.
+        #[arg(long, value_name = "DIR", default_value = "vesalius-demo")]
+        out: PathBuf,
+    },
+    /// A session: in a desktop window (default), headless with a trace, or in a headset.
+    Run(Box<RunArgs>),
+    /// The recorded session again, bit for bit: the same report.json and events.jsonl.
+    Replay {
+        /// A recording (input.vtrace) written by run or replay.
+        recording: PathBuf,
+        /// Output folder (not the recording's own).
+        #[arg(long, value_name = "DIR")]
+        out: PathBuf,
+    },
+    /// Validate scenarios, keyframed traces, recordings, interaction profiles and simulated
+    /// runtime settings; errors name the file, the key and what is expected.
+    Check {
+        #[arg(required = true, value_name = "FILE")]
+        files: Vec<PathBuf>,
+    },
+    /// Step rates of each model and of the whole procedure at the scenario's sizes.
+    Bench {
+        /// One procedure (default: every registered one).
+        #[arg(value_parser = procedures())]
+        procedure: Option<String>,
+        /// One JSON object a line.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Render the demo mid-task and print the Unity-profiler counters beside the paper's.
+    Profile {
+        /// The procedure (default: the first registered).
+        #[arg(value_parser = procedures())]
+        procedure: Option<String>,
+        /// Print JSON (ours under "vesalius").
+        #[arg(long)]
+        json: bool,
+        /// Eye size in pixels (default: the Vive's 1080x1200).
+        #[arg(long, value_name = "WxH", value_parser = parse_size)]
+        eye_size: Option<(u32, u32)>,
+        /// Two render passes instead of one multiview pass.
+        #[arg(long)]
+        two_pass: bool,
+    },
+    /// The simulated OpenXR runtime.
+    #[command(name = "xr-sim", subcommand)]
+    XrSim(XrSimCommand),
+}
+
+#[derive(Debug, Subcommand)]
+enum XrSimCommand {
+    /// Write the runtime's manifest (default: beside its library) and print its path, for
+    /// XR_RUNTIME_JSON.
+    Manifest {
+        #[arg(long, value_name = "FILE")]
+        out: Option<PathBuf>,
+    },
+}
+
+#[derive(Debug, Args)]
+struct RunArgs {
+    /// The procedure.
+    #[arg(value_parser = procedures())]
+    procedure: String,
+    /// No window: play --trace as fast as possible.
+    #[arg(long, conflicts_with_all = ["xr", "xr_sim"])]
+    headless: bool,
+    /// A keyframed trace (assets/traces/): drives the instruments (headless or window).
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["xr", "xr_sim"])]
+    trace: Option<PathBuf>,
+    /// Output folder: made and tested before the first step; the recording streams into it.
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// A scenario file (default: the procedure's own).
+    #[arg(long, value_name = "FILE")]
+    scenario: Option<PathBuf>,
+    /// Pace the headless session against the wall clock.
+    #[arg(long, requires = "headless")]
+    realtime: bool,
+    /// Also render N evenly spaced stereo frames into DIR/frames/ and DIR/profiler.csv.
+    #[arg(long, value_name = "N", requires_all = ["headless", "out"],
+          value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    frames: Option<u32>,
+    /// Eye size in pixels (default: the Vive's 1080x1200, or the runtime's under XR).
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    eye_size: Option<(u32, u32)>,
+    /// In the headset of the active OpenXR runtime (SteamVR, Monado).
+    #[arg(long, conflicts_with = "xr_sim")]
+    xr: bool,
+    /// Under the simulated OpenXR runtime playing TRACE; its logs go to DIR/xr-sim/.
+    #[arg(long, value_name = "TRACE", requires = "out")]
+    xr_sim: Option<PathBuf>,
+    /// Under XR: end after S simulated seconds (default: when the runtime ends it, or the
+    /// --xr-sim trace's length).
+    #[arg(long, value_name = "S", value_parser = positive_seconds, allow_negative_numbers = true)]
+    xr_duration: Option<f64>,
+    /// Under XR: the headset only, no desktop mirror.
+    #[arg(long)]
+    no_window: bool,
+    /// Save the whole window as PNG when the session ends (or at --screenshot-at), then close.
+    #[arg(long, value_name = "FILE", conflicts_with = "headless")]
+    screenshot: Option<PathBuf>,
+    /// When to take the screenshot, simulated seconds.
+    #[arg(long, value_name = "S", requires = "screenshot", value_parser = seconds,
+          allow_negative_numbers = true)]
+    screenshot_at: Option<f64>,
+    /// Window size in points.
+    #[arg(long, value_name = "WxH", value_parser = parse_size, default_value = "1600x900")]
+    window_size: (u32, u32),
+    /// The longest session allowed, seconds: traces with later keys are refused (4 h).
+    #[arg(long, value_name = "S", value_parser = positive_seconds, default_value_t = vesalius::session::DEFAULT_MAX_SESSION_S)]
+    max_session: f64,
+}
+
+/// A command's failure, and the exit code it gives.
+#[derive(Debug, thiserror::Error)]
+pub enum CliError {
+    /// The command line asks for something that cannot be: exit 2.
+    #[error("{0}")]
+    Usage(String),
+    #[error(transparent)]
+    Input(#[from] InputError),
+    #[error(transparent)]
+    Session(#[from] SessionError),
+    /// A failure reported by a part that describes its errors in words.
+    #[error("{0}")]
+    Failed(String),
+    /// Standard output was closed (`| head`): stop quietly.
+    #[error("standard output is closed")]
+    ClosedPipe,
+    /// A signal ended the session; its files were written.
+    #[error("the session was interrupted by {name}; its files were written")]
+    Interrupted { signal: i32, name: &'static str },
+}
+
+impl From<String> for CliError {
+    fn from(s: String) -> Self {
+        CliError::Failed(s)
+    }
+}
+
+impl CliError {
+    fn exit_code(&self) -> u8 {
+        match self {
+            CliError::Usage(_) => 2,
+            CliError::ClosedPipe => 141,
+            CliError::Interrupted { signal, .. } => u8::try_from(128 + signal).unwrap_or(1),
+            _ => 1,
+        }
+    }
+}
+
+/// The registered procedures, with their titles for `--help`.
+fn procedures() -> PossibleValuesParser {
+    PossibleValuesParser::new(
+        vesalius::procedures::REGISTRY
+            .iter()
+            .map(|p| PossibleValue::new(p.name).help(p.title)),
+    )
+}
+
+/// WIDTHxHEIGHT in pixels, each 16 to 8192.
+fn parse_size(v: &str) -> Result<(u32, u32), String> {
+    v.split_once('x')
+        .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
+        .filter(|&(w, h)| (16..=8192).contains(&w) && (16..=8192).contains(&h))
+        .ok_or(format!(
+            "expected WIDTHxHEIGHT in pixels, each 16 to 8192, got '{v}'"
+        ))
+}
+
+/// Seconds, 0 or more and finite.
+fn seconds(v: &str) -> Result<f64, String> {
+    v.parse::<f64>()
+        .ok()
+        .filter(|s| s.is_finite() && *s >= 0.0)
+        .ok_or(format!("expected seconds (0 or more), got '{v}'"))
+}
+
+/// Seconds, more than 0 and finite.
+fn positive_seconds(v: &str) -> Result<f64, String> {
+    v.parse::<f64>()
+        .ok()
+        .filter(|s| s.is_finite() && *s > 0.0)
+        .ok_or(format!("expected seconds greater than 0, got '{v}'"))
+}
+
+/// Parses the command line, runs the command and turns its result into an exit code.
+pub fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) if e.use_stderr() => {
+            // Usage errors go to standard error with exit 2; a closed stream is no panic.
+            tell!("{}", with_suggestion(&e).trim_end());
+            return ExitCode::from(2);
+        }
+        Err(e) => {
+            // Help and version go to standard output.
+            let _ = e.print();
+            return ExitCode::SUCCESS;
+        }
+    };
+    match dispatch(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(CliError::ClosedPipe) => ExitCode::from(141),
+        Err(e) => {
+            output::error(&e);
+            ExitCode::from(e.exit_code())
+        }
+    }
+}
+
+/// A usage error's text, with a suggestion for a mistyped command where clap has none (its
+/// similarity measure misses short words with a letter dropped: `rn` for `run`).
+fn with_suggestion(e: &clap::Error) -> String {
+    use clap::CommandFactory;
+    use clap::error::{ContextKind, ContextValue, ErrorKind};
+    let text = e.render().to_string();
+    if e.kind() != ErrorKind::InvalidSubcommand || text.contains("tip:") {
+        return text;
+    }
+    let Some(ContextValue::String(typed)) = e.get(ContextKind::InvalidSubcommand) else {
+        return text;
+    };
+    let cmd = Cli::command();
+    let best = cmd
+        .get_subcommands()
+        .map(|c| (edit_distance(typed, c.get_name()), c.get_name().to_string()))
+        .filter(|(d, name)| *d <= 2 && *d < name.len())
+        .min();
+    match best {
+        Some((_, name)) => text.replacen(
+            "\n\nUsage:",
+            &format!("\n\n  tip: a similar subcommand exists: '{name}'\n\nUsage:"),
+            1,
+        ),
+        None => text,
+    }
+}
+
+/// Levenshtein distance between two words.
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut prev = row[0];
+        row[0] = i + 1;
+        for j in 0..b.len() {
+            let here = row[j + 1];
+            row[j + 1] = (prev + usize::from(ca != b[j]))
+                .min(row[j] + 1)
+                .min(here + 1);
+            prev = here;
+        }
+    }
+    row[b.len()]
+}
+
+fn dispatch(cli: Cli) -> Result<(), CliError> {
+    if let Some(n) = cli.threads {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(usize::from(n))
+            .build_global()
+            .map_err(|e| CliError::Failed(format!("cannot start {n} threads: {e}")))?;
+    }
+    vesalius::session::interrupt::install()
+        .map_err(|e| CliError::Failed(format!("cannot install signal handlers: {e}")))?;
+    match cli.command {
+        Command::Demo { out } => session::demo(&out),
+        Command::Run(args) => session::run(*args),
+        Command::Replay { recording, out } => session::replay(&recording, &out),
+        Command::Check { files } => tools::check(&files),
+        Command::Bench { procedure, json } => tools::bench(procedure.as_deref(), json),
+        Command::Profile {
+            procedure,
+            json,
+            eye_size,
+            two_pass,
+        } => tools::profile(
+            procedure.as_deref(),
+            json,
+            eye_size.unwrap_or(vesalius::render::camera::VIVE_EYE_SIZE),
+            two_pass,
+        ),
+        Command::XrSim(XrSimCommand::Manifest { out }) => {
+            let path = tools::xr_sim_manifest(out)?;
+            say!("{}", path.display());
+            Ok(())
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn the_command_line_is_consistent() {
+        Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn a_typo_is_a_usage_error_with_a_suggestion() {
+        for (typed, meant) in [("rn", "run"), ("bnch", "bench"), ("reply", "replay")] {
+            let e = Cli::try_parse_from(["vesalius", typed]).expect_err("typo");
+            assert!(e.use_stderr());
+            let text = with_suggestion(&e);
+            assert!(text.contains(&format!("'{meant}'")), "{text}");
+        }
+        let e = Cli::try_parse_from(["vesalius", "xyzzy"]).expect_err("unknown");
+        assert!(!with_suggestion(&e).contains("tip:"));
+        assert_eq!(edit_distance("rn", "run"), 1);
+        assert_eq!(edit_distance("kitten", "sitting"), 3);
+    }
+
+    #[test]
+    fn run_help_lists_the_registered_procedures() {
+        let help = Cli::command()
+            .find_subcommand_mut("run")
+            .map(|c| c.render_long_help().to_string())
+            .unwrap_or_default();
+        for p in vesalius::procedures::REGISTRY {
+            assert!(help.contains(p.name) && help.contains(p.title), "{help}");
+        }
+    }
+
+    #[test]
+    fn conflicting_and_incomplete_flags_are_usage_errors() {
+        for args in [
+            &["vesalius", "run", "nephrectomy", "--xr", "--headless"][..],
+            &[
+                "vesalius",
+                "run",
+                "nephrectomy",
+                "--frames",
+                "3",
+                "--headless",
+            ],
+            &["vesalius", "run", "nephrectomy", "--xr-sim", "t.toml"],
+            &["vesalius", "run", "nephrectomy", "--screenshot-at", "1"],
+            &["vesalius", "run", "nephrectomy", "--eye-size", "10x10"],
+            &["vesalius", "run", "rectum"],
+            &["vesalius", "--threads", "0", "demo"],
+        ] {
+            let e = Cli::try_parse_from(args).expect_err("refused");
+            assert!(e.use_stderr(), "{args:?}");
+        }
+        let ok = Cli::try_parse_from(["vesalius", "run", "nephrectomy", "--headless"]);
+        assert!(ok.is_ok());
+    }
+}

@@ -1,0 +1,435 @@
+//! `run`, `replay` and `demo`: sessions headless, in the window, in a headset, and under the
+//! simulated OpenXR runtime.
+
+use super::{CliError, RunArgs};
+use std::path::{Path, PathBuf};
+use vesalius::scenario::builtin;
+use vesalius::session::{self, Input, Options, interrupt};
+use vesalius::sim::Pacing;
+use vesalius::trace::{KeyTrace, Recording, Tail};
+
+/// The scenario a run uses: the file given, or the procedure's built-in one.
+fn scenario_text(procedure: &str, scenario: Option<&Path>) -> Result<(String, String), CliError> {
+    Ok(match scenario {
+        Some(f) => (
+            f.display().to_string(),
+            std::fs::read_to_string(f)
+                .map_err(|e| CliError::Failed(format!("{}: cannot read: {e}", f.display())))?,
+        ),
+        None => (
+            format!("builtin {procedure} scenario"),
+            builtin(procedure).unwrap_or_default().to_string(),
+        ),
+    })
+}
+
+/// A keyframed trace, checked to be for `procedure` and no longer than `max_s`.
+fn load_trace(path: &Path, procedure: &str, max_s: f64) -> Result<KeyTrace, CliError> {
+    let keys = KeyTrace::load_within(path, max_s)?;
+    if keys.procedure != procedure {
+        return Err(CliError::Failed(format!(
+            "{}: procedure: trace is for '{}', not '{procedure}'",
+            path.display(),
+            keys.procedure
+        )));
+    }
+    Ok(keys)
+}
+
+/// After a session: a signal that ended it becomes the exit code.
+fn interrupted() -> Result<(), CliError> {
+    match interrupt::interrupted() {
+        Some(signal) => Err(CliError::Interrupted {
+            signal,
+            name: interrupt::signal_name(signal),
+        }),
+        None => Ok(()),
+    }
+}
+
+/// Prints the outcome and writes the output set.
+fn finish(outcome: &session::Outcome, out: Option<&Path>) -> Result<(), CliError> {
+    if let Some(dir) = out {
+        session::write_outputs(outcome, dir)?;
+    }
+    let r = &outcome.report;
+    say!(
+        "{}: completed={} ended={} steps={} simulated={:.2}s score={:.1} cuts={} wall={:.2}s ({:.2}x real time)",
+        r.procedure,
+        r.completed,
+        r.ended,
+        r.steps,
+        r.simulated_s,
+        r.score,
+        r.events.get("cut").copied().unwrap_or(0),
+        outcome.wall_s,
+        r.simulated_s / outcome.wall_s.max(1e-9)
+    );
+    if let Some(dir) = out {
+        say!("wrote {} (session {})", dir.display(), r.session_id);
+    }
+    Ok(())
+}
+
+/// `run`: picks the window, headless, XR or simulated-XR path.
+pub fn run(a: RunArgs) -> Result<(), CliError> {
+    if a.xr || a.xr_sim.is_some() {
+        return match &a.xr_sim {
+            Some(trace) => run_xr_sim(&a, trace),
+            None => run_xr(&a),
+        };
+    }
+    if a.no_window {
+        return Err(CliError::Usage(
+            "--no-window: without a window, use --headless (or --xr)".into(),
+        ));
+    }
+    if a.xr_duration.is_some() {
+        return Err(CliError::Usage(
+            "--xr-duration: only with --xr or --xr-sim".into(),
+        ));
+    }
+    if !a.headless {
+        return run_window(&a, None);
+    }
+    let Some(trace) = &a.trace else {
+        return Err(CliError::Usage("run --headless needs --trace FILE".into()));
+    };
+    let (file, text) = scenario_text(&a.procedure, a.scenario.as_deref())?;
+    let keys = load_trace(trace, &a.procedure, a.max_session)?;
+    let frames = a.frames.unwrap_or(0);
+    let opts = Options {
+        pacing: if a.realtime {
+            Pacing::RealTime
+        } else {
+            Pacing::AsFastAsPossible
+        },
+        bus: None,
+        frames_wanted: frames,
+        out: a.out.as_deref(),
+    };
+    let outcome = session::run_with(&text, &file, Input::Keys(keys), &opts)?;
+    finish(&outcome, a.out.as_deref())?;
+    interrupted()?;
+    if let (Some(dir), true) = (&a.out, frames > 0) {
+        render_frames(&outcome, dir, a.eye_size)?;
+    }
+    Ok(())
+}
+
+/// Renders the captured snapshots into DIR/frames/ and DIR/profiler.csv.
+fn render_frames(
+    outcome: &session::Outcome,
+    dir: &Path,
+    eye_size: Option<(u32, u32)>,
+) -> Result<(), CliError> {
+    let eye_size = eye_size.unwrap_or(vesalius::render::camera::VIVE_EYE_SIZE);
+    let failed = |e: &dyn std::fmt::Display| CliError::Failed(e.to_string());
+    let gpu = vesalius::render::Gpu::headless(true).map_err(|e| failed(&e))?;
+    let sim_ms = outcome.wall_s * 1e3 / outcome.report.steps.max(1) as f64;
+    let done = vesalius::render::frames::render_snapshots(
+        &gpu,
+        &outcome.captured,
+        1,
+        eye_size,
+        sim_ms,
+        Some(&dir.join("frames")),
+    )
+    .map_err(|e| failed(&e))?;
+    vesalius::render::frames::write_profiler_csv(&dir.join("profiler.csv"), &done.counters)
+        .map_err(|e| failed(&e))?;
+    let mean = done.frame_ms.iter().sum::<f64>() / done.frame_ms.len().max(1) as f64;
+    say!(
+        "rendered {} stereo frames {}x{} per eye on {}: {:.1} ms per frame",
+        done.counters.len(),
+        eye_size.0,
+        eye_size.1,
+        done.device,
+        mean
+    );
+    Ok(())
+}
+
+/// Whether a window can open here (an X11 or Wayland display is named).
+fn display_available() -> bool {
+    ["DISPLAY", "WAYLAND_DISPLAY"]
+        .iter()
+        .any(|v| std::env::var_os(v).is_some_and(|s| !s.is_empty()))
+}
+
+/// `run <p>` without `--headless`: the desktop window, played by a trace or driven by the
+/// desktop controls; with `xr`, the mirror of a headset session.
+fn run_window(a: &RunArgs, xr: Option<vesalius::xr::XrOptions>) -> Result<(), CliError> {
+    let procedure = a.procedure.as_str();
+    let (file, text) = scenario_text(procedure, a.scenario.as_deref())?;
+    let trace = match &a.trace {
+        Some(t) => {
+            let keys = load_trace(t, procedure, a.max_session)?;
+            let name = t
+                .file_name()
+                .map_or_else(|| t.display().to_string(), |n| n.to_string_lossy().into());
+            Some((keys, name))
+        }
+        None => None,
+    };
+    if let Some(p) = a.screenshot.as_deref().and_then(Path::parent)
+        && !p.as_os_str().is_empty()
+        && !p.is_dir()
+    {
+        return Err(CliError::Usage(format!(
+            "--screenshot: folder {} does not exist",
+            p.display()
+        )));
+    }
+    if let Some(dir) = &a.out {
+        session::prepare(dir)?;
+    }
+    // The sliders' "save" writes back into the scenario file the session runs; with the
+    // built-in scenario, a new file beside the outputs.
+    let save_tuning_to = match (&a.scenario, &a.out) {
+        (Some(f), _) => f.clone(),
+        (None, Some(dir)) => dir.join(format!("{procedure}-tuned.toml")),
+        (None, None) => PathBuf::from(format!("{procedure}-tuned.toml")),
+    };
+    let run = vesalius::ui::window::run(vesalius::ui::window::WindowOptions {
+        procedure: procedure.to_string(),
+        scenario_text: text,
+        scenario_file: file,
+        trace,
+        out: a.out.clone(),
+        screenshot: a.screenshot.clone(),
+        screenshot_at_s: a.screenshot_at,
+        size: a.window_size,
+        save_tuning_to,
+        xr,
+    })?;
+    if let Some((runtime, frames, sessions, (w, h))) = &run.xr {
+        say!(
+            "XR runtime '{runtime}' on {}: {frames} stereo frames at {w}x{h} per eye, {sessions} session(s)",
+            run.device
+        );
+    }
+    if run.xr.is_some() {
+        say!(
+            "window on {}: {} frames, {} of them drawing the scene (the rest mirrored an eye)",
+            run.device,
+            run.frames,
+            run.scene_renders
+        );
+    } else {
+        say!("window on {}: {} frames", run.device, run.frames);
+    }
+    if let Some(((w, h), path)) = &run.screenshot {
+        say!("screenshot {w}x{h} written to {}", path.display());
+    }
+    // The window wrote the session's files when it ended; report it here like the others.
+    finish(&run.outcome, None)?;
+    if let Some(dir) = &a.out {
+        say!(
+            "wrote {} (session {})",
+            dir.display(),
+            run.outcome.report.session_id
+        );
+    }
+    interrupted()
+}
+
+/// `run <p> --xr`: a session in the headset of whatever OpenXR runtime is active.
+fn run_xr(a: &RunArgs) -> Result<(), CliError> {
+    if a.headless || a.trace.is_some() {
+        return Err(CliError::Usage(
+            "--xr runs in the headset: drop --headless/--trace (the simulated runtime plays a trace with --xr-sim TRACE)".into(),
+        ));
+    }
+    let opts = vesalius::xr::XrOptions {
+        duration_s: a.xr_duration,
+        eye_size: a.eye_size,
+    };
+    // The supervisor's mirror opens beside the headset wherever there is a display.
+    if !a.no_window && display_available() {
+        return run_window(a, Some(opts));
+    }
+    if a.screenshot.is_some() {
+        return Err(CliError::Usage(
+            "--screenshot needs a window: no DISPLAY (try xvfb-run), or drop --no-window".into(),
+        ));
+    }
+    if !a.no_window {
+        tell!("no display: running in the headset only (--no-window to say so)");
+    }
+    if let Some(dir) = &a.out {
+        session::prepare(dir)?;
+    }
+    let (file, text) = scenario_text(&a.procedure, a.scenario.as_deref())?;
+    let run = vesalius::xr::run(&text, &file, opts, a.out.as_deref())?;
+    say!(
+        "XR runtime '{}' on {}: {} stereo frames at {}x{} per eye, {} session(s)",
+        run.runtime,
+        run.device,
+        run.frames,
+        run.eye_size.0,
+        run.eye_size.1,
+        run.sessions
+    );
+    finish(&run.outcome, a.out.as_deref())?;
+    interrupted()
+}
+
+/// `run <p> --xr-sim TRACE --out DIR`: the same XR session under the simulated runtime, which
+/// plays TRACE as head and controller motion and writes its logs and frames to DIR/xr-sim/.
+/// The settings named by `VESALIUS_XR_SIM_CONFIG`, if set, are kept (faults to inject, frame
+/// dumps) with the trace and output folder replaced. The loader reads the runtime's location
+/// from the environment, so the session runs in a child process that has it set.
+fn run_xr_sim(a: &RunArgs, trace: &Path) -> Result<(), CliError> {
+    if a.headless || a.trace.is_some() {
+        return Err(CliError::Usage(
+            "--xr-sim plays its own trace: drop --headless/--trace".into(),
+        ));
+    }
+    let Some(out) = a.out.as_deref() else {
+        return Err(CliError::Usage(
+            "--xr-sim needs --out DIR (its outputs go to DIR/xr-sim/)".into(),
+        ));
+    };
+    let keys = load_trace(trace, &a.procedure, a.max_session)?;
+    session::prepare(out)?;
+    let sim_dir = out.join("xr-sim");
+    let failed = |p: &Path, e: std::io::Error| CliError::Failed(format!("{}: {e}", p.display()));
+    std::fs::create_dir_all(&sim_dir).map_err(|e| failed(&sim_dir, e))?;
+    let sim_abs = sim_dir.canonicalize().map_err(|e| failed(&sim_dir, e))?;
+    let trace_abs = trace.canonicalize().map_err(|e| failed(trace, e))?;
+    let manifest = super::tools::xr_sim_manifest(Some(sim_abs.join("runtime.json")))?;
+    let mut settings = match std::env::var_os(vesalius_sim_runtime::CONFIG_ENV) {
+        Some(f) if !f.is_empty() => {
+            let f = PathBuf::from(f);
+            let text = std::fs::read_to_string(&f).map_err(|e| failed(&f, e))?;
+            vesalius_sim_runtime::Config::parse(&f.display().to_string(), &text)
+                .map_err(CliError::Failed)?;
+            text.parse::<toml::Table>()
+                .map_err(|e| CliError::Failed(format!("{}: {e}", f.display())))?
+        }
+        _ => toml::Table::new(),
+    };
+    settings.insert("out_dir".into(), sim_abs.display().to_string().into());
+    settings.insert("trace".into(), trace_abs.display().to_string().into());
+    let config = sim_abs.join("settings.toml");
+    let text = format!(
+        "# Written by `vesalius run --xr-sim`: the simulated runtime's settings.\n{}",
+        toml::to_string(&settings).map_err(|e| CliError::Failed(e.to_string()))?
+    );
+    std::fs::write(&config, text).map_err(|e| failed(&config, e))?;
+    let exe = std::env::current_exe()
+        .map_err(|e| CliError::Failed(format!("cannot find this executable: {e}")))?;
+    let duration = a
+        .xr_duration
+        .unwrap_or(keys.duration_s() + session::SETTLE_S);
+    let mut cmd = std::process::Command::new(exe);
+    cmd.args(["run", &a.procedure, "--xr", "--out"])
+        .arg(out)
+        .args(["--xr-duration", &format!("{duration}")])
+        .args(["--max-session", &format!("{}", a.max_session)])
+        .env("XR_RUNTIME_JSON", &manifest)
+        .env(vesalius_sim_runtime::CONFIG_ENV, &config);
+    if let Some(f) = &a.scenario {
+        cmd.arg("--scenario").arg(f);
+    }
+    if let Some((w, h)) = a.eye_size {
+        cmd.args(["--eye-size", &format!("{w}x{h}")]);
+    }
+    if a.no_window {
+        cmd.arg("--no-window");
+    }
+    if let Some(s) = &a.screenshot {
+        cmd.arg("--screenshot").arg(s);
+    }
+    if let Some(at) = a.screenshot_at {
+        cmd.args(["--screenshot-at", &at.to_string()]);
+    }
+    let (w, h) = a.window_size;
+    cmd.args(["--window-size", &format!("{w}x{h}")]);
+    let mut child = cmd
+        .spawn()
+        .map_err(|e| CliError::Failed(format!("cannot start the XR session: {e}")))?;
+    // A signal for this process is passed on, so the session ends cleanly with its report.
+    let mut forwarded = false;
+    let status = loop {
+        match child.try_wait() {
+            Ok(Some(s)) => break s,
+            Ok(None) => {}
+            Err(e) => return Err(CliError::Failed(format!("waiting for the XR session: {e}"))),
+        }
+        if let (Some(_), false) = (interrupt::interrupted(), forwarded) {
+            let _ = std::process::Command::new("kill")
+                .args(["-TERM", &child.id().to_string()])
+                .status();
+            forwarded = true;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    };
+    interrupted()?;
+    if !status.success() {
+        return Err(CliError::Failed(format!(
+            "the XR session under the simulated runtime failed ({status})"
+        )));
+    }
+    say!("simulated runtime outputs in {}", sim_dir.display());
+    Ok(())
+}
+
+/// `replay`: the recorded session again into another folder.
+pub fn replay(recorded: &Path, out: &Path) -> Result<(), CliError> {
+    let rec = Recording::read(recorded)?;
+    let own = recorded.parent().map(|p| {
+        if p.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            p
+        }
+    });
+    if let (Some(a), Ok(b)) = (own.and_then(|p| p.canonicalize().ok()), out.canonicalize())
+        && a == b
+    {
+        return Err(CliError::Usage(format!(
+            "--out {}: that is the recording's own folder; replay into another one",
+            out.display()
+        )));
+    }
+    if let Tail::Cut {
+        complete_blocks,
+        dropped_bytes,
+    } = &rec.tail
+    {
+        tell!(
+            "{}: the recording stops short (its session was killed or crashed): replaying its \
+             {} steps in {complete_blocks} complete blocks ({dropped_bytes} trailing bytes dropped)",
+            recorded.display(),
+            rec.frames.len()
+        );
+    }
+    let file = format!("{} (embedded scenario)", recorded.display());
+    let scenario = rec.scenario.clone();
+    let opts = Options {
+        out: Some(out),
+        ..Options::default()
+    };
+    let outcome = session::run_with(&scenario, &file, Input::Recorded(rec), &opts)?;
+    finish(&outcome, Some(out))?;
+    interrupted()
+}
+
+/// `demo`: every registered procedure's demo trace, headless, into DIR/<procedure>/.
+pub fn demo(out: &Path) -> Result<(), CliError> {
+    for p in vesalius::procedures::REGISTRY {
+        let keys = KeyTrace::parse(&format!("builtin {} demo trace", p.name), p.demo_trace)?;
+        let dir = out.join(p.name);
+        let opts = Options {
+            out: Some(&dir),
+            ..Options::default()
+        };
+        let file = format!("builtin {} scenario", p.name);
+        let outcome = session::run_with(p.scenario, &file, Input::Keys(keys), &opts)?;
+        finish(&outcome, Some(&dir))?;
+        interrupted()?;
+    }
+    Ok(())
+}

@@ -1,0 +1,249 @@
+//! `check`, `bench`, `profile` and `xr-sim manifest`.
+
+use super::CliError;
+use std::path::{Path, PathBuf};
+use vesalius::scenario::{InputError, Scenario};
+use vesalius::trace::{KeyTrace, Recording};
+
+/// Finds the simulated runtime library built with this binary (beside it, or in `deps/` where
+/// cargo leaves a dependency's cdylib) and writes its runtime manifest.
+pub fn xr_sim_manifest(out: Option<PathBuf>) -> Result<PathBuf, CliError> {
+    let failed = |m: String| CliError::Failed(m);
+    let exe =
+        std::env::current_exe().map_err(|e| failed(format!("cannot find this executable: {e}")))?;
+    let dir = exe
+        .parent()
+        .ok_or_else(|| failed(format!("{}: no parent folder", exe.display())))?;
+    let name = "libvesalius_sim_runtime.so";
+    // The newest build: `cargo build` copies the library up beside the executable, test
+    // builds leave theirs in deps/, and either may be stale.
+    let modified = |p: &PathBuf| std::fs::metadata(p).and_then(|m| m.modified()).ok();
+    let lib = [dir.join(name), dir.join("deps").join(name)]
+        .into_iter()
+        .filter(|p| p.is_file())
+        .max_by_key(modified)
+        .ok_or_else(|| {
+            failed(format!(
+                "{name} is not beside {} (build it: cargo build --release --workspace)",
+                exe.display()
+            ))
+        })?;
+    let lib = lib
+        .canonicalize()
+        .map_err(|e| failed(format!("{}: {e}", lib.display())))?;
+    let path = out.unwrap_or_else(|| dir.join("vesalius_sim_runtime.json"));
+    let text = vesalius_sim_runtime::manifest(&lib.display().to_string());
+    let tmp = path.with_extension("json.partial");
+    std::fs::write(&tmp, text).map_err(|e| failed(format!("{}: {e}", tmp.display())))?;
+    std::fs::rename(&tmp, &path).map_err(|e| failed(format!("{}: {e}", path.display())))?;
+    Ok(path)
+}
+
+/// Validates each file by its kind; every file is checked, and the command fails if any did.
+pub fn check(files: &[PathBuf]) -> Result<(), CliError> {
+    let mut failed = 0;
+    for f in files {
+        match check_one(f) {
+            Ok(kind) => say!("{}: ok ({kind})", f.display()),
+            Err(e) => {
+                failed += 1;
+                tell!("{e}");
+            }
+        }
+    }
+    if failed > 0 {
+        return Err(CliError::Failed(format!(
+            "{failed} of {} files failed the check",
+            files.len()
+        )));
+    }
+    Ok(())
+}
+
+/// The kind of `path` by its content: a binary recording, or TOML that is a keyframed trace,
+/// an interaction profile, simulated runtime settings or a scenario.
+fn check_one(path: &Path) -> Result<&'static str, InputError> {
+    let file = path.display().to_string();
+    let bytes = std::fs::read(path)
+        .map_err(|e| InputError::new(&file, "file", format!("cannot read: {e}")))?;
+    if Recording::is_recording(&bytes) {
+        let rec = Recording::decode(&file, &bytes)?;
+        Scenario::parse(&format!("{file} (embedded scenario)"), &rec.scenario)?;
+        return Ok(match rec.tail {
+            vesalius::trace::Tail::Cut { .. } => "recorded trace, stops short: replays up to it",
+            vesalius::trace::Tail::Ended { .. } => "recorded trace",
+        });
+    }
+    let text = String::from_utf8(bytes)
+        .map_err(|_| InputError::new(&file, "file", "is neither UTF-8 TOML nor a recording"))?;
+    let table: toml::Table = toml::from_str(&text).map_err(|e| InputError::toml(&file, &e))?;
+    let has = |k: &str| table.contains_key(k);
+    if has("left") || has("right") {
+        KeyTrace::parse(&file, &text)?;
+        Ok("keyframed trace")
+    } else if has("profile") && has("bindings") {
+        xr_bindings::profiles::Profile::parse(&file, &text)
+            .map_err(|e| InputError::new(&file, "profile", e.to_string()))?;
+        Ok("interaction profile")
+    } else if has("out_dir") || has("inject") || has("frames_every") || has("trace") {
+        vesalius_sim_runtime::Config::parse(&file, &text)
+            .map_err(|e| InputError::new(&file, "settings", e))?;
+        Ok("simulated runtime settings")
+    } else {
+        Scenario::parse(&file, &text)?;
+        Ok("scenario")
+    }
+}
+
+/// `bench [procedure]`: every registered procedure, or the one named.
+pub fn bench(procedure: Option<&str>, json: bool) -> Result<(), CliError> {
+    let names: Vec<&str> = match procedure {
+        Some(p) => vec![p],
+        None => vesalius::procedures::names().collect(),
+    };
+    for p in names {
+        let lines = vesalius::bench::run(p)?;
+        for l in &lines {
+            if json {
+                say!("{}", serde_json::to_string(l).unwrap_or_default());
+            } else {
+                say!(
+                    "{:<14} {:>9.0} steps/s  dt {:.4} s  real-time x{:>6.2}  {:>6} vertices {:>6} triangles {:>7} constraints  ({} threads)",
+                    l.model,
+                    l.steps_per_s,
+                    l.dt_s,
+                    l.realtime_factor,
+                    l.vertices,
+                    l.triangles,
+                    l.constraints,
+                    l.threads
+                );
+            }
+        }
+    }
+    Ok(())
+}
+pub fn profile(
+    procedure: Option<&str>,
+    json: bool,
+    eye_size: (u32, u32),
+    two_pass: bool,
+) -> Result<(), CliError> {
+    use vesalius::profiler::{mb, paper_cpu, paper_gpu};
+    let info = match procedure {
+        Some(p) => vesalius::procedures::find(p),
+        None => vesalius::procedures::REGISTRY.first().copied(),
+    }
+    .ok_or_else(|| CliError::Usage("no such procedure".into()))?;
+    let procedure = info.name;
+    let text = info.scenario;
+    let keys = KeyTrace::parse("builtin demo trace", info.demo_trace)?;
+    // Simulate up to the middle of the cut (40 % of the trace) and render that instant with
+    // the simulation still alive, so total memory counts it as Unity's profiler would.
+    let scenario = Scenario::parse(&format!("builtin {procedure} scenario"), text)?;
+    let dt = scenario.dt_s as f64;
+    let mut sim = vesalius::procedures::Nephrectomy::new(scenario)
+        .map_err(|e| CliError::Failed(e.to_string()))?;
+    let steps = (keys.duration_s() * 0.4 / dt).ceil() as u64;
+    let mut events = Vec::new();
+    let t0 = std::time::Instant::now();
+    for step in 0..steps {
+        sim.step(&keys.sample(step as f64 * dt), step, &mut events);
+        events.clear();
+    }
+    let sim_ms = t0.elapsed().as_secs_f64() * 1e3 / steps.max(1) as f64;
+    let gpu =
+        vesalius::render::Gpu::headless(!two_pass).map_err(|e| CliError::Failed(e.to_string()))?;
+    // Five frames of the same instant: the first pays for pipeline warm-up.
+    let snap = sim.snapshot(steps.saturating_sub(1));
+    let done = vesalius::render::frames::render_repeated(&gpu, &snap, 5, eye_size, sim_ms)
+        .map_err(|e| CliError::Failed(e.to_string()))?;
+    // Total memory as the last frame measured it: heap (simulation, snapshot, renderer) plus
+    // every GPU buffer and texture, while all of them were alive.
+    let ours = done.counters.last().cloned().unwrap_or_default();
+    let heap = ours.total_memory_bytes.saturating_sub(ours.vram_bytes);
+    let sim_parts = sim.memory();
+    let sim_bytes: usize = sim_parts.iter().map(|(_, b)| b).sum();
+    let steady: Vec<f64> = done.frame_ms.iter().skip(1).copied().collect();
+    let frame_ms = steady.iter().sum::<f64>() / steady.len().max(1) as f64;
+    if json {
+        let v = serde_json::json!({
+            "procedure": procedure,
+            "device": done.device,
+            "eye_size": [eye_size.0, eye_size.1],
+            "frame_ms": frame_ms,
+            "heap_measured": vesalius::profiler::heap_measured(),
+            "heap_bytes": heap,
+            "simulation_heap_bytes": sim_parts
+                .iter()
+                .map(|(k, b)| (k.to_string(), serde_json::json!(b)))
+                .collect::<serde_json::Map<_, _>>(),
+            "vesalius": ours,
+            "paper": { "cpu": paper_cpu(), "gpu": paper_gpu() },
+        });
+        say!("{}", serde_json::to_string_pretty(&v).unwrap_or_default());
+        return Ok(());
+    }
+    let (pc, pg) = (paper_cpu(), paper_gpu());
+    say!(
+        "{procedure} on {} ({}x{} per eye, {} pass{}), {frame_ms:.1} ms per stereo frame",
+        done.device,
+        eye_size.0,
+        eye_size.1,
+        ours.passes,
+        if ours.passes == 1 {
+            ", multiview"
+        } else {
+            "es"
+        }
+    );
+    say!(
+        "{:<22} {:>12} {:>12} {:>12}",
+        "",
+        "vesalius",
+        "paper CPU",
+        "paper GPU"
+    );
+    let cols = [ours.column(), pc, pg];
+    let row = |name: &str,
+               cell: &dyn Fn(&vesalius::profiler::PaperColumn) -> String|
+     -> Result<(), CliError> {
+        let [a, b, c] = cols.each_ref().map(cell);
+        say!("{name:<22} {a:>12} {b:>12} {c:>12}");
+        Ok(())
+    };
+    let mb1 = |b: u64| format!("{:.1} MB", mb(b));
+    let cb =
+        |c: vesalius::profiler::CountBytes| format!("{}/{:.0}KB", c.count, c.bytes as f64 / 1e3);
+    row("batches", &|c| c.batches.to_string())?;
+    row("draw calls", &|c| c.draw_calls.to_string())?;
+    row("setpass calls", &|c| c.setpass_calls.to_string())?;
+    row("triangles", &|c| c.triangles.to_string())?;
+    row("vertices", &|c| c.vertices.to_string())?;
+    row("VRAM", &|c| mb1(c.vram_bytes))?;
+    row("total memory", &|c| mb1(c.total_memory_bytes))?;
+    row("textures", &|c| cb(c.textures))?;
+    row("meshes", &|c| cb(c.meshes))?;
+    row("materials", &|c| cb(c.materials))?;
+    row("objects", &|c| c.objects.to_string())?;
+    say!(
+        "cpu per stage: simulation {:.2} ms/step, render encode {:.2} ms, submit {:.2} ms",
+        ours.cpu.simulation_ms,
+        ours.cpu.render_encode_ms,
+        ours.cpu.submit_ms
+    );
+    let mut parts = sim_parts.clone();
+    parts.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(b.0)));
+    let top: Vec<String> = parts
+        .iter()
+        .take(4)
+        .map(|(k, b)| format!("{k} {:.1}", mb(*b as u64)))
+        .collect();
+    say!(
+        "heap {:.1} MB, of which simulation {:.1} MB (largest: {})",
+        mb(heap),
+        mb(sim_bytes as u64),
+        top.join(", ")
+    );
+    Ok(())
+}

@@ -1,0 +1,267 @@
+//! A session: a procedure driven by its input at a fixed step, recorded as it runs, and
+//! reported. The recording streams to the output folder in checksummed blocks, so a killed
+//! session loses at most its last second; a signal ends it cleanly with an interrupted report.
+
+pub mod interrupt;
+mod live;
+mod output;
+
+pub use live::Live;
+pub use output::{EVENTS, RECORDING, REPORT, TIMING, new_session_id, prepare, write_outputs};
+
+use crate::assess;
+use crate::models::Tuning;
+use crate::scenario::InputError;
+use crate::sim::{Pacing, SimEvent, Snapshot, SnapshotBus};
+use crate::trace::{KeyTrace, Recording, Tail};
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Where the inputs come from.
+pub enum Input {
+    Keys(KeyTrace),
+    /// A recording: its frames, and its tissue tunings at their steps.
+    Recorded(Recording),
+}
+
+/// How a session ended, as its report and recording say.
+pub mod ended {
+    /// The trace or recording played out.
+    pub const END_OF_INPUT: &str = "end_of_input";
+    /// SIGINT or SIGTERM asked the session to stop.
+    pub const INTERRUPTED: &str = "interrupted";
+    /// The trainee or supervisor closed the window.
+    pub const CLOSED: &str = "closed";
+    /// The XR runtime ended the session, or its duration ran out.
+    pub const XR_EXIT: &str = "xr_exit";
+    /// A replay of a recording that stops short (its session was killed or crashed).
+    pub const TRUNCATED_RECORDING: &str = "truncated_recording";
+}
+
+/// A session's state at one step, as the supervisor's panels show it.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Status {
+    pub step: u64,
+    /// Simulated time, seconds.
+    pub time_s: f64,
+    /// Instrument tip path length so far (left, right), metres.
+    pub path_m: [f32; 2],
+    /// Length cut so far, metres, and triangles removed.
+    pub cut_length_m: f32,
+    pub cut_faces: u32,
+    /// Errors: vulnerable-structure contacts and torn ties.
+    pub errors: u32,
+    /// Score so far (0-100), by the scenario's weights.
+    pub score: f32,
+    /// Task steps done, in order.
+    pub steps_done: Vec<String>,
+    pub completed: bool,
+    /// Contact force on each tool, newtons.
+    pub force_n: [f32; 2],
+    /// Whether each tool touches a vulnerable structure.
+    pub touching: [bool; 2],
+    /// The nearest vulnerable structure near each tool, and its distance, metres.
+    pub near: [Option<(String, f32)>; 2],
+    /// The tuned model's parameters now.
+    pub tuning: Tuning,
+}
+
+/// Extra simulated time after the trace ends, seconds, so that motion settles.
+pub const SETTLE_S: f64 = 0.25;
+
+/// The longest session a trace, a duration or a window may ask for, seconds (4 hours).
+pub const DEFAULT_MAX_SESSION_S: f64 = xr_bindings::keyframes::DEFAULT_MAX_SESSION_S;
+
+#[derive(Debug, Serialize)]
+pub struct ModelReport {
+    pub name: String,
+    pub kind: String,
+    pub vertices: usize,
+    pub triangles: usize,
+    pub constraints: usize,
+}
+
+#[derive(Debug, Serialize)]
+pub struct Report {
+    pub procedure: String,
+    /// The id every file of this output set carries (a replay keeps the recording's).
+    pub session_id: String,
+    /// Whether the procedure's task was completed.
+    pub completed: bool,
+    /// How the session ended (see [`ended`]).
+    pub ended: String,
+    pub dt_s: f32,
+    pub steps: u64,
+    pub simulated_s: f64,
+    pub models: Vec<ModelReport>,
+    pub events: BTreeMap<String, u64>,
+    pub metrics: crate::procedures::nephrectomy::Metrics,
+    pub score_parts: assess::ScoreParts,
+    pub score: f32,
+    /// FNV-1a digest of the final simulation state.
+    pub state_hash: String,
+}
+
+/// Where a session's recording is.
+#[derive(Debug)]
+pub enum Recorded {
+    /// Streamed to this file while the session ran.
+    Streamed(PathBuf),
+    /// Held in memory (a session without an output folder).
+    InMemory(Recording),
+}
+
+pub struct Outcome {
+    pub report: Report,
+    pub events: Vec<SimEvent>,
+    pub recording: Recorded,
+    pub wall_s: f64,
+    /// Snapshots taken for rendering (`run_capturing`), evenly spaced, the last at the end.
+    pub captured: Vec<Snapshot>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum SessionError {
+    #[error(transparent)]
+    Input(#[from] InputError),
+    #[error("building the anatomy: {0}")]
+    Mesh(#[from] crate::mesh::MeshError),
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("--out {dir}: {reason}")]
+    Out { dir: String, reason: String },
+    #[error(
+        "cannot write the recording {path}: {source}; the session stopped at step {step} \
+         and no report was written (the recording up to the last complete block replays)"
+    )]
+    Recording {
+        path: String,
+        step: u64,
+        source: std::io::Error,
+    },
+}
+
+/// How a session runs besides its scenario and input.
+#[derive(Default)]
+pub struct Options<'a> {
+    pub pacing: Pacing,
+    /// Publish a snapshot here at the scenario's rate.
+    pub bus: Option<&'a SnapshotBus>,
+    /// Keep this many snapshots, evenly spaced, for rendering.
+    pub frames_wanted: u32,
+    /// Stream the recording into this folder (made and tested first, see [`prepare`]).
+    pub out: Option<&'a Path>,
+}
+
+/// Runs a session to the end of its input.
+pub fn run(
+    scenario_text: &str,
+    scenario_file: &str,
+    input: Input,
+    pacing: Pacing,
+    bus: Option<&SnapshotBus>,
+) -> Result<Outcome, SessionError> {
+    let opts = Options {
+        pacing,
+        bus,
+        ..Options::default()
+    };
+    run_with(scenario_text, scenario_file, input, &opts)
+}
+
+/// Runs a session and keeps `frames` snapshots, evenly spaced over it, for rendering.
+pub fn run_capturing(
+    scenario_text: &str,
+    scenario_file: &str,
+    input: Input,
+    pacing: Pacing,
+    bus: Option<&SnapshotBus>,
+    frames_wanted: u32,
+) -> Result<Outcome, SessionError> {
+    let opts = Options {
+        pacing,
+        bus,
+        frames_wanted,
+        out: None,
+    };
+    run_with(scenario_text, scenario_file, input, &opts)
+}
+
+/// Runs a session to the end of its input, or until SIGINT/SIGTERM (see [`interrupt`]).
+pub fn run_with(
+    scenario_text: &str,
+    scenario_file: &str,
+    input: Input,
+    opts: &Options,
+) -> Result<Outcome, SessionError> {
+    if let Some(dir) = opts.out {
+        prepare(dir)?;
+    }
+    // Refuse an absurd session before its anatomy is built.
+    let scenario = crate::scenario::Scenario::parse(scenario_file, scenario_text)?;
+    let total_steps = match &input {
+        Input::Keys(k) => ((k.duration_s() + SETTLE_S) / f64::from(scenario.dt_s)).ceil() as u64,
+        Input::Recorded(r) => r.frames.len() as u64,
+    };
+    scenario.check_cost(scenario_file, total_steps)?;
+    let mut live = match &input {
+        Input::Recorded(r) => {
+            Live::with_id(scenario_text, scenario_file, opts.pacing, &r.session_id)?
+        }
+        Input::Keys(_) => Live::new(scenario_text, scenario_file, opts.pacing)?,
+    };
+    if let Some(dir) = opts.out {
+        live.stream_to(&dir.join(RECORDING))?;
+    }
+    let publish_every = live.publish_every();
+    let n = opts.frames_wanted as u64;
+    let capture_at: Vec<u64> = (1..=n)
+        .map(|k| (k * total_steps / n.max(1)).saturating_sub(1))
+        .collect();
+    let mut captured = Vec::with_capacity(capture_at.len());
+    // The next recorded tuning to make (they are in step order).
+    let mut next_tuning = 0;
+    while live.step_count() < total_steps {
+        if interrupt::interrupted().is_some() {
+            live.set_ended(ended::INTERRUPTED);
+            break;
+        }
+        let step = live.step_count();
+        let frame = match &input {
+            Input::Keys(k) => k.sample(live.time_s()),
+            Input::Recorded(r) => {
+                while let Some(t) = r.tunings.get(next_tuning).filter(|t| t.step == step) {
+                    live.tune_recorded(t).map_err(|m| {
+                        SessionError::Input(InputError::new(scenario_file, "tunings", m))
+                    })?;
+                    next_tuning += 1;
+                }
+                r.frames[step as usize]
+            }
+        };
+        live.step(frame)?;
+        if capture_at.binary_search(&step).is_ok() {
+            captured.push(live.snapshot());
+        }
+        if let Some(bus) = opts.bus
+            && step.is_multiple_of(publish_every)
+        {
+            bus.publish(live.snapshot());
+        }
+    }
+    if let Input::Recorded(r) = &input
+        && live.ended() == ended::END_OF_INPUT
+    {
+        // A replay ends as its session did, so its report is the same bytes.
+        match &r.tail {
+            Tail::Ended { how } if how != "legacy" => live.set_ended(how),
+            Tail::Ended { .. } => {}
+            Tail::Cut { .. } => live.set_ended(ended::TRUNCATED_RECORDING),
+        }
+    }
+    live.finish(captured)
+}
