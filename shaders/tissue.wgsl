@@ -20,7 +20,7 @@ struct Material {
 };
 
 @group(0) @binding(0) var<uniform> frame: Frame;
-@group(0) @binding(1) var<uniform> materials: array<Material, 8>;
+@group(0) @binding(1) var<uniform> materials: array<Material, 16>;
 
 struct VertexIn {
     @location(0) position: vec3<f32>,
@@ -49,11 +49,11 @@ fn vs_main(v: VertexIn /*VIEW_INDEX*/) -> VertexOut {
 }
 
 const CUT_FLAG: u32 = 256u;
-const TUMOUR: u32 = 1u;
+const TARGET: u32 = 1u;
 
 @fragment
 fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
-    let index = in.material & 7u;
+    let index = in.material & 15u;
     let m = materials[index];
     var albedo = m.albedo.rgb;
     var specular = m.shading.x;
@@ -75,7 +75,7 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
     let rim = m.shading.w * pow(1.0 - key, 3.0);
     var colour = albedo * (0.18 + 0.72 * key + 0.12 * fill) + vec3<f32>(spec + rim);
     colour = colour + albedo * m.shading.z;
-    if (index == TUMOUR && frame.flags.x > 0.5) {
+    if (index == TARGET && frame.flags.x > 0.5) {
         // Identified: a green glow the trainee cannot miss.
         colour = mix(colour, vec3<f32>(0.3, 0.95, 0.35), 0.35);
     }

@@ -1,9 +1,7 @@
 //! `vesalius bench`: step rates of each model and of the whole procedure at the scenario's
 //! sizes, driven by the procedure's demo trace.
 
-use crate::procedures::Nephrectomy;
-use crate::scenario::{Scenario, builtin};
-use crate::sim::{Clock, Pacing, TissueModel};
+use crate::sim::{Clock, Pacing};
 use crate::trace::KeyTrace;
 use serde::Serialize;
 use std::time::Instant;
@@ -24,13 +22,17 @@ pub struct BenchLine {
     pub threads: usize,
 }
 
-/// Runs the demo trace once, timing every model and the whole step.
+/// Runs the procedure's demo trace once on its default scenario, timing every model and the
+/// whole step.
 pub fn run(procedure: &str) -> Result<Vec<BenchLine>, String> {
-    let text = builtin(procedure).ok_or_else(|| format!("no benchmark for '{procedure}' yet"))?;
-    let scenario = Scenario::parse("builtin scenario", text).map_err(|e| e.to_string())?;
-    let trace = KeyTrace::parse("builtin demo trace", DEMO_TRACE).map_err(|e| e.to_string())?;
-    let dt = scenario.dt_s;
-    let mut p = Nephrectomy::new(scenario).map_err(|e| e.to_string())?;
+    let info =
+        crate::procedures::find(procedure).ok_or_else(|| format!("no procedure '{procedure}'"))?;
+    let file = format!("builtin {procedure} scenario");
+    let (_, plan) = crate::procedures::plan(&file, info.scenario).map_err(|e| e.to_string())?;
+    let trace = KeyTrace::parse(&format!("builtin {procedure} demo trace"), info.demo_trace)
+        .map_err(|e| e.to_string())?;
+    let dt = plan.dt_s;
+    let mut p = (info.build)(&file, info.scenario).map_err(|e| e.to_string())?;
     let mut clock = Clock::new(dt, Pacing::AsFastAsPossible);
     let steps = (trace.duration_s() / dt as f64).ceil() as u64;
     let mut events = Vec::new();
@@ -38,11 +40,12 @@ pub fn run(procedure: &str) -> Result<Vec<BenchLine>, String> {
     while clock.step() < steps {
         let f = trace.sample(clock.time_s());
         p.step(&f, clock.step(), &mut events);
+        events.clear();
         clock.tick();
     }
     let wall = t0.elapsed().as_secs_f64();
     let threads = rayon::current_num_threads();
-    let line = |model: String, secs: f64, sizes: crate::sim::ModelSizes| {
+    let line = |model: String, secs: f64, sizes: [usize; 3]| {
         let sps = steps as f64 / secs.max(1e-12);
         BenchLine {
             model,
@@ -50,33 +53,21 @@ pub fn run(procedure: &str) -> Result<Vec<BenchLine>, String> {
             steps_per_s: sps,
             dt_s: dt,
             realtime_factor: sps * dt as f64,
-            vertices: sizes.vertices,
-            triangles: sizes.triangles,
-            constraints: sizes.constraints,
+            vertices: sizes[0],
+            triangles: sizes[1],
+            constraints: sizes[2],
             threads,
         }
     };
-    let mut out: Vec<BenchLine> = p
-        .models()
+    let models = p.model_reports();
+    let mut out: Vec<BenchLine> = models
         .iter()
-        .zip(&p.model_time_s)
-        .map(|(m, &t)| line(m.name().to_string(), t, m.sizes()))
+        .zip(p.model_times())
+        .map(|(m, t)| line(m.name.clone(), t, [m.vertices, m.triangles, m.constraints]))
         .collect();
-    let total = p.models().iter().fold(
-        crate::sim::ModelSizes {
-            vertices: 0,
-            triangles: 0,
-            constraints: 0,
-        },
-        |a, m| {
-            let s = m.sizes();
-            crate::sim::ModelSizes {
-                vertices: a.vertices + s.vertices,
-                triangles: a.triangles + s.triangles,
-                constraints: a.constraints + s.constraints,
-            }
-        },
-    );
+    let total = models.iter().fold([0; 3], |a, m| {
+        [a[0] + m.vertices, a[1] + m.triangles, a[2] + m.constraints]
+    });
     out.push(line("procedure".to_string(), wall, total));
     Ok(out)
 }

@@ -133,74 +133,122 @@ pub struct Weights {
     pub efficiency: f32,
 }
 
-/// The scenario shipped for a procedure.
-/// The scenario `text` with the kidney's tunable values set to `t`, comments and layout kept:
-/// each `key = value` line of the `[kidney]` table gets the new value (a missing key is added at
-/// the end of the table). The result is checked to parse, with exactly these values.
-pub fn with_kidney_tuning(
+/// The scenario `text` with `values` written into its `[table]`, comments and layout kept:
+/// each `key = value` line of the table gets the new value (a missing key is added at the end
+/// of the table). The result is checked: it still validates as a scenario of its procedure,
+/// and every value reads back.
+pub fn with_values(
     file: &str,
     text: &str,
-    t: &crate::models::Tuning,
+    table: &str,
+    values: &[(String, f32)],
 ) -> Result<String, InputError> {
-    let names = crate::models::Tuning::RANGES.map(|r| r.0);
-    let values = t.values();
+    let header = format!("[{table}]");
     let mut out: Vec<String> = Vec::new();
-    let mut in_kidney = false;
-    let mut seen = [false; 4];
+    let mut inside = false;
+    let mut seen = vec![false; values.len()];
     let mut table_end = None;
     for line in text.lines() {
         let trimmed = line.trim_start();
         if trimmed.starts_with('[') {
-            if in_kidney {
+            if inside {
                 table_end = Some(out.len());
             }
-            in_kidney = trimmed.starts_with("[kidney]");
+            inside = trimmed.starts_with(&header);
         }
         let key = trimmed.split('=').next().unwrap_or("").trim();
-        match names.iter().position(|n| *n == key) {
-            Some(k) if in_kidney && trimmed.contains('=') => {
+        match values.iter().position(|(k, _)| k == key) {
+            Some(k) if inside && trimmed.contains('=') => {
                 let indent = &line[..line.len() - trimmed.len()];
                 let comment = line.find('#').map_or("", |c| &line[c..]);
                 let pad = if comment.is_empty() { "" } else { "   " };
-                out.push(format!("{indent}{key} = {:?}{pad}{comment}", values[k]));
+                out.push(format!("{indent}{key} = {:?}{pad}{comment}", values[k].1));
                 seen[k] = true;
             }
             _ => out.push(line.to_string()),
         }
     }
-    let at = match (table_end, in_kidney) {
+    let at = match (table_end, inside) {
         (Some(e), _) => e,
         (None, true) => out.len(),
         (None, false) => {
             return Err(InputError::new(
                 file,
-                "kidney",
-                "no [kidney] table to write into",
+                table,
+                format!("no {header} table to write into"),
             ));
         }
     };
-    let missing: Vec<String> = (0..4)
-        .filter(|&k| !seen[k])
-        .map(|k| format!("{} = {:?}", names[k], values[k]))
+    let missing: Vec<String> = values
+        .iter()
+        .zip(&seen)
+        .filter(|(_, seen)| !**seen)
+        .map(|((k, v), _)| format!("{k} = {v:?}"))
         .collect();
     out.splice(at..at, missing);
     let mut written = out.join("\n");
     if text.ends_with('\n') {
         written.push('\n');
     }
-    let parsed = Scenario::parse(file, &written)?;
-    if crate::models::Tuning::of(&parsed.kidney) != *t {
-        return Err(InputError::new(
-            file,
-            "kidney",
-            "the tuned values did not read back",
-        ));
+    crate::procedures::plan(file, &written)?;
+    let parsed: toml::Table = toml::from_str(&written).map_err(|e| InputError::toml(file, &e))?;
+    for (k, v) in values {
+        let back = parsed
+            .get(table)
+            .and_then(|t| t.get(k))
+            .and_then(toml::Value::as_float);
+        if back.map(|b| b as f32) != Some(*v) {
+            return Err(InputError::new(
+                file,
+                &format!("{table}.{k}"),
+                "the tuned value did not read back",
+            ));
+        }
     }
     Ok(written)
 }
 
+/// The scenario `text` with every tunable's value now written into its model's table.
+pub fn with_tunables(
+    file: &str,
+    text: &str,
+    tunables: &[crate::procedures::Tunable],
+) -> Result<String, InputError> {
+    let mut text = text.to_string();
+    let mut models: Vec<&str> = tunables.iter().map(|t| t.model.as_str()).collect();
+    models.dedup();
+    for model in models {
+        let values: Vec<(String, f32)> = tunables
+            .iter()
+            .filter(|t| t.model == model)
+            .map(|t| (t.key.to_string(), t.value))
+            .collect();
+        text = with_values(file, &text, model, &values)?;
+    }
+    Ok(text)
+}
+
 pub fn builtin(procedure: &str) -> Option<&'static str> {
     crate::procedures::find(procedure).map(|p| p.scenario)
+}
+
+/// The procedure a scenario text names (its top-level `procedure` key), before the
+/// procedure's own reading of the rest.
+pub fn procedure_of(file: &str, text: &str) -> Result<String, InputError> {
+    let table: toml::Table = toml::from_str(text).map_err(|e| InputError::toml(file, &e))?;
+    match table.get("procedure") {
+        Some(toml::Value::String(s)) => Ok(s.clone()),
+        Some(v) => Err(InputError::new(
+            file,
+            "procedure",
+            format!("must be a procedure's name, got {v}"),
+        )),
+        None => Err(InputError::new(
+            file,
+            "procedure",
+            "missing: every scenario names its procedure",
+        )),
+    }
 }
 
 pub fn check_procedure(file: &str, key: &str, name: &str) -> Result<(), InputError> {
@@ -316,6 +364,25 @@ pub const MAX_POINT_STEPS: f64 = 1e12;
 /// Point-steps per second assumed for the estimate in messages.
 const POINT_STEPS_PER_S: f64 = 5e7;
 
+/// Refuses a session of `steps` steps over `nodes` simulated points whose cost (points x
+/// steps) is absurd, before anything is built.
+pub fn check_cost(file: &str, nodes: u64, steps: u64) -> Result<(), InputError> {
+    let cost = nodes as f64 * steps as f64;
+    if cost > MAX_POINT_STEPS {
+        return Err(InputError::new(
+            file,
+            "anatomy",
+            format!(
+                "{nodes} points x {steps} steps = {cost:.1e} point-steps, about {:.0} hours of \
+                 computing; at most {MAX_POINT_STEPS:.0e} are run: lower the resolution, raise \
+                 dt_s or shorten the trace",
+                cost / POINT_STEPS_PER_S / 3600.0
+            ),
+        ));
+    }
+    Ok(())
+}
+
 impl Scenario {
     /// Simulated points the anatomy will have, estimated from its sizes before anything is
     /// built: kidney and tumour (20 x 4^level faces each, one point per face) and three
@@ -325,26 +392,6 @@ impl Scenario {
         let sphere = 20 * 4u64.saturating_pow(a.level);
         let tube = 2 * u64::from(a.vessel_segments) * u64::from(a.vessel_rings);
         2 * sphere + 3 * tube
-    }
-
-    /// Refuses a session of `steps` steps whose cost (points x steps) is absurd, before the
-    /// anatomy is built.
-    pub fn check_cost(&self, file: &str, steps: u64) -> Result<(), InputError> {
-        let cost = self.estimated_nodes() as f64 * steps as f64;
-        if cost > MAX_POINT_STEPS {
-            return Err(InputError::new(
-                file,
-                "anatomy",
-                format!(
-                    "{} points x {steps} steps = {cost:.1e} point-steps, about {:.0} hours of \
-                     computing; at most {MAX_POINT_STEPS:.0e} are run: lower anatomy.level, \
-                     raise dt_s or shorten the trace",
-                    self.estimated_nodes(),
-                    cost / POINT_STEPS_PER_S / 3600.0
-                ),
-            ));
-        }
-        Ok(())
     }
 
     /// Parses and validates scenario text; `file` names it in errors.
@@ -538,7 +585,7 @@ mod tests {
     use crate::models::Tuning;
 
     #[test]
-    fn tuned_values_are_written_into_the_kidney_table_keeping_comments() {
+    fn tuned_values_are_written_into_their_table_keeping_comments() {
         let text = builtin("nephrectomy").expect("builtin");
         let before = Scenario::parse("s.toml", text).expect("parses");
         let t = Tuning {
@@ -547,7 +594,14 @@ mod tests {
             pressure_pa: 2000.0,
             offset_m: 0.004,
         };
-        let out = with_kidney_tuning("s.toml", text, &t).expect("written");
+        let vals = |t: &Tuning| -> Vec<(String, f32)> {
+            Tuning::RANGES
+                .iter()
+                .zip(t.values())
+                .map(|((k, _, _), v)| ((*k).to_string(), v))
+                .collect()
+        };
+        let out = with_values("s.toml", text, "kidney", &vals(&t)).expect("written");
         let after = Scenario::parse("s.toml", &out).expect("parses");
         assert_eq!(Tuning::of(&after.kidney), t);
         // The vessels keep their own values; every comment line survives; one line a key.
@@ -562,13 +616,18 @@ mod tests {
             .map(|l| format!("{l}\n"))
             .collect();
         assert_ne!(short, text);
-        let out = with_kidney_tuning("s.toml", &short, &t).expect("written");
+        let out = with_values("s.toml", &short, "kidney", &vals(&t)).expect("written");
         assert_eq!(
             Tuning::of(&Scenario::parse("s.toml", &out).expect("ok").kidney),
             t
         );
-        let e = with_kidney_tuning("s.toml", "procedure = \"nephrectomy\"\n", &t)
-            .expect_err("no table");
+        let e = with_values(
+            "s.toml",
+            "procedure = \"nephrectomy\"\n",
+            "kidney",
+            &vals(&t),
+        )
+        .expect_err("no table");
         assert!(e.to_string().contains("s.toml") && e.to_string().contains("kidney"));
     }
 }

@@ -4,11 +4,13 @@
 //! interpolated between frames, so the instruments move at the simulation's rate), vibrates
 //! the controllers on contact, and draws both eyes into the swapchain in one multiview pass.
 //!
-//! The right controller holds the laser pointer (aim-pose ray; trigger cuts; trackpad click
-//! marks the margin), the left the grasper (grip closes it). A controller that stops tracking
+//! Each controller holds the instrument its procedure gives that hand: the aim-pose ray is the
+//! instrument's axis, the trigger its trigger (a laser cuts), the grip its jaws, the trackpad
+//! click its mark button. A controller that stops tracking
 //! freezes its instrument and raises `controller_lost`; a lost session stops the simulation,
 //! keeps its record, and a new session carries on when the headset returns.
 
+use crate::procedures::{ToolInfo, ToolKind};
 use crate::profiler::FrameCounters;
 use crate::render::{EyeView, Fov, Gpu, RenderTarget, Renderer};
 use crate::session::{Live, Outcome};
@@ -34,19 +36,18 @@ pub struct HapticProfile {
     pub cutting_amplitude: f32,
 }
 
-/// Left hand: the grasper. A soft 160 Hz pulse (the Vive's actuator resonates near there),
-/// full at 3.5 N, the top of the 0.5-3.5 N that tissue takes in collision and puncture
-/// (interventional-catheter paper, section 3.1).
-pub const GRASPER_HAPTICS: HapticProfile = HapticProfile {
+/// A holding or pressing instrument (grasper, probe): a soft 160 Hz pulse (the Vive's
+/// actuator resonates near there), full at the instrument's full-scale force.
+const HOLDING_HAPTICS: HapticProfile = HapticProfile {
     full_force_n: 3.5,
     threshold_n: 1e-6,
     frequency_hz: 160.0,
     pulse_s: 0.025,
     cutting_amplitude: 0.0,
 };
-/// Right hand: the laser. A sharper 250 Hz buzz, full at 1 N, and half amplitude while it
-/// removes tissue (the paper's "vibrational feedback" when triangles are cut).
-pub const LASER_HAPTICS: HapticProfile = HapticProfile {
+/// A laser: a sharper 250 Hz buzz, and half amplitude while it removes tissue (the
+/// nephrectomy paper's "vibrational feedback" when triangles are cut).
+const LASER_HAPTICS: HapticProfile = HapticProfile {
     full_force_n: 1.0,
     threshold_n: 1e-6,
     frequency_hz: 250.0,
@@ -55,6 +56,18 @@ pub const LASER_HAPTICS: HapticProfile = HapticProfile {
 };
 
 impl HapticProfile {
+    /// The vibration of an instrument.
+    pub fn for_tool(tool: &ToolInfo) -> HapticProfile {
+        let base = match tool.kind {
+            ToolKind::Laser => LASER_HAPTICS,
+            ToolKind::Grasper | ToolKind::Probe => HOLDING_HAPTICS,
+        };
+        HapticProfile {
+            full_force_n: tool.full_scale_n,
+            ..base
+        }
+    }
+
     /// The amplitude for this frame's peak contact force and cut faces; `None`: no contact.
     pub fn amplitude(&self, force_n: f32, cut_faces: u32) -> Option<f32> {
         let touching = force_n.is_finite() && force_n > self.threshold_n;
@@ -358,6 +371,7 @@ impl XrLoop {
             .map_err(|r| format!("xrBeginFrame failed: {r}"))?;
         let t = fs.predicted_display_time;
         let live = &mut self.live;
+        let tools = live.info().tools;
         let o = *self
             .origin
             .get_or_insert(t.as_nanos() - (live.time_s() * 1e9).round() as i64);
@@ -414,7 +428,12 @@ impl XrLoop {
             };
             for e in live.step(frame).map_err(err)? {
                 if let EventKind::Cut { faces, .. } = e.kind {
-                    cut[Hand::Right.index()] += faces;
+                    // Cuts are the lasers' doing.
+                    for (k, t) in tools.iter().enumerate() {
+                        if t.kind == ToolKind::Laser {
+                            cut[k] += faces;
+                        }
+                    }
                 }
             }
             let f = live.reactions();
@@ -426,7 +445,7 @@ impl XrLoop {
         self.held = now;
         // Vibration while in contact, stopped when contact ends.
         if focused {
-            for (k, profile) in [GRASPER_HAPTICS, LASER_HAPTICS].iter().enumerate() {
+            for (k, profile) in tools.iter().map(HapticProfile::for_tool).enumerate() {
                 match profile.amplitude(peak[k], cut[k]) {
                     Some(a) if self.tracked[k] == Some(true) => {
                         xs.vibrate(
@@ -573,7 +592,14 @@ mod tests {
 
     #[test]
     fn amplitude_grows_with_force_and_stops_without_contact() {
-        let g = GRASPER_HAPTICS;
+        let tool = |kind, full_scale_n| ToolInfo {
+            hand: Hand::Left,
+            name: "tool",
+            kind,
+            full_scale_n,
+        };
+        let g = HapticProfile::for_tool(&tool(ToolKind::Grasper, 3.5));
+        let laser = HapticProfile::for_tool(&tool(ToolKind::Laser, 1.0));
         assert_eq!(g.amplitude(0.0, 0), None);
         assert_eq!(g.amplitude(1e-7, 0), None);
         assert_eq!(g.amplitude(1e-4, 0), Some(0.05));
@@ -583,7 +609,8 @@ mod tests {
         assert_eq!(g.amplitude(10.0, 0), Some(1.0));
         assert_eq!(g.amplitude(f32::NAN, 0), None);
         // The laser buzzes while it cuts, even without a reaction force.
-        assert_eq!(LASER_HAPTICS.amplitude(0.0, 3), Some(0.5));
-        assert_eq!(GRASPER_HAPTICS.amplitude(0.0, 3), None);
+        assert_eq!(laser.amplitude(0.0, 3), Some(0.5));
+        assert_eq!(g.amplitude(0.0, 3), None);
+        assert_eq!(laser.frequency_hz, 250.0);
     }
 }

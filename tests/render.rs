@@ -4,7 +4,7 @@
 
 use glam::Vec3;
 use vesalius::mesh::icosphere;
-use vesalius::render::camera::{DEFAULT_IPD_M, nephrectomy_eyes};
+use vesalius::render::camera::{DEFAULT_IPD_M, field_eyes};
 use vesalius::render::gpu::{EYE_FORMAT, read_png, write_png};
 use vesalius::render::{EyeTarget, EyeView, Gpu, Renderer};
 use vesalius::sim::{ModelSnapshot, Snapshot};
@@ -38,6 +38,7 @@ fn ball(radius: f32, drop_near: Option<(Vec3, f32)>) -> ModelSnapshot {
         positions,
         indices,
         regions,
+        roles: vec![vesalius::sim::SurfaceRole::Tissue],
         cut_edge,
     }
 }
@@ -91,7 +92,7 @@ fn gpu(multiview: bool) -> Gpu {
 #[test]
 fn the_organ_shows_in_both_eyes_with_the_predicted_disparity() {
     let gpu = gpu(true);
-    let eyes = nephrectomy_eyes(DEFAULT_IPD_M);
+    let eyes = field_eyes(&vesalius::procedures::nephrectomy::INFO.view, DEFAULT_IPD_M);
     let shot = render(&gpu, &scene(ball(0.03, None)), &eyes);
     let (fl, xl) = coverage(&shot.eyes[0]);
     let (fr, xr) = coverage(&shot.eyes[1]);
@@ -124,7 +125,7 @@ fn the_organ_shows_in_both_eyes_with_the_predicted_disparity() {
 
 #[test]
 fn two_passes_draw_the_same_picture_as_multiview() {
-    let eyes = nephrectomy_eyes(DEFAULT_IPD_M);
+    let eyes = field_eyes(&vesalius::procedures::nephrectomy::INFO.view, DEFAULT_IPD_M);
     // The instrument scene: its shaft runs past the eyes, through the near plane.
     let snap = reference_scenes().swap_remove(0).1;
     let one = render(&gpu(true), &snap, &eyes);
@@ -147,7 +148,7 @@ fn two_passes_draw_the_same_picture_as_multiview() {
 #[test]
 fn a_cut_changes_the_image_where_it_was_made() {
     let gpu = gpu(true);
-    let eyes = nephrectomy_eyes(DEFAULT_IPD_M);
+    let eyes = field_eyes(&vesalius::procedures::nephrectomy::INFO.view, DEFAULT_IPD_M);
     // Cut a 1 cm hole in the face turned towards the eyes.
     let towards = (eyes[0].position - Vec3::ZERO).normalize() * 0.03;
     let whole = render(&gpu, &scene(ball(0.03, None)), &eyes);
@@ -177,7 +178,7 @@ fn a_cut_changes_the_image_where_it_was_made() {
 #[test]
 fn counters_match_a_hand_count_of_a_known_scene() {
     let gpu = gpu(true);
-    let eyes = nephrectomy_eyes(DEFAULT_IPD_M);
+    let eyes = field_eyes(&vesalius::procedures::nephrectomy::INFO.view, DEFAULT_IPD_M);
     let mut snap = scene(ball(0.03, None));
     // One instrument with its laser aimed: shaft and two jaws (3 cylinders) and a beam.
     snap.tools[1].tip = Vec3::new(0.0, 0.02, 0.08);
@@ -214,7 +215,7 @@ fn saved_frames_read_back_as_the_rendered_pixels() {
     let shot = render(
         &gpu,
         &scene(ball(0.03, None)),
-        &nephrectomy_eyes(DEFAULT_IPD_M),
+        &field_eyes(&vesalius::procedures::nephrectomy::INFO.view, DEFAULT_IPD_M),
     );
     let dir = std::env::temp_dir().join(format!("vesalius-png-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temp dir");
@@ -247,8 +248,12 @@ fn reference_scenes() -> Vec<(&'static str, Snapshot)> {
             u8::from(c.x > 0.02 && c.z > 0.0)
         })
         .collect();
+    tumour.roles = vec![
+        vesalius::sim::SurfaceRole::Tissue,
+        vesalius::sim::SurfaceRole::Target,
+    ];
     let mut tumour = scene(tumour);
-    tumour.tumour_identified = true;
+    tumour.target_found = true;
     vec![("instrument", tool), ("cut", cut), ("tumour", tumour)]
 }
 
@@ -271,7 +276,7 @@ fn image_difference(a: &[u8], b: &[u8]) -> (usize, f64) {
 fn fixed_scenes_match_their_reference_images() {
     let gpu = gpu(true);
     let size = SIZE;
-    let eyes = nephrectomy_eyes(DEFAULT_IPD_M);
+    let eyes = field_eyes(&vesalius::procedures::nephrectomy::INFO.view, DEFAULT_IPD_M);
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/reference");
     let bless = std::env::var_os("VESALIUS_BLESS").is_some();
     for (name, snap) in reference_scenes() {
@@ -301,7 +306,7 @@ fn the_reference_comparison_catches_a_changed_picture() {
     // The same tolerance must reject a scene that changed: the cut scene against the intact one.
     let gpu = gpu(true);
     let size = SIZE;
-    let eyes = nephrectomy_eyes(DEFAULT_IPD_M);
+    let eyes = field_eyes(&vesalius::procedures::nephrectomy::INFO.view, DEFAULT_IPD_M);
     let scenes = reference_scenes();
     let a = render_at(&gpu, &scenes[0].1, &eyes, size);
     let b = render_at(&gpu, &scenes[1].1, &eyes, size);

@@ -15,7 +15,7 @@ use vesalius::procedures::nephrectomy::REGION_PARENCHYMA;
 use vesalius::scenario::{Scenario, builtin};
 use vesalius::sim::Hand;
 use vesalius::trace::Recording;
-use vesalius::xr::GRASPER_HAPTICS;
+use vesalius::xr::HapticProfile;
 
 /// The simulated runtime's refresh period (90 Hz), seconds.
 const PERIOD_S: f64 = vesalius_sim_runtime::FRAME_PERIOD_NS as f64 / 1e9;
@@ -129,6 +129,11 @@ fn event_times(run: &Run, kind: &str, dt_s: f64) -> Vec<f64> {
         .collect()
 }
 
+/// The vibration of the nephrectomy's left-hand instrument, the grasper.
+fn grasper_haptics() -> HapticProfile {
+    HapticProfile::for_tool(vesalius::procedures::nephrectomy::INFO.tool(Hand::Left))
+}
+
 #[test]
 fn the_grasper_vibrates_exactly_while_it_presses_the_kidney_and_harder_when_deeper() {
     let scenario = Scenario::parse("builtin", builtin("nephrectomy").expect("builtin"))
@@ -202,7 +207,7 @@ fn the_grasper_vibrates_exactly_while_it_presses_the_kidney_and_harder_when_deep
     let expected: Vec<(usize, f32)> = peak
         .iter()
         .enumerate()
-        .filter_map(|(j, f)| GRASPER_HAPTICS.amplitude(*f, 0).map(|a| (j, a)))
+        .filter_map(|(j, f)| grasper_haptics().amplitude(*f, 0).map(|a| (j, a)))
         .collect();
     let frame_of = |l: &Value| (l["t_s"].as_f64().expect("t_s") / PERIOD_S).round() as usize;
     let pulses: Vec<(usize, f32)> = run
@@ -226,7 +231,7 @@ fn the_grasper_vibrates_exactly_while_it_presses_the_kidney_and_harder_when_deep
     }
     for l in run.haptics.iter().filter(|l| l["hand"] == "left") {
         if l.get("amplitude").is_some() {
-            assert_eq!(l["frequency_hz"], f64::from(GRASPER_HAPTICS.frequency_hz));
+            assert_eq!(l["frequency_hz"], f64::from(grasper_haptics().frequency_hz));
             assert!((l["duration_s"].as_f64().expect("duration") - 0.025).abs() < 1e-9);
         }
     }

@@ -5,16 +5,23 @@
 //! section 3.1). The laser has no force alarm: the force its beam applies is the paper's
 //! deforming pressure, added at every point it reaches (eq 4), not a load on an instrument.
 
+use crate::procedures::{ProcedureInfo, ToolInfo, ToolKind};
 use crate::session::Status;
 use crate::sim::Hand;
 
-/// When to raise an alarm.
+/// When to raise an alarm, and what the instruments are called.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AlarmRules {
     /// A tool within this distance of a vulnerable structure, metres. Default 5 mm.
     pub near_m: f32,
-    /// A grasper contact force above this, newtons. Default 3.5 N.
+    /// A contact force above this on a tool that holds or presses tissue, newtons. Default
+    /// 3.5 N.
     pub force_n: f32,
+    /// The instruments' names (left, right), for messages.
+    pub names: [&'static str; 2],
+    /// Which instruments the force limit applies to (not to a beam, whose force is the
+    /// model's deforming pressure rather than a load on an instrument).
+    pub force_on: [bool; 2],
 }
 
 impl Default for AlarmRules {
@@ -22,6 +29,27 @@ impl Default for AlarmRules {
         AlarmRules {
             near_m: 0.005,
             force_n: 3.5,
+            names: ["left instrument", "right instrument"],
+            force_on: [true, true],
+        }
+    }
+}
+
+impl AlarmRules {
+    /// The default limits, with the procedure's instruments: the force limit at each
+    /// holding or pressing instrument's full scale.
+    pub fn for_procedure(info: &ProcedureInfo) -> Self {
+        let holds = |t: &ToolInfo| t.kind != ToolKind::Laser;
+        AlarmRules {
+            names: info.tools.map(|t| t.name),
+            force_on: info.tools.map(|t| holds(&t)),
+            force_n: info
+                .tools
+                .iter()
+                .filter(|t| holds(t))
+                .map(|t| t.full_scale_n)
+                .fold(f32::INFINITY, f32::min),
+            ..AlarmRules::default()
         }
     }
 }
@@ -39,21 +67,15 @@ pub enum Reason {
 pub struct Alarm {
     pub time_s: f64,
     pub hand: Hand,
+    /// The instrument's name.
+    pub tool: &'static str,
     pub reason: Reason,
 }
 
-/// The instrument each hand holds in the nephrectomy.
-pub fn instrument(hand: Hand) -> &'static str {
-    match hand {
-        Hand::Left => "grasper",
-        Hand::Right => "laser",
-    }
-}
-
 impl Alarm {
-    /// The banner's text, e.g. "grasper touches renal_artery".
+    /// The banner's text, e.g. "grasper touches artery".
     pub fn message(&self) -> String {
-        let tool = instrument(self.hand);
+        let tool = self.tool;
         match &self.reason {
             Reason::Touching { structure } => format!("{tool} touches {structure}"),
             Reason::Near {
@@ -85,6 +107,7 @@ pub fn conditions(rules: &AlarmRules, s: &Status) -> Vec<Alarm> {
             out.push(Alarm {
                 time_s: s.time_s,
                 hand,
+                tool: rules.names[k],
                 reason,
             })
         };
@@ -98,7 +121,7 @@ pub fn conditions(rules: &AlarmRules, s: &Status) -> Vec<Alarm> {
                 distance_m: *d,
             });
         }
-        if hand == Hand::Left && s.force_n[k].is_finite() && s.force_n[k] > rules.force_n {
+        if rules.force_on[k] && s.force_n[k].is_finite() && s.force_n[k] > rules.force_n {
             push(Reason::Force {
                 force_n: s.force_n[k],
             });
@@ -155,20 +178,24 @@ mod tests {
 
     #[test]
     fn an_approach_raises_near_then_touching_once_each_and_force_on_its_own() {
-        let mut w = AlarmWatch::new(AlarmRules::default());
+        let mut w = AlarmWatch::new(AlarmRules {
+            names: ["grasper", "laser"],
+            force_on: [true, false],
+            ..AlarmRules::default()
+        });
         let mut s = status(1.0);
-        s.near[0] = Some(("renal_artery".into(), 0.008));
+        s.near[0] = Some(("artery".into(), 0.008));
         assert_eq!(w.update(&s), (vec![], vec![]), "8 mm is not near");
         s.time_s = 1.5;
-        s.near[0] = Some(("renal_artery".into(), 0.004));
+        s.near[0] = Some(("artery".into(), 0.004));
         let (now, raised) = w.update(&s);
         assert_eq!(now, raised);
         assert_eq!(raised.len(), 1);
-        assert_eq!(raised[0].message(), "grasper 4.0 mm from renal_artery");
+        assert_eq!(raised[0].message(), "grasper 4.0 mm from artery");
         assert_eq!(raised[0].time_s, 1.5);
         // Still near: shown, not raised again.
         s.time_s = 1.6;
-        s.near[0] = Some(("renal_artery".into(), 0.003));
+        s.near[0] = Some(("artery".into(), 0.003));
         let (now, raised) = w.update(&s);
         assert_eq!((now.len(), raised.len()), (1, 0));
         // Touching and pressing too hard; the laser's beam force raises nothing.
@@ -179,7 +206,7 @@ mod tests {
         let msgs: Vec<String> = raised.iter().map(Alarm::message).collect();
         assert_eq!(
             msgs,
-            ["grasper touches renal_artery", "grasper presses with 4.2 N"]
+            ["grasper touches artery", "grasper presses with 4.2 N"]
         );
         // All clear, then the same force again: a new episode.
         w.update(&status(2.0));

@@ -127,8 +127,11 @@ fn render_frames(
     let failed = |e: &dyn std::fmt::Display| CliError::Failed(e.to_string());
     let gpu = vesalius::render::Gpu::headless(true).map_err(|e| failed(&e))?;
     let sim_ms = outcome.wall_s * 1e3 / outcome.report.steps.max(1) as f64;
+    let view = vesalius::procedures::find(&outcome.report.procedure)
+        .map_or(vesalius::procedures::REGISTRY[0].view, |p| p.view);
     let done = vesalius::render::frames::render_snapshots(
         &gpu,
+        &view,
         &outcome.captured,
         1,
         eye_size,

@@ -2,7 +2,7 @@
 
 use super::CliError;
 use std::path::{Path, PathBuf};
-use vesalius::scenario::{InputError, Scenario};
+use vesalius::scenario::InputError;
 use vesalius::trace::{KeyTrace, Recording};
 
 /// Finds the simulated runtime library built with this binary (beside it, or in `deps/` where
@@ -68,7 +68,7 @@ fn check_one(path: &Path) -> Result<&'static str, InputError> {
         .map_err(|e| InputError::new(&file, "file", format!("cannot read: {e}")))?;
     if Recording::is_recording(&bytes) {
         let rec = Recording::decode(&file, &bytes)?;
-        Scenario::parse(&format!("{file} (embedded scenario)"), &rec.scenario)?;
+        vesalius::procedures::plan(&format!("{file} (embedded scenario)"), &rec.scenario)?;
         return Ok(match rec.tail {
             vesalius::trace::Tail::Cut { .. } => "recorded trace, stops short: replays up to it",
             vesalius::trace::Tail::Ended { .. } => "recorded trace",
@@ -90,7 +90,7 @@ fn check_one(path: &Path) -> Result<&'static str, InputError> {
             .map_err(|e| InputError::new(&file, "settings", e))?;
         Ok("simulated runtime settings")
     } else {
-        Scenario::parse(&file, &text)?;
+        vesalius::procedures::plan(&file, &text)?;
         Ok("scenario")
     }
 }
@@ -138,12 +138,13 @@ pub fn profile(
     let procedure = info.name;
     let text = info.scenario;
     let keys = KeyTrace::parse("builtin demo trace", info.demo_trace)?;
-    // Simulate up to the middle of the cut (40 % of the trace) and render that instant with
-    // the simulation still alive, so total memory counts it as Unity's profiler would.
-    let scenario = Scenario::parse(&format!("builtin {procedure} scenario"), text)?;
-    let dt = scenario.dt_s as f64;
-    let mut sim = vesalius::procedures::Nephrectomy::new(scenario)
-        .map_err(|e| CliError::Failed(e.to_string()))?;
+    // Simulate up to 40 % of the demo (mid-task: in the nephrectomy, the middle of the cut)
+    // and render that instant with the simulation still alive, so total memory counts it as
+    // Unity's profiler would.
+    let file = format!("builtin {procedure} scenario");
+    let (_, plan) = vesalius::procedures::plan(&file, text)?;
+    let dt = f64::from(plan.dt_s);
+    let mut sim = (info.build)(&file, text).map_err(|e| CliError::Failed(e.to_string()))?;
     let steps = (keys.duration_s() * 0.4 / dt).ceil() as u64;
     let mut events = Vec::new();
     let t0 = std::time::Instant::now();
@@ -156,8 +157,9 @@ pub fn profile(
         vesalius::render::Gpu::headless(!two_pass).map_err(|e| CliError::Failed(e.to_string()))?;
     // Five frames of the same instant: the first pays for pipeline warm-up.
     let snap = sim.snapshot(steps.saturating_sub(1));
-    let done = vesalius::render::frames::render_repeated(&gpu, &snap, 5, eye_size, sim_ms)
-        .map_err(|e| CliError::Failed(e.to_string()))?;
+    let done =
+        vesalius::render::frames::render_repeated(&gpu, &info.view, &snap, 5, eye_size, sim_ms)
+            .map_err(|e| CliError::Failed(e.to_string()))?;
     // Total memory as the last frame measured it: heap (simulation, snapshot, renderer) plus
     // every GPU buffer and texture, while all of them were alive.
     let ours = done.counters.last().cloned().unwrap_or_default();

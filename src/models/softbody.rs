@@ -1417,6 +1417,8 @@ impl TissueModel for SoftBody {
             normals: rn.into_iter().map(Vec3::normalize_or_zero).collect(),
             indices,
             regions,
+            // The procedure says what each region is.
+            roles: Vec::new(),
         }
     }
 

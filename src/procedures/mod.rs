@@ -1,24 +1,17 @@
 //! Procedures: anatomy, models, tools and task steps composed from a scenario, and the
-//! registry that lists them for the command line, the window and the recordings.
+//! registry that lists them for the command line, the window and the recordings. A new
+//! procedure is a folder here and one line in [`REGISTRY`].
+
+use crate::scenario::InputError;
 
 pub mod nephrectomy;
+mod procedure;
 
 pub use nephrectomy::Nephrectomy;
-
-/// What the rest of the program knows of a procedure before it runs.
-#[derive(Debug)]
-pub struct ProcedureInfo {
-    /// The name used on the command line, in scenarios, traces and recordings.
-    pub name: &'static str,
-    /// A title for people.
-    pub title: &'static str,
-    /// The paper it follows (file under `shared/papers/`).
-    pub paper: &'static str,
-    /// The default scenario (TOML text).
-    pub scenario: &'static str,
-    /// The demo trace `vesalius demo`, `bench` and `profile` play (TOML text).
-    pub demo_trace: &'static str,
-}
+pub use procedure::{
+    BuildError, ModelReport, Plan, Procedure, ProcedureInfo, ProcedureReport, TaskStatus, TaskStep,
+    ToolInfo, ToolKind, Tunable, Viewpoint,
+};
 
 /// Every procedure that runs today, in the order `vesalius demo` plays them.
 pub const REGISTRY: &[&ProcedureInfo] = &[&nephrectomy::INFO];
@@ -31,4 +24,31 @@ pub fn find(name: &str) -> Option<&'static ProcedureInfo> {
 /// The registered procedures' names.
 pub fn names() -> impl Iterator<Item = &'static str> {
     REGISTRY.iter().map(|p| p.name)
+}
+
+/// The registered procedure called `name`, or an error naming `file` and `key` that lists
+/// the registered ones.
+pub fn lookup(file: &str, key: &str, name: &str) -> Result<&'static ProcedureInfo, InputError> {
+    crate::scenario::check_procedure(file, key, name)?;
+    find(name).ok_or_else(|| InputError::new(file, key, format!("unknown procedure '{name}'")))
+}
+
+/// Builds the procedure a scenario names (its `procedure` key).
+pub fn build(file: &str, text: &str) -> Result<Box<dyn Procedure>, BuildError> {
+    let info = lookup(
+        file,
+        "procedure",
+        &crate::scenario::procedure_of(file, text)?,
+    )?;
+    (info.build)(file, text)
+}
+
+/// Plans the session a scenario describes (its `procedure` key picks who reads it).
+pub fn plan(file: &str, text: &str) -> Result<(&'static ProcedureInfo, Plan), InputError> {
+    let info = lookup(
+        file,
+        "procedure",
+        &crate::scenario::procedure_of(file, text)?,
+    )?;
+    Ok((info, (info.plan)(file, text)?))
 }

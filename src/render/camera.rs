@@ -108,14 +108,9 @@ pub fn stereo_eyes(head: Vec3, target: Vec3, ipd_m: f32) -> [EyeView; 2] {
     ]
 }
 
-/// The headless viewpoint over the nephrectomy field: above and in front of the kidney's
-/// lateral face, where a surgeon's head would be over the port site.
-pub fn nephrectomy_eyes(ipd_m: f32) -> [EyeView; 2] {
-    stereo_eyes(
-        Vec3::new(0.0, 0.07, 0.16),
-        Vec3::new(0.005, 0.01, 0.0),
-        ipd_m,
-    )
+/// Both eyes at a procedure's viewpoint over its field (the headless and mirror view).
+pub fn field_eyes(view: &crate::procedures::Viewpoint, ipd_m: f32) -> [EyeView; 2] {
+    stereo_eyes(view.eye, view.target, ipd_m)
 }
 
 #[cfg(test)]

@@ -2,8 +2,9 @@
 //! row of profiler counters per frame.
 
 use super::Renderer;
-use super::camera::{DEFAULT_IPD_M, nephrectomy_eyes};
+use super::camera::{DEFAULT_IPD_M, field_eyes};
 use super::gpu::{EYE_FORMAT, EyeTarget, Gpu, RenderError, write_png};
+use crate::procedures::Viewpoint;
 use crate::profiler::FrameCounters;
 use crate::sim::Snapshot;
 use std::io::Write;
@@ -22,6 +23,7 @@ pub struct FramesOut {
 /// folder that gets `left_NNNN.png`, `right_NNNN.png` (and nothing is read back without it).
 pub fn render_snapshots(
     gpu: &Gpu,
+    view: &Viewpoint,
     snaps: &[Snapshot],
     repeat: usize,
     eye_size: (u32, u32),
@@ -32,7 +34,7 @@ pub fn render_snapshots(
     let mut renderer = Renderer::new(gpu, EYE_FORMAT);
     let target = EyeTarget::new(gpu, eye_size);
     gpu.check()?;
-    let eyes = nephrectomy_eyes(DEFAULT_IPD_M);
+    let eyes = field_eyes(view, DEFAULT_IPD_M);
     let mut counters = Vec::with_capacity(snaps.len());
     let mut frame_ms = Vec::with_capacity(snaps.len());
     if let Some(dir) = save {
@@ -72,6 +74,7 @@ pub fn render_snapshots(
 /// Renders one snapshot `times` times (no readback): for timing and counters.
 pub fn render_repeated(
     gpu: &Gpu,
+    view: &Viewpoint,
     snap: &Snapshot,
     times: usize,
     eye_size: (u32, u32),
@@ -79,6 +82,7 @@ pub fn render_repeated(
 ) -> Result<FramesOut, RenderError> {
     render_snapshots(
         gpu,
+        view,
         std::slice::from_ref(snap),
         times,
         eye_size,

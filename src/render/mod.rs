@@ -13,7 +13,7 @@ pub use camera::{EyeView, Fov};
 pub use gpu::{EyeTarget, Gpu, RenderError};
 
 use crate::profiler::{Category, FrameCounters, Ledger, Tracked};
-use crate::sim::{Snapshot, ToolSnapshot};
+use crate::sim::{Snapshot, SurfaceRole, ToolSnapshot};
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
 use std::num::NonZeroU32;
@@ -27,19 +27,23 @@ pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth16Unorm;
 /// Background: the dim, warm cavity a laparoscope sees.
 pub const BACKGROUND: [f64; 3] = [0.02, 0.012, 0.01];
 
-/// Material slots (the shader's table).
+/// Material slots (the shader's table; it holds up to 16).
 pub mod material {
-    pub const KIDNEY: u32 = 0;
-    pub const TUMOUR: u32 = 1;
+    pub const TISSUE: u32 = 0;
+    pub const TARGET: u32 = 1;
     pub const ARTERY: u32 = 2;
     pub const VEIN: u32 = 3;
-    pub const URETER: u32 = 4;
+    pub const DUCT: u32 = 4;
     pub const INSTRUMENT: u32 = 5;
     pub const LASER_ON: u32 = 6;
     pub const LASER_IDLE: u32 = 7;
+    pub const FAT: u32 = 8;
+    pub const MEMBRANE: u32 = 9;
     /// Set on vertices at the edge of a cut.
     pub const CUT_FLAG: u32 = 256;
-    pub const COUNT: usize = 8;
+    pub const COUNT: usize = 10;
+    /// The shader's table length.
+    pub const SLOTS: usize = 16;
 }
 
 #[repr(C)]
@@ -71,33 +75,42 @@ struct MaterialUniform {
     shading: [f32; 4],
 }
 
-fn material_table() -> [MaterialUniform; material::COUNT] {
+fn material_table() -> [MaterialUniform; material::SLOTS] {
     // albedo rgb; specular strength, shininess, emissive, rim.
     let m = |r: f32, g: f32, b: f32, spec: f32, shin: f32, emit: f32, rim: f32| MaterialUniform {
         albedo: [r, g, b, 1.0],
         shading: [spec, shin, emit, rim],
     };
     [
-        m(0.50, 0.13, 0.10, 0.35, 40.0, 0.0, 0.10), // kidney parenchyma
-        m(0.78, 0.62, 0.36, 0.30, 30.0, 0.0, 0.08), // tumour
-        m(0.80, 0.08, 0.08, 0.50, 60.0, 0.0, 0.12), // renal artery
-        m(0.20, 0.18, 0.62, 0.50, 60.0, 0.0, 0.12), // renal vein
-        m(0.88, 0.80, 0.58, 0.35, 40.0, 0.0, 0.08), // ureter
+        m(0.50, 0.13, 0.10, 0.35, 40.0, 0.0, 0.10), // tissue (parenchyma)
+        m(0.78, 0.62, 0.36, 0.30, 30.0, 0.0, 0.08), // target (a pale mass)
+        m(0.80, 0.08, 0.08, 0.50, 60.0, 0.0, 0.12), // artery
+        m(0.20, 0.18, 0.62, 0.50, 60.0, 0.0, 0.12), // vein
+        m(0.88, 0.80, 0.58, 0.35, 40.0, 0.0, 0.08), // duct
         m(0.55, 0.57, 0.60, 0.90, 80.0, 0.0, 0.20), // instrument steel
         m(0.20, 1.00, 0.30, 0.00, 1.0, 2.0, 0.00),  // laser, cutting
         m(0.10, 0.50, 0.15, 0.00, 1.0, 0.8, 0.00),  // laser, aiming
+        m(0.92, 0.80, 0.42, 0.25, 20.0, 0.0, 0.06), // fat
+        m(0.85, 0.72, 0.68, 0.60, 50.0, 0.0, 0.25), // membrane (thin, glossy)
+        m(0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0),
+        m(0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0),
+        m(0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0),
+        m(0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0),
+        m(0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0),
+        m(0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0),
     ]
 }
 
-/// The material of a model's region.
-fn base_material(model: &str, region: u8) -> u32 {
-    match (model, region) {
-        ("kidney", 1) => material::TUMOUR,
-        ("kidney", _) => material::KIDNEY,
-        ("renal_artery", _) => material::ARTERY,
-        ("renal_vein", _) => material::VEIN,
-        ("ureter", _) => material::URETER,
-        _ => material::KIDNEY,
+/// The material of a surface role.
+fn role_material(role: SurfaceRole) -> u32 {
+    match role {
+        SurfaceRole::Tissue => material::TISSUE,
+        SurfaceRole::Target => material::TARGET,
+        SurfaceRole::Artery => material::ARTERY,
+        SurfaceRole::Vein => material::VEIN,
+        SurfaceRole::Duct => material::DUCT,
+        SurfaceRole::Fat => material::FAT,
+        SurfaceRole::Membrane => material::MEMBRANE,
     }
 }
 
@@ -315,9 +328,10 @@ impl Renderer {
         }
         self.meshes.truncate(snap.models.len());
         for (k, m) in snap.models.iter().enumerate() {
-            let mut vertex_material = vec![material::KIDNEY; m.positions.len()];
+            let mut vertex_material = vec![material::TISSUE; m.positions.len()];
             for (t, tri) in m.indices.chunks_exact(3).enumerate() {
-                let base = base_material(&m.name, m.regions.get(t).copied().unwrap_or(0));
+                let region = m.regions.get(t).copied().unwrap_or(0) as usize;
+                let base = role_material(m.roles.get(region).copied().unwrap_or_default());
                 for &i in tri {
                     if let Some(v) = vertex_material.get_mut(i as usize) {
                         *v = base;
@@ -372,7 +386,7 @@ impl Renderer {
         // Organs, instruments, beams, the headlight and the eye rig.
         self.objects = snap.models.len() as u64 + tools + beams + 2;
         let flags = [
-            if snap.tumour_identified { 1.0 } else { 0.0 },
+            if snap.target_found { 1.0 } else { 0.0 },
             snap.time_s as f32,
             0.0,
             0.0,

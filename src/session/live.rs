@@ -2,13 +2,9 @@
 //! headless loop): the procedure, its clock, its events and its recording.
 
 use super::output::{io, new_session_id};
-use super::{ModelReport, Outcome, Recorded, Report, SessionError, Status, ended};
-use crate::assess;
-use crate::models::Tuning;
-use crate::procedures::Nephrectomy;
-use crate::procedures::nephrectomy::TUNED_MODEL;
-use crate::scenario::Scenario;
-use crate::sim::{Clock, InputFrame, Pacing, SimEvent, Snapshot, TissueModel};
+use super::{Outcome, Recorded, Report, SessionError, Status, ended};
+use crate::procedures::{Plan, Procedure, ProcedureInfo, Tunable};
+use crate::sim::{Clock, InputFrame, Pacing, SimEvent, Snapshot};
 use crate::trace::{Recording, RecordingHeader, RecordingWriter, Tail, TuningRecord};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -16,10 +12,11 @@ use std::time::Instant;
 
 /// A session in progress.
 pub struct Live {
-    scenario: Scenario,
+    info: &'static ProcedureInfo,
+    plan: Plan,
     scenario_text: String,
     session_id: String,
-    proc_: Nephrectomy,
+    proc_: Box<dyn Procedure>,
     clock: Clock,
     /// The recording streams here when the session has an output folder...
     writer: Option<RecordingWriter>,
@@ -49,11 +46,12 @@ impl Live {
         pacing: Pacing,
         session_id: &str,
     ) -> Result<Live, SessionError> {
-        let scenario = Scenario::parse(scenario_file, scenario_text)?;
-        let proc_ = Nephrectomy::new(scenario.clone())?;
+        let (info, plan) = crate::procedures::plan(scenario_file, scenario_text)?;
+        let proc_ = (info.build)(scenario_file, scenario_text)?;
         Ok(Live {
-            clock: Clock::new(scenario.dt_s, pacing),
-            scenario,
+            clock: Clock::new(plan.dt_s, pacing),
+            info,
+            plan,
             scenario_text: scenario_text.to_string(),
             session_id: if session_id.is_empty() {
                 new_session_id()
@@ -74,8 +72,8 @@ impl Live {
     pub fn stream_to(&mut self, path: &Path) -> Result<(), SessionError> {
         let header = RecordingHeader {
             session_id: &self.session_id,
-            procedure: &self.scenario.procedure,
-            dt_s: self.scenario.dt_s,
+            procedure: self.info.name,
+            dt_s: self.plan.dt_s,
             scenario: &self.scenario_text,
         };
         let mut w = RecordingWriter::create(path, &header).map_err(io(path))?;
@@ -92,7 +90,12 @@ impl Live {
     }
 
     pub fn dt_s(&self) -> f32 {
-        self.scenario.dt_s
+        self.plan.dt_s
+    }
+
+    /// The procedure's description (steps, tools, viewpoint).
+    pub fn info(&self) -> &'static ProcedureInfo {
+        self.info
     }
 
     /// Simulated time, seconds.
@@ -102,14 +105,14 @@ impl Live {
 
     /// Steps between two snapshots published for renderers (the scenario's `publish_hz`).
     pub fn publish_every(&self) -> u64 {
-        ((1.0 / self.scenario.publish_hz) / self.scenario.dt_s)
+        ((1.0 / self.plan.publish_hz) / self.plan.dt_s)
             .round()
             .max(1.0) as u64
     }
 
     /// Steps that cover `duration_s` of simulated time.
     pub fn steps_for(&self, duration_s: f64) -> u64 {
-        (duration_s / f64::from(self.scenario.dt_s)).ceil() as u64
+        (duration_s / f64::from(self.plan.dt_s)).ceil() as u64
     }
 
     pub fn step_count(&self) -> u64 {
@@ -160,57 +163,37 @@ impl Live {
         }
     }
 
-    /// Changes the tuned model's spring, damping, pressure and offset from the next step on;
-    /// the change is recorded (a replay makes it at the same step) and raised as an event.
-    pub fn tune(&mut self, t: Tuning) -> Result<(), String> {
-        t.check()
-            .map_err(|(key, m)| format!("{TUNED_MODEL}.{key}: {m}"))?;
+    /// Changes tunable values of `model` from the next step on; the change is recorded (a
+    /// replay makes it at the same step) and raised as an event. Values out of their ranges
+    /// are refused and change nothing.
+    pub fn tune(&mut self, model: &str, values: &[(String, f32)]) -> Result<(), String> {
+        self.proc_.tune(model, values)?;
         let record = TuningRecord {
             step: self.clock.step(),
-            model: TUNED_MODEL.to_string(),
-            values: Tuning::RANGES
-                .iter()
-                .zip(t.values())
-                .map(|((k, _, _), v)| ((*k).to_string(), v))
-                .collect(),
+            model: model.to_string(),
+            values: values.to_vec(),
         };
         if let Some(w) = self.writer.as_mut() {
             w.push_tuning(&record).map_err(|e| e.to_string())?;
         } else {
             self.tunings.push(record);
         }
-        self.proc_.tune_kidney(&t);
         self.note(crate::sim::EventKind::TissueTuned {
-            model: TUNED_MODEL.into(),
-            tuning: t,
+            model: model.to_string(),
+            values: values.iter().cloned().collect(),
         });
         Ok(())
     }
 
     /// Makes a recorded tuning.
     pub fn tune_recorded(&mut self, r: &TuningRecord) -> Result<(), String> {
-        if r.model != TUNED_MODEL {
-            return Err(format!(
-                "step {}: model '{}' has no tunable parameters",
-                r.step, r.model
-            ));
-        }
-        let mut t = self.tuning();
-        for (key, v) in &r.values {
-            match key.as_str() {
-                "spring_n_per_m" => t.spring_n_per_m = *v,
-                "damping_per_s" => t.damping_per_s = *v,
-                "pressure_pa" => t.pressure_pa = *v,
-                "offset_m" => t.offset_m = *v,
-                other => return Err(format!("step {}: unknown parameter '{other}'", r.step)),
-            }
-        }
-        self.tune(t)
+        self.tune(&r.model, &r.values)
+            .map_err(|e| format!("step {}: {e}", r.step))
     }
 
-    /// The tuned model's parameters now.
-    pub fn tuning(&self) -> Tuning {
-        Tuning::of(&self.proc_.scenario.kidney)
+    /// The values the supervisor may tune now.
+    pub fn tunables(&self) -> Vec<Tunable> {
+        self.proc_.tunables()
     }
 
     /// Adds an event from outside the simulation (a controller lost, a session restarted).
@@ -235,23 +218,21 @@ impl Live {
     /// How the session stands now, for the supervisor's panels; vulnerable structures are
     /// looked for within `near_m` of the tools.
     pub fn status(&self, near_m: f32) -> Status {
-        let m = &self.proc_.metrics;
-        let (score, _) = assess::score(&self.scenario, m);
+        let t = self.proc_.status(near_m);
         let f = self.proc_.reactions();
         Status {
             step: self.clock.step(),
             time_s: self.clock.time_s(),
-            path_m: [m.path_length_left_m, m.path_length_right_m],
-            cut_length_m: m.cut_length_m,
-            cut_faces: m.cut_faces,
-            errors: m.vessel_contacts + m.ties_torn,
-            score,
-            steps_done: m.steps_done.clone(),
-            completed: self.proc_.is_completed(),
+            path_m: t.path_m,
+            errors: t.errors,
+            score: t.score,
+            steps_done: t.steps_done,
+            completed: t.completed,
             force_n: [f[0].length(), f[1].length()],
-            touching: self.proc_.touching_vulnerable(),
-            near: self.proc_.vulnerable_near(near_m),
-            tuning: self.tuning(),
+            touching: t.touching,
+            near: t.near,
+            figures: t.figures,
+            tunables: self.proc_.tunables(),
         }
     }
 
@@ -271,9 +252,9 @@ impl Live {
                 Recorded::Streamed(path)
             }
             None => Recorded::InMemory(Recording {
-                procedure: self.scenario.procedure.clone(),
+                procedure: self.info.name.to_string(),
                 session_id: self.session_id.clone(),
-                dt_s: self.scenario.dt_s,
+                dt_s: self.plan.dt_s,
                 scenario: self.scenario_text,
                 frames: self.frames,
                 tunings: self.tunings,
@@ -282,45 +263,26 @@ impl Live {
                 },
             }),
         };
-        let proc_ = self.proc_;
-        let scenario = self.scenario;
-        let clock = self.clock;
         let mut counts: BTreeMap<String, u64> = BTreeMap::new();
         for e in &self.events {
             *counts.entry(e.kind.name().to_string()).or_default() += 1;
         }
-        let mut metrics = proc_.metrics.clone();
-        if !proc_.is_completed() {
-            metrics.healthy_removed_m2 = proc_.healthy_removed();
-        }
-        let (score, parts) = assess::score(&scenario, &metrics);
+        let done = self.proc_.report();
         let report = Report {
-            procedure: scenario.procedure.clone(),
+            procedure: self.info.name.to_string(),
             session_id: self.session_id,
-            completed: proc_.is_completed(),
+            completed: done.completed,
             ended: self.ended,
-            dt_s: scenario.dt_s,
-            steps: clock.step(),
-            simulated_s: clock.time_s(),
-            models: proc_
-                .models()
-                .iter()
-                .map(|m| {
-                    let s = m.sizes();
-                    ModelReport {
-                        name: m.name().to_string(),
-                        kind: m.kind().to_string(),
-                        vertices: s.vertices,
-                        triangles: s.triangles,
-                        constraints: s.constraints,
-                    }
-                })
-                .collect(),
+            dt_s: self.plan.dt_s,
+            steps: self.clock.step(),
+            simulated_s: self.clock.time_s(),
+            models: self.proc_.model_reports(),
             events: counts,
-            metrics,
-            score_parts: parts,
-            score,
-            state_hash: format!("{:016x}", proc_.state_hash()),
+            errors: done.errors,
+            metrics: done.metrics,
+            score_parts: done.score_parts,
+            score: done.score,
+            state_hash: format!("{:016x}", self.proc_.state_hash()),
         };
         Ok(Outcome {
             report,

@@ -9,8 +9,8 @@ mod output;
 pub use live::Live;
 pub use output::{EVENTS, RECORDING, REPORT, TIMING, new_session_id, prepare, write_outputs};
 
-use crate::assess;
-use crate::models::Tuning;
+pub use crate::procedures::ModelReport;
+use crate::procedures::{BuildError, Tunable};
 use crate::scenario::InputError;
 use crate::sim::{Pacing, SimEvent, Snapshot, SnapshotBus};
 use crate::trace::{KeyTrace, Recording, Tail};
@@ -47,14 +47,11 @@ pub struct Status {
     pub time_s: f64,
     /// Instrument tip path length so far (left, right), metres.
     pub path_m: [f32; 2],
-    /// Length cut so far, metres, and triangles removed.
-    pub cut_length_m: f32,
-    pub cut_faces: u32,
-    /// Errors: vulnerable-structure contacts and torn ties.
+    /// Errors so far (the procedure counts them).
     pub errors: u32,
     /// Score so far (0-100), by the scenario's weights.
     pub score: f32,
-    /// Task steps done, in order.
+    /// Task step ids done, in order.
     pub steps_done: Vec<String>,
     pub completed: bool,
     /// Contact force on each tool, newtons.
@@ -63,8 +60,10 @@ pub struct Status {
     pub touching: [bool; 2],
     /// The nearest vulnerable structure near each tool, and its distance, metres.
     pub near: [Option<(String, f32)>; 2],
-    /// The tuned model's parameters now.
-    pub tuning: Tuning,
+    /// The procedure's live figures: a label and a formatted value.
+    pub figures: Vec<(String, String)>,
+    /// The values the supervisor may tune, as they are now.
+    pub tunables: Vec<Tunable>,
 }
 
 /// Extra simulated time after the trace ends, seconds, so that motion settles.
@@ -72,15 +71,6 @@ pub const SETTLE_S: f64 = 0.25;
 
 /// The longest session a trace, a duration or a window may ask for, seconds (4 hours).
 pub const DEFAULT_MAX_SESSION_S: f64 = xr_bindings::keyframes::DEFAULT_MAX_SESSION_S;
-
-#[derive(Debug, Serialize)]
-pub struct ModelReport {
-    pub name: String,
-    pub kind: String,
-    pub vertices: usize,
-    pub triangles: usize,
-    pub constraints: usize,
-}
 
 #[derive(Debug, Serialize)]
 pub struct Report {
@@ -96,8 +86,12 @@ pub struct Report {
     pub simulated_s: f64,
     pub models: Vec<ModelReport>,
     pub events: BTreeMap<String, u64>,
-    pub metrics: crate::procedures::nephrectomy::Metrics,
-    pub score_parts: assess::ScoreParts,
+    /// Errors the procedure counted (vulnerable structures touched, tissue torn, ...).
+    pub errors: u32,
+    /// The procedure's own metrics.
+    pub metrics: serde_json::Value,
+    /// The score's components.
+    pub score_parts: serde_json::Value,
     pub score: f32,
     /// FNV-1a digest of the final simulation state.
     pub state_hash: String,
@@ -125,8 +119,8 @@ pub struct Outcome {
 pub enum SessionError {
     #[error(transparent)]
     Input(#[from] InputError),
-    #[error("building the anatomy: {0}")]
-    Mesh(#[from] crate::mesh::MeshError),
+    #[error(transparent)]
+    Build(#[from] BuildError),
     #[error("{path}: {source}")]
     Io {
         path: String,
@@ -202,12 +196,12 @@ pub fn run_with(
         prepare(dir)?;
     }
     // Refuse an absurd session before its anatomy is built.
-    let scenario = crate::scenario::Scenario::parse(scenario_file, scenario_text)?;
+    let (_, plan) = crate::procedures::plan(scenario_file, scenario_text)?;
     let total_steps = match &input {
-        Input::Keys(k) => ((k.duration_s() + SETTLE_S) / f64::from(scenario.dt_s)).ceil() as u64,
+        Input::Keys(k) => ((k.duration_s() + SETTLE_S) / f64::from(plan.dt_s)).ceil() as u64,
         Input::Recorded(r) => r.frames.len() as u64,
     };
-    scenario.check_cost(scenario_file, total_steps)?;
+    crate::scenario::check_cost(scenario_file, plan.nodes, total_steps)?;
     let mut live = match &input {
         Input::Recorded(r) => {
             Live::with_id(scenario_text, scenario_file, opts.pacing, &r.session_id)?

@@ -82,7 +82,7 @@ pub enum EventKind {
     /// The supervisor changed a model's tunable parameters (applied from this step on).
     TissueTuned {
         model: String,
-        tuning: crate::models::Tuning,
+        values: std::collections::BTreeMap<String, f32>,
     },
 }
 

@@ -15,4 +15,4 @@ pub use model::{
     Contact, ContactKind, CutStroke, ModelOutput, ModelSizes, SurfaceView, TissueModel, ToolId,
 };
 pub use quarantine::Quarantine;
-pub use snapshot::{ModelSnapshot, Snapshot, SnapshotBus, ToolSnapshot};
+pub use snapshot::{ModelSnapshot, Snapshot, SnapshotBus, SurfaceRole, ToolSnapshot};

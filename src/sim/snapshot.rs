@@ -2,6 +2,25 @@ use arc_swap::ArcSwap;
 use glam::Vec3;
 use std::sync::Arc;
 
+/// What a surface is, for the renderer's choice of material (and, later, assessment): the
+/// procedure says it; the renderer knows no organ.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SurfaceRole {
+    /// Organ tissue (parenchyma, wall, muscle).
+    #[default]
+    Tissue,
+    /// What the task is about (a tumour, a specimen): highlighted once found.
+    Target,
+    Artery,
+    Vein,
+    /// A duct or ureter.
+    Duct,
+    Fat,
+    /// A membrane, fascia or peritoneum.
+    Membrane,
+}
+
 /// What a renderer needs of one model at one instant.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct ModelSnapshot {
@@ -11,6 +30,8 @@ pub struct ModelSnapshot {
     pub indices: Vec<u32>,
     /// Region index per triangle.
     pub regions: Vec<u8>,
+    /// The role of each region (index = region); a region past the end is tissue.
+    pub roles: Vec<SurfaceRole>,
     /// Per vertex: whether it lies on the edge of a cut (drawn as cut tissue).
     pub cut_edge: Vec<bool>,
 }
@@ -33,8 +54,9 @@ pub struct Snapshot {
     pub tools: [ToolSnapshot; 2],
     /// Reaction force on each tool, newtons.
     pub reactions: [Vec3; 2],
-    /// The trainee has found the tumour (the renderer highlights it).
-    pub tumour_identified: bool,
+    /// The trainee has found the target (the renderer highlights surfaces whose role is
+    /// [`SurfaceRole::Target`]).
+    pub target_found: bool,
 }
 
 /// Publishes snapshots without blocking: readers load the newest `Arc`, the simulation swaps in

@@ -4,18 +4,10 @@
 //! counters; `show` draws it with egui, so the panels can be tested without a window.
 
 use crate::assess::alarms::{Alarm, AlarmRules, AlarmWatch};
-use crate::models::Tuning;
+use crate::procedures::{ProcedureInfo, Tunable};
 use crate::profiler::FrameCounters;
 use crate::session::{Report, Status};
 use std::collections::VecDeque;
-
-/// The nephrectomy's task steps, as the procedure names them, with what the trainee does.
-pub const NEPHRECTOMY_STEPS: [(&str, &str); 4] = [
-    ("identify", "Identify the tumour with the laser"),
-    ("mark", "Mark the resection margin"),
-    ("cut", "Cut around the tumour"),
-    ("remove", "Lift the tumour out"),
-];
 
 /// Samples of the profiler plot kept (about 10 s at 90 frames a second).
 const PLOT_SAMPLES: usize = 900;
@@ -49,7 +41,7 @@ impl Summary {
             score: r.score,
             simulated_s: r.simulated_s,
             cuts: r.events.get("cut").copied().unwrap_or(0),
-            errors: r.metrics.vessel_contacts + r.metrics.ties_torn,
+            errors: r.errors,
             written_to,
         }
     }
@@ -57,7 +49,7 @@ impl Summary {
 
 /// What the panels show.
 pub struct Dashboard {
-    pub procedure: String,
+    pub info: &'static ProcedureInfo,
     /// Where the view and input come from ("trace nephrectomy-demo.toml", "mouse and keyboard").
     pub source: String,
     pub status: Status,
@@ -76,32 +68,24 @@ pub struct Dashboard {
     /// What the 3D view shows of an XR session.
     pub viewing: Option<&'static str>,
     /// The tissue sliders' values (from the simulation until the first edit).
-    pub edit: Option<Tuning>,
+    pub edit: Option<Vec<Tunable>>,
     /// Where the tuned scenario was last written, or why it was not.
     pub saved: Option<String>,
 }
 
 /// What the supervisor asked for this frame.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct Actions {
-    /// Apply these kidney parameters now.
-    pub tune: Option<Tuning>,
+    /// Apply these values of this model now.
+    pub tune: Option<(String, Vec<(String, f32)>)>,
     /// Write the current parameters into the scenario file.
     pub save: bool,
 }
 
-/// Slider labels with units, in the order of `Tuning::RANGES`.
-const SLIDERS: [&str; 4] = [
-    "spring (N/m)",
-    "damping (1/s)",
-    "pressure (Pa)",
-    "offset (mm)",
-];
-
 impl Dashboard {
-    pub fn new(procedure: &str, source: &str, rules: AlarmRules) -> Dashboard {
+    pub fn new(info: &'static ProcedureInfo, source: &str, rules: AlarmRules) -> Dashboard {
         Dashboard {
-            procedure: procedure.to_string(),
+            info,
             source: source.to_string(),
             status: Status::default(),
             watch: AlarmWatch::new(rules),
@@ -142,30 +126,36 @@ impl Dashboard {
 
     /// Index of the step the trainee is on (the first not done), `None` when all are done.
     pub fn current_step(&self) -> Option<usize> {
-        NEPHRECTOMY_STEPS
+        self.info
+            .steps
             .iter()
-            .position(|(name, _)| !self.status.steps_done.iter().any(|d| d == name))
+            .position(|step| !self.status.steps_done.iter().any(|d| d == step.id))
     }
 
     /// The metrics panel's rows: label and value.
-    pub fn metric_rows(&self) -> Vec<(&'static str, String)> {
+    pub fn metric_rows(&self) -> Vec<(String, String)> {
         let s = &self.status;
-        vec![
-            ("Elapsed", format!("{:.1} s", s.time_s)),
-            ("Path, grasper", format!("{:.0} mm", s.path_m[0] * 1000.0)),
-            ("Path, laser", format!("{:.0} mm", s.path_m[1] * 1000.0)),
+        let [left, right] = self.info.tools.map(|t| t.name);
+        let mut rows = vec![
+            ("Elapsed".to_string(), format!("{:.1} s", s.time_s)),
             (
-                "Cut",
-                format!(
-                    "{:.0} mm, {} triangles",
-                    s.cut_length_m * 1000.0,
-                    s.cut_faces
-                ),
+                format!("Path, {left}"),
+                format!("{:.0} mm", s.path_m[0] * 1000.0),
             ),
-            ("Errors", s.errors.to_string()),
-            ("Grasper force", format!("{:.2} N", s.force_n[0])),
-            ("Score so far", format!("{:.1}", s.score)),
-        ]
+            (
+                format!("Path, {right}"),
+                format!("{:.0} mm", s.path_m[1] * 1000.0),
+            ),
+        ];
+        rows.extend(s.figures.iter().cloned());
+        rows.push(("Errors".to_string(), s.errors.to_string()));
+        for (t, f) in self.info.tools.iter().zip(s.force_n) {
+            if t.kind != crate::procedures::ToolKind::Laser {
+                rows.push((format!("Force, {}", t.name), format!("{f:.2} N")));
+            }
+        }
+        rows.push(("Score so far".to_string(), format!("{:.1}", s.score)));
+        rows
     }
 
     /// Draws the panels around `view`, which draws the 3D view into the central panel; returns
@@ -174,7 +164,7 @@ impl Dashboard {
         let mut actions = Actions::default();
         egui::Panel::top("title").show(ui, |ui| {
             ui.horizontal(|ui| {
-                ui.heading(format!("Vesalius: {}", self.procedure));
+                ui.heading(format!("Vesalius: {}", self.info.title));
                 ui.separator();
                 ui.label(&self.source);
                 if let Some(tool) = self.driving {
@@ -225,31 +215,33 @@ impl Dashboard {
         actions
     }
 
-    /// The kidney's sliders: applied when a slider is let go, and saved on request.
+    /// The tunable models' sliders: applied when a slider is let go, and saved on request.
     fn tissue(&mut self, ui: &mut egui::Ui) -> Actions {
-        ui.heading("Tissue (kidney)");
-        let mut t = *self.edit.get_or_insert(self.status.tuning);
-        let mut values = t.values();
-        // Offset shown in millimetres.
-        values[3] *= 1000.0;
-        let mut apply = false;
-        for (k, ((_, lo, hi), label)) in Tuning::RANGES.iter().zip(SLIDERS).enumerate() {
-            let scale = if k == 3 { 1000.0 } else { 1.0 };
-            let r = ui.add(egui::Slider::new(&mut values[k], lo * scale..=hi * scale).text(label));
-            apply |= r.drag_stopped() || (r.changed() && !r.dragged());
+        let now = self.status.tunables.clone();
+        let mut edit = self.edit.take().unwrap_or_else(|| now.clone());
+        let mut actions = Actions::default();
+        let mut heading: Option<String> = None;
+        for (k, t) in edit.iter_mut().enumerate() {
+            if heading.as_deref() != Some(t.model.as_str()) {
+                ui.heading(format!("Tissue ({})", t.model));
+                heading = Some(t.model.clone());
+            }
+            let mut shown = t.value * t.scale;
+            let r = ui.add(
+                egui::Slider::new(&mut shown, t.min * t.scale..=t.max * t.scale).text(t.label),
+            );
+            t.value = shown / t.scale;
+            let apply = r.drag_stopped() || (r.changed() && !r.dragged());
+            let before = now.get(k).map(|n| n.value);
+            if apply && before != Some(t.value) {
+                let values = vec![(t.key.to_string(), t.value)];
+                actions.tune = Some((t.model.clone(), values));
+            }
         }
-        t = Tuning {
-            spring_n_per_m: values[0],
-            damping_per_s: values[1],
-            pressure_pa: values[2],
-            offset_m: values[3] / 1000.0,
-        };
-        self.edit = Some(t);
-        let mut actions = Actions {
-            tune: (apply && t != self.status.tuning).then_some(t),
-            save: false,
-        };
-        actions.save = ui.button("Save to scenario file").clicked();
+        self.edit = Some(edit);
+        if !now.is_empty() {
+            actions.save = ui.button("Save to scenario file").clicked();
+        }
         if let Some(s) = &self.saved {
             ui.label(s);
         }
@@ -274,10 +266,10 @@ impl Dashboard {
     fn steps(&self, ui: &mut egui::Ui) {
         ui.heading("Procedure");
         let current = self.current_step();
-        for (k, (name, what)) in NEPHRECTOMY_STEPS.iter().enumerate() {
-            let done = self.status.steps_done.iter().any(|d| d == name);
+        for (k, step) in self.info.steps.iter().enumerate() {
+            let done = self.status.steps_done.iter().any(|d| d == step.id);
             let mark = if done { "[x]" } else { "[ ]" };
-            let text = egui::RichText::new(format!("{mark} {what}"));
+            let text = egui::RichText::new(format!("{mark} {}", step.text));
             if current == Some(k) {
                 ui.label(text.strong().color(egui::Color32::from_rgb(240, 200, 60)));
             } else {
@@ -384,21 +376,31 @@ mod tests {
     use egui_kittest::Harness;
     use egui_kittest::kittest::Queryable;
 
+    fn info() -> &'static ProcedureInfo {
+        crate::procedures::REGISTRY[0]
+    }
+
     fn dashboard() -> Dashboard {
-        Dashboard::new("nephrectomy", "playing demo.toml", AlarmRules::default())
+        Dashboard::new(
+            info(),
+            "playing demo.toml",
+            AlarmRules::for_procedure(info()),
+        )
     }
 
     #[test]
-    fn a_grasper_near_an_artery_shows_a_banner_logs_once_and_the_checklist_moves_on() {
+    fn a_tool_near_a_vulnerable_structure_shows_a_banner_logs_once_and_the_checklist_moves_on() {
         let mut d = dashboard();
+        let steps = info().steps;
+        let left = info().tools[0].name;
         let mut s = Status {
             time_s: 1.5,
-            steps_done: vec!["identify".into()],
+            steps_done: vec![steps[0].id.into()],
             score: 31.25,
             path_m: [0.12, 0.4],
             ..Status::default()
         };
-        s.near[0] = Some(("renal_artery".into(), 0.004));
+        s.near[0] = Some(("artery".into(), 0.004));
         d.update(s.clone());
         s.time_s = 1.6;
         d.update(s);
@@ -407,10 +409,10 @@ mod tests {
         let harness = Harness::new_ui(|ui| {
             d.show(ui, |_| {});
         });
-        harness.get_by_label("ALARM: grasper 4.0 mm from renal_artery");
-        harness.get_by_label_contains("1.50 s  grasper 4.0 mm from renal_artery");
-        harness.get_by_label("[x] Identify the tumour with the laser");
-        harness.get_by_label("[ ] Mark the resection margin");
+        harness.get_by_label(&format!("ALARM: {left} 4.0 mm from artery"));
+        harness.get_by_label_contains(&format!("1.50 s  {left} 4.0 mm from artery"));
+        harness.get_by_label(&format!("[x] {}", steps[0].text));
+        harness.get_by_label(&format!("[ ] {}", steps[1].text));
         harness.get_by_label("31.2");
         harness.get_by_label("120 mm");
         assert!(harness.query_by_label("No alarm").is_none());
@@ -420,9 +422,10 @@ mod tests {
     #[test]
     fn the_end_of_a_session_shows_its_report_and_where_it_went() {
         let mut d = dashboard();
+        let steps = info().steps;
         d.update(Status {
             time_s: 22.9,
-            steps_done: NEPHRECTOMY_STEPS.iter().map(|s| s.0.to_string()).collect(),
+            steps_done: steps.iter().map(|s| s.id.to_string()).collect(),
             ..Status::default()
         });
         d.summary = Some(Summary {
@@ -442,20 +445,27 @@ mod tests {
         harness.get_by_label("Score 95.2 / 100");
         harness.get_by_label("22.95 s simulated, 199 cuts, 0 errors");
         harness.get_by_label("Written to /tmp/session");
-        harness.get_by_label("[x] Lift the tumour out");
+        harness.get_by_label(&format!("[x] {}", steps[steps.len() - 1].text));
     }
 
     #[test]
-    fn a_slider_moved_with_the_keyboard_asks_for_the_new_tuning_and_save_asks_to_save() {
+    fn a_slider_moved_with_the_keyboard_asks_for_the_new_value_and_save_asks_to_save() {
         let mut d = dashboard();
-        let start = Tuning {
-            spring_n_per_m: 40.0,
-            damping_per_s: 8.0,
-            pressure_pa: 1500.0,
-            offset_m: 0.002,
+        let slider = |key: &'static str, label: &'static str, value: f32, max: f32| Tunable {
+            model: "tissue".into(),
+            key,
+            label,
+            min: 0.0,
+            max,
+            scale: 1.0,
+            value,
         };
+        let start = vec![
+            slider("spring_n_per_m", "spring (N/m)", 40.0, 400.0),
+            slider("damping_per_s", "damping (1/s)", 8.0, 50.0),
+        ];
         d.update(Status {
-            tuning: start,
+            tunables: start.clone(),
             ..Status::default()
         });
         let mut asked = Vec::new();
@@ -475,14 +485,14 @@ mod tests {
             harness.get_by_label("Save to scenario file").click();
             harness.run();
         }
-        let tuned: Vec<Tuning> = asked.iter().filter_map(|a| a.tune).collect();
+        let tuned: Vec<(String, Vec<(String, f32)>)> =
+            asked.iter().filter_map(|a| a.tune.clone()).collect();
         assert_eq!(tuned.len(), 1, "{asked:?}");
-        assert!(tuned[0].spring_n_per_m > start.spring_n_per_m, "{tuned:?}");
-        assert_eq!(
-            (tuned[0].damping_per_s, tuned[0].pressure_pa),
-            (start.damping_per_s, start.pressure_pa)
-        );
-        assert!((tuned[0].offset_m - start.offset_m).abs() < 1e-9);
+        let (model, values) = &tuned[0];
+        assert_eq!(model, "tissue");
+        assert_eq!(values.len(), 1, "only the moved slider: {values:?}");
+        assert_eq!(values[0].0, "spring_n_per_m");
+        assert!(values[0].1 > 40.0, "{values:?}");
         assert_eq!(asked.iter().filter(|a| a.save).count(), 1);
     }
 }

@@ -2,6 +2,7 @@
 //! operating field, driven from the keyboard (the cholecystectomy paper adjusts its viewpoint
 //! by keyboard), seen through one symmetric field of view.
 
+use crate::procedures::{ProcedureInfo, ToolInfo, ToolKind, Viewpoint};
 use crate::render::{EyeView, Fov};
 use crate::sim::{Buttons, Hand, HandInput, InputFrame, Pose};
 use glam::{Quat, Vec2, Vec3};
@@ -25,15 +26,12 @@ const DISTANCE_RANGE_M: (f32, f32) = (0.03, 1.0);
 /// The camera stays this far short of straight above or below, radians.
 const PITCH_LIMIT: f32 = 1.5;
 
-impl Default for OrbitCamera {
-    /// The headless and headset viewpoint: over the kidney's anterior face, where a surgeon's
-    /// head would be over the port site.
-    fn default() -> Self {
-        OrbitCamera::looking(Vec3::new(0.0, 0.07, 0.16), Vec3::new(0.005, 0.01, 0.0))
-    }
-}
-
 impl OrbitCamera {
+    /// The camera at a procedure's viewpoint (the headless and headset one).
+    pub fn at(view: &Viewpoint) -> OrbitCamera {
+        OrbitCamera::looking(view.eye, view.target)
+    }
+
     /// The camera at `eye` looking at `target`.
     pub fn looking(eye: Vec3, target: Vec3) -> OrbitCamera {
         let d = eye - target;
@@ -117,35 +115,32 @@ pub const WHEEL_STEP_M: f32 = 0.002;
 /// The instruments on the desktop: the mouse drives the selected one. The grasper's tip sits
 /// on the cursor's ray at a depth the wheel sets, pointing away from the eye (an instrument
 /// through a port beside the laparoscope); the laser's beam leaves from just below the eye
-/// along the cursor's ray, so it lands on what the cursor shows. Left button: grip (grasper)
-/// or trigger (laser, cuts); right button: place a margin mark (laser).
+/// along the cursor's ray, so it lands on what the cursor shows. Left button: grip (a
+/// grasper) or trigger (a laser cuts); right button: mark (a laser marks the margin).
 #[derive(Debug, Clone, PartialEq)]
 pub struct DesktopHands {
     pub selected: Hand,
     /// Each instrument's depth along the cursor's ray, metres.
     pub depth_m: [f32; 2],
     pub frame: InputFrame,
+    /// What each hand holds.
+    pub tools: [ToolInfo; 2],
 }
 
-impl Default for DesktopHands {
-    /// Both instruments parked where the demo trace starts them, over the field, pointing up
-    /// and away from it (so nothing is touched or identified before the trainee moves); on
-    /// the cursor, each 15 cm out, about where the kidney's front lies from the default camera.
-    fn default() -> Self {
+impl DesktopHands {
+    /// Both instruments parked where the procedure says, over the field, pointing up and away
+    /// from it (so nothing is touched or identified before the trainee moves); on the cursor,
+    /// each 15 cm out.
+    pub fn parked(info: &ProcedureInfo) -> Self {
         let mut frame = InputFrame::default();
-        for (k, at) in [
-            Vec3::new(-0.03135, 0.04888, 0.14317),
-            Vec3::new(0.09865, 0.04888, 0.14317),
-        ]
-        .into_iter()
-        .enumerate()
-        {
+        for (k, at) in info.desk_park.into_iter().enumerate() {
             frame.hands[k].pose = Pose::looking_at(at, at + Vec3::Y);
         }
         DesktopHands {
             selected: Hand::Right,
             depth_m: [0.15, 0.15],
             frame,
+            tools: info.tools,
         }
     }
 }
@@ -174,15 +169,15 @@ impl DesktopHands {
         };
         let (eye, dir) = ray(view, ndc.clamp(Vec2::splat(-1.0), Vec2::splat(1.0)));
         let down = view.orientation * Vec3::NEG_Y;
-        self.frame.hands[k] = match self.selected {
-            Hand::Left => HandInput {
+        self.frame.hands[k] = match self.tools[k].kind {
+            ToolKind::Grasper | ToolKind::Probe => HandInput {
                 pose: Pose::looking_at(eye + dir * self.depth_m[k], eye + dir * 1.0),
                 buttons: Buttons {
                     grip: if p.primary_down { 1.0 } else { 0.0 },
                     ..Buttons::default()
                 },
             },
-            Hand::Right => {
+            ToolKind::Laser => {
                 let from = eye + down * 0.01;
                 HandInput {
                     pose: Pose::looking_at(from, eye + dir * self.depth_m[k]),
@@ -197,21 +192,40 @@ impl DesktopHands {
     }
 
     /// The key map shown under the view.
-    pub fn key_map() -> Vec<(String, String)> {
-        [
-            ("1 / 2", "grasper / laser"),
-            ("mouse", "move the instrument"),
-            ("wheel", "deeper / shallower"),
-            ("left button", "grip (grasper), cut (laser)"),
-            ("right button", "mark the margin (laser)"),
+    pub fn key_map(&self) -> Vec<(String, String)> {
+        let [left, right] = self.tools.map(|t| t.name);
+        let does = |t: &ToolInfo| match t.kind {
+            ToolKind::Grasper => format!("grip ({})", t.name),
+            ToolKind::Laser => format!("cut ({})", t.name),
+            ToolKind::Probe => format!("press ({})", t.name),
+        };
+        let mut lines = vec![
+            ("1 / 2".to_string(), format!("{left} / {right}")),
+            ("mouse".to_string(), "move the instrument".to_string()),
+            ("wheel".to_string(), "deeper / shallower".to_string()),
+            (
+                "left button".to_string(),
+                format!("{}, {}", does(&self.tools[0]), does(&self.tools[1])),
+            ),
+        ];
+        if let Some(l) = self.tools.iter().find(|t| t.kind == ToolKind::Laser) {
+            lines.push((
+                "right button".to_string(),
+                format!("mark the margin ({})", l.name),
+            ));
+        }
+        let camera = [
             ("arrows", "orbit the camera"),
             ("shift + arrows", "pan"),
             ("PgUp / PgDn", "zoom"),
             ("R", "reset the camera"),
-        ]
-        .into_iter()
-        .map(|(k, v)| (k.to_string(), v.to_string()))
-        .collect()
+        ];
+        lines.extend(
+            camera
+                .into_iter()
+                .map(|(k, v)| (k.to_string(), v.to_string())),
+        );
+        lines
     }
 }
 
@@ -225,8 +239,9 @@ mod tests {
 
     #[test]
     fn the_target_is_in_the_middle_of_the_view_wherever_the_camera_goes() {
-        let mut c = OrbitCamera::default();
-        assert!(close(c.eye(), Vec3::new(0.0, 0.07, 0.16)), "{}", c.eye());
+        let view = crate::procedures::REGISTRY[0].view;
+        let mut c = OrbitCamera::at(&view);
+        assert!(close(c.eye(), view.eye), "{}", c.eye());
         for (yaw, pitch, pan, zoom) in [
             (0.0, 0.0, (0.0, 0.0), 0.0),
             (0.7, 0.3, (0.01, -0.02), 0.5),
@@ -252,7 +267,7 @@ mod tests {
 
     #[test]
     fn orbit_pitch_and_zoom_stay_in_range() {
-        let mut c = OrbitCamera::default();
+        let mut c = OrbitCamera::at(&crate::procedures::REGISTRY[0].view);
         c.orbit(0.0, 10.0);
         assert_eq!(c.pitch, PITCH_LIMIT);
         for _ in 0..100 {
@@ -272,11 +287,11 @@ mod hand_tests {
 
     #[test]
     fn the_grasper_goes_under_the_cursor_at_the_wheel_depth_and_grips_with_the_button() {
-        let cam = OrbitCamera::default();
+        let cam = OrbitCamera::at(&crate::procedures::REGISTRY[0].view);
         let view = cam.view(1.5);
         let mut h = DesktopHands {
             selected: Hand::Left,
-            ..DesktopHands::default()
+            ..DesktopHands::parked(crate::procedures::REGISTRY[0])
         };
         let laser_before = h.frame.hands[1];
         let at = Vec2::new(0.25, -0.5);
@@ -309,8 +324,8 @@ mod hand_tests {
 
     #[test]
     fn the_laser_beam_follows_the_cursor_ray_and_cuts_or_marks_with_the_buttons() {
-        let view = OrbitCamera::default().view(16.0 / 9.0);
-        let mut h = DesktopHands::default();
+        let view = OrbitCamera::at(&crate::procedures::REGISTRY[0].view).view(16.0 / 9.0);
+        let mut h = DesktopHands::parked(crate::procedures::REGISTRY[0]);
         assert_eq!(h.selected, Hand::Right);
         h.pointer(
             &view,

@@ -2,7 +2,6 @@
 //! a trace or from the desktop controls, and publishes snapshots for the renderer and a status
 //! for the panels, never waiting on the window.
 
-use crate::models::Tuning;
 use crate::session::{self, Live, Outcome, SETTLE_S, SessionError, Status, ended, interrupt};
 use crate::sim::{InputFrame, Pacing, SnapshotBus};
 use crate::trace::KeyTrace;
@@ -22,10 +21,11 @@ pub enum Source {
 }
 
 /// What the window asks of the simulation.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum Command {
-    /// New kidney parameters from the next step (recorded with the session).
-    Tune(Tuning),
+    /// New values for a model's tunable parameters from the next step (recorded with the
+    /// session).
+    Tune(String, Vec<(String, f32)>),
 }
 
 /// The simulation thread and what it publishes.
@@ -131,10 +131,10 @@ fn play(
         if end.is_some_and(|e| live.step_count() >= e) {
             return Ok(());
         }
-        while let Ok(Command::Tune(t)) = inbox.try_recv() {
+        while let Ok(Command::Tune(model, values)) = inbox.try_recv() {
             // The sliders stay inside the allowed ranges; a value outside them is refused by
             // `tune` and changes nothing.
-            let _ = live.tune(t);
+            let _ = live.tune(&model, &values);
         }
         let frame = match source {
             Source::Trace(t) => t.sample(live.time_s()),

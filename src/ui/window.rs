@@ -81,7 +81,9 @@ pub struct WindowRun {
 
 /// Runs the window until the session ends and its screenshot is taken, or the user closes it.
 pub fn run(opts: WindowOptions) -> Result<WindowRun, String> {
-    let hands = DesktopHands::default();
+    let info = crate::procedures::find(&opts.procedure)
+        .ok_or_else(|| format!("unknown procedure '{}'", opts.procedure))?;
+    let hands = DesktopHands::parked(info);
     let desk = Arc::new(ArcSwap::from_pointee(hands.frame));
     let source = match &opts.trace {
         Some((t, _)) => Source::Trace(t.clone()),
@@ -122,9 +124,9 @@ pub fn run(opts: WindowOptions) -> Result<WindowRun, String> {
         (Some((_, name)), None) => format!("playing {name}"),
         (None, None) => "mouse and keyboard".to_string(),
     };
-    let mut dashboard = Dashboard::new(&opts.procedure, &source, AlarmRules::default());
+    let mut dashboard = Dashboard::new(info, &source, AlarmRules::for_procedure(info));
     let desktop = (opts.trace.is_none() && xr.is_none()).then(|| {
-        dashboard.key_map = DesktopHands::key_map();
+        dashboard.key_map = hands.key_map();
         (hands, desk)
     });
     if xr.is_some() {
@@ -156,7 +158,7 @@ pub fn run(opts: WindowOptions) -> Result<WindowRun, String> {
         scene_renders: 0,
         last_window_frame: None,
         view: None,
-        camera: OrbitCamera::default(),
+        camera: OrbitCamera::at(&info.view),
         outcome: None,
         frames: 0,
         shot: None,
@@ -410,7 +412,7 @@ impl App {
             (Key::Named(NamedKey::PageUp), _) => c.zoom(0.1),
             (Key::Named(NamedKey::PageDown), _) => c.zoom(-0.1),
             (Key::Character(s), _) => match s.as_str() {
-                "r" | "R" => *c = OrbitCamera::default(),
+                "r" | "R" => *c = OrbitCamera::at(&self.dashboard.info.view),
                 "1" => self.select(Hand::Left),
                 "2" => self.select(Hand::Right),
                 "v" | "V" if self.xr.is_some() => self.next_view(),
@@ -422,18 +424,18 @@ impl App {
 
     /// Applies the sliders to the running simulation, or writes them to the scenario file.
     fn act(&mut self, a: super::dashboard::Actions) {
-        if let (Some(t), Some(sim)) = (a.tune, &self.sim) {
+        if let (Some((model, values)), Some(sim)) = (a.tune, &self.sim) {
             // The thread is gone only when the session has ended; then there is nothing to tune.
-            let _ = sim.commands.send(super::runner::Command::Tune(t));
+            let _ = sim
+                .commands
+                .send(super::runner::Command::Tune(model, values));
         }
-        if a.save
-            && let Some(t) = self.dashboard.edit
-        {
+        if a.save {
             let path = &self.opts.save_tuning_to;
-            let written = crate::scenario::with_kidney_tuning(
+            let written = crate::scenario::with_tunables(
                 &self.opts.scenario_file,
                 &self.opts.scenario_text,
-                &t,
+                &self.dashboard.status.tunables,
             )
             .map_err(|e| e.to_string())
             .and_then(|text| write_atomic(path, &text));

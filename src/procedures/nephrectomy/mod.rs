@@ -8,20 +8,85 @@ use crate::models::{SimplexMesh, SoftBody, Tie};
 use crate::scenario::Scenario;
 use crate::sim::{
     Contact, ContactKind, CutStroke, EventKind, Hand, InputFrame, ModelOutput, ModelSnapshot,
-    Quarantine, SimEvent, Snapshot, TissueModel, ToolSnapshot,
+    Quarantine, SimEvent, Snapshot, SurfaceRole, TissueModel, ToolSnapshot,
 };
 use glam::Vec3;
 use rayon::prelude::*;
 use serde::Serialize;
+
+mod plugin;
+mod score;
+
+pub use score::{ScoreParts, score};
 
 /// The registry's entry.
 pub const INFO: super::ProcedureInfo = super::ProcedureInfo {
     name: "nephrectomy",
     title: "Laparoscopic partial nephrectomy",
     paper: "partial-nephrectomy-vive.txt",
-    scenario: include_str!("../../assets/scenarios/nephrectomy.toml"),
-    demo_trace: include_str!("../../assets/traces/nephrectomy-demo.toml"),
+    scenario: include_str!("../../../assets/scenarios/nephrectomy.toml"),
+    demo_trace: include_str!("../../../assets/traces/nephrectomy-demo.toml"),
+    steps: &[
+        super::TaskStep {
+            id: "identify",
+            text: "Identify the tumour with the laser",
+        },
+        super::TaskStep {
+            id: "mark",
+            text: "Mark the resection margin",
+        },
+        super::TaskStep {
+            id: "cut",
+            text: "Cut around the tumour",
+        },
+        super::TaskStep {
+            id: "remove",
+            text: "Lift the tumour out",
+        },
+    ],
+    tools: [
+        super::ToolInfo {
+            hand: Hand::Left,
+            name: "grasper",
+            kind: super::ToolKind::Grasper,
+            // The top of the 0.5-3.5 N range tissue takes (catheter paper, section 3.1).
+            full_scale_n: 3.5,
+        },
+        super::ToolInfo {
+            hand: Hand::Right,
+            name: "laser",
+            kind: super::ToolKind::Laser,
+            full_scale_n: 1.0,
+        },
+    ],
+    // Above and in front of the kidney's lateral face, where a surgeon's head would be over
+    // the port site.
+    view: super::Viewpoint {
+        eye: Vec3::new(0.0, 0.07, 0.16),
+        target: Vec3::new(0.005, 0.01, 0.0),
+    },
+    // Where the demo trace starts the instruments, on the default camera's view.
+    desk_park: [
+        Vec3::new(-0.03135, 0.04888, 0.14317),
+        Vec3::new(0.09865, 0.04888, 0.14317),
+    ],
+    plan,
+    build,
 };
+
+fn plan(file: &str, text: &str) -> Result<super::Plan, crate::scenario::InputError> {
+    let s = Scenario::parse(file, text)?;
+    Ok(super::Plan {
+        dt_s: s.dt_s,
+        publish_hz: s.publish_hz,
+        nodes: s.estimated_nodes(),
+    })
+}
+
+fn build(file: &str, text: &str) -> Result<Box<dyn super::Procedure>, super::BuildError> {
+    let s = Scenario::parse(file, text)?;
+    Ok(Box::new(Nephrectomy::new(s)?))
+}
 
 /// The model whose parameters the supervisor tunes live.
 pub const TUNED_MODEL: &str = "kidney";
@@ -642,14 +707,23 @@ impl Nephrectomy {
     }
 
     pub fn snapshot(&mut self, step: u64) -> Snapshot {
-        let models: Vec<ModelSnapshot> = self.models.iter_mut().map(|m| m.render_mesh()).collect();
+        let mut models: Vec<ModelSnapshot> =
+            self.models.iter_mut().map(|m| m.render_mesh()).collect();
+        for m in &mut models {
+            m.roles = match m.name.as_str() {
+                "kidney" => vec![SurfaceRole::Tissue, SurfaceRole::Target],
+                "renal_artery" => vec![SurfaceRole::Artery],
+                "renal_vein" => vec![SurfaceRole::Vein],
+                _ => vec![SurfaceRole::Duct],
+            };
+        }
         Snapshot {
             step,
             time_s: step as f64 * self.scenario.dt_s as f64,
             models,
             tools: self.tools,
             reactions: self.reactions,
-            tumour_identified: self.identified,
+            target_found: self.identified,
         }
     }
 

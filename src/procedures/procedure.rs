@@ -1,0 +1,204 @@
+//! What every procedure is to the rest of the program: its description (name, paper, default
+//! scenario, demo trace, task checklist, instruments, camera) and the `Procedure` trait the
+//! session steps, snapshots, asks for status and reports through. Nothing here names an organ.
+
+use crate::scenario::InputError;
+use crate::sim::{Hand, InputFrame, SimEvent, Snapshot};
+use glam::Vec3;
+
+/// One step of a procedure's task, as its checklist shows it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TaskStep {
+    /// The id the procedure raises in `task_step` events.
+    pub id: &'static str,
+    /// What the trainee does, for people.
+    pub text: &'static str,
+}
+
+/// What an instrument does, so input devices and feedback know how to drive it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ToolKind {
+    /// Jaws that hold tissue (grip closes them); pushes back when pressed into tissue.
+    Grasper,
+    /// A pointer whose beam identifies, marks (mark button) and cuts (trigger).
+    Laser,
+    /// A rigid tip for palpation and pushing.
+    Probe,
+}
+
+/// The instrument one hand holds.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ToolInfo {
+    pub hand: Hand,
+    /// Its name for people and alarms ("grasper", "laser").
+    pub name: &'static str,
+    pub kind: ToolKind,
+    /// Contact force at which vibration or a force alarm reaches full scale, newtons.
+    pub full_scale_n: f32,
+}
+
+/// Where the operating field is seen from: the headless and headset viewpoint, and where the
+/// desktop camera starts. Metres, field frame (y up).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Viewpoint {
+    pub eye: Vec3,
+    pub target: Vec3,
+}
+
+/// A procedure's scenario, read enough to plan the session before anything is built.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plan {
+    /// Simulation step, seconds.
+    pub dt_s: f32,
+    /// Snapshots published for renderers per second.
+    pub publish_hz: f32,
+    /// Simulated points the models will have (for the cost estimate).
+    pub nodes: u64,
+}
+
+/// Why a procedure could not be built.
+#[derive(Debug, thiserror::Error)]
+pub enum BuildError {
+    #[error(transparent)]
+    Input(#[from] InputError),
+    #[error("building the anatomy: {0}")]
+    Mesh(#[from] crate::mesh::MeshError),
+}
+
+/// Builds a procedure from a scenario (`file` names it in errors).
+pub type BuildFn = fn(file: &str, text: &str) -> Result<Box<dyn Procedure>, BuildError>;
+
+/// A procedure as the registry lists it.
+pub struct ProcedureInfo {
+    /// The name used on the command line, in scenarios, traces and recordings.
+    pub name: &'static str,
+    /// A title for people.
+    pub title: &'static str,
+    /// The paper it follows (file under `shared/papers/`).
+    pub paper: &'static str,
+    /// The default scenario (TOML text).
+    pub scenario: &'static str,
+    /// The demo trace `vesalius demo`, `bench` and `profile` play (TOML text).
+    pub demo_trace: &'static str,
+    /// The task's steps, in order.
+    pub steps: &'static [TaskStep],
+    /// The instrument in each hand: left, right.
+    pub tools: [ToolInfo; 2],
+    /// The viewpoint over the field.
+    pub view: Viewpoint,
+    /// Where the desktop mode parks each instrument before the trainee moves (left, right):
+    /// over the field, pointing away from it.
+    pub desk_park: [Vec3; 2],
+    /// Reads and checks a scenario for planning (`file` names it in errors).
+    pub plan: fn(file: &str, text: &str) -> Result<Plan, InputError>,
+    /// Builds the procedure from a scenario.
+    pub build: BuildFn,
+}
+
+impl std::fmt::Debug for ProcedureInfo {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ProcedureInfo")
+            .field("name", &self.name)
+            .field("title", &self.title)
+            .finish_non_exhaustive()
+    }
+}
+
+impl ProcedureInfo {
+    /// The instrument `hand` holds.
+    pub fn tool(&self, hand: Hand) -> &ToolInfo {
+        &self.tools[hand.index()]
+    }
+}
+
+/// One value the supervisor may change during a session (a slider), with its table entry.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Tunable {
+    /// The model it belongs to: its table in the scenario.
+    pub model: String,
+    /// The key in the model's scenario table.
+    pub key: &'static str,
+    /// A label with its unit, for the slider.
+    pub label: &'static str,
+    pub min: f32,
+    pub max: f32,
+    /// The slider shows values multiplied by this (1000: metres as millimetres).
+    pub scale: f32,
+    /// The value now.
+    pub value: f32,
+}
+
+/// Sizes of one model, for reports and benchmarks.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct ModelReport {
+    pub name: String,
+    pub kind: String,
+    pub vertices: usize,
+    pub triangles: usize,
+    pub constraints: usize,
+}
+
+/// How the task stands now, for the panels, the alarms and the report.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct TaskStatus {
+    /// Step ids done, in order.
+    pub steps_done: Vec<String>,
+    pub completed: bool,
+    /// Score so far, 0-100.
+    pub score: f32,
+    /// Errors so far (vulnerable structures touched, tissue torn, ...).
+    pub errors: u32,
+    /// Instrument path length so far (left, right), metres.
+    pub path_m: [f32; 2],
+    /// Live figures for the panels: a label and a formatted value.
+    pub figures: Vec<(String, String)>,
+    /// Whether each instrument touches a vulnerable structure.
+    pub touching: [bool; 2],
+    /// The nearest vulnerable structure near each instrument, and its distance, metres.
+    pub near: [Option<(String, f32)>; 2],
+}
+
+/// A procedure's part of the session report.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ProcedureReport {
+    pub completed: bool,
+    /// The procedure's own metrics (a JSON object).
+    pub metrics: serde_json::Value,
+    /// The score's components (a JSON object).
+    pub score_parts: serde_json::Value,
+    pub score: f32,
+    pub errors: u32,
+}
+
+/// A running procedure: models, instruments and task composed from a scenario. The session
+/// steps it once per input frame and asks it for snapshots, status and its report.
+pub trait Procedure: Send {
+    fn info(&self) -> &'static ProcedureInfo;
+    /// The simulation step of its scenario, seconds.
+    fn dt_s(&self) -> f32;
+    /// Advances one step with this input; what happened goes into `events`.
+    fn step(&mut self, input: &InputFrame, step: u64, events: &mut Vec<SimEvent>);
+    /// What renderers need of this instant.
+    fn snapshot(&mut self, step: u64) -> Snapshot;
+    /// How the task stands; vulnerable structures are looked for within `near_m`.
+    fn status(&self, near_m: f32) -> TaskStatus;
+    /// The report at the end of the session.
+    fn report(&self) -> ProcedureReport;
+    /// Reaction force on each instrument (left, right) after the last step, newtons.
+    fn reactions(&self) -> [Vec3; 2];
+    /// Each model's sizes.
+    fn model_reports(&self) -> Vec<ModelReport>;
+    /// Wall-clock seconds each model has spent stepping so far (benchmarks only).
+    fn model_times(&self) -> Vec<f64>;
+    /// Heap bytes by part.
+    fn memory(&self) -> Vec<(&'static str, usize)>;
+    /// A deterministic digest of the state, for replay and determinism checks.
+    fn state_hash(&self) -> u64;
+    /// The values the supervisor may tune now.
+    fn tunables(&self) -> Vec<Tunable>;
+    /// Changes tunable values of `model` (its scenario table) from the next step on (all or
+    /// none).
+    fn tune(&mut self, model: &str, values: &[(String, f32)]) -> Result<(), String>;
+    /// Whether the task is done.
+    fn is_completed(&self) -> bool;
+}
