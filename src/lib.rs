@@ -16,4 +16,5 @@ pub mod session;
 pub mod sim;
 pub mod trace;
 pub mod ui;
+pub mod verify;
 pub mod xr;
