@@ -145,3 +145,31 @@ fn no_command_panics_when_its_output_is_a_closed_pipe() {
         String::from_utf8_lossy(&o.stderr)
     );
 }
+
+#[test]
+fn verify_lists_every_case_within_its_tolerance() {
+    let o = bin().args(["verify", "--json"]).output().expect("runs");
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let rows: Vec<serde_json::Value> = String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("one JSON object a line"))
+        .collect();
+    assert_eq!(rows.len(), vesalius::verify::cases().len());
+    for r in &rows {
+        let (err, tol) = (
+            r["rel_error"].as_f64().expect("rel_error"),
+            r["tolerance"].as_f64().expect("tolerance"),
+        );
+        assert!(err <= tol && r["passed"] == true, "{r}");
+        for key in ["model", "case", "reference", "measured", "unit"] {
+            assert!(!r[key].is_null(), "{key} in {r}");
+        }
+    }
+    let table = bin().arg("verify").output().expect("runs");
+    let out = String::from_utf8_lossy(&table.stdout);
+    assert!(
+        out.trim_end()
+            .ends_with(&format!("{} passed, 0 failed", rows.len())),
+        "{out}"
+    );
+}

@@ -82,6 +82,17 @@ enum Command {
         #[arg(long)]
         two_pass: bool,
     },
+    /// Every model's reference cases: reference, measured, relative error, tolerance and
+    /// simulated seconds per wall second; fails if any case is outside its tolerance.
+    Verify {
+        /// One JSON object a case.
+        #[arg(long)]
+        json: bool,
+        /// Also run the cases where the model is known to disagree with physics (listed
+        /// separately; they do not fail the command).
+        #[arg(long)]
+        known_failures: bool,
+    },
     /// The simulated OpenXR runtime.
     #[command(name = "xr-sim", subcommand)]
     XrSim(XrSimCommand),
@@ -322,6 +333,10 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
             eye_size.unwrap_or(vesalius::render::camera::VIVE_EYE_SIZE),
             two_pass,
         ),
+        Command::Verify {
+            json,
+            known_failures,
+        } => tools::verify(json, known_failures),
         Command::XrSim(XrSimCommand::Manifest { out }) => {
             let path = tools::xr_sim_manifest(out)?;
             say!("{}", path.display());

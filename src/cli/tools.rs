@@ -249,3 +249,37 @@ pub fn profile(
     );
     Ok(())
 }
+
+/// `verify`: the reference cases as a table or JSON lines; fails when one is out of tolerance.
+pub fn verify(json: bool, known_failures: bool) -> Result<(), CliError> {
+    use vesalius::verify;
+    let results = verify::run_all();
+    let print = |results: &[verify::CaseResult]| -> Result<(), CliError> {
+        if json {
+            for r in results {
+                say!("{}", serde_json::to_string(r).unwrap_or_default());
+            }
+        } else {
+            for line in verify::table(results).lines() {
+                say!("{line}");
+            }
+        }
+        Ok(())
+    };
+    print(&results)?;
+    if known_failures {
+        if !json {
+            say!("");
+            say!("Known disagreements with physics (open work, not counted above):");
+        }
+        print(&verify::run(&verify::known_failures()))?;
+    }
+    let failed = results.iter().filter(|r| !r.passed).count();
+    if failed > 0 {
+        return Err(CliError::Failed(format!(
+            "{failed} of {} reference cases are outside their tolerance",
+            results.len()
+        )));
+    }
+    Ok(())
+}
