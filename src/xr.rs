@@ -372,6 +372,7 @@ impl XrLoop {
         let t = fs.predicted_display_time;
         let live = &mut self.live;
         let tools = live.info().tools;
+        let haptics = live.haptics();
         let o = *self
             .origin
             .get_or_insert(t.as_nanos() - (live.time_s() * 1e9).round() as i64);
@@ -436,9 +437,10 @@ impl XrLoop {
                     }
                 }
             }
-            let f = live.reactions();
+            // Vibration reads the haptic channel, as a force-feedback loop would.
+            let felt = haptics.latest();
             for k in 0..2 {
-                peak[k] = peak[k].max(f[k].length());
+                peak[k] = peak[k].max(felt.tools[k].force_n.length());
             }
         }
         self.last_t_s = live.time_s();

@@ -186,6 +186,9 @@ pub trait Procedure: Send {
     fn report(&self) -> ProcedureReport;
     /// Reaction force on each instrument (left, right) after the last step, newtons.
     fn reactions(&self) -> [Vec3; 2];
+    /// Where each instrument touches tissue after the last step: the point and the tissue's
+    /// outward normal there (none: no contact).
+    fn contacts_now(&self) -> [Option<(Vec3, Vec3)>; 2];
     /// Each model's sizes.
     fn model_reports(&self) -> Vec<ModelReport>;
     /// Wall-clock seconds each model has spent stepping so far (benchmarks only).

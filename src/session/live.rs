@@ -4,10 +4,13 @@
 use super::output::{io, new_session_id};
 use super::{Outcome, Recorded, Report, SessionError, Status, ended};
 use crate::procedures::{Plan, Procedure, ProcedureInfo, Tunable};
-use crate::sim::{Clock, InputFrame, Pacing, SimEvent, Snapshot};
+use crate::sim::{
+    Clock, HapticFrame, HapticSlot, InputFrame, Pacing, SimEvent, Snapshot, ToolHaptics,
+};
 use crate::trace::{Recording, RecordingHeader, RecordingWriter, Tail, TuningRecord};
 use std::collections::BTreeMap;
 use std::path::Path;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// A session in progress.
@@ -26,6 +29,47 @@ pub struct Live {
     events: Vec<SimEvent>,
     ended: String,
     start: Instant,
+    /// The newest haptic frame, for device loops and vibration.
+    haptics: Arc<HapticSlot>,
+    last_haptics: HapticFrame,
+}
+
+/// Weight of the newest estimate in the smoothed stiffness.
+const STIFFNESS_SMOOTHING: f32 = 0.1;
+/// The stiffest tissue the estimate reports, N/m (a tool pressed on bone).
+const MAX_STIFFNESS_N_PER_M: f32 = 1e5;
+
+/// One instrument's haptics after a step, its stiffness estimated from the last frame: the
+/// change of force along the normal over the change of depth, when the tip moved.
+fn feel(
+    before: &ToolHaptics,
+    force_n: glam::Vec3,
+    contact: Option<(glam::Vec3, glam::Vec3)>,
+) -> ToolHaptics {
+    let Some((point, normal)) = contact else {
+        return ToolHaptics {
+            force_n,
+            ..ToolHaptics::default()
+        };
+    };
+    let mut stiffness = if before.in_contact {
+        before.stiffness_n_per_m
+    } else {
+        0.0
+    };
+    let deeper_m = (before.point - point).dot(normal);
+    if before.in_contact && deeper_m.abs() > 1e-7 {
+        let more_n = (force_n - before.force_n).dot(normal);
+        let k = (more_n / deeper_m).clamp(0.0, MAX_STIFFNESS_N_PER_M);
+        stiffness += STIFFNESS_SMOOTHING * (k - stiffness);
+    }
+    ToolHaptics {
+        force_n,
+        point,
+        normal,
+        stiffness_n_per_m: stiffness,
+        in_contact: true,
+    }
 }
 
 impl Live {
@@ -65,6 +109,8 @@ impl Live {
             events: Vec::new(),
             ended: ended::END_OF_INPUT.to_string(),
             start: Instant::now(),
+            haptics: Arc::new(HapticSlot::new()),
+            last_haptics: HapticFrame::default(),
         })
     }
 
@@ -151,6 +197,15 @@ impl Live {
             None => self.frames.push(frame),
         }
         self.clock.tick();
+        let forces = self.proc_.reactions();
+        let contacts = self.proc_.contacts_now();
+        let last = self.last_haptics.tools;
+        self.last_haptics = HapticFrame {
+            step,
+            time_s: self.clock.time_s(),
+            tools: [0, 1].map(|k| feel(&last[k], forces[k], contacts[k])),
+        };
+        self.haptics.publish(&self.last_haptics);
         Ok(&self.events[before..])
     }
 
@@ -208,6 +263,12 @@ impl Live {
 
     pub fn is_completed(&self) -> bool {
         self.proc_.is_completed()
+    }
+
+    /// The haptic channel: the newest frame, readable from any thread without blocking the
+    /// step.
+    pub fn haptics(&self) -> Arc<HapticSlot> {
+        self.haptics.clone()
     }
 
     /// Reaction force on each tool (left, right) after the last step, newtons.

@@ -1,12 +1,55 @@
-use glam::Vec3;
-use serde::Serialize;
+use serde::{Serialize, Serializer};
 
-/// One thing that happened in the simulation, stamped with the step it happened in.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+/// One thing that happened in the simulation, stamped with the step it happened in. As JSON:
+/// `{"step": N, "kind": "<name>", ...fields}`, the same shape for core and procedure events.
+#[derive(Debug, Clone, PartialEq)]
 pub struct SimEvent {
     pub step: u64,
-    #[serde(flatten)]
     pub kind: EventKind,
+}
+
+impl Serialize for SimEvent {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::{Error, SerializeMap};
+        let fields = match &self.kind {
+            EventKind::Procedure(p) => p.fields.clone(),
+            k => match serde_json::to_value(k).map_err(S::Error::custom)? {
+                serde_json::Value::Object(mut m) => {
+                    m.remove("kind");
+                    m
+                }
+                _ => serde_json::Map::new(),
+            },
+        };
+        let mut map = s.serialize_map(Some(fields.len() + 2))?;
+        map.serialize_entry("step", &self.step)?;
+        map.serialize_entry("kind", self.kind.name())?;
+        for (k, v) in &fields {
+            map.serialize_entry(k, v)?;
+        }
+        map.end()
+    }
+}
+
+/// An event of one procedure's own (a target identified, a specimen removed): its name and
+/// fields. The procedure types it in its folder and turns it into this; the core only counts,
+/// logs and replays it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ProcedureEvent {
+    pub name: &'static str,
+    pub fields: serde_json::Map<String, serde_json::Value>,
+}
+
+impl ProcedureEvent {
+    /// An event called `name` whose fields are `fields` serialised (a struct, or `()` for
+    /// none).
+    pub fn new(name: &'static str, fields: impl Serialize) -> ProcedureEvent {
+        let fields = match serde_json::to_value(fields) {
+            Ok(serde_json::Value::Object(m)) => m,
+            _ => serde_json::Map::new(),
+        };
+        ProcedureEvent { name, fields }
+    }
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -18,24 +61,17 @@ pub enum EventKind {
         model: String,
     },
     /// A tool touched a vulnerable structure (an error).
-    VesselContact {
+    VulnerableContact {
         tool: String,
         model: String,
     },
-    /// The laser found the tumour.
-    TumourIdentified,
-    /// A margin mark was placed; `margin_error_m` is its distance from the intended margin.
-    MarginMarked {
-        point: [f32; 3],
-        margin_error_m: f32,
-    },
-    /// The laser removed `faces` triangles along `length_m` of path this step.
+    /// A tool removed `faces` triangles along `length_m` of path this step.
     Cut {
         model: String,
         faces: u32,
         length_m: f32,
     },
-    /// Ties to the tumour were severed by the cut.
+    /// Ties between regions were severed by a cut.
     TiesSevered {
         model: String,
         count: u32,
@@ -45,10 +81,6 @@ pub enum EventKind {
         model: String,
         force_n: f32,
     },
-    /// No tie or tissue joins the tumour to the kidney any more.
-    TumourFreed,
-    /// The freed tumour was lifted out of its bed.
-    TumourRemoved,
     /// The grasper took hold of `vertices` points.
     Grasp {
         tool: String,
@@ -84,20 +116,19 @@ pub enum EventKind {
         model: String,
         values: std::collections::BTreeMap<String, f32>,
     },
+    /// A procedure's own event.
+    #[serde(skip)]
+    Procedure(ProcedureEvent),
 }
 
 impl EventKind {
     pub fn name(&self) -> &'static str {
         match self {
             EventKind::Contact { .. } => "contact",
-            EventKind::VesselContact { .. } => "vessel_contact",
-            EventKind::TumourIdentified => "tumour_identified",
-            EventKind::MarginMarked { .. } => "margin_marked",
+            EventKind::VulnerableContact { .. } => "vulnerable_contact",
             EventKind::Cut { .. } => "cut",
             EventKind::TiesSevered { .. } => "ties_severed",
             EventKind::TieBroken { .. } => "tie_broken",
-            EventKind::TumourFreed => "tumour_freed",
-            EventKind::TumourRemoved => "tumour_removed",
             EventKind::Grasp { .. } => "grasp",
             EventKind::Release { .. } => "release",
             EventKind::TaskStep { .. } => "task_step",
@@ -107,13 +138,48 @@ impl EventKind {
             EventKind::SessionLost => "session_lost",
             EventKind::SessionRestarted => "session_restarted",
             EventKind::TissueTuned { .. } => "tissue_tuned",
+            EventKind::Procedure(p) => p.name,
         }
     }
+}
 
-    pub fn marked(point: Vec3, margin_error_m: f32) -> Self {
-        EventKind::MarginMarked {
-            point: point.to_array(),
-            margin_error_m,
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn core_and_procedure_events_serialise_to_the_same_shape() {
+        let core = SimEvent {
+            step: 7,
+            kind: EventKind::Cut {
+                model: "organ".into(),
+                faces: 3,
+                length_m: 0.5,
+            },
+        };
+        let text = serde_json::to_string(&core).unwrap_or_default();
+        assert_eq!(
+            text,
+            r#"{"step":7,"kind":"cut","faces":3,"length_m":0.5,"model":"organ"}"#
+        );
+        #[derive(Serialize)]
+        struct Marked {
+            error_m: f32,
         }
+        let own = SimEvent {
+            step: 9,
+            kind: EventKind::Procedure(ProcedureEvent::new("marked", Marked { error_m: 0.25 })),
+        };
+        assert_eq!(own.kind.name(), "marked");
+        let text = serde_json::to_string(&own).unwrap_or_default();
+        assert_eq!(text, r#"{"step":9,"kind":"marked","error_m":0.25}"#);
+        let bare = SimEvent {
+            step: 1,
+            kind: EventKind::Procedure(ProcedureEvent::new("found", ())),
+        };
+        assert_eq!(
+            serde_json::to_string(&bare).unwrap_or_default(),
+            r#"{"step":1,"kind":"found"}"#
+        );
     }
 }

@@ -1,15 +1,17 @@
 //! The simulation core: fixed-step clock, per-step input, the tissue-model trait, contacts,
-//! events, snapshots, and the NaN quarantine.
+//! events, snapshots, the per-step haptic channel, and the NaN quarantine.
 
 mod clock;
 mod events;
+mod haptic;
 mod input;
 mod model;
 mod quarantine;
 mod snapshot;
 
 pub use clock::{Clock, Pacing};
-pub use events::{EventKind, SimEvent};
+pub use events::{EventKind, ProcedureEvent, SimEvent};
+pub use haptic::{HapticFrame, HapticSlot, ToolHaptics};
 pub use input::{Buttons, Hand, HandInput, InputFrame, Pose};
 pub use model::{
     Contact, ContactKind, CutStroke, ModelOutput, ModelSizes, SurfaceView, TissueModel, ToolId,

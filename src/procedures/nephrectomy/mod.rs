@@ -99,6 +99,20 @@ const SWEEP_SPACING_M: f32 = 5e-4;
 /// cut itself): it does not cut there.
 const CUT_CONTINUITY_M: f32 = 3e-3;
 
+/// The nephrectomy's own events: `tumour_identified` (the laser found it), `margin_marked`
+/// (a mark placed, with its distance from the intended margin), `tumour_freed` (no tie or
+/// tissue joins it to the kidney), `tumour_removed` (lifted out of its bed).
+fn event(name: &'static str, fields: impl Serialize) -> EventKind {
+    EventKind::Procedure(crate::sim::ProcedureEvent::new(name, fields))
+}
+
+/// A margin mark: where, and how far from the intended margin surface, metres.
+#[derive(Serialize)]
+struct Marked {
+    point: [f32; 3],
+    margin_error_m: f32,
+}
+
 /// Running metrics of one session.
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct Metrics {
@@ -442,7 +456,7 @@ impl Nephrectomy {
             let region = self.models[m].regions()[h.face as usize];
             if m == KIDNEY && region == REGION_TUMOUR && !self.identified {
                 self.identified = true;
-                ev.push(EventKind::TumourIdentified);
+                ev.push(event("tumour_identified", ()));
                 self.task_step("identify", &mut ev);
             }
             if mark_pressed && m == KIDNEY && region == REGION_PARENCHYMA {
@@ -455,7 +469,13 @@ impl Nephrectomy {
                         self.task_step("mark", &mut ev);
                     }
                 }
-                ev.push(EventKind::marked(h.point, err));
+                ev.push(event(
+                    "margin_marked",
+                    Marked {
+                        point: h.point.to_array(),
+                        margin_error_m: err,
+                    },
+                ));
             }
             if cutting {
                 if self.vulnerable[m] {
@@ -556,7 +576,7 @@ impl Nephrectomy {
         for h in 0..2 {
             if touching_vessel[h] && !self.vessel_touch[h] {
                 self.metrics.vessel_contacts += 1;
-                ev.push(EventKind::VesselContact {
+                ev.push(EventKind::VulnerableContact {
                     tool: Hand::BOTH[h].name().to_string(),
                     model: "vessel".to_string(),
                 });
@@ -635,7 +655,7 @@ impl Nephrectomy {
                 (0..k.mesh().len()).any(|i| k.regions()[i] == REGION_TUMOUR && k.is_anchored(i));
             if !still_held {
                 self.freed = true;
-                ev.push(EventKind::TumourFreed);
+                ev.push(event("tumour_freed", ()));
                 self.task_step("cut", &mut ev);
             }
         }
@@ -655,7 +675,7 @@ impl Nephrectomy {
                 self.removed = true;
                 self.metrics.completion_time_s = Some((step + 1) as f64 * dt as f64);
                 self.metrics.healthy_removed_m2 = self.healthy_removed();
-                ev.push(EventKind::TumourRemoved);
+                ev.push(event("tumour_removed", ()));
                 self.task_step("remove", &mut ev);
             }
         }

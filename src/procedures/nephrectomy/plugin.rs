@@ -74,6 +74,19 @@ impl Procedure for Nephrectomy {
         Nephrectomy::reactions(self)
     }
 
+    fn contacts_now(&self) -> [Option<(Vec3, Vec3)>; 2] {
+        let [grasper, laser] = self.tools;
+        let [push, _] = Nephrectomy::reactions(self);
+        [
+            // The tissue pushes the tip out along its normal.
+            (push.length() > 0.0).then(|| (grasper.tip, push.normalize_or_zero())),
+            laser
+                .beam_end
+                .filter(|_| laser.active)
+                .map(|p| (p, -laser.direction)),
+        ]
+    }
+
     fn model_reports(&self) -> Vec<ModelReport> {
         self.models
             .iter()
