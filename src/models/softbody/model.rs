@@ -1,0 +1,422 @@
+//! The soft body as a tissue model: step, cut, surface, snapshot, checkpoints and digest.
+
+use super::*;
+
+impl SoftBody {
+    /// Heap bytes held by each part of the body (capacity, not length), for the profiler.
+    pub fn memory(&self) -> Vec<(&'static str, usize)> {
+        fn b<T>(v: &Vec<T>) -> usize {
+            v.capacity() * std::mem::size_of::<T>()
+        }
+        let m = &self.mesh;
+        let fans: usize = b(&m.fan_start) + b(&m.fan_faces);
+        let render: usize = b(&m.render);
+        vec![
+            ("mesh.neighbors", b(&m.neighbors)),
+            ("mesh.faces", b(&m.faces)),
+            ("mesh.fans", fans),
+            ("mesh.tri_rest", b(&m.tri_rest)),
+            ("mesh.rest", b(&m.rest)),
+            ("mesh.render", render),
+            ("mesh.corners", b(&m.corners)),
+            ("x", b(&self.x)),
+            ("v", b(&self.v)),
+            ("normal", b(&self.normal)),
+            ("area+volume_term+inv_mass+leaf_pad", b(&self.area) * 4),
+            (
+                "flags",
+                b(&self.alive) * 4 + b(&self.region) + b(&self.still),
+            ),
+            ("stretch", b(&self.stretch) + b(&self.stretch_alive)),
+            ("bend", b(&self.bend) + b(&self.bend_alive)),
+            ("adj", b(&self.adj_start) + b(&self.adj)),
+            ("sleep_at", b(&self.sleep_at)),
+            ("groups+parts+component+stamp", b(&self.pressure_group) * 4),
+            ("bvh", self.bvh.heap_bytes()),
+            ("checkpoint", b(&self.checkpoint.0) + b(&self.checkpoint.1)),
+            (
+                "force+pushed+before",
+                b(&self.force) + b(&self.pushed) + b(&self.before),
+            ),
+            ("constraints_now", b(&self.constraints_now)),
+            ("lambda+listed", b(&self.lambda) + b(&self.listed)),
+            (
+                "lists",
+                b(&self.active)
+                    + b(&self.touched)
+                    + b(&self.moved)
+                    + b(&self.pushed_list)
+                    + b(&self.bvh_pending),
+            ),
+        ]
+    }
+}
+
+impl TissueModel for SoftBody {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn kind(&self) -> &'static str {
+        "simplex_soft_body"
+    }
+
+    fn sizes(&self) -> ModelSizes {
+        ModelSizes {
+            vertices: self.x.len(),
+            triangles: self.mesh.faces.len(),
+            constraints: self.stretch.len() + self.bend.len() + self.ties.len(),
+        }
+    }
+
+    fn step(&mut self, dt: f32, contacts: &[Contact], out: &mut ModelOutput) {
+        if self.topology_dirty {
+            self.update_topology();
+        }
+        let p = self.params;
+        self.apply_contacts(contacts, out);
+        self.match_free_parts();
+        // Normals and areas of every point whose neighbourhood may move (eq 3 needs them).
+        self.active.sort_unstable();
+        self.active.dedup();
+        let stamp = self.next_stamp();
+        self.moved.clear();
+        for k in 0..self.active.len() {
+            let i = self.active[k] as usize;
+            for j in std::iter::once(i as u32).chain(self.mesh.neighbors[i]) {
+                if self.stamp[j as usize] != stamp {
+                    self.stamp[j as usize] = stamp;
+                    self.moved.push(j);
+                }
+            }
+        }
+        let moved = std::mem::take(&mut self.moved);
+        for &i in &moved {
+            self.refresh_normal(i as usize);
+        }
+        let volumes = self.region_volumes();
+        let pressure: Vec<f32> = volumes
+            .iter()
+            .zip(&self.rest_volume)
+            .map(|(&v, &v0)| forces::volume_pressure(p.volume_stiffness_pa, v0, v))
+            .collect();
+        // Forces and explicit integration (eqs 1, 4, 5, 7, 8).
+        self.before.clear();
+        for k in 0..self.active.len() {
+            let i = self.active[k] as usize;
+            self.before.push(self.x[i]);
+            if self.kinematic[i] || !self.alive[i] {
+                self.v[i] = Vec3::ZERO;
+                continue;
+            }
+            let mut f = self.force[i] + self.spring_pull(i);
+            if let Some(&pg) = pressure.get(self.pressure_group[i] as usize) {
+                f += forces::pressure_force(pg, self.normal[i], self.area[i]);
+            }
+            let (x, v) = forces::integrate(self.x[i], self.v[i], f, p.damping_per_s, dt);
+            self.x[i] = x;
+            self.v[i] = v;
+        }
+        for &i in &self.touched {
+            self.force[i as usize] = Vec3::ZERO;
+        }
+        self.touched.clear();
+        // Constraints (Algorithm 2), then the instrument tips as inequality constraints.
+        self.collect_constraints();
+        let n_active = self.active.len();
+        self.project(dt, out);
+        for c in contacts {
+            if let ContactKind::Sphere { radius_m } = c.kind {
+                let q = Aabb::new(
+                    c.point - Vec3::splat(radius_m * 2.0),
+                    c.point + Vec3::splat(radius_m * 2.0),
+                );
+                let found: Vec<u32> = self.bvh.faces_in(&q).collect();
+                let mut held_back = Vec3::ZERO;
+                for f in found {
+                    let i = f as usize;
+                    let d = self.x[i] - c.point;
+                    let len = d.length();
+                    if self.alive[i] && !self.kinematic[i] && len < radius_m {
+                        // A point ahead of the tip's centre goes on ahead of it (to the
+                        // sphere, along the way the tool points), so the tip tents the surface
+                        // like a probe; pushed straight out from the centre, the points in
+                        // front would slide aside and let the tip through between them. A
+                        // point behind the centre is pushed straight out.
+                        let ahead = -c.normal;
+                        let along = d.dot(ahead);
+                        let corr = if along >= 0.0 {
+                            let t =
+                                (along * along + radius_m * radius_m - len * len).sqrt() - along;
+                            ahead * t
+                        } else {
+                            let dir = if len > 1e-9 { d / len } else { ahead };
+                            dir * (radius_m - len)
+                        };
+                        self.x[i] += corr;
+                        held_back += self.spring_pull(i);
+                        if self.pushed[i] == Vec3::ZERO {
+                            self.pushed_list.push(i as u32);
+                        }
+                        self.pushed[i] += corr;
+                        self.wake(i);
+                    }
+                }
+                // The tissue presses on the tip with the pull of the points the tip holds
+                // away from their rest (eq 2's springs): it grows with depth and is gone the
+                // moment the tip leaves the tissue. The share the dent's rim passes on through
+                // the stretch constraints is left out. (The correction over dt^2 would
+                // measure how fast the tip moves into the tissue, not how hard it presses.)
+                out.reactions.push((c.tool, held_back));
+            }
+        }
+        // Constraint corrections become velocity; points moved by neighbours wake up. A tip's
+        // push moves tissue and stops it moving into the tip (an inelastic contact), but adds
+        // no speed of its own: turned into velocity, the correction fights the bending
+        // constraints and pumps energy into a free piece every step.
+        for k in 0..n_active {
+            let i = self.active[k] as usize;
+            if self.alive[i] && !self.kinematic[i] {
+                let push = self.pushed[i];
+                let mut v = (self.x[i] - push - self.before[k]) / dt;
+                // Inelastic contact: no speed left into the tip.
+                let n = push.normalize_or_zero();
+                v -= n * v.dot(n).min(0.0);
+                self.v[i] = v;
+            }
+        }
+        for &i in &self.pushed_list {
+            self.pushed[i as usize] = Vec3::ZERO;
+        }
+        self.pushed_list.clear();
+        let stamp2 = self.next_stamp();
+        let list = std::mem::take(&mut self.constraints_now);
+        for &id in &list {
+            let pts: [u32; 4] = match self.kind(id) {
+                Constraint::Stretch(k) => {
+                    let s = self.stretch[k as usize];
+                    [s.a, s.b, s.a, s.b]
+                }
+                Constraint::Bend(k) => {
+                    let b = self.bend[k as usize];
+                    [b.a, b.b, b.c, b.d]
+                }
+                Constraint::Tie(k) => {
+                    let t = self.ties[k as usize];
+                    [t.a, t.b, t.a, t.b]
+                }
+            };
+            for q in pts {
+                let q = q as usize;
+                if !self.awake[q] && self.stamp[q] != stamp2 && self.alive[q] {
+                    self.stamp[q] = stamp2;
+                    if (self.x[q] - self.sleep_at[q]).length() > WAKE_DISTANCE_M {
+                        self.wake(q);
+                    } else {
+                        self.x[q] = self.sleep_at[q];
+                    }
+                }
+            }
+        }
+        self.constraints_now = list;
+        // Sleep bookkeeping and velocity from the projected positions.
+        let v_sleep = p.sleep_speed_m_per_s;
+        let mut k = 0;
+        while k < self.active.len() {
+            let i = self.active[k] as usize;
+            let resting =
+                !self.anchored[i] || (self.x[i] - self.mesh.rest[i]).length() < SLEEP_DISTANCE_M;
+            if !self.kinematic[i] && self.v[i].length() < v_sleep && resting {
+                self.still[i] += 1;
+            } else {
+                self.still[i] = 0;
+            }
+            if self.still[i] >= SLEEP_STEPS || !self.alive[i] {
+                self.awake[i] = false;
+                self.v[i] = Vec3::ZERO;
+                if self.anchored[i] {
+                    self.x[i] = self.mesh.rest[i];
+                }
+                self.sleep_at[i] = self.x[i];
+                self.still[i] = 0;
+                self.active.swap_remove(k);
+                continue;
+            }
+            k += 1;
+        }
+        // Refit the BVH where anything moved.
+        let stamp3 = self.next_stamp();
+        let mut leaves = std::mem::take(&mut self.touched);
+        let pending = std::mem::take(&mut self.bvh_pending);
+        for &i in moved.iter().chain(self.active.iter()).chain(pending.iter()) {
+            if self.stamp[i as usize] != stamp3 {
+                self.stamp[i as usize] = stamp3;
+                leaves.push(i);
+            }
+        }
+        for &i in &leaves {
+            self.bvh.mark(i);
+        }
+        leaves.clear();
+        self.touched = leaves;
+        self.bvh_pending = pending;
+        self.bvh_pending.clear();
+        let (x, pad, nb, alive) = (&self.x, &self.leaf_pad, &self.mesh.neighbors, &self.alive);
+        self.bvh
+            .refresh(|f| alive[f].then(|| leaf_aabb(x, pad, nb, f)), BVH_MARGIN_M);
+        self.moved = moved;
+    }
+
+    fn cut(&mut self, stroke: &CutStroke, out: &mut ModelOutput) {
+        let mut severed = 0u32;
+        let mut removed = 0u32;
+        for &f in &stroke.faces {
+            let i = f as usize;
+            if i >= self.alive.len() || !self.alive[i] {
+                continue;
+            }
+            removed += 1;
+            self.alive[i] = false;
+            self.inv_mass[i] = 0.0;
+            if let Some(v) = self.volume.get_mut(self.pressure_group[i] as usize) {
+                *v -= self.volume_term[i] as f64;
+            }
+            self.volume_term[i] = 0.0;
+            self.bvh.remove_face(f);
+            let (s, e) = (self.adj_start[i] as usize, self.adj_start[i + 1] as usize);
+            for k in s..e {
+                match self.kind(self.adj[k]) {
+                    Constraint::Stretch(c) => self.stretch_alive[c as usize] = false,
+                    Constraint::Bend(c) => self.bend_alive[c as usize] = false,
+                    Constraint::Tie(c) => {
+                        if self.ties[c as usize].alive {
+                            self.ties[c as usize].alive = false;
+                            severed += 1;
+                        }
+                    }
+                }
+            }
+            for n in self.mesh.neighbors[i] {
+                self.wake(n as usize);
+            }
+        }
+        if removed > 0 {
+            self.topology_dirty = true;
+            // Ray casts read the render triangles, so they change with the cut itself, never
+            // with whoever happens to take a snapshot.
+            self.rebuild_render_runs();
+        }
+        if severed > 0 {
+            out.events.push(EventKind::TiesSevered {
+                model: self.name.clone(),
+                count: severed,
+            });
+        }
+    }
+
+    fn surface(&self) -> SurfaceView<'_> {
+        SurfaceView {
+            mesh: &self.mesh,
+            positions: &self.x,
+            normals: &self.normal,
+            alive: &self.alive,
+            regions: &self.region,
+            bvh: &self.bvh,
+        }
+    }
+
+    fn render_mesh(&mut self) -> ModelSnapshot {
+        let mut normals = vec![Vec3::ZERO; self.x.len()];
+        self.mesh.vertex_normals(&self.x, &self.alive, &mut normals);
+        let positions: Vec<Vec3> = (0..self.mesh.render.len())
+            .map(|r| self.mesh.render_position(r, &self.x, &normals))
+            .collect();
+        let mut indices = Vec::with_capacity(self.mesh.faces.len() * 3);
+        let mut regions = Vec::with_capacity(self.mesh.faces.len());
+        for f in 0..self.mesh.faces.len() {
+            if self.alive[f] {
+                indices.extend_from_slice(&self.mesh.corners[f]);
+                regions.push(self.region[f]);
+            }
+        }
+        // Smooth render normals from the triangles.
+        let mut rn = vec![Vec3::ZERO; positions.len()];
+        for t in indices.chunks_exact(3) {
+            let [a, b, c] = [t[0], t[1], t[2]].map(|i| positions[i as usize]);
+            let n = (b - a).cross(c - a);
+            for &i in t {
+                rn[i as usize] += n;
+            }
+        }
+        let cut_edge = (0..self.mesh.render.len())
+            .map(|r| self.mesh.is_split(r))
+            .collect();
+        ModelSnapshot {
+            name: self.name.clone(),
+            cut_edge,
+            positions,
+            normals: rn.into_iter().map(Vec3::normalize_or_zero).collect(),
+            indices,
+            regions,
+            // The procedure says what each region is.
+            roles: Vec::new(),
+        }
+    }
+
+    fn checkpoint(&mut self) {
+        self.checkpoint.0.clone_from(&self.x);
+        self.checkpoint.1.clone_from(&self.v);
+    }
+
+    fn restore(&mut self) {
+        self.x.clone_from(&self.checkpoint.0);
+        self.v.clone_from(&self.checkpoint.1);
+        for i in 0..self.x.len() {
+            self.refresh_normal(i);
+        }
+        self.resum_volumes();
+        self.active.clear();
+        self.awake.fill(false);
+    }
+
+    fn state_is_finite(&self) -> bool {
+        self.moved
+            .iter()
+            .chain(self.active.iter())
+            .all(|&i| self.x[i as usize].is_finite() && self.v[i as usize].is_finite())
+    }
+
+    fn state_hash(&self) -> u64 {
+        let mut h = Fnv::default();
+        for (x, v) in self.x.iter().zip(&self.v) {
+            for c in x.to_array().into_iter().chain(v.to_array()) {
+                h.write(c.to_bits());
+            }
+        }
+        for (i, a) in self.alive.iter().enumerate() {
+            if !a {
+                h.write(i as u32);
+            }
+        }
+        h.0
+    }
+}
+
+/// FNV-1a over 32-bit words: stable across platforms and runs.
+#[derive(Clone, Copy)]
+pub struct Fnv(pub u64);
+
+impl Default for Fnv {
+    fn default() -> Self {
+        Fnv(0xcbf2_9ce4_8422_2325)
+    }
+}
+
+impl Fnv {
+    pub fn write(&mut self, w: u32) {
+        for b in w.to_le_bytes() {
+            self.0 ^= b as u64;
+            self.0 = self.0.wrapping_mul(0x100_0000_01b3);
+        }
+    }
+}
