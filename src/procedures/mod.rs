@@ -6,6 +6,7 @@ use crate::scenario::InputError;
 
 pub mod nephrectomy;
 mod procedure;
+pub mod sandbox;
 
 pub use nephrectomy::Nephrectomy;
 pub use procedure::{
@@ -14,7 +15,7 @@ pub use procedure::{
 };
 
 /// Every procedure that runs today, in the order `vesalius demo` plays them.
-pub const REGISTRY: &[&ProcedureInfo] = &[&nephrectomy::INFO];
+pub const REGISTRY: &[&ProcedureInfo] = &[&nephrectomy::INFO, &sandbox::INFO];
 
 /// The registered procedure called `name`.
 pub fn find(name: &str) -> Option<&'static ProcedureInfo> {

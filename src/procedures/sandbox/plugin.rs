@@ -1,0 +1,168 @@
+//! The sandbox as the session, window and headset see every procedure, and its score.
+
+use super::{INFO, MODEL, Metrics, STEPS, Sandbox, Scenario};
+use crate::models::Tuning;
+use crate::procedures::{
+    ModelReport, Procedure, ProcedureInfo, ProcedureReport, TaskStatus, Tunable,
+};
+use crate::sim::{InputFrame, SimEvent, Snapshot, TissueModel};
+use glam::Vec3;
+use serde::Serialize;
+
+/// Slider labels with units, in the order of `Tuning::RANGES`.
+const LABELS: [&str; 4] = [
+    "spring (N/m)",
+    "damping (1/s)",
+    "pressure (Pa)",
+    "offset (mm)",
+];
+
+/// Weight of the completed fraction of the checklist in the score, points.
+const COMPLETION_POINTS: f32 = 70.0;
+/// Weight of the speed (target time over time taken) in the score, points.
+const EFFICIENCY_POINTS: f32 = 30.0;
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ScoreParts {
+    /// Fraction of the four task steps done.
+    pub completion: f32,
+    /// Target time / completion time, at most 1; zero until completed.
+    pub efficiency: f32,
+}
+
+/// The score, 0-100: 70 x completion + 30 x efficiency. The sandbox teaches the controls, so
+/// doing every step counts most and speed the rest; the grasper's overloads are reported as
+/// errors but do not lower the score (there is no tissue to harm).
+pub fn score(s: &Scenario, m: &Metrics) -> (f32, ScoreParts) {
+    let parts = ScoreParts {
+        completion: m.steps_done.len().min(STEPS.len()) as f32 / STEPS.len() as f32,
+        efficiency: m.completion_time_s.map_or(0.0, |t| {
+            (f64::from(s.task.target_time_s) / t.max(1e-9)).min(1.0) as f32
+        }),
+    };
+    let total = COMPLETION_POINTS * parts.completion + EFFICIENCY_POINTS * parts.efficiency;
+    (total.clamp(0.0, 100.0), parts)
+}
+
+impl Procedure for Sandbox {
+    fn info(&self) -> &'static ProcedureInfo {
+        &INFO
+    }
+
+    fn dt_s(&self) -> f32 {
+        self.scenario.dt_s
+    }
+
+    fn step(&mut self, input: &InputFrame, step: u64, events: &mut Vec<SimEvent>) {
+        Sandbox::step(self, input, step, events);
+    }
+
+    fn snapshot(&mut self, step: u64) -> Snapshot {
+        Sandbox::snapshot(self, step)
+    }
+
+    fn status(&self, _near_m: f32) -> TaskStatus {
+        let m = &self.metrics;
+        let (score, _) = score(&self.scenario, m);
+        let mm = |v: f32| format!("{:.1} mm", v * 1000.0);
+        TaskStatus {
+            steps_done: m.steps_done.clone(),
+            completed: self.is_completed(),
+            score,
+            errors: m.grasper_overloads,
+            path_m: [m.path_length_left_m, m.path_length_right_m],
+            figures: vec![
+                ("probe depth".to_string(), mm(self.probe_depth_m())),
+                (
+                    "probe force".to_string(),
+                    format!("{:.2} N", self.reactions[1].length()),
+                ),
+                ("lift".to_string(), mm(self.lift_m())),
+            ],
+            // Nothing here is vulnerable.
+            touching: [false; 2],
+            near: [None, None],
+        }
+    }
+
+    fn report(&self) -> ProcedureReport {
+        let (score, parts) = score(&self.scenario, &self.metrics);
+        ProcedureReport {
+            completed: self.is_completed(),
+            errors: self.metrics.grasper_overloads,
+            metrics: serde_json::to_value(&self.metrics).unwrap_or_default(),
+            score_parts: serde_json::to_value(&parts).unwrap_or_default(),
+            score,
+        }
+    }
+
+    fn reactions(&self) -> [Vec3; 2] {
+        Sandbox::reactions(self)
+    }
+
+    fn model_reports(&self) -> Vec<ModelReport> {
+        let s = self.body.sizes();
+        vec![ModelReport {
+            name: self.body.name().to_string(),
+            kind: self.body.kind().to_string(),
+            vertices: s.vertices,
+            triangles: s.triangles,
+            constraints: s.constraints,
+        }]
+    }
+
+    fn model_times(&self) -> Vec<f64> {
+        vec![self.model_time_s]
+    }
+
+    fn memory(&self) -> Vec<(&'static str, usize)> {
+        self.body.memory()
+    }
+
+    fn state_hash(&self) -> u64 {
+        Sandbox::state_hash(self)
+    }
+
+    fn tunables(&self) -> Vec<Tunable> {
+        let now = Tuning::of(&self.scenario.block).values();
+        Tuning::RANGES
+            .iter()
+            .zip(LABELS)
+            .zip(now)
+            .map(|(((key, min, max), label), value)| Tunable {
+                model: MODEL.to_string(),
+                key,
+                label,
+                min: *min,
+                max: *max,
+                scale: if *key == "offset_m" { 1000.0 } else { 1.0 },
+                value,
+            })
+            .collect()
+    }
+
+    fn tune(&mut self, model: &str, values: &[(String, f32)]) -> Result<(), String> {
+        if model != MODEL {
+            return Err(format!("model '{model}' has no tunable parameters"));
+        }
+        let mut t = Tuning::of(&self.scenario.block);
+        for (key, v) in values {
+            match key.as_str() {
+                "spring_n_per_m" => t.spring_n_per_m = *v,
+                "damping_per_s" => t.damping_per_s = *v,
+                "pressure_pa" => t.pressure_pa = *v,
+                "offset_m" => t.offset_m = *v,
+                other => return Err(format!("{model}.{other}: not a tunable parameter")),
+            }
+        }
+        t.check()
+            .map_err(|(key, m)| format!("{model}.{key}: {m}"))?;
+        self.body.tune(&t);
+        t.apply(&mut self.scenario.block);
+        Ok(())
+    }
+
+    fn is_completed(&self) -> bool {
+        Sandbox::is_completed(self)
+    }
+}
