@@ -6,7 +6,8 @@ use crate::models::SoftBodyParams;
 use serde::Deserialize;
 use std::path::Path;
 
-/// The five procedures the product covers, and which ones run today.
+/// The five procedures of the papers the product covers (the registry says which run today;
+/// it may hold others, such as the sandbox).
 pub const PROCEDURES: [&str; 5] = [
     "nephrectomy",
     "rectum",
@@ -46,7 +47,7 @@ impl InputError {
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Scenario {
-    /// One of [`PROCEDURES`].
+    /// A registered procedure's name.
     pub procedure: String,
     /// Simulation step, seconds (1e-4 to 0.01).
     pub dt_s: f32,
@@ -252,28 +253,22 @@ pub fn procedure_of(file: &str, text: &str) -> Result<String, InputError> {
 }
 
 pub fn check_procedure(file: &str, key: &str, name: &str) -> Result<(), InputError> {
-    if !PROCEDURES.contains(&name) {
-        return Err(InputError::new(
-            file,
-            key,
-            format!(
-                "unknown procedure '{name}', expected one of {}",
-                PROCEDURES.join(", ")
-            ),
-        ));
+    if crate::procedures::find(name).is_some() {
+        return Ok(());
     }
-    if crate::procedures::find(name).is_none() {
-        let available: Vec<&str> = crate::procedures::names().collect();
-        return Err(InputError::new(
-            file,
-            key,
-            format!(
-                "procedure '{name}' is not implemented yet (available: {})",
-                available.join(", ")
-            ),
-        ));
-    }
-    Ok(())
+    let available: Vec<&str> = crate::procedures::names().collect();
+    let message = if PROCEDURES.contains(&name) {
+        format!(
+            "procedure '{name}' is not implemented yet (available: {})",
+            available.join(", ")
+        )
+    } else {
+        format!(
+            "unknown procedure '{name}', expected one of {}",
+            available.join(", ")
+        )
+    };
+    Err(InputError::new(file, key, message))
 }
 
 struct Ranges<'a> {

@@ -45,8 +45,8 @@ const HOLDING_HAPTICS: HapticProfile = HapticProfile {
     pulse_s: 0.025,
     cutting_amplitude: 0.0,
 };
-/// A laser: a sharper 250 Hz buzz, and half amplitude while it removes tissue (the
-/// nephrectomy paper's "vibrational feedback" when triangles are cut).
+/// A laser: a sharper 250 Hz buzz, and half amplitude while it removes tissue (the Vive
+/// paper's "vibrational feedback" when triangles are cut).
 const LASER_HAPTICS: HapticProfile = HapticProfile {
     full_force_n: 1.0,
     threshold_n: 1e-6,

@@ -382,26 +382,20 @@ mod tests {
 
     #[test]
     fn conflicting_and_incomplete_flags_are_usage_errors() {
+        let p = vesalius::procedures::REGISTRY[0].name;
         for args in [
-            &["vesalius", "run", "nephrectomy", "--xr", "--headless"][..],
-            &[
-                "vesalius",
-                "run",
-                "nephrectomy",
-                "--frames",
-                "3",
-                "--headless",
-            ],
-            &["vesalius", "run", "nephrectomy", "--xr-sim", "t.toml"],
-            &["vesalius", "run", "nephrectomy", "--screenshot-at", "1"],
-            &["vesalius", "run", "nephrectomy", "--eye-size", "10x10"],
+            &["vesalius", "run", p, "--xr", "--headless"][..],
+            &["vesalius", "run", p, "--frames", "3", "--headless"],
+            &["vesalius", "run", p, "--xr-sim", "t.toml"],
+            &["vesalius", "run", p, "--screenshot-at", "1"],
+            &["vesalius", "run", p, "--eye-size", "10x10"],
             &["vesalius", "run", "rectum"],
             &["vesalius", "--threads", "0", "demo"],
         ] {
             let e = Cli::try_parse_from(args).expect_err("refused");
             assert!(e.use_stderr(), "{args:?}");
         }
-        let ok = Cli::try_parse_from(["vesalius", "run", "nephrectomy", "--headless"]);
+        let ok = Cli::try_parse_from(["vesalius", "run", p, "--headless"]);
         assert!(ok.is_ok());
     }
 }

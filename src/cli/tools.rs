@@ -138,7 +138,7 @@ pub fn profile(
     let procedure = info.name;
     let text = info.scenario;
     let keys = KeyTrace::parse("builtin demo trace", info.demo_trace)?;
-    // Simulate up to 40 % of the demo (mid-task: in the nephrectomy, the middle of the cut)
+    // Simulate up to 40 % of the demo (mid-task: in the first procedure, the middle of the cut)
     // and render that instant with the simulation still alive, so total memory counts it as
     // Unity's profiler would.
     let file = format!("builtin {procedure} scenario");

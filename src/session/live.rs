@@ -328,7 +328,9 @@ impl Live {
         for e in &self.events {
             *counts.entry(e.kind.name().to_string()).or_default() += 1;
         }
-        let done = self.proc_.report();
+        let mut done = self.proc_.report();
+        crate::sim::shortest_f32(&mut done.metrics);
+        crate::sim::shortest_f32(&mut done.score_parts);
         let report = Report {
             procedure: self.info.name.to_string(),
             session_id: self.session_id,

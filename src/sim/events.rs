@@ -16,6 +16,7 @@ impl Serialize for SimEvent {
             k => match serde_json::to_value(k).map_err(S::Error::custom)? {
                 serde_json::Value::Object(mut m) => {
                     m.remove("kind");
+                    m.values_mut().for_each(shortest_f32);
                     m
                 }
                 _ => serde_json::Map::new(),
@@ -28,6 +29,28 @@ impl Serialize for SimEvent {
             map.serialize_entry(k, v)?;
         }
         map.end()
+    }
+}
+
+/// Turns numbers that came from `f32` (an `f64` that an `f32` holds exactly) back into the
+/// `f32`'s shortest decimal form, so JSON made through `serde_json::Value` reads `0.16010386`
+/// as direct serialisation would, not `0.16010385751724243`.
+pub fn shortest_f32(v: &mut serde_json::Value) {
+    match v {
+        serde_json::Value::Number(n) => {
+            if let Some(x) = n.as_f64().filter(|_| !n.is_i64() && !n.is_u64()) {
+                let f = x as f32;
+                if f64::from(f) == x
+                    && let Ok(short) = f.to_string().parse::<f64>()
+                    && let Some(m) = serde_json::Number::from_f64(short)
+                {
+                    *n = m;
+                }
+            }
+        }
+        serde_json::Value::Array(a) => a.iter_mut().for_each(shortest_f32),
+        serde_json::Value::Object(m) => m.values_mut().for_each(shortest_f32),
+        _ => {}
     }
 }
 
@@ -45,7 +68,10 @@ impl ProcedureEvent {
     /// none).
     pub fn new(name: &'static str, fields: impl Serialize) -> ProcedureEvent {
         let fields = match serde_json::to_value(fields) {
-            Ok(serde_json::Value::Object(m)) => m,
+            Ok(serde_json::Value::Object(mut m)) => {
+                m.values_mut().for_each(shortest_f32);
+                m
+            }
             _ => serde_json::Map::new(),
         };
         ProcedureEvent { name, fields }
@@ -173,6 +199,10 @@ mod tests {
         assert_eq!(own.kind.name(), "marked");
         let text = serde_json::to_string(&own).unwrap_or_default();
         assert_eq!(text, r#"{"step":9,"kind":"marked","error_m":0.25}"#);
+        // An f32 keeps its own shortest form; an f64 keeps all its digits.
+        let mut v = serde_json::json!({"a": 0.16010386f32, "b": 0.1f64, "n": [3, 1.5f32]});
+        shortest_f32(&mut v);
+        assert_eq!(v.to_string(), r#"{"a":0.16010386,"b":0.1,"n":[3,1.5]}"#);
         let bare = SimEvent {
             step: 1,
             kind: EventKind::Procedure(ProcedureEvent::new("found", ())),

@@ -10,7 +10,7 @@ mod quarantine;
 mod snapshot;
 
 pub use clock::{Clock, Pacing};
-pub use events::{EventKind, ProcedureEvent, SimEvent};
+pub use events::{EventKind, ProcedureEvent, SimEvent, shortest_f32};
 pub use haptic::{HapticFrame, HapticSlot, ToolHaptics};
 pub use input::{Buttons, Hand, HandInput, InputFrame, Pose};
 pub use model::{

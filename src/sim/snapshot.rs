@@ -10,7 +10,7 @@ pub enum SurfaceRole {
     /// Organ tissue (parenchyma, wall, muscle).
     #[default]
     Tissue,
-    /// What the task is about (a tumour, a specimen): highlighted once found.
+    /// What the task is about (a mass to remove, a specimen): highlighted once found.
     Target,
     Artery,
     Vein,

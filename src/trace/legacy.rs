@@ -1,5 +1,6 @@
 //! Versions 1 and 2: one monolithic record, written at the end of a session by earlier
-//! releases. They still read, as ended "legacy", with their tunings as the kidney's.
+//! releases. They still read, as ended "legacy", with their tunings given to the model the
+//! procedure names for them (`ProcedureInfo::legacy_tuned_model`).
 
 use super::codec::{FRAME_BYTES, Reader, read_frame};
 use super::recording::{Recording, Tail, TuningRecord, check_dt};
@@ -8,11 +9,8 @@ use crate::scenario::{InputError, check_procedure};
 
 /// Versions 1 and 2: bytes per tuning, the step (u64) and four floats.
 const LEGACY_TUNING_BYTES: usize = 8 + 4 * 4;
-/// The model the tunings of versions 1 and 2 (which name none) were made to.
-const LEGACY_MODEL: &str = "kidney";
-
 /// Versions 1 and 2, after the magic and version: procedure, scenario, dt, frames and (2) the
-/// kidney's tunings, all in one record.
+/// tunings of the one tunable model, all in one record.
 pub(super) fn decode_legacy(mut r: Reader, version: u32) -> Result<Recording, InputError> {
     let file = r.file;
     let version_2 = version == 2;
@@ -61,7 +59,12 @@ pub(super) fn decode_legacy(mut r: Reader, version: u32) -> Result<Recording, In
                 let m = format!("step {step} is out of order or past the last frame ({n})");
                 return Err(InputError::new(file, &key, m));
             }
-            tunings.push(TuningRecord::from_tuning(step, LEGACY_MODEL, &t));
+            let model = crate::procedures::find(&procedure)
+                .and_then(|p| p.legacy_tuned_model)
+                .ok_or_else(|| {
+                    InputError::new(file, &key, "this procedure's recordings never had tunings")
+                })?;
+            tunings.push(TuningRecord::from_tuning(step, model, &t));
         }
     }
     Ok(Recording {

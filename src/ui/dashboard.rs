@@ -50,7 +50,7 @@ impl Summary {
 /// What the panels show.
 pub struct Dashboard {
     pub info: &'static ProcedureInfo,
-    /// Where the view and input come from ("trace nephrectomy-demo.toml", "mouse and keyboard").
+    /// Where the view and input come from ("playing demo.toml", "mouse and keyboard").
     pub source: String,
     pub status: Status,
     watch: AlarmWatch,

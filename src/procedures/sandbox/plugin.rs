@@ -100,6 +100,14 @@ impl Procedure for Sandbox {
         Sandbox::reactions(self)
     }
 
+    fn contacts_now(&self) -> [Option<(Vec3, Vec3)>; 2] {
+        // Both instruments are tips: the block pushes each out along its normal.
+        [0, 1].map(|k| {
+            let push = self.reactions[k];
+            (push.length() > 0.0).then(|| (self.tools[k].tip, push.normalize_or_zero()))
+        })
+    }
+
     fn model_reports(&self) -> Vec<ModelReport> {
         let s = self.body.sizes();
         vec![ModelReport {

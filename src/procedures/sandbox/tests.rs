@@ -47,9 +47,8 @@ fn hold(s: &mut Sandbox, f: InputFrame, from: u64, n: u64) -> Vec<SimEvent> {
     ev
 }
 
-/// The demo trace. `KeyTrace::parse` refuses procedures missing from
-/// `scenario::PROCEDURES` (the seam the report names), so the keys are read with the trace
-/// format's own parser and sampled by `KeyTrace` as every session samples them.
+/// The demo trace, read with the trace format's own parser (the registry test below checks
+/// that `KeyTrace::parse` reads it the same).
 fn demo_keys() -> KeyTrace {
     let file = xr_bindings::keyframes::KeyframeFile::parse(INFO.demo_trace)
         .map_err(|e| format!("{}: {}", e.key, e.message))
@@ -444,10 +443,9 @@ fn the_snapshot_gives_each_region_its_role() {
     assert_eq!(report[0].triangles as u64, s.scenario.points());
 }
 
-/// Needs `scenario::check_procedure` to accept every registered procedure (today it refuses
-/// names outside `scenario::PROCEDURES`): run with `--ignored` once that seam is in.
+/// The registry plans, builds and plays the sandbox, and the window's save-back writes its
+/// table.
 #[test]
-#[ignore = "scenario::check_procedure refuses procedures outside scenario::PROCEDURES"]
 fn the_registry_builds_plans_and_plays_the_sandbox() {
     let keys = KeyTrace::parse("sandbox-demo.toml", INFO.demo_trace).expect("trace");
     assert_eq!(keys, demo_keys());

@@ -136,7 +136,7 @@ fn a_dt_unlike_the_scenarios_is_rejected() {
     assert!(Recording::decode("r.vtrace", &int).is_ok());
     for (text, says) in [
         (scenario("0.001"), "its scenario says 0.001 s"),
-        ("[kidney]\ndt_s = 0.002".into(), "no numeric dt_s"),
+        ("[tissue]\ndt_s = 0.002".into(), "no numeric dt_s"),
         ("dt_s = \"0.002\"".into(), "no numeric dt_s"),
     ] {
         let bad = v3(&[(0, BlockKind::Header, header_payload(0.002, &text))]);
@@ -155,7 +155,7 @@ fn a_dt_unlike_the_scenarios_is_rejected() {
     let text = scenario("0.001");
     let h = RecordingHeader {
         session_id: "",
-        procedure: "nephrectomy",
+        procedure: procedure(),
         dt_s: 0.002,
         scenario: &text,
     };
@@ -369,7 +369,7 @@ fn versions_1_and_2_still_read() {
         names,
         ["spring_n_per_m", "damping_per_s", "pressure_pa", "offset_m"]
     );
-    assert_eq!(v2.tunings[1].model, "kidney");
+    assert_eq!(v2.tunings[1].model, tuned_model());
     assert_eq!(v2.tunings[1].values[0].1, 70.0);
     for (r, (step, t)) in v2.tunings.iter().zip(&tunings) {
         assert_eq!((r.step, r.to_tuning()), (*step, Ok(*t)));
@@ -404,7 +404,7 @@ fn versions_1_and_2_still_read() {
 
 #[test]
 fn a_tuning_record_maps_to_a_soft_body_tuning_only_when_complete_and_in_range() {
-    let r = kidney(5, 60.0);
+    let r = tuned(5, 60.0);
     assert_eq!(r.to_tuning().map(|t| t.spring_n_per_m), Ok(60.0));
     let mut missing = r.clone();
     missing.values.pop();
@@ -420,8 +420,8 @@ fn a_tuning_record_maps_to_a_soft_body_tuning_only_when_complete_and_in_range() 
     unknown.values[0].0 = "stiffness".into();
     assert!(unknown.to_tuning().is_err_and(|e| e.contains("stiffness")));
     assert!(
-        kidney(5, -1.0)
+        tuned(5, -1.0)
             .to_tuning()
-            .is_err_and(|e| e.contains("kidney.spring_n_per_m"))
+            .is_err_and(|e| e.contains(&format!("{}.spring_n_per_m", tuned_model())))
     );
 }

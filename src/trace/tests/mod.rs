@@ -14,8 +14,25 @@ use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
+/// The procedure the samples are of: the first registered one, which had recordings of
+/// every format version.
+fn procedure() -> &'static str {
+    crate::procedures::REGISTRY[0].name
+}
+
+/// The model its old recordings' tunings belong to.
+fn tuned_model() -> &'static str {
+    crate::procedures::REGISTRY[0]
+        .legacy_tuned_model
+        .unwrap_or("tissue")
+}
+
 fn scenario(dt_s: &str) -> String {
-    format!("procedure = \"nephrectomy\"\ndt_s = {dt_s}\n\n[kidney]\nspring_n_per_m = 40.0\n")
+    format!(
+        "procedure = \"{}\"\ndt_s = {dt_s}\n\n[{}]\nspring_n_per_m = 40.0\n",
+        procedure(),
+        tuned_model()
+    )
 }
 
 /// A frame unlike its neighbours, so that a frame out of place is seen.
@@ -37,33 +54,33 @@ fn frame(i: usize) -> InputFrame {
     }
 }
 
-fn kidney(step: u64, spring_n_per_m: f32) -> TuningRecord {
+fn tuned(step: u64, spring_n_per_m: f32) -> TuningRecord {
     let t = Tuning {
         spring_n_per_m,
         damping_per_s: 4.0,
         pressure_pa: 1500.0,
         offset_m: 0.002,
     };
-    TuningRecord::from_tuning(step, "kidney", &t)
+    TuningRecord::from_tuning(step, tuned_model(), &t)
 }
 
 fn recording(dt_s: &str, frames: usize) -> Recording {
     let end = frames as u64;
     Recording {
-        procedure: "nephrectomy".into(),
+        procedure: procedure().into(),
         session_id: "2024-05-01T10-00-00-ab12".into(),
         dt_s: dt_s.parse().expect("dt"),
         scenario: scenario(dt_s),
         frames: (0..frames).map(frame).collect(),
         tunings: vec![
-            kidney(0, 60.0),
-            kidney(end / 2, 80.0),
+            tuned(0, 60.0),
+            tuned(end / 2, 80.0),
             TuningRecord {
                 step: end / 2,
                 model: "fat".into(),
                 values: vec![("pressure_pa".into(), 10.0), ("damping_per_s".into(), 2.5)],
             },
-            kidney(end, 90.0),
+            tuned(end, 90.0),
         ],
         tail: Tail::Ended {
             how: "completed".into(),
@@ -124,7 +141,7 @@ fn put_str(out: &mut Vec<u8>, s: &[u8]) {
 fn header_payload(dt_s: f32, scenario: &str) -> Vec<u8> {
     let mut p = Vec::new();
     put_str(&mut p, b"id");
-    put_str(&mut p, b"nephrectomy");
+    put_str(&mut p, procedure().as_bytes());
     p.extend_from_slice(&dt_s.to_le_bytes());
     put_str(&mut p, scenario.as_bytes());
     p
@@ -147,7 +164,7 @@ fn end_payload(total: u64, how: &str) -> Vec<u8> {
 
 fn tuning_payload(step: u64, values: &[(&[u8], f32)]) -> Vec<u8> {
     let mut p = step.to_le_bytes().to_vec();
-    put_str(&mut p, b"kidney");
+    put_str(&mut p, tuned_model().as_bytes());
     p.extend_from_slice(&(values.len() as u16).to_le_bytes());
     for (name, v) in values {
         put_str(&mut p, name);

@@ -1,0 +1,164 @@
+//! The sandbox runs through every path with no code outside its folder but the registry line:
+//! headless (and its replay, byte for byte), the window under Xvfb (same state as headless),
+//! the simulated OpenXR runtime, `bench --json`, `profile --json` and `demo`, which plays every
+//! registered procedure.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_vesalius"))
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("vesalius-sandbox-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("temp dir");
+    d
+}
+
+fn trace() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/traces/sandbox-demo.toml")
+}
+
+fn ok(o: &Output) -> String {
+    let out = String::from_utf8_lossy(&o.stdout).to_string();
+    assert!(
+        o.status.success(),
+        "{out}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    out
+}
+
+fn report(dir: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(dir.join("report.json")).expect("report.json"))
+        .expect("JSON")
+}
+
+/// The task done in order, as the report's metrics and events say.
+fn assert_completed(r: &serde_json::Value) {
+    assert_eq!(r["procedure"], "sandbox");
+    assert_eq!(r["completed"], true, "{r}");
+    assert_eq!(r["events"]["task_step"], 4, "{r}");
+    assert_eq!(
+        r["metrics"]["steps_done"],
+        serde_json::json!(["touch", "press", "grasp", "lift"])
+    );
+    assert_eq!(r["errors"], 0);
+}
+
+#[test]
+fn headless_run_and_replay_give_the_same_bytes() {
+    let dir = tmp("headless");
+    let out = dir.join("out");
+    ok(&bin()
+        .args(["run", "sandbox", "--headless", "--trace"])
+        .arg(trace())
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .expect("runs"));
+    let r = report(&out);
+    assert_completed(&r);
+    ok(&bin()
+        .arg("replay")
+        .arg(out.join("input.vtrace"))
+        .arg("--out")
+        .arg(dir.join("replay"))
+        .output()
+        .expect("runs"));
+    for f in ["report.json", "events.jsonl"] {
+        assert_eq!(
+            std::fs::read(dir.join("replay").join(f)).expect("replayed"),
+            std::fs::read(out.join(f)).expect("original"),
+            "{f}"
+        );
+    }
+}
+
+#[test]
+fn bench_and_profile_run_the_sandbox() {
+    let o = ok(&bin()
+        .args(["bench", "sandbox", "--json"])
+        .output()
+        .expect("runs"));
+    let lines: Vec<serde_json::Value> = o
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("JSON line"))
+        .collect();
+    let names: Vec<&str> = lines.iter().filter_map(|l| l["model"].as_str()).collect();
+    assert_eq!(names, ["block", "procedure"]);
+    for l in &lines {
+        assert!(l["steps_per_s"].as_f64().unwrap_or(0.0) > 0.0, "{l}");
+        assert_eq!(l["triangles"], 3456);
+    }
+    let p = ok(&bin()
+        .args(["profile", "sandbox", "--json", "--eye-size", "64x64"])
+        .output()
+        .expect("runs"));
+    let v: serde_json::Value = serde_json::from_str(&p).expect("JSON");
+    assert_eq!(v["procedure"], "sandbox");
+    let c = &v["vesalius"];
+    let draws = c["draw_calls"].as_u64().expect("draw calls");
+    assert!((1..=9).contains(&draws), "{c}");
+    assert!(c["triangles"].as_u64().unwrap_or(0) >= 3456, "{c}");
+}
+
+#[test]
+fn demo_plays_every_registered_procedure() {
+    let dir = tmp("demo");
+    let out = ok(&bin()
+        .args(["demo", "--out"])
+        .arg(&dir)
+        .output()
+        .expect("runs"));
+    for p in vesalius::procedures::REGISTRY {
+        let r = report(&dir.join(p.name));
+        assert_eq!(r["procedure"], p.name);
+        assert_eq!(r["completed"], true, "{}: {r}", p.name);
+        assert!(
+            out.contains(&format!("{}: completed=true", p.name)),
+            "{out}"
+        );
+    }
+}
+
+#[test]
+fn the_window_and_the_simulated_headset_run_the_sandbox() {
+    let dir = tmp("window");
+    ok(&bin()
+        .args(["run", "sandbox", "--headless", "--trace"])
+        .arg(trace())
+        .arg("--out")
+        .arg(dir.join("headless"))
+        .output()
+        .expect("runs"));
+    let shot = dir.join("shot.png");
+    ok(&Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 1920x1080x24"])
+        .arg(env!("CARGO_BIN_EXE_vesalius"))
+        .args(["run", "sandbox", "--window-size", "1280x720", "--trace"])
+        .arg(trace())
+        .arg("--screenshot")
+        .arg(&shot)
+        .arg("--out")
+        .arg(dir.join("window"))
+        .output()
+        .expect("xvfb-run (apt-get install xvfb xauth)"));
+    let w = report(&dir.join("window"));
+    assert_completed(&w);
+    assert_eq!(w["state_hash"], report(&dir.join("headless"))["state_hash"]);
+    assert!(shot.is_file());
+    ok(&bin()
+        .args(["run", "sandbox", "--xr-sim"])
+        .arg(trace())
+        .arg("--out")
+        .arg(dir.join("xr"))
+        .args(["--eye-size", "64x64", "--no-window"])
+        .output()
+        .expect("runs"));
+    let x = report(&dir.join("xr"));
+    assert_completed(&x);
+    assert_eq!(x["ended"], "xr_exit");
+}
