@@ -257,6 +257,121 @@ fn reference_scenes() -> Vec<(&'static str, Snapshot)> {
     vec![("instrument", tool), ("cut", cut), ("tumour", tumour)]
 }
 
+/// The pixel at image point `at`, if inside.
+fn pixel(img: &[u8], size: (u32, u32), at: glam::Vec2) -> Option<[u8; 3]> {
+    let (x, y) = (at.x.floor() as i64, at.y.floor() as i64);
+    if x < 0 || y < 0 || x >= i64::from(size.0) || y >= i64::from(size.1) {
+        return None;
+    }
+    let i = (y as usize * size.0 as usize + x as usize) * 4;
+    Some([img[i], img[i + 1], img[i + 2]])
+}
+
+/// Pixels within `r` pixels of `at` that `pick` accepts, and all pixels looked at.
+fn around(
+    img: &[u8],
+    size: (u32, u32),
+    at: glam::Vec2,
+    r: i32,
+    pick: impl Fn([u8; 3]) -> bool,
+) -> (usize, usize) {
+    let (mut hit, mut all) = (0, 0);
+    for dy in -r..=r {
+        for dx in -r..=r {
+            if let Some(p) = pixel(img, size, at + glam::Vec2::new(dx as f32, dy as f32)) {
+                all += 1;
+                hit += usize::from(pick(p));
+            }
+        }
+    }
+    (hit, all)
+}
+
+/// The laser's beam: bright (it is emissive), green the strongest channel.
+fn laser_green(p: [u8; 3]) -> bool {
+    p[1] > 180 && p[1] >= p[0] && p[1] >= p[2] + 10
+}
+
+/// Tissue or target lit, as opposed to the cavity's near-black background.
+fn lit(p: [u8; 3]) -> bool {
+    !background(&[p[0], p[1], p[2], 255])
+}
+
+/// Properties each reference scene's picture must have, worked out from the scene itself:
+/// the organ where it projects and background far from it; the beam green along its
+/// projected path; a found target glowing green on its own side only; raw tissue (green
+/// channel far below red) around a cut, and not on the intact side.
+fn shows_its_scene(name: &str, snap: &Snapshot, eye: &EyeView, size: (u32, u32), img: &[u8]) {
+    let project = |p: Vec3| eye.project(p, size).expect("in front of the eye");
+    let centre = project(Vec3::ZERO);
+    assert!(
+        pixel(img, size, centre).is_some_and(lit),
+        "{name}: the organ's centre is lit"
+    );
+    let corner = glam::Vec2::new(2.0, size.1 as f32 - 3.0);
+    assert!(
+        pixel(img, size, corner).is_some_and(|p| !lit(p)),
+        "{name}: the corner is background"
+    );
+    match name {
+        "instrument" => {
+            let t = snap.tools[1];
+            let end = t.beam_end.expect("the beam lands");
+            let samples = 20;
+            let on_beam = (1..samples)
+                .filter(|k| {
+                    let at = project(t.tip.lerp(end, *k as f32 / samples as f32));
+                    around(img, size, at, 2, laser_green).0 > 0
+                })
+                .count();
+            let seen: Vec<_> = (1..samples)
+                .filter_map(|k| {
+                    pixel(
+                        img,
+                        size,
+                        project(t.tip.lerp(end, k as f32 / samples as f32)),
+                    )
+                })
+                .collect();
+            assert!(
+                on_beam >= samples * 8 / 10,
+                "{name}: beam green at {on_beam} of {} points along it: {seen:?}",
+                samples - 1
+            );
+        }
+        "tumour" => {
+            let glow = |p: [u8; 3]| p[1] > p[0] && p[1] > 60;
+            // The target region is the +x, +z cap: right of the centre in the image.
+            let side = |sign: f32| {
+                let at = project(Vec3::new(0.035 * sign, 0.0, 0.035));
+                around(img, size, at, 6, glow)
+            };
+            let (target, all) = side(1.0);
+            let (tissue, _) = side(-1.0);
+            assert!(
+                target * 2 > all && tissue == 0,
+                "{name}: green on the target {target}/{all}, on tissue {tissue}"
+            );
+        }
+        "cut" => {
+            // Raw tissue's albedo is (0.45, 0.04, 0.05) against intact (0.50, 0.13, 0.10): in
+            // sRGB its green is under 0.4 of its red, intact tissue's over half.
+            let raw = |p: [u8; 3]| p[0] > 60 && f32::from(p[1]) < 0.4 * f32::from(p[0]);
+            // The ring of cut edge lies 15-20 mm around the hole's centre on the 50 mm ball:
+            // a box 14 px around the centre holds it; the intact side is 55 mm away.
+            let cut = project(Vec3::new(0.0, 0.02, 0.045));
+            let intact = project(Vec3::new(0.0, -0.035, 0.035));
+            let (near, all) = around(img, size, cut, 14, raw);
+            let (far, _) = around(img, size, intact, 14, raw);
+            assert!(
+                near * 10 > all && far * 20 < all,
+                "{name}: raw tissue {near}/{all} at the cut, {far} on the intact side"
+            );
+        }
+        other => panic!("no property for scene {other}"),
+    }
+}
+
 /// Pixels whose largest channel difference exceeds 16, and the mean absolute difference.
 fn image_difference(a: &[u8], b: &[u8]) -> (usize, f64) {
     let mut off = 0;
@@ -291,6 +406,11 @@ fn fixed_scenes_match_their_reference_images() {
             let (ref_size, reference) = read_png(&path)
                 .unwrap_or_else(|e| panic!("{}: {e} (VESALIUS_BLESS=1 makes it)", path.display()));
             assert_eq!(ref_size, size, "{}", path.display());
+            // A blessed picture must still show what its scene is: a wrong picture blessed
+            // by mistake fails here, whatever the comparison below says.
+            let eye_view = if *eye == "left" { &eyes[0] } else { &eyes[1] };
+            shows_its_scene(name, &snap, eye_view, size, &reference);
+            shows_its_scene(name, &snap, eye_view, size, pixels);
             let (off, mean) = image_difference(pixels, &reference);
             let limit = (size.0 * size.1) as usize / 200;
             assert!(
@@ -317,6 +437,21 @@ fn the_reference_comparison_catches_a_changed_picture() {
     );
     let (same, mean) = image_difference(&a.eyes[0], &a.eyes[0]);
     assert_eq!((same, mean), (0, 0.0));
+    // Each scene's properties reject the other scenes' pictures: a wrong picture blessed as a
+    // reference would not pass.
+    let shots: Vec<Shot> = scenes
+        .iter()
+        .map(|(_, s)| render_at(&gpu, s, &eyes, size))
+        .collect();
+    for (k, (name, snap)) in scenes.iter().enumerate() {
+        let other = &shots[(k + 1) % shots.len()].eyes[0];
+        let wrong = std::panic::catch_unwind(|| shows_its_scene(name, snap, &eyes[0], size, other));
+        assert!(
+            wrong.is_err(),
+            "{name}'s properties accepted another scene's picture"
+        );
+        shows_its_scene(name, snap, &eyes[0], size, &shots[k].eyes[0]);
+    }
 }
 
 #[test]
