@@ -1,0 +1,339 @@
+//! One window frame: the 3D view into its texture, the panels over the swapchain, the
+//! mouse over the view, and the screenshot.
+
+use super::*;
+
+impl App {
+    pub(super) fn redraw(&mut self, el: &ActiveEventLoop) -> Result<(), String> {
+        let t0 = Instant::now();
+        if self.sim.as_ref().is_some_and(SimThread::finished) {
+            self.end_session()?;
+        }
+        let Some(v) = self.view.as_mut() else {
+            return Ok(());
+        };
+        // The newest simulation state (a free camera under XR takes a snapshot of its own).
+        // After the session, the last mirrored frame stays on screen.
+        let mirrored = matches!(self.view_mode, ViewMode::Eye(_))
+            && (self.mirror_id.is_some() || self.xr.is_some());
+        let snapshot = match (&self.sim, self.xr.as_mut()) {
+            (Some(sim), _) => {
+                self.dashboard.update((**sim.status.load()).clone());
+                Some(sim.bus.latest())
+            }
+            (None, Some(x)) => {
+                self.dashboard
+                    .update(x.live().status(crate::ui::runner::LOOK_M));
+                (!mirrored).then(|| Arc::new(x.live().snapshot()))
+            }
+            _ => None,
+        };
+        if self.mirror_id.is_none()
+            && let Some(m) = self.xr.as_ref().and_then(|x| x.mirror.as_ref())
+        {
+            self.mirror_id = Some(v.painter.register_native_texture(
+                &v.gpu.device,
+                &m.view,
+                wgpu::FilterMode::Linear,
+            ));
+            self.mirror_size = m.size;
+        }
+        let mirror = self
+            .mirror_id
+            .map(|id| (self.mirror_size, id))
+            .filter(|_| mirrored);
+        self.dashboard.viewing = self.xr.is_some().then_some(match self.view_mode {
+            ViewMode::Eye(MirrorEye::Left) => "the headset's left eye",
+            ViewMode::Eye(MirrorEye::Right) => "the headset's right eye",
+            ViewMode::Free => "a free camera",
+        });
+        if let Some(s) = &snapshot
+            && v.last_step != Some(s.step)
+        {
+            v.renderer.update(s);
+            v.last_step = Some(s.step);
+        }
+        // Panels first: they decide how large the 3D view is.
+        let input = v.egui.take_egui_input(&v.window);
+        let ppp = v.egui.egui_ctx().pixels_per_point();
+        let mut view_px = (1u32, 1u32);
+        let mut pointer = Pointer::default();
+        let scene_id = v.scene.as_ref().map(|s| s.id);
+        self.dashboard.driving = self.desktop.as_ref().map(|(h, _)| match h.selected {
+            Hand::Left => "the grasper",
+            Hand::Right => "the laser",
+        });
+        let dashboard = &mut self.dashboard;
+        let mut actions = Default::default();
+        let ui_start = Instant::now();
+        let out = v.egui.egui_ctx().clone().run_ui(input, |ui| {
+            actions = dashboard.show(ui, |ui| {
+                let rect = ui.available_rect_before_wrap();
+                view_px = (
+                    ((rect.width() * ppp).round() as u32).max(1),
+                    ((rect.height() * ppp).round() as u32).max(1),
+                );
+                if let Some(((w, h), id)) = mirror {
+                    // The eye's picture, whole, centred at its own aspect ratio.
+                    let scale = (rect.width() / w as f32).min(rect.height() / h as f32);
+                    let fit = egui::Rect::from_center_size(
+                        rect.center(),
+                        egui::vec2(w as f32 * scale, h as f32 * scale),
+                    );
+                    ui.put(
+                        fit,
+                        egui::Image::new(egui::load::SizedTexture::new(id, fit.size())),
+                    );
+                } else if let Some(id) = scene_id {
+                    let r = ui.put(
+                        rect,
+                        egui::Image::new(egui::load::SizedTexture::new(id, rect.size()))
+                            .sense(egui::Sense::click_and_drag()),
+                    );
+                    pointer = read_pointer(ui, &r, rect);
+                }
+            });
+        });
+        let ui_ms = ui_start.elapsed().as_secs_f32() * 1e3;
+        self.act(actions);
+        let Some(v) = self.view.as_mut() else {
+            return Ok(());
+        };
+        v.egui
+            .handle_platform_output(&v.window, out.platform_output.clone());
+        // The 3D view, at the central panel's size.
+        let render_start = Instant::now();
+        ensure_scene(v, view_px);
+        // Mirroring, the headset's renderer did the frame's work: its counters.
+        let mut counters = match (&self.xr, mirror.is_some()) {
+            (Some(x), true) => x.counters.clone(),
+            _ => Default::default(),
+        };
+        if let Some(scene) = v.scene.as_ref().filter(|_| mirror.is_none()) {
+            self.scene_renders += 1;
+            let aspect = scene.size.0 as f32 / scene.size.1 as f32;
+            let eye = self.camera.view(aspect);
+            if let Some((hands, shared)) = self.desktop.as_mut() {
+                hands.pointer(&eye, pointer);
+                shared.store(Arc::new(hands.frame));
+            }
+            counters =
+                v.renderer
+                    .render(RenderTarget::Single(&scene.view), scene.size, &[eye, eye]);
+        }
+        let render_ms = render_start.elapsed().as_secs_f32() * 1e3;
+        // The panels over the swapchain image.
+        let jobs = v
+            .egui
+            .egui_ctx()
+            .tessellate(out.shapes.clone(), out.pixels_per_point);
+        let screen = egui_wgpu::ScreenDescriptor {
+            size_in_pixels: [v.config.width, v.config.height],
+            pixels_per_point: out.pixels_per_point,
+        };
+        for (id, deltas) in &out.textures_delta.set {
+            for delta in deltas {
+                v.painter
+                    .update_texture(&v.gpu.device, &v.gpu.queue, *id, delta);
+            }
+        }
+        match v.surface.get_current_texture() {
+            wgpu::CurrentSurfaceTexture::Success(frame)
+            | wgpu::CurrentSurfaceTexture::Suboptimal(frame) => {
+                let target = frame
+                    .texture
+                    .create_view(&wgpu::TextureViewDescriptor::default());
+                paint(v, &jobs, &screen, &target);
+                v.gpu.queue.present(frame);
+            }
+            wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
+                v.surface.configure(&v.gpu.device, &v.config);
+            }
+            other => return Err(format!("the window's swapchain failed: {other:?}")),
+        }
+        // The screenshot: the same frame, painted again into a texture that is read back.
+        let due = match (self.opts.screenshot_at_s, &self.outcome) {
+            (Some(at), _) => self.dashboard.status.time_s >= at,
+            (None, Some(_)) => true,
+            (None, None) => false,
+        };
+        if !self.shot_taken
+            && due
+            && let Some(path) = self.opts.screenshot.clone()
+        {
+            let size = screenshot(v, &jobs, &screen, &path)?;
+            self.shot = Some((size, path));
+            self.shot_taken = true;
+        }
+        for id in &out.textures_delta.free {
+            v.painter.free_texture(id);
+        }
+        v.gpu.check().map_err(|e| e.to_string())?;
+        self.frames += 1;
+        let frame_ms = t0.elapsed().as_secs_f32() * 1e3;
+        self.dashboard.frame(
+            counters,
+            FrameTimes {
+                time_s: self.start.elapsed().as_secs_f64(),
+                frame_ms,
+                render_ms,
+                ui_ms,
+            },
+        );
+        // A scripted run with a screenshot closes itself once the session is over; in desktop
+        // mode, where nothing else ends it, the session ends with a screenshot taken at a time.
+        if self.shot_taken && self.desktop.is_some() && self.outcome.is_none() {
+            self.end_session()?;
+        }
+        if self.outcome.is_some() && self.opts.screenshot.is_some() && self.shot_taken {
+            el.exit();
+        }
+        Ok(())
+    }
+}
+
+/// The mouse over the 3D view: where (normalised, y up), its buttons, the wheel's notches.
+fn read_pointer(ui: &egui::Ui, r: &egui::Response, rect: egui::Rect) -> Pointer {
+    let ndc = r.hover_pos().map(|p| {
+        Vec2::new(
+            (p.x - rect.left()) / rect.width() * 2.0 - 1.0,
+            1.0 - (p.y - rect.top()) / rect.height() * 2.0,
+        )
+    });
+    ui.input(|i| {
+        let wheel = i
+            .events
+            .iter()
+            .filter_map(|e| match e {
+                egui::Event::MouseWheel { unit, delta, .. } => Some(match unit {
+                    egui::MouseWheelUnit::Line | egui::MouseWheelUnit::Page => delta.y,
+                    // A notch is about 50 points on pixel-scrolling devices.
+                    egui::MouseWheelUnit::Point => delta.y / 50.0,
+                }),
+                _ => None,
+            })
+            .sum();
+        Pointer {
+            ndc,
+            primary_down: ndc.is_some() && i.pointer.primary_down(),
+            secondary_down: ndc.is_some() && i.pointer.secondary_down(),
+            wheel: if ndc.is_some() { wheel } else { 0.0 },
+        }
+    })
+}
+
+/// (Re)makes the 3D view's texture when the central panel changes size.
+fn ensure_scene(v: &mut View, size: (u32, u32)) {
+    if v.scene.as_ref().is_some_and(|s| s.size == size) {
+        return;
+    }
+    let texture = tracked_texture(
+        &v.gpu.device,
+        &v.gpu.ledger,
+        "3d view",
+        size,
+        1,
+        EYE_FORMAT,
+        wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+    );
+    let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
+    let id = match v.scene.take() {
+        Some(old) => {
+            v.painter.update_egui_texture_from_wgpu_texture(
+                &v.gpu.device,
+                &view,
+                wgpu::FilterMode::Linear,
+                old.id,
+            );
+            old.id
+        }
+        None => v
+            .painter
+            .register_native_texture(&v.gpu.device, &view, wgpu::FilterMode::Linear),
+    };
+    v.scene = Some(Scene {
+        size,
+        _texture: texture,
+        view,
+        id,
+    });
+}
+
+/// Paints egui's primitives into `target` (cleared first).
+fn paint(
+    v: &mut View,
+    jobs: &[egui::ClippedPrimitive],
+    screen: &egui_wgpu::ScreenDescriptor,
+    target: &wgpu::TextureView,
+) {
+    let mut encoder = v
+        .gpu
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("panels"),
+        });
+    let extra = v
+        .painter
+        .update_buffers(&v.gpu.device, &v.gpu.queue, &mut encoder, jobs, screen);
+    {
+        let pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("panels"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: target,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        let mut pass = pass.forget_lifetime();
+        v.painter.render(&mut pass, jobs, screen);
+    }
+    v.gpu
+        .queue
+        .submit(extra.into_iter().chain([encoder.finish()]));
+}
+
+/// Paints the frame into a readable texture and writes it as a PNG; returns its size.
+fn screenshot(
+    v: &mut View,
+    jobs: &[egui::ClippedPrimitive],
+    screen: &egui_wgpu::ScreenDescriptor,
+    path: &std::path::Path,
+) -> Result<(u32, u32), String> {
+    let size = (screen.size_in_pixels[0], screen.size_in_pixels[1]);
+    let format = v.config.format;
+    let texture = colour_texture(
+        &v.gpu.device,
+        "screenshot",
+        size,
+        1,
+        format,
+        wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+    );
+    let target = texture.create_view(&wgpu::TextureViewDescriptor::default());
+    paint(v, jobs, screen, &target);
+    let mut pixels = crate::render::gpu::read_texture(&v.gpu, &texture, size, 1)
+        .map_err(|e| e.to_string())?
+        .pop()
+        .unwrap_or_default();
+    if matches!(
+        format,
+        wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb
+    ) {
+        for p in pixels.chunks_exact_mut(4) {
+            p.swap(0, 2);
+        }
+    }
+    for p in pixels.chunks_exact_mut(4) {
+        p[3] = 255;
+    }
+    crate::render::gpu::write_png(path, size, &pixels).map_err(|e| e.to_string())?;
+    Ok(size)
+}

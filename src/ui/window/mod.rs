@@ -1,0 +1,444 @@
+//! The desktop window (winit + egui on the renderer's own wgpu device): the 3D view in the
+//! middle, the supervisor's panels around it. The simulation steps on its own thread in real
+//! time; each frame the window draws its newest snapshot into an offscreen texture that the
+//! central panel shows, then paints the panels over the swapchain. A screenshot paints the same
+//! frame into a texture that is read back, so it is exactly what the window shows.
+
+use super::dashboard::{Dashboard, FrameTimes, Summary};
+use super::desktop::{DesktopHands, OrbitCamera, Pointer};
+use super::runner::{SimThread, Source};
+use crate::assess::alarms::AlarmRules;
+use crate::profiler::Tracked;
+use crate::render::gpu::{EYE_FORMAT, colour_texture, tracked_texture};
+use crate::render::{Gpu, RenderTarget, Renderer};
+use crate::session::Outcome;
+use crate::sim::{Hand, InputFrame, Pacing};
+use crate::xr::{MirrorEye, Tick, XrLoop, XrOptions};
+use arc_swap::ArcSwap;
+use glam::Vec2;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Instant;
+use winit::application::ApplicationHandler;
+use winit::event::{ElementState, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, EventLoop};
+use winit::keyboard::{Key, NamedKey};
+use winit::window::{Window, WindowId};
+
+mod frame;
+mod open;
+
+/// What the window runs.
+pub struct WindowOptions {
+    pub procedure: String,
+    pub scenario_text: String,
+    pub scenario_file: String,
+    /// A trace to play instead of the desktop controls, and its name for the title bar.
+    pub trace: Option<(crate::trace::KeyTrace, String)>,
+    /// Where the session's files go when it ends.
+    pub out: Option<PathBuf>,
+    /// Save the whole window here (PNG) at the end of the session, or at `screenshot_at_s`
+    /// of simulated time; the window then closes itself when the session ends.
+    pub screenshot: Option<PathBuf>,
+    pub screenshot_at_s: Option<f64>,
+    /// Inner size at start, logical pixels.
+    pub size: (u32, u32),
+    /// Where "Save to scenario file" writes the tuned scenario.
+    pub save_tuning_to: PathBuf,
+    /// Mirror an XR session (the headset drives; the window shows an eye or a free camera)
+    /// instead of running a desktop session.
+    pub xr: Option<XrOptions>,
+}
+
+/// What the 3D view shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum ViewMode {
+    /// The headset's left or right eye, copied from the frame the headset got.
+    Eye(MirrorEye),
+    /// The window's own orbiting camera (drawn for the window).
+    Free,
+}
+
+/// Writes `text` to `path` through a temporary file and a rename: never half a file.
+fn write_atomic(path: &std::path::Path, text: &str) -> Result<(), String> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    }
+    let tmp = path.with_extension("partial");
+    std::fs::write(&tmp, text)
+        .and_then(|()| std::fs::rename(&tmp, path))
+        .map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// What a window session did.
+pub struct WindowRun {
+    pub outcome: Outcome,
+    /// Window frames drawn, and how many of them drew the scene (not a mirrored eye).
+    pub frames: u64,
+    pub scene_renders: u64,
+    /// The XR session's figures, when the window mirrored one.
+    pub xr: Option<(String, u64, u32, (u32, u32))>,
+    pub screenshot: Option<((u32, u32), PathBuf)>,
+    pub device: String,
+}
+
+/// Runs the window until the session ends and its screenshot is taken, or the user closes it.
+pub fn run(opts: WindowOptions) -> Result<WindowRun, String> {
+    let info = crate::procedures::find(&opts.procedure)
+        .ok_or_else(|| format!("unknown procedure '{}'", opts.procedure))?;
+    let hands = DesktopHands::parked(info);
+    let desk = Arc::new(ArcSwap::from_pointee(hands.frame));
+    let source = match &opts.trace {
+        Some((t, _)) => Source::Trace(t.clone()),
+        None => Source::Live(desk.clone()),
+    };
+    // The procedure is built (and a bad scenario reported) before any window opens; under XR
+    // the runtime and its Vulkan device are opened first, and the window shares that device.
+    let (sim, xr) = match opts.xr {
+        Some(x) => {
+            let mut l = XrLoop::open(
+                &opts.scenario_text,
+                &opts.scenario_file,
+                x,
+                opts.out.as_deref(),
+            )?;
+            l.mirror_eye(MirrorEye::Left);
+            (None, Some(l))
+        }
+        None => (
+            Some(
+                SimThread::start(
+                    &opts.scenario_text,
+                    &opts.scenario_file,
+                    source,
+                    Pacing::RealTime,
+                    opts.out.as_deref(),
+                )
+                .map_err(|e| e.to_string())?,
+            ),
+            None,
+        ),
+    };
+    let event_loop = EventLoop::new().map_err(|e| {
+        format!("cannot open a window ({e}); is DISPLAY set? (headless: xvfb-run, or --headless)")
+    })?;
+    let source = match (&opts.trace, &xr) {
+        (_, Some(l)) => format!("headset ({})", l.runtime_name()),
+        (Some((_, name)), None) => format!("playing {name}"),
+        (None, None) => "mouse and keyboard".to_string(),
+    };
+    let mut dashboard = Dashboard::new(info, &source, AlarmRules::for_procedure(info));
+    let desktop = (opts.trace.is_none() && xr.is_none()).then(|| {
+        dashboard.key_map = hands.key_map();
+        (hands, desk)
+    });
+    if xr.is_some() {
+        dashboard.key_map = [
+            ("V", "left eye / right eye / free camera"),
+            ("arrows, shift + arrows", "orbit, pan (free camera)"),
+            ("PgUp / PgDn, R", "zoom, reset (free camera)"),
+        ]
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect();
+    }
+    let view_mode = if xr.is_some() {
+        ViewMode::Eye(MirrorEye::Left)
+    } else {
+        ViewMode::Free
+    };
+    let mut app = App {
+        dashboard,
+        desktop,
+        shift: false,
+        opts,
+        sim,
+        xr,
+        xr_run: None,
+        view_mode,
+        mirror_id: None,
+        mirror_size: (1, 1),
+        scene_renders: 0,
+        last_window_frame: None,
+        view: None,
+        camera: OrbitCamera::at(&info.view),
+        outcome: None,
+        frames: 0,
+        shot: None,
+        shot_taken: false,
+        error: None,
+        start: Instant::now(),
+    };
+    event_loop.run_app(&mut app).map_err(|e| e.to_string())?;
+    if let Some(e) = app.error.take() {
+        // Keep what the session did before the failure: its record is written all the same.
+        let kept = match app.end_session() {
+            Ok(()) => app
+                .opts
+                .out
+                .as_ref()
+                .map(|d| format!(" (the session so far is in {})", d.display()))
+                .unwrap_or_default(),
+            Err(e2) => format!(" (and its record could not be written: {e2})"),
+        };
+        return Err(format!("{e}{kept}"));
+    }
+    if app.outcome.is_none() {
+        app.end_session()?;
+    }
+    let outcome = app
+        .outcome
+        .take()
+        .ok_or("the session ended without an outcome")?;
+    let device = app
+        .view
+        .as_ref()
+        .map_or_else(String::new, |v| v.gpu.describe());
+    Ok(WindowRun {
+        outcome,
+        frames: app.frames,
+        scene_renders: app.scene_renders,
+        xr: app.xr_run.take(),
+        screenshot: app.shot,
+        device,
+    })
+}
+
+/// Everything that exists once the window does.
+struct View {
+    window: Arc<Window>,
+    gpu: Gpu,
+    surface: wgpu::Surface<'static>,
+    config: wgpu::SurfaceConfiguration,
+    renderer: Renderer,
+    egui: egui_winit::State,
+    painter: egui_wgpu::Renderer,
+    /// The 3D view's texture, its size and its id in egui.
+    scene: Option<Scene>,
+    last_step: Option<u64>,
+}
+
+struct Scene {
+    size: (u32, u32),
+    _texture: Tracked<wgpu::Texture>,
+    view: wgpu::TextureView,
+    id: egui::TextureId,
+}
+
+struct App {
+    opts: WindowOptions,
+    dashboard: Dashboard,
+    /// Desktop mode: the instruments the mouse drives, and where the simulation reads them.
+    desktop: Option<(DesktopHands, Arc<ArcSwap<InputFrame>>)>,
+    shift: bool,
+    sim: Option<SimThread>,
+    xr: Option<XrLoop>,
+    /// Runtime, stereo frames, sessions and eye size of a finished XR session.
+    xr_run: Option<(String, u64, u32, (u32, u32))>,
+    view_mode: ViewMode,
+    /// The mirrored eye's texture in egui.
+    mirror_id: Option<egui::TextureId>,
+    mirror_size: (u32, u32),
+    scene_renders: u64,
+    /// Simulated and wall time of the last window frame under XR.
+    last_window_frame: Option<(f64, Instant)>,
+    view: Option<View>,
+    camera: OrbitCamera,
+    outcome: Option<Outcome>,
+    frames: u64,
+    shot: Option<((u32, u32), PathBuf)>,
+    shot_taken: bool,
+    error: Option<String>,
+    start: Instant,
+}
+
+impl App {
+    fn fail(&mut self, el: &ActiveEventLoop, e: impl std::fmt::Display) {
+        self.error.get_or_insert(e.to_string());
+        el.exit();
+    }
+}
+
+impl App {
+    /// The session ended: keep its outcome, write its files, show its report.
+    fn end_session(&mut self) -> Result<(), String> {
+        let outcome = if let Some(sim) = self.sim.take() {
+            sim.finish().map_err(|e| e.to_string())?
+        } else if let Some(x) = self.xr.take() {
+            let run = x.finish()?;
+            self.xr_run = Some((run.runtime, run.frames, run.sessions, run.eye_size));
+            run.outcome
+        } else {
+            return Ok(());
+        };
+        let written = match &self.opts.out {
+            Some(dir) => {
+                crate::session::write_outputs(&outcome, dir).map_err(|e| e.to_string())?;
+                Some(dir.display().to_string())
+            }
+            None => None,
+        };
+        self.dashboard.summary = Some(Summary::from_report(&outcome.report, written));
+        self.outcome = Some(outcome);
+        Ok(())
+    }
+
+    fn key(&mut self, key: &Key) {
+        let c = &mut self.camera;
+        // Orbit 0.05 rad, pan 5 mm, zoom 10 % a press.
+        let (turn, pan) = (0.05, 0.005);
+        match (key, self.shift) {
+            (Key::Named(NamedKey::ArrowLeft), false) => c.orbit(-turn, 0.0),
+            (Key::Named(NamedKey::ArrowRight), false) => c.orbit(turn, 0.0),
+            (Key::Named(NamedKey::ArrowUp), false) => c.orbit(0.0, turn),
+            (Key::Named(NamedKey::ArrowDown), false) => c.orbit(0.0, -turn),
+            (Key::Named(NamedKey::ArrowLeft), true) => c.pan(-pan, 0.0),
+            (Key::Named(NamedKey::ArrowRight), true) => c.pan(pan, 0.0),
+            (Key::Named(NamedKey::ArrowUp), true) => c.pan(0.0, pan),
+            (Key::Named(NamedKey::ArrowDown), true) => c.pan(0.0, -pan),
+            (Key::Named(NamedKey::PageUp), _) => c.zoom(0.1),
+            (Key::Named(NamedKey::PageDown), _) => c.zoom(-0.1),
+            (Key::Character(s), _) => match s.as_str() {
+                "r" | "R" => *c = OrbitCamera::at(&self.dashboard.info.view),
+                "1" => self.select(Hand::Left),
+                "2" => self.select(Hand::Right),
+                "v" | "V" if self.xr.is_some() => self.next_view(),
+                _ => {}
+            },
+            _ => {}
+        }
+    }
+
+    /// Applies the sliders to the running simulation, or writes them to the scenario file.
+    fn act(&mut self, a: super::dashboard::Actions) {
+        if let (Some((model, values)), Some(sim)) = (a.tune, &self.sim) {
+            // The thread is gone only when the session has ended; then there is nothing to tune.
+            let _ = sim
+                .commands
+                .send(super::runner::Command::Tune(model, values));
+        }
+        if a.save {
+            let path = &self.opts.save_tuning_to;
+            let written = crate::scenario::with_tunables(
+                &self.opts.scenario_file,
+                &self.opts.scenario_text,
+                &self.dashboard.status.tunables,
+            )
+            .map_err(|e| e.to_string())
+            .and_then(|text| write_atomic(path, &text));
+            self.dashboard.saved = Some(match written {
+                Ok(()) => format!("saved to {}", path.display()),
+                Err(e) => format!("not saved: {e}"),
+            });
+        }
+    }
+
+    /// Left eye, right eye, free camera, and round again.
+    fn next_view(&mut self) {
+        self.view_mode = match self.view_mode {
+            ViewMode::Eye(MirrorEye::Left) => ViewMode::Eye(MirrorEye::Right),
+            ViewMode::Eye(MirrorEye::Right) => ViewMode::Free,
+            ViewMode::Free => ViewMode::Eye(MirrorEye::Left),
+        };
+        if let (ViewMode::Eye(e), Some(x)) = (self.view_mode, self.xr.as_mut()) {
+            x.mirror_eye(e);
+        }
+    }
+
+    fn select(&mut self, hand: Hand) {
+        if let Some((h, _)) = self.desktop.as_mut() {
+            h.selected = hand;
+        }
+    }
+}
+
+impl ApplicationHandler for App {
+    fn resumed(&mut self, el: &ActiveEventLoop) {
+        if self.view.is_some() {
+            return;
+        }
+        match self.open(el) {
+            Ok(v) => {
+                v.window.request_redraw();
+                self.view = Some(v);
+            }
+            Err(e) => self.fail(el, e),
+        }
+    }
+
+    fn window_event(&mut self, el: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
+        let Some(v) = self.view.as_mut() else {
+            return;
+        };
+        let used = v.egui.on_window_event(&v.window, &event).consumed;
+        match event {
+            WindowEvent::CloseRequested => {
+                // End the session, and draw its last frame (taking the screenshot if due).
+                if let Err(e) = self.end_session().and_then(|()| self.redraw(el)) {
+                    self.fail(el, e);
+                }
+                el.exit();
+            }
+            WindowEvent::Resized(size) => {
+                v.config.width = size.width.max(1);
+                v.config.height = size.height.max(1);
+                v.surface.configure(&v.gpu.device, &v.config);
+            }
+            WindowEvent::ModifiersChanged(m) => self.shift = m.state().shift_key(),
+            WindowEvent::KeyboardInput { event, .. }
+                if !used && event.state == ElementState::Pressed =>
+            {
+                self.key(&event.logical_key);
+            }
+            WindowEvent::RedrawRequested => {
+                if let Err(e) = self.redraw(el) {
+                    self.fail(el, e);
+                }
+            }
+            _ => {}
+        }
+    }
+
+    fn about_to_wait(&mut self, el: &ActiveEventLoop) {
+        // SIGINT or SIGTERM: the session ends as if closed, its files written, and so does
+        // the window.
+        if crate::session::interrupt::interrupted().is_some() && self.outcome.is_none() {
+            if let Some(x) = self.xr.as_mut() {
+                x.live().set_ended(crate::session::ended::INTERRUPTED);
+            }
+            if let Err(e) = self.end_session() {
+                self.fail(el, e);
+            }
+            el.exit();
+            return;
+        }
+        // Under XR the headset sets the pace: one frame of it each pass, and the window
+        // redrawn at most 30 times a second beside it (or as soon as the session ends).
+        let mut due = true;
+        if let Some(x) = self.xr.as_mut() {
+            el.set_control_flow(winit::event_loop::ControlFlow::Poll);
+            match x.tick() {
+                Ok(Tick::Exit) => {
+                    if let Err(e) = self.end_session() {
+                        self.fail(el, e);
+                    }
+                }
+                Ok(_) => {
+                    // 30 window frames a second of the headset's time (a simulated runtime's
+                    // clock runs as fast as frames are made), and at least 10 of wall time
+                    // while the session waits.
+                    let t = x.live().time_s();
+                    due = self.last_window_frame.is_none_or(|(s, wall)| {
+                        t - s >= 1.0 / 30.0 || wall.elapsed().as_secs_f64() >= 0.1
+                    });
+                }
+                Err(e) => self.fail(el, e),
+            }
+        }
+        if due && let Some(v) = &self.view {
+            let t = self.xr.as_mut().map_or(0.0, |x| x.live().time_s());
+            self.last_window_frame = Some((t, Instant::now()));
+            v.window.request_redraw();
+        }
+    }
+}
