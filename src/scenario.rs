@@ -298,7 +298,6 @@ impl Ranges<'_> {
         let k = |name: &str| format!("{section}.{name}");
         self.num(&k("spring_n_per_m"), p.spring_n_per_m, 0.0, 1e5, "N/m")?;
         self.num(&k("damping_per_s"), p.damping_per_s, 0.0, 1e3, "1/s")?;
-        self.num(&k("pressure_pa"), p.pressure_pa, 0.0, 1e6, "Pa")?;
         self.num(&k("contact_area_m2"), p.contact_area_m2, 1e-8, 1e-2, "m^2")?;
         self.num(&k("offset_m"), p.offset_m, 0.0, 0.05, "m")?;
         self.num(&k("falloff_m"), p.falloff_m, 1e-4, 0.1, "m")?;
@@ -586,7 +585,6 @@ mod tests {
         let t = Tuning {
             spring_n_per_m: 55.5,
             damping_per_s: 3.0,
-            pressure_pa: 2000.0,
             offset_m: 0.004,
         };
         let vals = |t: &Tuning| -> Vec<(String, f32)> {

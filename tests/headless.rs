@@ -276,3 +276,37 @@ fn a_live_tissue_tuning_is_recorded_and_replayed_at_its_step() {
     assert!(e.contains("liver"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Every tunable value is live: the laser's pressure (the tools table) changes the session;
+/// out of range it is refused and changes nothing.
+#[test]
+fn the_laser_pressure_is_a_live_tunable() {
+    let text = coarse();
+    let keys = demo_trace();
+    let run = |pressure: Option<f32>| {
+        let mut live = session::Live::new(&text, "coarse", Pacing::AsFastAsPossible).expect("ok");
+        if let Some(p) = pressure {
+            live.tune("tools", &[("laser_pressure_pa".to_string(), p)])
+                .expect("in range");
+            assert_eq!(value(&live, "laser_pressure_pa"), p);
+        }
+        let steps = live.steps_for(9.0);
+        while live.step_count() < steps {
+            let frame = keys.sample(live.time_s());
+            live.step(frame).expect("steps");
+        }
+        live.finish(Vec::new()).expect("finishes").report.state_hash
+    };
+    assert_ne!(
+        run(Some(1200.0)),
+        run(None),
+        "the pressure changes what the laser does"
+    );
+    let mut live = session::Live::new(&text, "coarse", Pacing::AsFastAsPossible).expect("ok");
+    let before = live.tunables();
+    let e = live
+        .tune("tools", &[("laser_pressure_pa".to_string(), -5.0)])
+        .expect_err("negative");
+    assert!(e.contains("tools.laser_pressure_pa"), "{e}");
+    assert_eq!(live.tunables(), before);
+}

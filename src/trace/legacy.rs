@@ -49,7 +49,7 @@ pub(super) fn decode_legacy(mut r: Reader, version: u32) -> Result<Recording, In
             let t = Tuning {
                 spring_n_per_m: v[0],
                 damping_per_s: v[1],
-                pressure_pa: v[2],
+                // v[2] was a tool pressure the model never read; it is dropped.
                 offset_m: v[3],
             };
             let key = format!("tuning {j}");

@@ -39,8 +39,8 @@ impl TuningRecord {
     /// The soft-body tuning these values make: each of [`Tuning::RANGES`] exactly once, in
     /// range. `Err` says what is wrong.
     pub fn to_tuning(&self) -> Result<Tuning, String> {
-        let mut v = [f32::NAN; 4];
-        let mut seen = [false; 4];
+        let mut v = [f32::NAN; 3];
+        let mut seen = [false; 3];
         for (name, value) in &self.values {
             let i = Tuning::RANGES
                 .iter()
@@ -61,8 +61,7 @@ impl TuningRecord {
         let t = Tuning {
             spring_n_per_m: v[0],
             damping_per_s: v[1],
-            pressure_pa: v[2],
-            offset_m: v[3],
+            offset_m: v[2],
         };
         t.check()
             .map_err(|(name, m)| format!("{}.{name}: {m}", self.model))?;

@@ -10,9 +10,7 @@ pub struct SoftBodyParams {
     pub spring_n_per_m: f32,
     /// Velocity damping d in v (1 - d dt), 1/s.
     pub damping_per_s: f32,
-    /// Pressure a pressing tool applies, Pa.
-    pub pressure_pa: f32,
-    /// Area over which a pressing tool applies its pressure, m^2.
+    /// Area over which a pressing tool applies its pressure, m^2 (the pressure is the tool's).
     pub contact_area_m2: f32,
     /// Lift of the force origin above the contact point along the normal, m.
     pub offset_m: f32,
@@ -42,18 +40,15 @@ pub struct Tuning {
     pub spring_n_per_m: f32,
     /// Velocity damping, 1/s (eq 5).
     pub damping_per_s: f32,
-    /// Pressure of a pressing tool, Pa (eq 4).
-    pub pressure_pa: f32,
     /// Lift of the force origin above the contact, m.
     pub offset_m: f32,
 }
 
 impl Tuning {
     /// Each value's name and allowed range (the sliders' ends).
-    pub const RANGES: [(&'static str, f32, f32); 4] = [
+    pub const RANGES: [(&'static str, f32, f32); 3] = [
         ("spring_n_per_m", 1.0, 400.0),
         ("damping_per_s", 0.0, 50.0),
-        ("pressure_pa", 0.0, 10_000.0),
         ("offset_m", 0.0, 0.01),
     ];
 
@@ -61,18 +56,12 @@ impl Tuning {
         Tuning {
             spring_n_per_m: p.spring_n_per_m,
             damping_per_s: p.damping_per_s,
-            pressure_pa: p.pressure_pa,
             offset_m: p.offset_m,
         }
     }
 
-    pub fn values(&self) -> [f32; 4] {
-        [
-            self.spring_n_per_m,
-            self.damping_per_s,
-            self.pressure_pa,
-            self.offset_m,
-        ]
+    pub fn values(&self) -> [f32; 3] {
+        [self.spring_n_per_m, self.damping_per_s, self.offset_m]
     }
 
     /// `Err(key, message)` for the first value outside its range or not a number.
@@ -89,7 +78,6 @@ impl Tuning {
     pub fn apply(&self, p: &mut SoftBodyParams) {
         p.spring_n_per_m = self.spring_n_per_m;
         p.damping_per_s = self.damping_per_s;
-        p.pressure_pa = self.pressure_pa;
         p.offset_m = self.offset_m;
     }
 }
@@ -99,7 +87,6 @@ impl Default for SoftBodyParams {
         Self {
             spring_n_per_m: 40.0,
             damping_per_s: 8.0,
-            pressure_pa: 1500.0,
             contact_area_m2: 1e-4,
             offset_m: 0.002,
             falloff_m: 0.006,

@@ -9,12 +9,11 @@ use crate::sim::{InputFrame, SimEvent, Snapshot, TissueModel};
 use glam::Vec3;
 
 /// Slider labels with units, in the order of `Tuning::RANGES`.
-const LABELS: [&str; 4] = [
-    "spring (N/m)",
-    "damping (1/s)",
-    "pressure (Pa)",
-    "offset (mm)",
-];
+const LABELS: [&str; 3] = ["spring (N/m)", "damping (1/s)", "offset (mm)"];
+/// The scenario table of the instruments, whose laser pressure is tunable too.
+const TOOLS: &str = "tools";
+/// The laser's pressure on the tissue it cuts, Pa (eq 4): the slider's range.
+const LASER_PRESSURE_PA: (f32, f32) = (0.0, 10_000.0);
 
 impl Procedure for Nephrectomy {
     fn info(&self) -> &'static ProcedureInfo {
@@ -130,10 +129,36 @@ impl Procedure for Nephrectomy {
                 scale: if *key == "offset_m" { 1000.0 } else { 1.0 },
                 value,
             })
+            .chain(std::iter::once(Tunable {
+                model: TOOLS.to_string(),
+                key: "laser_pressure_pa",
+                label: "laser pressure (Pa)",
+                min: LASER_PRESSURE_PA.0,
+                max: LASER_PRESSURE_PA.1,
+                scale: 1.0,
+                value: self.scenario.tools.laser_pressure_pa,
+            }))
             .collect()
     }
 
     fn tune(&mut self, model: &str, values: &[(String, f32)]) -> Result<(), String> {
+        if model == TOOLS {
+            let mut pressure = self.scenario.tools.laser_pressure_pa;
+            for (key, v) in values {
+                match key.as_str() {
+                    "laser_pressure_pa" => pressure = *v,
+                    other => return Err(format!("{model}.{other}: not a tunable parameter")),
+                }
+            }
+            let (lo, hi) = LASER_PRESSURE_PA;
+            if !(pressure.is_finite() && (lo..=hi).contains(&pressure)) {
+                return Err(format!(
+                    "{model}.laser_pressure_pa: must be {lo} to {hi}, got {pressure}"
+                ));
+            }
+            self.scenario.tools.laser_pressure_pa = pressure;
+            return Ok(());
+        }
         if model != TUNED_MODEL {
             return Err(format!("model '{model}' has no tunable parameters"));
         }
@@ -142,7 +167,6 @@ impl Procedure for Nephrectomy {
             match key.as_str() {
                 "spring_n_per_m" => t.spring_n_per_m = *v,
                 "damping_per_s" => t.damping_per_s = *v,
-                "pressure_pa" => t.pressure_pa = *v,
                 "offset_m" => t.offset_m = *v,
                 other => return Err(format!("{model}.{other}: not a tunable parameter")),
             }

@@ -10,12 +10,7 @@ use glam::Vec3;
 use serde::Serialize;
 
 /// Slider labels with units, in the order of `Tuning::RANGES`.
-const LABELS: [&str; 4] = [
-    "spring (N/m)",
-    "damping (1/s)",
-    "pressure (Pa)",
-    "offset (mm)",
-];
+const LABELS: [&str; 3] = ["spring (N/m)", "damping (1/s)", "offset (mm)"];
 
 /// Weight of the completed fraction of the checklist in the score, points.
 const COMPLETION_POINTS: f32 = 70.0;
@@ -158,7 +153,6 @@ impl Procedure for Sandbox {
             match key.as_str() {
                 "spring_n_per_m" => t.spring_n_per_m = *v,
                 "damping_per_s" => t.damping_per_s = *v,
-                "pressure_pa" => t.pressure_pa = *v,
                 "offset_m" => t.offset_m = *v,
                 other => return Err(format!("{model}.{other}: not a tunable parameter")),
             }

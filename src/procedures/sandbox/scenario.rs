@@ -95,7 +95,6 @@ impl Check<'_> {
         for (name, v, lo, hi, unit) in [
             ("spring_n_per_m", p.spring_n_per_m, 0.0, 1e5, "N/m"),
             ("damping_per_s", p.damping_per_s, 0.0, 1e3, "1/s"),
-            ("pressure_pa", p.pressure_pa, 0.0, 1e6, "Pa"),
             ("contact_area_m2", p.contact_area_m2, 1e-8, 1e-2, "m^2"),
             ("offset_m", p.offset_m, 0.0, 0.05, "m"),
             ("falloff_m", p.falloff_m, 1e-4, 0.1, "m"),

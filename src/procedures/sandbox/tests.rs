@@ -370,7 +370,7 @@ fn steps_done_out_of_order_wait_for_the_ones_before() {
 fn tune_refuses_a_bad_value_and_changes_nothing() {
     let mut s = sandbox();
     let before = s.tunables();
-    assert_eq!(before.len(), 4);
+    assert_eq!(before.len(), 3);
     assert!(before.iter().all(|t| t.model == "block"));
     let params = s.body().params;
     for (model, values, says) in [

@@ -329,7 +329,9 @@ fn legacy_bytes(version: u32, rec: &Recording, tunings: &[(u64, Tuning)]) -> Vec
         buf.extend_from_slice(&(tunings.len() as u32).to_le_bytes());
         for (step, t) in tunings {
             buf.extend_from_slice(&step.to_le_bytes());
-            for v in t.values() {
+            // Versions 1 and 2 stored spring, damping, a tool pressure and offset.
+            let [spring, damping, offset] = t.values();
+            for v in [spring, damping, 1500.0, offset] {
                 buf.extend_from_slice(&v.to_le_bytes());
             }
         }
@@ -343,7 +345,6 @@ fn versions_1_and_2_still_read() {
     let t = |spring_n_per_m| Tuning {
         spring_n_per_m,
         damping_per_s: 4.0,
-        pressure_pa: 1500.0,
         offset_m: 0.002,
     };
     let tunings = [(0, t(60.0)), (3, t(70.0)), (7, t(80.0))];
@@ -365,10 +366,7 @@ fn versions_1_and_2_still_read() {
         .iter()
         .map(|(n, _)| n.as_str())
         .collect();
-    assert_eq!(
-        names,
-        ["spring_n_per_m", "damping_per_s", "pressure_pa", "offset_m"]
-    );
+    assert_eq!(names, ["spring_n_per_m", "damping_per_s", "offset_m"]);
     assert_eq!(v2.tunings[1].model, tuned_model());
     assert_eq!(v2.tunings[1].values[0].1, 70.0);
     for (r, (step, t)) in v2.tunings.iter().zip(&tunings) {
@@ -414,7 +412,7 @@ fn a_tuning_record_maps_to_a_soft_body_tuning_only_when_complete_and_in_range() 
             .is_err_and(|e| e.contains("offset_m is missing"))
     );
     let mut twice = r.clone();
-    twice.values[3].0 = "pressure_pa".into();
+    twice.values[2].0 = "damping_per_s".into();
     assert!(twice.to_tuning().is_err_and(|e| e.contains("given twice")));
     let mut unknown = r.clone();
     unknown.values[0].0 = "stiffness".into();

@@ -58,7 +58,6 @@ fn tuned(step: u64, spring_n_per_m: f32) -> TuningRecord {
     let t = Tuning {
         spring_n_per_m,
         damping_per_s: 4.0,
-        pressure_pa: 1500.0,
         offset_m: 0.002,
     };
     TuningRecord::from_tuning(step, tuned_model(), &t)
