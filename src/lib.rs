@@ -8,6 +8,7 @@ pub mod bench;
 pub mod collision;
 pub mod mesh;
 pub mod models;
+pub mod params;
 pub mod procedures;
 pub mod profiler;
 pub mod render;

@@ -295,56 +295,7 @@ impl Ranges<'_> {
     }
 
     fn params(&self, section: &str, p: &SoftBodyParams) -> Result<(), InputError> {
-        let k = |name: &str| format!("{section}.{name}");
-        self.num(&k("spring_n_per_m"), p.spring_n_per_m, 0.0, 1e5, "N/m")?;
-        self.num(&k("damping_per_s"), p.damping_per_s, 0.0, 1e3, "1/s")?;
-        self.num(&k("contact_area_m2"), p.contact_area_m2, 1e-8, 1e-2, "m^2")?;
-        self.num(&k("offset_m"), p.offset_m, 0.0, 0.05, "m")?;
-        self.num(&k("falloff_m"), p.falloff_m, 1e-4, 0.1, "m")?;
-        self.num(
-            &k("volume_stiffness_pa"),
-            p.volume_stiffness_pa,
-            0.0,
-            1e6,
-            "Pa",
-        )?;
-        self.num(
-            &k("stretch_compliance_m_per_n"),
-            p.stretch_compliance_m_per_n,
-            0.0,
-            1.0,
-            "m/N",
-        )?;
-        self.num(
-            &k("bend_compliance_per_n_m"),
-            p.bend_compliance_per_n_m,
-            0.0,
-            10.0,
-            "rad/(N m)",
-        )?;
-        self.num(
-            &k("tie_compliance_m_per_n"),
-            p.tie_compliance_m_per_n,
-            0.0,
-            1.0,
-            "m/N",
-        )?;
-        self.num(&k("tie_break_force_n"), p.tie_break_force_n, 1e-3, 1e3, "N")?;
-        self.num(
-            &k("sleep_speed_m_per_s"),
-            p.sleep_speed_m_per_s,
-            0.0,
-            0.1,
-            "m/s",
-        )?;
-        if p.solver_iterations == 0 || p.solver_iterations > 100 {
-            return Err(InputError::new(
-                self.file,
-                &k("solver_iterations"),
-                format!("must be between 1 and 100, got {}", p.solver_iterations),
-            ));
-        }
-        Ok(())
+        crate::params::validate(self.file, section, p)
     }
 }
 

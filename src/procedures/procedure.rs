@@ -89,6 +89,9 @@ pub struct ProcedureInfo {
     /// Where the desktop mode parks each instrument before the trainee moves (left, right):
     /// over the field, pointing away from it.
     pub desk_park: [Vec3; 2],
+    /// The parameter tables its scenario holds that have a table of specs: (scenario table,
+    /// specs). They drive validation, sliders and `docs/parameters.md`.
+    pub param_tables: &'static [(&'static str, &'static [crate::params::ParamSpec])],
     /// The model that tunings in recordings of format versions 1 and 2 (which name no model)
     /// were made to; none for a procedure that had no such recordings.
     pub legacy_tuned_model: Option<&'static str>,

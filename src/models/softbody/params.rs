@@ -1,5 +1,6 @@
 //! The soft body's parameters (every field with its unit) and the values a supervisor tunes live.
 
+use crate::params::{ParamSpec, Params};
 use serde::{Deserialize, Serialize};
 
 /// Parameters of the force-based soft body. Every field has its unit in its name.
@@ -44,14 +45,196 @@ pub struct Tuning {
     pub offset_m: f32,
 }
 
-impl Tuning {
-    /// Each value's name and allowed range (the sliders' ends).
-    pub const RANGES: [(&'static str, f32, f32); 3] = [
-        ("spring_n_per_m", 1.0, 400.0),
-        ("damping_per_s", 0.0, 50.0),
-        ("offset_m", 0.0, 0.01),
+// The table: one entry per parameter (units, one default, scenario range, live slider).
+const SPRING: ParamSpec = spec(
+    "spring_n_per_m",
+    "N/m",
+    40.0,
+    (0.0, 1e5),
+    "spring pulling each anchored point to its rest position (eq 2), per unit-mass point",
+    Some((1.0, 400.0)),
+);
+const DAMPING: ParamSpec = spec(
+    "damping_per_s",
+    "1/s",
+    8.0,
+    (0.0, 1e3),
+    "velocity damping d in v (1 - d dt) (eq 5)",
+    Some((0.0, 50.0)),
+);
+const CONTACT_AREA: ParamSpec = spec(
+    "contact_area_m2",
+    "m^2",
+    1e-4,
+    (1e-8, 1e-2),
+    "area a pressing tool's pressure acts on (eq 4: P n dA)",
+    None,
+);
+const OFFSET: ParamSpec = spec(
+    "offset_m",
+    "m",
+    0.002,
+    (0.0, 0.05),
+    "lift of a contact force's origin above the contact along the normal",
+    Some((0.0, 0.01)),
+);
+const FALLOFF: ParamSpec = spec(
+    "falloff_m",
+    "m",
+    0.006,
+    (1e-4, 0.1),
+    "distance scale l of the falloff F / (1 + (d / l)^2) (eq 6)",
+    None,
+);
+const VOLUME: ParamSpec = spec(
+    "volume_stiffness_pa",
+    "Pa",
+    2000.0,
+    (0.0, 1e6),
+    "internal pressure per unit relative volume loss (eq 3)",
+    None,
+);
+const STRETCH: ParamSpec = spec(
+    "stretch_compliance_m_per_n",
+    "m/N",
+    1e-3,
+    (0.0, 1.0),
+    "XPBD compliance of the stretch constraints (eq 11)",
+    None,
+);
+const BEND: ParamSpec = spec(
+    "bend_compliance_per_n_m",
+    "rad/(N m)",
+    0.1,
+    (0.0, 10.0),
+    "XPBD compliance of the dihedral bending constraints (eq 12)",
+    None,
+);
+const TIE_COMPLIANCE: ParamSpec = spec(
+    "tie_compliance_m_per_n",
+    "m/N",
+    1e-4,
+    (0.0, 1.0),
+    "XPBD compliance of the breakable ties between regions",
+    None,
+);
+const TIE_BREAK: ParamSpec = spec(
+    "tie_break_force_n",
+    "N",
+    2.0,
+    (1e-3, 1e3),
+    "a tie tears when its constraint force exceeds this",
+    None,
+);
+const ITERATIONS: ParamSpec = ParamSpec {
+    whole: true,
+    ..spec(
+        "solver_iterations",
+        "",
+        1.0,
+        (1.0, 100.0),
+        "constraint projections per step",
+        None,
+    )
+};
+const SLEEP: ParamSpec = spec(
+    "sleep_speed_m_per_s",
+    "m/s",
+    1e-4,
+    (0.0, 0.1),
+    "speed under which a point at rest counts as still and may sleep",
+    None,
+);
+
+const fn spec(
+    key: &'static str,
+    unit: &'static str,
+    default: f64,
+    (min, max): (f64, f64),
+    doc: &'static str,
+    tune: Option<(f64, f64)>,
+) -> ParamSpec {
+    ParamSpec {
+        key,
+        unit,
+        default,
+        min,
+        max,
+        doc,
+        whole: false,
+        tune,
+    }
+}
+
+/// A tunable spec's slider range, as the tuning checks it.
+const fn slider(s: ParamSpec) -> (&'static str, f32, f32) {
+    match s.tune {
+        Some((lo, hi)) => (s.key, lo as f32, hi as f32),
+        None => (s.key, 0.0, 0.0),
+    }
+}
+
+impl Params for SoftBodyParams {
+    const SPECS: &'static [ParamSpec] = &[
+        SPRING,
+        DAMPING,
+        CONTACT_AREA,
+        OFFSET,
+        FALLOFF,
+        VOLUME,
+        STRETCH,
+        BEND,
+        TIE_COMPLIANCE,
+        TIE_BREAK,
+        ITERATIONS,
+        SLEEP,
     ];
 
+    fn get(&self, key: &str) -> Option<f64> {
+        Some(match key {
+            "spring_n_per_m" => self.spring_n_per_m.into(),
+            "damping_per_s" => self.damping_per_s.into(),
+            "contact_area_m2" => self.contact_area_m2.into(),
+            "offset_m" => self.offset_m.into(),
+            "falloff_m" => self.falloff_m.into(),
+            "volume_stiffness_pa" => self.volume_stiffness_pa.into(),
+            "stretch_compliance_m_per_n" => self.stretch_compliance_m_per_n.into(),
+            "bend_compliance_per_n_m" => self.bend_compliance_per_n_m.into(),
+            "tie_compliance_m_per_n" => self.tie_compliance_m_per_n.into(),
+            "tie_break_force_n" => self.tie_break_force_n.into(),
+            "solver_iterations" => self.solver_iterations.into(),
+            "sleep_speed_m_per_s" => self.sleep_speed_m_per_s.into(),
+            _ => return None,
+        })
+    }
+
+    fn set(&mut self, key: &str, v: f64) -> bool {
+        let f = v as f32;
+        match key {
+            "spring_n_per_m" => self.spring_n_per_m = f,
+            "damping_per_s" => self.damping_per_s = f,
+            "contact_area_m2" => self.contact_area_m2 = f,
+            "offset_m" => self.offset_m = f,
+            "falloff_m" => self.falloff_m = f,
+            "volume_stiffness_pa" => self.volume_stiffness_pa = f,
+            "stretch_compliance_m_per_n" => self.stretch_compliance_m_per_n = f,
+            "bend_compliance_per_n_m" => self.bend_compliance_per_n_m = f,
+            "tie_compliance_m_per_n" => self.tie_compliance_m_per_n = f,
+            "tie_break_force_n" => self.tie_break_force_n = f,
+            "solver_iterations" => {
+                self.solver_iterations = v.clamp(0.0, f64::from(u32::MAX)) as u32
+            }
+            "sleep_speed_m_per_s" => self.sleep_speed_m_per_s = f,
+            _ => return false,
+        }
+        true
+    }
+}
+
+impl Tuning {
+    /// Each tunable value's name and slider range, from the parameter table.
+    pub const RANGES: [(&'static str, f32, f32); 3] =
+        [slider(SPRING), slider(DAMPING), slider(OFFSET)];
     pub fn of(p: &SoftBodyParams) -> Tuning {
         Tuning {
             spring_n_per_m: p.spring_n_per_m,
@@ -83,20 +266,76 @@ impl Tuning {
 }
 
 impl Default for SoftBodyParams {
+    /// Every parameter at its table default.
     fn default() -> Self {
+        let d = |s: ParamSpec| s.default as f32;
         Self {
-            spring_n_per_m: 40.0,
-            damping_per_s: 8.0,
-            contact_area_m2: 1e-4,
-            offset_m: 0.002,
-            falloff_m: 0.006,
-            volume_stiffness_pa: 2000.0,
-            stretch_compliance_m_per_n: 1e-3,
-            bend_compliance_per_n_m: 0.1,
-            tie_compliance_m_per_n: 1e-4,
-            tie_break_force_n: 2.0,
-            solver_iterations: 1,
-            sleep_speed_m_per_s: 1e-4,
+            spring_n_per_m: d(SPRING),
+            damping_per_s: d(DAMPING),
+            contact_area_m2: d(CONTACT_AREA),
+            offset_m: d(OFFSET),
+            falloff_m: d(FALLOFF),
+            volume_stiffness_pa: d(VOLUME),
+            stretch_compliance_m_per_n: d(STRETCH),
+            bend_compliance_per_n_m: d(BEND),
+            tie_compliance_m_per_n: d(TIE_COMPLIANCE),
+            tie_break_force_n: d(TIE_BREAK),
+            solver_iterations: ITERATIONS.default as u32,
+            sleep_speed_m_per_s: d(SLEEP),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_table_covers_every_field_once_and_reads_back() {
+        let keys: Vec<&str> = SoftBodyParams::SPECS.iter().map(|s| s.key).collect();
+        let mut unique = keys.clone();
+        unique.sort_unstable();
+        unique.dedup();
+        assert_eq!(unique.len(), keys.len(), "each key once");
+        // Every field appears in the serialised struct under exactly the table's keys.
+        let p = SoftBodyParams::default();
+        let v = serde_json::to_value(p).unwrap_or_default();
+        let fields: Vec<&str> = v
+            .as_object()
+            .map(|o| o.keys().map(String::as_str).collect())
+            .unwrap_or_default();
+        let mut sorted = keys.clone();
+        sorted.sort_unstable();
+        assert_eq!(fields, sorted);
+        for s in SoftBodyParams::SPECS {
+            assert_eq!(p.get(s.key), Some(f64::from(s.default as f32)), "{}", s.key);
+            assert!(s.min <= s.default && s.default <= s.max, "{}", s.key);
+            if let Some((lo, hi)) = s.tune {
+                assert!(s.min <= lo && hi <= s.max && lo < hi, "{}", s.key);
+            }
+            let mut q = p;
+            assert!(q.set(s.key, s.max));
+            assert_eq!(q.get(s.key), Some(f64::from(s.max as f32)));
+        }
+        assert!(crate::params::validate("t", "tissue", &p).is_ok());
+        let mut bad = p;
+        bad.solver_iterations = 0;
+        let e = crate::params::validate("t.toml", "tissue", &bad).expect_err("0 iterations");
+        assert_eq!(e.key, "tissue.solver_iterations");
+        let mut nan = p;
+        nan.falloff_m = f32::NAN;
+        let e = crate::params::validate("t.toml", "tissue", &nan).expect_err("NaN");
+        assert!(
+            e.to_string()
+                .contains("t.toml: tissue.falloff_m: must be a finite number")
+        );
+        // The live sliders are the table's.
+        let sliders: Vec<&str> = Tuning::RANGES.iter().map(|r| r.0).collect();
+        let tunable: Vec<&str> = SoftBodyParams::SPECS
+            .iter()
+            .filter(|s| s.tune.is_some())
+            .map(|s| s.key)
+            .collect();
+        assert_eq!(sliders, tunable);
     }
 }

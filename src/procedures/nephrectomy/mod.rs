@@ -70,6 +70,16 @@ pub const INFO: super::ProcedureInfo = super::ProcedureInfo {
         Vec3::new(-0.03135, 0.04888, 0.14317),
         Vec3::new(0.09865, 0.04888, 0.14317),
     ],
+    param_tables: &[
+        (
+            "kidney",
+            <crate::models::SoftBodyParams as crate::params::Params>::SPECS,
+        ),
+        (
+            "vessels",
+            <crate::models::SoftBodyParams as crate::params::Params>::SPECS,
+        ),
+    ],
     legacy_tuned_model: Some(TUNED_MODEL),
     plan,
     build,

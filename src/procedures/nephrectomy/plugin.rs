@@ -162,6 +162,8 @@ impl Procedure for Nephrectomy {
         if model != TUNED_MODEL {
             return Err(format!("model '{model}' has no tunable parameters"));
         }
+        // The table's slider ranges, all values or none.
+        crate::params::check_tuning::<crate::models::SoftBodyParams>(model, values)?;
         let mut t = Tuning::of(&self.scenario.kidney);
         for (key, v) in values {
             match key.as_str() {

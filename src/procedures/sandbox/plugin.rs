@@ -148,6 +148,8 @@ impl Procedure for Sandbox {
         if model != MODEL {
             return Err(format!("model '{model}' has no tunable parameters"));
         }
+        // The table's slider ranges, all values or none.
+        crate::params::check_tuning::<crate::models::SoftBodyParams>(model, values)?;
         let mut t = Tuning::of(&self.scenario.block);
         for (key, v) in values {
             match key.as_str() {

@@ -89,55 +89,9 @@ impl Check<'_> {
         Ok(())
     }
 
-    /// The soft body's ranges (those of the nephrectomy's tissue tables).
+    /// The soft body's table ranges (`SoftBodyParams::SPECS`).
     fn params(&self, table: &str, p: &SoftBodyParams) -> Result<(), InputError> {
-        let k = |name: &str| format!("{table}.{name}");
-        for (name, v, lo, hi, unit) in [
-            ("spring_n_per_m", p.spring_n_per_m, 0.0, 1e5, "N/m"),
-            ("damping_per_s", p.damping_per_s, 0.0, 1e3, "1/s"),
-            ("contact_area_m2", p.contact_area_m2, 1e-8, 1e-2, "m^2"),
-            ("offset_m", p.offset_m, 0.0, 0.05, "m"),
-            ("falloff_m", p.falloff_m, 1e-4, 0.1, "m"),
-            ("volume_stiffness_pa", p.volume_stiffness_pa, 0.0, 1e6, "Pa"),
-            (
-                "stretch_compliance_m_per_n",
-                p.stretch_compliance_m_per_n,
-                0.0,
-                1.0,
-                "m/N",
-            ),
-            (
-                "bend_compliance_per_n_m",
-                p.bend_compliance_per_n_m,
-                0.0,
-                10.0,
-                "rad/(N m)",
-            ),
-            (
-                "tie_compliance_m_per_n",
-                p.tie_compliance_m_per_n,
-                0.0,
-                1.0,
-                "m/N",
-            ),
-            ("tie_break_force_n", p.tie_break_force_n, 1e-3, 1e3, "N"),
-            (
-                "sleep_speed_m_per_s",
-                p.sleep_speed_m_per_s,
-                0.0,
-                0.1,
-                "m/s",
-            ),
-        ] {
-            self.num(&k(name), v, lo, hi, unit)?;
-        }
-        if !(1..=100).contains(&p.solver_iterations) {
-            return Err(self.err(
-                &k("solver_iterations"),
-                format!("must be between 1 and 100, got {}", p.solver_iterations),
-            ));
-        }
-        Ok(())
+        crate::params::validate(self.file, table, p)
     }
 }
 
