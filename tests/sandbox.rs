@@ -10,11 +10,29 @@ fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_vesalius"))
 }
 
-fn tmp(name: &str) -> PathBuf {
+/// A scratch folder, removed when the test passes (kept when it fails, to look at).
+struct Scratch(PathBuf);
+
+impl std::ops::Deref for Scratch {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}
+
+fn tmp(name: &str) -> Scratch {
     let d = std::env::temp_dir().join(format!("vesalius-sandbox-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).expect("temp dir");
-    d
+    Scratch(d)
 }
 
 fn trace() -> PathBuf {
@@ -110,7 +128,7 @@ fn demo_plays_every_registered_procedure() {
     let dir = tmp("demo");
     let out = ok(&bin()
         .args(["demo", "--out"])
-        .arg(&dir)
+        .arg(&*dir)
         .output()
         .expect("runs"));
     for p in vesalius::procedures::REGISTRY {
