@@ -117,6 +117,10 @@ fn bench_and_profile_run_the_sandbox() {
         .expect("runs"));
     let v: serde_json::Value = serde_json::from_str(&p).expect("JSON");
     assert_eq!(v["procedure"], "sandbox");
+    assert!(
+        v["paper"].is_null(),
+        "no paper counters for the sandbox: {v}"
+    );
     let c = &v["vesalius"];
     let draws = c["draw_calls"].as_u64().expect("draw calls");
     assert!((1..=9).contains(&draws), "{c}");

@@ -129,7 +129,7 @@ pub fn profile(
     eye_size: (u32, u32),
     two_pass: bool,
 ) -> Result<(), CliError> {
-    use vesalius::profiler::{mb, paper_cpu, paper_gpu};
+    use vesalius::profiler::mb;
     let info = match procedure {
         Some(p) => vesalius::procedures::find(p),
         None => vesalius::procedures::REGISTRY.first().copied(),
@@ -181,12 +181,15 @@ pub fn profile(
                 .map(|(k, b)| (k.to_string(), serde_json::json!(b)))
                 .collect::<serde_json::Map<_, _>>(),
             "vesalius": ours,
-            "paper": { "cpu": paper_cpu(), "gpu": paper_gpu() },
+            "paper": info.profile_reference.map(|f| {
+                let [cpu, gpu] = f();
+                serde_json::json!({ "cpu": cpu, "gpu": gpu })
+            }),
         });
         say!("{}", serde_json::to_string_pretty(&v).unwrap_or_default());
         return Ok(());
     }
-    let (pc, pg) = (paper_cpu(), paper_gpu());
+    let paper = info.profile_reference.map(|f| f());
     say!(
         "{procedure} on {} ({}x{} per eye, {} pass{}), {frame_ms:.1} ms per stereo frame",
         done.device,
@@ -206,11 +209,16 @@ pub fn profile(
         "paper CPU",
         "paper GPU"
     );
-    let cols = [ours.column(), pc, pg];
+    let ours_column = ours.column();
     let row = |name: &str,
                cell: &dyn Fn(&vesalius::profiler::PaperColumn) -> String|
      -> Result<(), CliError> {
-        let [a, b, c] = cols.each_ref().map(cell);
+        let a = cell(&ours_column);
+        // A procedure whose paper gives no counters shows dashes there.
+        let [b, c] = paper.as_ref().map_or_else(
+            || ["–".to_string(), "–".to_string()],
+            |p| p.each_ref().map(cell),
+        );
         say!("{name:<22} {a:>12} {b:>12} {c:>12}");
         Ok(())
     };

@@ -89,6 +89,9 @@ pub struct ProcedureInfo {
     /// Where the desktop mode parks each instrument before the trainee moves (left, right):
     /// over the field, pointing away from it.
     pub desk_park: [Vec3; 2],
+    /// Its paper's profiler counters (CPU and GPU columns) for `vesalius profile` to print
+    /// beside ours; none where the paper gives none.
+    pub profile_reference: Option<fn() -> [crate::profiler::PaperColumn; 2]>,
     /// The parameter tables its scenario holds that have a table of specs: (scenario table,
     /// specs). They drive validation, sliders and `docs/parameters.md`.
     pub param_tables: &'static [(&'static str, &'static [crate::params::ParamSpec])],

@@ -70,6 +70,8 @@ pub const INFO: super::ProcedureInfo = super::ProcedureInfo {
         Vec3::new(-0.03135, 0.04888, 0.14317),
         Vec3::new(0.09865, 0.04888, 0.14317),
     ],
+    // Tables 2 and 3 of the paper.
+    profile_reference: Some(|| [crate::profiler::paper_cpu(), crate::profiler::paper_gpu()]),
     param_tables: &[
         (
             "kidney",
