@@ -5,7 +5,8 @@ need=()
 # Vulkan: Mesa's lavapipe renders in software where there is no GPU.
 # OpenXR: the Khronos loader (and its openxr_runtime_list) that loads our simulated runtime.
 # The window: the X11 client libraries winit loads; Xvfb and xdotool for the window's tests.
-for pkg in build-essential pkg-config curl ca-certificates mesa-vulkan-drivers libvulkan1 vulkan-tools \
+# procps: the `kill` program the session tests signal with (and --xr-sim forwards signals by).
+for pkg in build-essential pkg-config curl ca-certificates procps mesa-vulkan-drivers libvulkan1 vulkan-tools \
     libopenxr-loader1 libopenxr-dev libopenxr-utils \
     libx11-6 libx11-xcb1 libxcursor1 libxrandr2 libxi6 libxkbcommon0 libxkbcommon-x11-0 \
     xvfb xauth xdotool; do

@@ -68,20 +68,66 @@ pub fn validate<T: Params>(file: &str, table: &str, t: &T) -> Result<(), InputEr
     Ok(())
 }
 
+/// Why a live change of parameters was refused (nothing was changed).
+#[derive(Debug, thiserror::Error)]
+pub enum TuneError {
+    #[error("model '{0}' has no tunable parameters")]
+    NoSuchModel(String),
+    #[error("{table}.{key}: not a parameter of this model")]
+    UnknownKey { table: String, key: String },
+    #[error("{table}.{key}: fixed for the session, not tunable")]
+    Fixed { table: String, key: String },
+    #[error("{table}.{key}: must be {min} to {max}, got {value}")]
+    OutOfRange {
+        table: String,
+        key: String,
+        min: f64,
+        max: f64,
+        value: f64,
+    },
+    #[error("cannot record the tuning: {0}")]
+    Record(#[from] std::io::Error),
+    #[error("step {step}: {source}")]
+    AtStep {
+        step: u64,
+        #[source]
+        source: Box<TuneError>,
+    },
+}
+
+/// Checks a live value against a slider range `(min, max)`.
+pub fn check_slider(
+    table: &str,
+    key: &str,
+    (min, max): (f64, f64),
+    v: f32,
+) -> Result<(), TuneError> {
+    let value = f64::from(v);
+    if value.is_finite() && (min..=max).contains(&value) {
+        return Ok(());
+    }
+    Err(TuneError::OutOfRange {
+        table: table.to_string(),
+        key: key.to_string(),
+        min,
+        max,
+        value,
+    })
+}
+
 /// Checks live values for `table` against their slider ranges (all or none).
-pub fn check_tuning<T: Params>(table: &str, values: &[(String, f32)]) -> Result<(), String> {
+pub fn check_tuning<T: Params>(table: &str, values: &[(String, f32)]) -> Result<(), TuneError> {
     for (key, v) in values {
-        let spec = T::SPECS
-            .iter()
-            .find(|s| s.key == key)
-            .ok_or_else(|| format!("{table}.{key}: not a parameter of this model"))?;
-        let (lo, hi) = spec
-            .tune
-            .ok_or_else(|| format!("{table}.{key}: fixed for the session, not tunable"))?;
-        let v = f64::from(*v);
-        if !(v.is_finite() && (lo..=hi).contains(&v)) {
-            return Err(format!("{table}.{key}: must be {lo} to {hi}, got {v}"));
-        }
+        let named = || (table.to_string(), key.clone());
+        let spec = T::SPECS.iter().find(|s| s.key == key).ok_or_else(|| {
+            let (table, key) = named();
+            TuneError::UnknownKey { table, key }
+        })?;
+        let range = spec.tune.ok_or_else(|| {
+            let (table, key) = named();
+            TuneError::Fixed { table, key }
+        })?;
+        check_slider(table, key, range, *v)?;
     }
     Ok(())
 }
@@ -158,13 +204,15 @@ mod tests {
         let ok = [("spring_n_per_m".to_string(), 100.0)];
         assert!(check_tuning::<SoftBodyParams>("tissue", &ok).is_ok());
         let high = [("spring_n_per_m".to_string(), 500.0)];
-        let e = check_tuning::<SoftBodyParams>("tissue", &high).expect_err("above");
+        let e = check_tuning::<SoftBodyParams>("tissue", &high)
+            .expect_err("above")
+            .to_string();
         assert!(
             e.contains("tissue.spring_n_per_m") && e.contains("400"),
             "{e}"
         );
         let fixed = [("falloff_m".to_string(), 0.01)];
         let e = check_tuning::<SoftBodyParams>("tissue", &fixed).expect_err("fixed");
-        assert!(e.contains("not tunable"), "{e}");
+        assert!(matches!(e, TuneError::Fixed { .. }), "{e}");
     }
 }

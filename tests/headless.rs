@@ -265,14 +265,20 @@ fn a_live_tissue_tuning_is_recorded_and_replayed_at_its_step() {
         ("spring_n_per_m".to_string(), 50.0),
         ("offset_m".to_string(), f32::NAN),
     ];
-    let e = live.tune("kidney", &bad).expect_err("NaN offset");
+    let e = live
+        .tune("kidney", &bad)
+        .expect_err("NaN offset")
+        .to_string();
     assert!(e.contains("kidney.offset_m"), "{e}");
     assert_eq!(
         live.tunables(),
         before,
         "nothing changed, not even the spring"
     );
-    let e = live.tune("liver", &bad[..1]).expect_err("no such model");
+    let e = live
+        .tune("liver", &bad[..1])
+        .expect_err("no such model")
+        .to_string();
     assert!(e.contains("liver"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -306,7 +312,8 @@ fn the_laser_pressure_is_a_live_tunable() {
     let before = live.tunables();
     let e = live
         .tune("tools", &[("laser_pressure_pa".to_string(), -5.0)])
-        .expect_err("negative");
+        .expect_err("negative")
+        .to_string();
     assert!(e.contains("tools.laser_pressure_pa"), "{e}");
     assert_eq!(live.tunables(), before);
 }

@@ -3,37 +3,10 @@
 //! the simulated OpenXR runtime, `bench --json`, `profile --json` and `demo`, which plays every
 //! registered procedure.
 
+mod common;
+use common::{Scratch, bin, report};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_vesalius"))
-}
-
-/// A scratch folder, removed when the test passes (kept when it fails, to look at).
-struct Scratch(PathBuf);
-
-impl std::ops::Deref for Scratch {
-    type Target = Path;
-    fn deref(&self) -> &Path {
-        &self.0
-    }
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        if !std::thread::panicking() {
-            let _ = std::fs::remove_dir_all(&self.0);
-        }
-    }
-}
-
-fn tmp(name: &str) -> Scratch {
-    let d = std::env::temp_dir().join(format!("vesalius-sandbox-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).expect("temp dir");
-    Scratch(d)
-}
 
 fn trace() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/traces/sandbox-demo.toml")
@@ -47,11 +20,6 @@ fn ok(o: &Output) -> String {
         String::from_utf8_lossy(&o.stderr)
     );
     out
-}
-
-fn report(dir: &Path) -> serde_json::Value {
-    serde_json::from_slice(&std::fs::read(dir.join("report.json")).expect("report.json"))
-        .expect("JSON")
 }
 
 /// The task done in order, as the report's metrics and events say.
@@ -183,4 +151,8 @@ fn the_window_and_the_simulated_headset_run_the_sandbox() {
     let x = report(&dir.join("xr"));
     assert_completed(&x);
     assert_eq!(x["ended"], "xr_exit");
+}
+
+fn tmp(name: &str) -> Scratch {
+    common::tmp("sandbox", name)
 }

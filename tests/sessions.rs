@@ -3,39 +3,12 @@
 //! recording is an error naming its block; a full disk is a clear error with no report; bad
 //! output folders, endless traces and absurd scenarios are refused before the first step.
 
+mod common;
+use common::{Scratch, bin, report};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 use vesalius::scenario::builtin;
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_vesalius"))
-}
-
-/// A scratch folder, removed when the test passes (kept when it fails, to look at).
-struct Scratch(PathBuf);
-
-impl std::ops::Deref for Scratch {
-    type Target = Path;
-    fn deref(&self) -> &Path {
-        &self.0
-    }
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        if !std::thread::panicking() {
-            let _ = std::fs::remove_dir_all(&self.0);
-        }
-    }
-}
-
-fn tmp(name: &str) -> Scratch {
-    let d = std::env::temp_dir().join(format!("vesalius-sessions-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).expect("temp dir");
-    Scratch(d)
-}
 
 /// The shipped scenario at coarse resolution (fast, far above real time).
 fn coarse(dir: &Path) -> PathBuf {
@@ -88,11 +61,6 @@ fn wait_for_recording(dir: &Path, child: &mut Child) -> Instant {
         std::thread::sleep(Duration::from_millis(5));
     }
     panic!("no recording after 30 s");
-}
-
-fn report(dir: &Path) -> serde_json::Value {
-    serde_json::from_slice(&std::fs::read(dir.join("report.json")).expect("report.json"))
-        .expect("JSON")
 }
 
 fn replay(rec: &Path, out: &Path) -> Output {
@@ -372,4 +340,8 @@ fn absurd_scenarios_are_refused_before_anything_is_built() {
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(err.contains(says) && err.contains(name), "{name}: {err}");
     }
+}
+
+fn tmp(name: &str) -> Scratch {
+    common::tmp("sessions", name)
 }

@@ -1,9 +1,8 @@
 //! Alarms for the supervising surgeon: an instrument touching or nearing a vulnerable
-//! structure, or the grasper pressing too hard. The rectum paper's dynamic assessment warns the
-//! trainee in real time when a tool comes near vulnerable tissue; the force limit is the top of
-//! the 0.5-3.5 N range tissue takes in collision and puncture (interventional-catheter paper,
-//! section 3.1). The laser has no force alarm: the force its beam applies is the paper's
-//! deforming pressure, added at every point it reaches (eq 4), not a load on an instrument.
+//! structure, or a holding instrument pressing too hard. Dynamic assessment warns the trainee
+//! in real time when a tool comes near vulnerable tissue; the force limit is each holding
+//! instrument's full scale (the procedure says it). A beam has no force alarm: the force it
+//! applies is the model's deforming pressure, not a load on an instrument.
 
 use crate::procedures::{ProcedureInfo, ToolInfo, ToolKind};
 use crate::session::Status;
@@ -73,7 +72,7 @@ pub struct Alarm {
 }
 
 impl Alarm {
-    /// The banner's text, e.g. "grasper touches artery".
+    /// The banner's text, e.g. "left jaws touch structure A".
     pub fn message(&self) -> String {
         let tool = self.tool;
         match &self.reason {
@@ -113,7 +112,7 @@ pub fn conditions(rules: &AlarmRules, s: &Status) -> Vec<Alarm> {
         };
         if s.touching[k] {
             push(Reason::Touching {
-                structure: near.map_or("a vessel".to_string(), |n| n.0.clone()),
+                structure: near.map_or("a vulnerable structure".to_string(), |n| n.0.clone()),
             });
         } else if let Some((structure, d)) = near.filter(|n| n.1 <= rules.near_m) {
             push(Reason::Near {
@@ -179,26 +178,26 @@ mod tests {
     #[test]
     fn an_approach_raises_near_then_touching_once_each_and_force_on_its_own() {
         let mut w = AlarmWatch::new(AlarmRules {
-            names: ["grasper", "laser"],
+            names: ["jaws", "beam"],
             force_on: [true, false],
             ..AlarmRules::default()
         });
         let mut s = status(1.0);
-        s.near[0] = Some(("artery".into(), 0.008));
+        s.near[0] = Some(("structure A".into(), 0.008));
         assert_eq!(w.update(&s), (vec![], vec![]), "8 mm is not near");
         s.time_s = 1.5;
-        s.near[0] = Some(("artery".into(), 0.004));
+        s.near[0] = Some(("structure A".into(), 0.004));
         let (now, raised) = w.update(&s);
         assert_eq!(now, raised);
         assert_eq!(raised.len(), 1);
-        assert_eq!(raised[0].message(), "grasper 4.0 mm from artery");
+        assert_eq!(raised[0].message(), "jaws 4.0 mm from structure A");
         assert_eq!(raised[0].time_s, 1.5);
         // Still near: shown, not raised again.
         s.time_s = 1.6;
-        s.near[0] = Some(("artery".into(), 0.003));
+        s.near[0] = Some(("structure A".into(), 0.003));
         let (now, raised) = w.update(&s);
         assert_eq!((now.len(), raised.len()), (1, 0));
-        // Touching and pressing too hard; the laser's beam force raises nothing.
+        // Touching and pressing too hard; the beam's force raises nothing.
         s.time_s = 1.7;
         s.touching[0] = true;
         s.force_n = [4.2, 12.0];
@@ -206,7 +205,7 @@ mod tests {
         let msgs: Vec<String> = raised.iter().map(Alarm::message).collect();
         assert_eq!(
             msgs,
-            ["grasper touches artery", "grasper presses with 4.2 N"]
+            ["jaws touches structure A", "jaws presses with 4.2 N"]
         );
         // All clear, then the same force again: a new episode.
         w.update(&status(2.0));

@@ -389,7 +389,7 @@ mod tests {
             &["vesalius", "run", p, "--xr-sim", "t.toml"],
             &["vesalius", "run", p, "--screenshot-at", "1"],
             &["vesalius", "run", p, "--eye-size", "10x10"],
-            &["vesalius", "run", "rectum"],
+            &["vesalius", "run", "no-such-procedure"],
             &["vesalius", "--threads", "0", "demo"],
         ] {
             let e = Cli::try_parse_from(args).expect_err("refused");

@@ -7,6 +7,7 @@ use crate::scenario::InputError;
 pub mod nephrectomy;
 mod procedure;
 pub mod sandbox;
+pub mod soft_tissue;
 
 pub use nephrectomy::Nephrectomy;
 pub use procedure::{

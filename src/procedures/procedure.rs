@@ -210,7 +210,11 @@ pub trait Procedure: Send {
     fn tunables(&self) -> Vec<Tunable>;
     /// Changes tunable values of `model` (its scenario table) from the next step on (all or
     /// none).
-    fn tune(&mut self, model: &str, values: &[(String, f32)]) -> Result<(), String>;
+    fn tune(
+        &mut self,
+        model: &str,
+        values: &[(String, f32)],
+    ) -> Result<(), crate::params::TuneError>;
     /// Whether the task is done.
     fn is_completed(&self) -> bool;
 }

@@ -3,6 +3,7 @@
 
 use super::output::{io, new_session_id};
 use super::{Outcome, Recorded, Report, SessionError, Status, ended};
+use crate::params::TuneError;
 use crate::procedures::{Plan, Procedure, ProcedureInfo, Tunable};
 use crate::sim::{
     Clock, HapticFrame, HapticSlot, InputFrame, Pacing, SimEvent, Snapshot, ToolHaptics,
@@ -221,7 +222,7 @@ impl Live {
     /// Changes tunable values of `model` from the next step on; the change is recorded (a
     /// replay makes it at the same step) and raised as an event. Values out of their ranges
     /// are refused and change nothing.
-    pub fn tune(&mut self, model: &str, values: &[(String, f32)]) -> Result<(), String> {
+    pub fn tune(&mut self, model: &str, values: &[(String, f32)]) -> Result<(), TuneError> {
         self.proc_.tune(model, values)?;
         let record = TuningRecord {
             step: self.clock.step(),
@@ -229,7 +230,7 @@ impl Live {
             values: values.to_vec(),
         };
         if let Some(w) = self.writer.as_mut() {
-            w.push_tuning(&record).map_err(|e| e.to_string())?;
+            w.push_tuning(&record)?;
         } else {
             self.tunings.push(record);
         }
@@ -241,9 +242,12 @@ impl Live {
     }
 
     /// Makes a recorded tuning.
-    pub fn tune_recorded(&mut self, r: &TuningRecord) -> Result<(), String> {
+    pub fn tune_recorded(&mut self, r: &TuningRecord) -> Result<(), TuneError> {
         self.tune(&r.model, &r.values)
-            .map_err(|e| format!("step {}: {e}", r.step))
+            .map_err(|e| TuneError::AtStep {
+                step: r.step,
+                source: Box::new(e),
+            })
     }
 
     /// The values the supervisor may tune now.

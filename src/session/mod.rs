@@ -230,7 +230,11 @@ pub fn run_with(
             Input::Recorded(r) => {
                 while let Some(t) = r.tunings.get(next_tuning).filter(|t| t.step == step) {
                     live.tune_recorded(t).map_err(|m| {
-                        SessionError::Input(InputError::new(scenario_file, "tunings", m))
+                        SessionError::Input(InputError::new(
+                            scenario_file,
+                            "tunings",
+                            m.to_string(),
+                        ))
                     })?;
                     next_tuning += 1;
                 }

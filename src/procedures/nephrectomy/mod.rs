@@ -364,12 +364,6 @@ impl Nephrectomy {
         &mut self.models
     }
 
-    /// Changes the kidney's tunable parameters from the next step on.
-    pub fn tune_kidney(&mut self, t: &crate::models::Tuning) {
-        self.models[KIDNEY].tune(t);
-        t.apply(&mut self.scenario.kidney);
-    }
-
     /// Whether each tool (left, right) touches a vulnerable structure now.
     pub fn touching_vulnerable(&self) -> [bool; 2] {
         self.vessel_touch

@@ -1,19 +1,20 @@
 //! The nephrectomy as the session, window and headset see every procedure.
 
 use super::{INFO, KIDNEY, Nephrectomy, TUNED_MODEL};
-use crate::models::Tuning;
+use crate::params::{TuneError, check_slider};
+use crate::procedures::soft_tissue;
 use crate::procedures::{
     ModelReport, Procedure, ProcedureInfo, ProcedureReport, TaskStatus, Tunable,
 };
 use crate::sim::{InputFrame, SimEvent, Snapshot, TissueModel};
 use glam::Vec3;
 
-/// Slider labels with units, in the order of `Tuning::RANGES`.
-const LABELS: [&str; 3] = ["spring (N/m)", "damping (1/s)", "offset (mm)"];
 /// The scenario table of the instruments, whose laser pressure is tunable too.
 const TOOLS: &str = "tools";
 /// The laser's pressure on the tissue it cuts, Pa (eq 4): the slider's range.
-const LASER_PRESSURE_PA: (f32, f32) = (0.0, 10_000.0);
+const LASER_PRESSURE_PA: (f64, f64) = (0.0, 10_000.0);
+/// Its key in `[tools]`.
+const LASER_PRESSURE: &str = "laser_pressure_pa";
 
 impl Procedure for Nephrectomy {
     fn info(&self) -> &'static ProcedureInfo {
@@ -115,69 +116,44 @@ impl Procedure for Nephrectomy {
     }
 
     fn tunables(&self) -> Vec<Tunable> {
-        let now = Tuning::of(&self.scenario.kidney).values();
-        Tuning::RANGES
-            .iter()
-            .zip(LABELS)
-            .zip(now)
-            .map(|(((key, min, max), label), value)| Tunable {
-                model: TUNED_MODEL.to_string(),
-                key,
-                label,
-                min: *min,
-                max: *max,
-                scale: if *key == "offset_m" { 1000.0 } else { 1.0 },
-                value,
-            })
-            .chain(std::iter::once(Tunable {
-                model: TOOLS.to_string(),
-                key: "laser_pressure_pa",
-                label: "laser pressure (Pa)",
-                min: LASER_PRESSURE_PA.0,
-                max: LASER_PRESSURE_PA.1,
-                scale: 1.0,
-                value: self.scenario.tools.laser_pressure_pa,
-            }))
-            .collect()
+        let mut t = soft_tissue::tunables(TUNED_MODEL, &self.scenario.kidney);
+        t.push(Tunable {
+            model: TOOLS.to_string(),
+            key: LASER_PRESSURE,
+            label: "laser pressure (Pa)",
+            min: LASER_PRESSURE_PA.0 as f32,
+            max: LASER_PRESSURE_PA.1 as f32,
+            scale: 1.0,
+            value: self.scenario.tools.laser_pressure_pa,
+        });
+        t
     }
 
-    fn tune(&mut self, model: &str, values: &[(String, f32)]) -> Result<(), String> {
-        if model == TOOLS {
-            let mut pressure = self.scenario.tools.laser_pressure_pa;
-            for (key, v) in values {
-                match key.as_str() {
-                    "laser_pressure_pa" => pressure = *v,
-                    other => return Err(format!("{model}.{other}: not a tunable parameter")),
+    fn tune(&mut self, model: &str, values: &[(String, f32)]) -> Result<(), TuneError> {
+        match model {
+            TOOLS => {
+                let mut pressure = self.scenario.tools.laser_pressure_pa;
+                for (key, v) in values {
+                    if key != LASER_PRESSURE {
+                        return Err(TuneError::Fixed {
+                            table: model.to_string(),
+                            key: key.clone(),
+                        });
+                    }
+                    check_slider(model, key, LASER_PRESSURE_PA, *v)?;
+                    pressure = *v;
                 }
+                self.scenario.tools.laser_pressure_pa = pressure;
+                Ok(())
             }
-            let (lo, hi) = LASER_PRESSURE_PA;
-            if !(pressure.is_finite() && (lo..=hi).contains(&pressure)) {
-                return Err(format!(
-                    "{model}.laser_pressure_pa: must be {lo} to {hi}, got {pressure}"
-                ));
-            }
-            self.scenario.tools.laser_pressure_pa = pressure;
-            return Ok(());
+            TUNED_MODEL => soft_tissue::tune(
+                model,
+                &mut self.scenario.kidney,
+                &mut self.models[KIDNEY],
+                values,
+            ),
+            _ => Err(TuneError::NoSuchModel(model.to_string())),
         }
-        if model != TUNED_MODEL {
-            return Err(format!("model '{model}' has no tunable parameters"));
-        }
-        // The table's slider ranges, all values or none.
-        crate::params::check_tuning::<crate::models::SoftBodyParams>(model, values)?;
-        let mut t = Tuning::of(&self.scenario.kidney);
-        for (key, v) in values {
-            match key.as_str() {
-                "spring_n_per_m" => t.spring_n_per_m = *v,
-                "damping_per_s" => t.damping_per_s = *v,
-                "offset_m" => t.offset_m = *v,
-                other => return Err(format!("{model}.{other}: not a tunable parameter")),
-            }
-        }
-        t.check()
-            .map_err(|(key, m)| format!("{model}.{key}: {m}"))?;
-        self.models[KIDNEY].tune(&t);
-        t.apply(&mut self.scenario.kidney);
-        Ok(())
     }
 
     fn is_completed(&self) -> bool {

@@ -1,16 +1,14 @@
 //! The sandbox as the session, window and headset see every procedure, and its score.
 
 use super::{INFO, MODEL, Metrics, STEPS, Sandbox, Scenario};
-use crate::models::Tuning;
+use crate::params::TuneError;
+use crate::procedures::soft_tissue;
 use crate::procedures::{
     ModelReport, Procedure, ProcedureInfo, ProcedureReport, TaskStatus, Tunable,
 };
 use crate::sim::{InputFrame, SimEvent, Snapshot, TissueModel};
 use glam::Vec3;
 use serde::Serialize;
-
-/// Slider labels with units, in the order of `Tuning::RANGES`.
-const LABELS: [&str; 3] = ["spring (N/m)", "damping (1/s)", "offset (mm)"];
 
 /// Weight of the completed fraction of the checklist in the score, points.
 const COMPLETION_POINTS: f32 = 70.0;
@@ -127,43 +125,14 @@ impl Procedure for Sandbox {
     }
 
     fn tunables(&self) -> Vec<Tunable> {
-        let now = Tuning::of(&self.scenario.block).values();
-        Tuning::RANGES
-            .iter()
-            .zip(LABELS)
-            .zip(now)
-            .map(|(((key, min, max), label), value)| Tunable {
-                model: MODEL.to_string(),
-                key,
-                label,
-                min: *min,
-                max: *max,
-                scale: if *key == "offset_m" { 1000.0 } else { 1.0 },
-                value,
-            })
-            .collect()
+        soft_tissue::tunables(MODEL, &self.scenario.block)
     }
 
-    fn tune(&mut self, model: &str, values: &[(String, f32)]) -> Result<(), String> {
+    fn tune(&mut self, model: &str, values: &[(String, f32)]) -> Result<(), TuneError> {
         if model != MODEL {
-            return Err(format!("model '{model}' has no tunable parameters"));
+            return Err(TuneError::NoSuchModel(model.to_string()));
         }
-        // The table's slider ranges, all values or none.
-        crate::params::check_tuning::<crate::models::SoftBodyParams>(model, values)?;
-        let mut t = Tuning::of(&self.scenario.block);
-        for (key, v) in values {
-            match key.as_str() {
-                "spring_n_per_m" => t.spring_n_per_m = *v,
-                "damping_per_s" => t.damping_per_s = *v,
-                "offset_m" => t.offset_m = *v,
-                other => return Err(format!("{model}.{other}: not a tunable parameter")),
-            }
-        }
-        t.check()
-            .map_err(|(key, m)| format!("{model}.{key}: {m}"))?;
-        self.body.tune(&t);
-        t.apply(&mut self.scenario.block);
-        Ok(())
+        soft_tissue::tune(model, &mut self.scenario.block, &mut self.body, values)
     }
 
     fn is_completed(&self) -> bool {

@@ -398,7 +398,7 @@ fn tune_refuses_a_bad_value_and_changes_nothing() {
             "kidney",
         ),
     ] {
-        let e = s.tune(model, &values).expect_err(says);
+        let e = s.tune(model, &values).expect_err(says).to_string();
         assert!(e.contains(says), "{e}");
         assert_eq!(s.tunables(), before);
         assert_eq!(s.body().params, params);

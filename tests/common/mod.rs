@@ -1,0 +1,42 @@
+//! Helpers the integration tests share: the binary, scratch folders that clean up after a
+//! passing test, and a session's report.
+#![allow(dead_code)] // each test file uses some of them
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+pub fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_vesalius"))
+}
+
+/// A scratch folder, removed when the test passes (kept when it fails, to look at).
+pub struct Scratch(PathBuf);
+
+impl std::ops::Deref for Scratch {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}
+
+/// A fresh, empty scratch folder named after the test file (`group`) and the test.
+pub fn tmp(group: &str, name: &str) -> Scratch {
+    let d = std::env::temp_dir().join(format!("vesalius-{group}-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("temp dir");
+    Scratch(d)
+}
+
+/// A session's report.json.
+pub fn report(dir: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(dir.join("report.json")).expect("report.json"))
+        .expect("JSON")
+}
