@@ -275,23 +275,34 @@ struct Ranges<'a> {
     file: &'a str,
 }
 
+/// Checks that `v` is a finite number in `[lo, hi]`; the error names `file` and `key`.
+pub fn check_number(
+    file: &str,
+    key: &str,
+    v: f32,
+    (lo, hi): (f32, f32),
+    unit: &str,
+) -> Result<(), InputError> {
+    if !v.is_finite() {
+        return Err(InputError::new(
+            file,
+            key,
+            format!("must be a finite number, got {v}"),
+        ));
+    }
+    if v < lo || v > hi {
+        return Err(InputError::new(
+            file,
+            key,
+            format!("must be between {lo} and {hi} {unit}, got {v}"),
+        ));
+    }
+    Ok(())
+}
+
 impl Ranges<'_> {
     fn num(&self, key: &str, v: f32, lo: f32, hi: f32, unit: &str) -> Result<(), InputError> {
-        if !v.is_finite() {
-            return Err(InputError::new(
-                self.file,
-                key,
-                format!("must be a finite number, got {v}"),
-            ));
-        }
-        if v < lo || v > hi {
-            return Err(InputError::new(
-                self.file,
-                key,
-                format!("must be between {lo} and {hi} {unit}, got {v}"),
-            ));
-        }
-        Ok(())
+        check_number(self.file, key, v, (lo, hi), unit)
     }
 
     fn params(&self, section: &str, p: &SoftBodyParams) -> Result<(), InputError> {

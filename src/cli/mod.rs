@@ -210,30 +210,43 @@ fn procedures() -> PossibleValuesParser {
     )
 }
 
+/// A flag's value that is not what the flag takes.
+#[derive(Debug, thiserror::Error)]
+#[error("expected {expected}, got '{got}'")]
+pub struct BadValue {
+    expected: &'static str,
+    got: String,
+}
+
+fn bad(expected: &'static str, got: &str) -> BadValue {
+    BadValue {
+        expected,
+        got: got.to_string(),
+    }
+}
+
 /// WIDTHxHEIGHT in pixels, each 16 to 8192.
-fn parse_size(v: &str) -> Result<(u32, u32), String> {
+fn parse_size(v: &str) -> Result<(u32, u32), BadValue> {
     v.split_once('x')
         .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
         .filter(|&(w, h)| (16..=8192).contains(&w) && (16..=8192).contains(&h))
-        .ok_or(format!(
-            "expected WIDTHxHEIGHT in pixels, each 16 to 8192, got '{v}'"
-        ))
+        .ok_or_else(|| bad("WIDTHxHEIGHT in pixels, each 16 to 8192", v))
 }
 
 /// Seconds, 0 or more and finite.
-fn seconds(v: &str) -> Result<f64, String> {
+fn seconds(v: &str) -> Result<f64, BadValue> {
     v.parse::<f64>()
         .ok()
         .filter(|s| s.is_finite() && *s >= 0.0)
-        .ok_or(format!("expected seconds (0 or more), got '{v}'"))
+        .ok_or_else(|| bad("seconds (0 or more)", v))
 }
 
 /// Seconds, more than 0 and finite.
-fn positive_seconds(v: &str) -> Result<f64, String> {
+fn positive_seconds(v: &str) -> Result<f64, BadValue> {
     v.parse::<f64>()
         .ok()
         .filter(|s| s.is_finite() && *s > 0.0)
-        .ok_or(format!("expected seconds greater than 0, got '{v}'"))
+        .ok_or_else(|| bad("seconds greater than 0", v))
 }
 
 /// Parses the command line, runs the command and turns its result into an exit code.

@@ -77,16 +77,7 @@ impl Check<'_> {
     }
 
     fn num(&self, key: &str, v: f32, lo: f32, hi: f32, unit: &str) -> Result<(), InputError> {
-        if !v.is_finite() {
-            return Err(self.err(key, format!("must be a finite number, got {v}")));
-        }
-        if !(lo..=hi).contains(&v) {
-            return Err(self.err(
-                key,
-                format!("must be between {lo} and {hi} {unit}, got {v}"),
-            ));
-        }
-        Ok(())
+        crate::scenario::check_number(self.file, key, v, (lo, hi), unit)
     }
 
     /// The soft body's table ranges (`SoftBodyParams::SPECS`).
