@@ -31,7 +31,8 @@ fn a_press_is_felt_with_its_force_point_normal_and_stiffness() {
     // The kidney's surface point furthest along d (its normal there is d), at rest.
     let d = Vec3::new(0.45, -0.85, 0.3).normalize();
     let rest = vesalius::procedures::Nephrectomy::new(scenario).expect("anatomy");
-    let p = rest.models()[0]
+    let p = rest
+        .kidney()
         .positions()
         .iter()
         .copied()

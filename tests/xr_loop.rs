@@ -144,7 +144,7 @@ fn the_grasper_vibrates_exactly_while_it_presses_the_kidney_and_harder_when_deep
     // surface point furthest along `d` is (its normal there is `d`), far from the tumour and
     // the hilum. The tip first touches tissue when it is one tip radius above that point.
     let rest = Nephrectomy::new(scenario.clone()).expect("anatomy");
-    let kidney = &rest.models()[0];
+    let kidney = &rest.kidney();
     let d = Vec3::new(0.45, -0.85, 0.3).normalize();
     let (top, p) = kidney
         .positions()
@@ -192,7 +192,7 @@ fn the_grasper_vibrates_exactly_while_it_presses_the_kidney_and_harder_when_deep
         .collect();
     assert_eq!(
         run.report["state_hash"],
-        format!("{:016x}", replay.state_hash()),
+        format!("{:016x}", replay.world().state_hash()),
         "the replay reproduces the run"
     );
     // The app steps up to each frame's display time: step k (centred at (k + 1/2) dt) belongs

@@ -107,6 +107,12 @@ pub enum EventKind {
         model: String,
         force_n: f32,
     },
+    /// A tie between two models (an attachment) tore: `what` names the attachment.
+    Rupture {
+        what: String,
+        models: [String; 2],
+        force_n: f32,
+    },
     /// The grasper took hold of `vertices` points.
     Grasp {
         tool: String,
@@ -155,6 +161,7 @@ impl EventKind {
             EventKind::Cut { .. } => "cut",
             EventKind::TiesSevered { .. } => "ties_severed",
             EventKind::TieBroken { .. } => "tie_broken",
+            EventKind::Rupture { .. } => "rupture",
             EventKind::Grasp { .. } => "grasp",
             EventKind::Release { .. } => "release",
             EventKind::TaskStep { .. } => "task_step",

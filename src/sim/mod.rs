@@ -1,6 +1,8 @@
 //! The simulation core: fixed-step clock, per-step input, the tissue-model trait, contacts,
-//! events, snapshots, the per-step haptic channel, and the NaN quarantine.
+//! events, snapshots, the per-step haptic channel, the NaN quarantine, and the world that
+//! holds a procedure's models and the interactions between them.
 
+mod attachment;
 mod clock;
 mod events;
 mod haptic;
@@ -8,7 +10,9 @@ mod input;
 mod model;
 mod quarantine;
 mod snapshot;
+mod world;
 
+pub use attachment::{Attachment, Link, LinkSpring};
 pub use clock::{Clock, Pacing};
 pub use events::{EventKind, ProcedureEvent, SimEvent, shortest_f32};
 pub use haptic::{HapticFrame, HapticSlot, ToolHaptics};
@@ -18,3 +22,4 @@ pub use model::{
 };
 pub use quarantine::Quarantine;
 pub use snapshot::{ModelSnapshot, Snapshot, SnapshotBus, SurfaceRole, ToolSnapshot};
+pub use world::{CHECKPOINT_STEPS, Interaction, ModelId, PointForces, PointSource, World};

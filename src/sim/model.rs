@@ -26,6 +26,21 @@ pub struct Contact {
     pub kind: ContactKind,
 }
 
+impl Contact {
+    /// Closed jaws at `jaws` (their tip and orientation) holding what lies within `radius_m`.
+    pub fn grasp(tool: ToolId, jaws: &super::Pose, radius_m: f32) -> Self {
+        Self {
+            tool,
+            point: jaws.position,
+            normal: -jaws.forward(),
+            kind: ContactKind::Grasp {
+                rotation: jaws.orientation,
+                radius_m,
+            },
+        }
+    }
+}
+
 /// Faces the laser swept this step, to be removed from the surface.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct CutStroke {
@@ -98,4 +113,65 @@ pub trait TissueModel: Send {
     fn state_is_finite(&self) -> bool;
     /// A deterministic digest of the state, for replay and determinism checks.
     fn state_hash(&self) -> u64;
+    /// Heap bytes by part, for the profiler.
+    fn memory(&self) -> Vec<(&'static str, usize)> {
+        Vec::new()
+    }
+    /// Point `i` (a node, particle or simplex point), metres, for interactions between
+    /// models; none if the model has no such point or it was cut away.
+    fn point(&self, i: u32) -> Option<Vec3> {
+        let _ = i;
+        None
+    }
+    /// Forces other models put on this model's points for the next step only (attachments,
+    /// adhesions), newtons; a point that does not exist is ignored.
+    fn apply_point_forces(&mut self, forces: &[(u32, Vec3)]) {
+        let _ = forces;
+    }
+}
+
+/// A world may hold models of different kinds behind boxes.
+impl TissueModel for Box<dyn TissueModel> {
+    fn name(&self) -> &str {
+        (**self).name()
+    }
+    fn kind(&self) -> &'static str {
+        (**self).kind()
+    }
+    fn sizes(&self) -> ModelSizes {
+        (**self).sizes()
+    }
+    fn step(&mut self, dt_s: f32, contacts: &[Contact], out: &mut ModelOutput) {
+        (**self).step(dt_s, contacts, out);
+    }
+    fn cut(&mut self, stroke: &CutStroke, out: &mut ModelOutput) {
+        (**self).cut(stroke, out);
+    }
+    fn surface(&self) -> SurfaceView<'_> {
+        (**self).surface()
+    }
+    fn render_mesh(&mut self) -> crate::sim::ModelSnapshot {
+        (**self).render_mesh()
+    }
+    fn checkpoint(&mut self) {
+        (**self).checkpoint();
+    }
+    fn restore(&mut self) {
+        (**self).restore();
+    }
+    fn state_is_finite(&self) -> bool {
+        (**self).state_is_finite()
+    }
+    fn state_hash(&self) -> u64 {
+        (**self).state_hash()
+    }
+    fn memory(&self) -> Vec<(&'static str, usize)> {
+        (**self).memory()
+    }
+    fn point(&self, i: u32) -> Option<Vec3> {
+        (**self).point(i)
+    }
+    fn apply_point_forces(&mut self, forces: &[(u32, Vec3)]) {
+        (**self).apply_point_forces(forces);
+    }
 }

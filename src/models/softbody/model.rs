@@ -314,6 +314,31 @@ impl TissueModel for SoftBody {
         }
     }
 
+    fn memory(&self) -> Vec<(&'static str, usize)> {
+        SoftBody::memory(self)
+    }
+
+    fn point(&self, i: u32) -> Option<Vec3> {
+        let i = i as usize;
+        (i < self.x.len() && self.alive[i]).then(|| self.x[i])
+    }
+
+    fn apply_point_forces(&mut self, forces: &[(u32, Vec3)]) {
+        for &(i, f) in forces {
+            let i = i as usize;
+            // A force too small to move a point by a rounding step does not wake it: a resting
+            // attachment must not keep its points awake.
+            if i >= self.x.len() || !self.alive[i] || !f.is_finite() || f.length() < 1e-9 {
+                continue;
+            }
+            self.wake(i);
+            if self.force[i] == Vec3::ZERO {
+                self.touched.push(i as u32);
+            }
+            self.force[i] += f;
+        }
+    }
+
     fn surface(&self) -> SurfaceView<'_> {
         SurfaceView {
             mesh: &self.mesh,

@@ -2,16 +2,15 @@
 //! tumour tied to its bed, renal artery, renal vein and ureter. The right controller is a
 //! laser pointer that identifies, marks and cuts; the left is a grasper that lifts the tumour.
 
-use crate::collision::{RayHit, cast_ray, nearest_within};
+use crate::collision::{cast_ray, nearest_within};
 use crate::mesh::{KidneyShape, TriMesh, TubeSpec, icosphere, kidney, tube};
 use crate::models::{SimplexMesh, SoftBody, Tie};
 use crate::scenario::Scenario;
 use crate::sim::{
-    Contact, ContactKind, CutStroke, EventKind, Hand, InputFrame, ModelOutput, ModelSnapshot,
-    Quarantine, SimEvent, Snapshot, SurfaceRole, TissueModel, ToolSnapshot,
+    Contact, ContactKind, CutStroke, EventKind, Hand, InputFrame, ModelId, SimEvent, Snapshot,
+    SurfaceRole, TissueModel, ToolSnapshot, World,
 };
 use glam::Vec3;
-use rayon::prelude::*;
 use serde::Serialize;
 
 mod plugin;
@@ -105,7 +104,7 @@ fn build(file: &str, text: &str) -> Result<Box<dyn super::Procedure>, super::Bui
 pub const TUNED_MODEL: &str = "kidney";
 pub const REGION_PARENCHYMA: u8 = 0;
 pub const REGION_TUMOUR: u8 = 1;
-const KIDNEY: usize = 0;
+const KIDNEY: ModelId = ModelId(0);
 /// Cut samples along the laser's sweep between steps, metres apart.
 const SWEEP_SPACING_M: f32 = 5e-4;
 /// A laser hit this much deeper than the surface it was on went through a gap (a groove it
@@ -150,10 +149,8 @@ pub struct Metrics {
 
 pub struct Nephrectomy {
     pub scenario: Scenario,
-    models: Vec<SoftBody>,
-    guards: Vec<Quarantine>,
-    outputs: Vec<ModelOutput>,
-    contacts: Vec<Vec<Contact>>,
+    /// The kidney (with its tumour) first, then the vessels.
+    world: World<SoftBody>,
     vulnerable: Vec<bool>,
     tumour_center: Vec3,
     tumour_rest_centroid: Vec3,
@@ -168,11 +165,8 @@ pub struct Nephrectomy {
     surface_depth_m: Option<f32>,
     prev_input: Option<InputFrame>,
     vessel_touch: [bool; 2],
-    grasp_model: Option<usize>,
+    grasp_model: Option<ModelId>,
     tools: [ToolSnapshot; 2],
-    reactions: [Vec3; 2],
-    /// Wall-clock seconds each model has spent stepping (for benchmarks; not in reports).
-    pub model_time_s: Vec<f64>,
 }
 
 /// Builds the anatomy meshes: kidney + tumour as one mesh with regions, and the three tubes.
@@ -306,19 +300,20 @@ impl Nephrectomy {
         body.set_ties(ties);
         let tumour_rest_centroid =
             tumour_pts.iter().map(|&i| rest[i]).sum::<Vec3>() / tumour_pts.len().max(1) as f32;
-        let mut models = vec![body];
+        let mut world = World::new();
+        world.add(body);
         for (name, m) in vessels {
             let s = SimplexMesh::dual(&m)?;
             let n = s.len();
-            models.push(SoftBody::new(&name, s, vec![0; n], scenario.vessels));
+            world.add(SoftBody::new(&name, s, vec![0; n], scenario.vessels));
         }
-        let vulnerable = models
-            .iter()
-            .map(|m| scenario.vulnerable.iter().any(|v| v.model == m.name()))
+        let vulnerable = world
+            .models()
+            .map(|(_, m)| scenario.vulnerable.iter().any(|v| v.model == m.name()))
             .collect();
         // Healthy area inside the intended margin (what a perfect excision takes).
         let reach = r_t + scenario.task.margin_m;
-        let k = &models[KIDNEY];
+        let k = world.model(KIDNEY);
         let planned: f32 = (0..k.mesh().len())
             .filter(|&f| {
                 k.regions()[f] == REGION_PARENCHYMA
@@ -326,17 +321,13 @@ impl Nephrectomy {
             })
             .map(|f| k.rest_face_area(f))
             .sum();
-        let n = models.len();
         Ok(Self {
             metrics: Metrics {
                 healthy_planned_m2: planned,
                 ..Default::default()
             },
             scenario,
-            guards: (0..n).map(|_| Quarantine::new(16)).collect(),
-            outputs: (0..n).map(|_| ModelOutput::default()).collect(),
-            contacts: vec![Vec::new(); n],
-            models,
+            world,
             vulnerable,
             tumour_center,
             tumour_rest_centroid,
@@ -351,17 +342,17 @@ impl Nephrectomy {
             vessel_touch: [false; 2],
             grasp_model: None,
             tools: [ToolSnapshot::default(); 2],
-            reactions: [Vec3::ZERO; 2],
-            model_time_s: vec![0.0; n],
         })
     }
 
-    pub fn models(&self) -> &[SoftBody] {
-        &self.models
+    /// The kidney (with its tumour) and the vessels.
+    pub fn world(&self) -> &World<SoftBody> {
+        &self.world
     }
 
-    pub fn models_mut(&mut self) -> &mut [SoftBody] {
-        &mut self.models
+    /// The kidney with its tumour.
+    pub fn kidney(&self) -> &SoftBody {
+        self.world.model(KIDNEY)
     }
 
     /// Whether each tool (left, right) touches a vulnerable structure now.
@@ -375,11 +366,11 @@ impl Nephrectomy {
         let points = [Some(self.tools[0].tip), self.tools[1].beam_end];
         points.map(|point| {
             let point = point?;
-            self.models
-                .iter()
+            self.world
+                .models()
                 .zip(&self.vulnerable)
                 .filter(|(_, v)| **v)
-                .filter_map(|(m, _)| {
+                .filter_map(|((_, m), _)| {
                     nearest_within(&m.surface(), point, within_m)
                         .first()
                         .map(|&(d, _)| (m.name().to_string(), d))
@@ -402,19 +393,6 @@ impl Nephrectomy {
             .abs()
     }
 
-    fn cast_all(&self, origin: Vec3, dir: Vec3) -> Option<(usize, RayHit)> {
-        let range = self.scenario.tools.laser_range_m;
-        let mut best: Option<(usize, RayHit)> = None;
-        for (m, model) in self.models.iter().enumerate() {
-            if let Some(h) = cast_ray(&model.surface(), origin, dir, range)
-                && best.is_none_or(|(_, b)| h.distance_m < b.distance_m)
-            {
-                best = Some((m, h));
-            }
-        }
-        best
-    }
-
     fn task_step(&mut self, name: &str, events: &mut Vec<EventKind>) {
         self.metrics.steps_done.push(name.to_string());
         events.push(EventKind::TaskStep {
@@ -427,9 +405,6 @@ impl Nephrectomy {
         let dt = self.scenario.dt_s;
         let tools = self.scenario.tools.clone();
         let mut ev: Vec<EventKind> = Vec::new();
-        for c in &mut self.contacts {
-            c.clear();
-        }
         if let Some(prev) = &self.prev_input {
             self.metrics.path_length_left_m += prev.hands[0]
                 .pose
@@ -449,7 +424,7 @@ impl Nephrectomy {
         let laser = input.hand(Hand::Right);
         let origin = laser.pose.position;
         let dir = laser.pose.forward();
-        let hit = self.cast_all(origin, dir);
+        let hit = self.world.cast_ray(origin, dir, tools.laser_range_m);
         let cutting = laser.buttons.trigger >= tools.cut_threshold;
         self.tools[1] = ToolSnapshot {
             tip: origin,
@@ -457,17 +432,17 @@ impl Nephrectomy {
             beam_end: hit.map(|(_, h)| h.point),
             active: cutting,
         };
-        let mut strokes: Vec<(usize, CutStroke, f32)> = Vec::new();
+        let mut strokes: Vec<(ModelId, CutStroke, f32)> = Vec::new();
         let mut touching_vessel = [false; 2];
         if let Some((m, h)) = hit {
-            let region = self.models[m].regions()[h.face as usize];
+            let region = self.world.model(m).regions()[h.face as usize];
             if m == KIDNEY && region == REGION_TUMOUR && !self.identified {
                 self.identified = true;
                 ev.push(event("tumour_identified", ()));
                 self.task_step("identify", &mut ev);
             }
             if mark_pressed && m == KIDNEY && region == REGION_PARENCHYMA {
-                let rest = self.models[KIDNEY].mesh().rest[h.face as usize];
+                let rest = self.kidney().mesh().rest[h.face as usize];
                 let err = self.margin_error(rest);
                 self.metrics.marks += 1;
                 if err <= self.scenario.task.mark_tolerance_m {
@@ -485,18 +460,21 @@ impl Nephrectomy {
                 ));
             }
             if cutting {
-                if self.vulnerable[m] {
+                if self.vulnerable[m.index()] {
                     touching_vessel[1] = true;
                 } else if m == KIDNEY {
-                    self.contacts[m].push(Contact {
-                        tool: Hand::Right,
-                        point: h.point,
-                        normal: h.normal,
-                        kind: ContactKind::Press {
-                            pressure_pa: tools.laser_pressure_pa,
-                            area_m2: self.scenario.kidney.contact_area_m2,
+                    self.world.contact(
+                        m,
+                        Contact {
+                            tool: Hand::Right,
+                            point: h.point,
+                            normal: h.normal,
+                            kind: ContactKind::Press {
+                                pressure_pa: tools.laser_pressure_pa,
+                                area_m2: self.scenario.kidney.contact_area_m2,
+                            },
                         },
-                    });
+                    );
                     let on_surface = self
                         .surface_depth_m
                         .is_none_or(|d| h.distance_m < d + CUT_CONTINUITY_M);
@@ -537,46 +515,45 @@ impl Nephrectomy {
         if grasper.buttons.grip >= tools.grip_threshold {
             if self.grasp_model.is_none() {
                 self.grasp_model = self
-                    .models
-                    .iter()
-                    .enumerate()
-                    .filter_map(|(m, b)| {
-                        nearest_within(&b.surface(), tip, tools.grasp_radius_m)
-                            .first()
-                            .map(|&(d, _)| (d, m))
-                    })
-                    .min_by(|a, b| a.0.total_cmp(&b.0))
-                    .map(|(_, m)| m);
+                    .world
+                    .nearest(tip, tools.grasp_radius_m)
+                    .map(|(m, _, _)| m);
             }
             if let Some(m) = self.grasp_model {
-                if self.vulnerable[m] {
+                if self.vulnerable[m.index()] {
                     touching_vessel[0] = true;
                 }
-                self.contacts[m].push(Contact {
-                    tool: Hand::Left,
-                    point: tip,
-                    normal: -grasper.pose.forward(),
-                    kind: ContactKind::Grasp {
-                        rotation: grasper.pose.orientation,
-                        radius_m: tools.grasp_radius_m,
-                    },
-                });
+                self.world.contact(
+                    m,
+                    Contact::grasp(Hand::Left, &grasper.pose, tools.grasp_radius_m),
+                );
             }
         } else {
             self.grasp_model = None;
-            for (m, b) in self.models.iter().enumerate() {
-                if !nearest_within(&b.surface(), tip, tools.grasper_tip_radius_m * 1.5).is_empty() {
-                    if self.vulnerable[m] {
+            let near: Vec<ModelId> = self
+                .world
+                .models()
+                .filter(|(_, b)| {
+                    !nearest_within(&b.surface(), tip, tools.grasper_tip_radius_m * 1.5).is_empty()
+                })
+                .map(|(m, _)| m)
+                .collect();
+            for m in near {
+                {
+                    if self.vulnerable[m.index()] {
                         touching_vessel[0] = true;
                     }
-                    self.contacts[m].push(Contact {
-                        tool: Hand::Left,
-                        point: tip,
-                        normal: -grasper.pose.forward(),
-                        kind: ContactKind::Sphere {
-                            radius_m: tools.grasper_tip_radius_m,
+                    self.world.contact(
+                        m,
+                        Contact {
+                            tool: Hand::Left,
+                            point: tip,
+                            normal: -grasper.pose.forward(),
+                            kind: ContactKind::Sphere {
+                                radius_m: tools.grasper_tip_radius_m,
+                            },
                         },
-                    });
+                    );
                 }
             }
         }
@@ -591,17 +568,16 @@ impl Nephrectomy {
             self.vessel_touch[h] = touching_vessel[h];
         }
 
-        // Cuts, then every model steps (in parallel: models are independent).
+        // Cuts, then every model steps (the world steps them in parallel).
         let mut topology_changed = false;
         for (m, stroke, length) in strokes {
-            let out = &mut self.outputs[m];
-            out.clear();
-            let before = self.models[m].alive().iter().filter(|a| !**a).count();
-            self.models[m].cut(&stroke, out);
-            let removed = self.models[m].alive().iter().filter(|a| !**a).count() - before;
+            let mut cut_events = Vec::new();
+            let before = self.world.model(m).alive().iter().filter(|a| !**a).count();
+            self.world.cut(m, &stroke, &mut cut_events);
+            let k = self.world.model(m);
+            let removed = k.alive().iter().filter(|a| !**a).count() - before;
             if removed > 0 {
                 topology_changed = true;
-                let k = &self.models[m];
                 let mut into_tumour = 0;
                 for &f in &stroke.faces {
                     if k.regions()[f as usize] == REGION_TUMOUR {
@@ -614,49 +590,26 @@ impl Nephrectomy {
                 self.metrics.cut_faces += removed as u32;
                 self.metrics.cut_into_tumour_faces += into_tumour;
                 ev.push(EventKind::Cut {
-                    model: self.models[m].name().to_string(),
+                    model: k.name().to_string(),
                     faces: removed as u32,
                     length_m: length,
                 });
             }
-            ev.append(&mut self.outputs[m].events);
+            ev.append(&mut cut_events);
         }
-        let contacts = &self.contacts;
-        self.models
-            .par_iter_mut()
-            .zip(self.outputs.par_iter_mut())
-            .zip(self.guards.par_iter_mut())
-            .zip(self.model_time_s.par_iter_mut())
-            .enumerate()
-            .for_each(|(m, (((model, out), guard), time))| {
-                out.clear();
-                if guard.is_frozen() {
-                    return;
-                }
-                let t0 = std::time::Instant::now();
-                model.step(dt, &contacts[m], out);
-                *time += t0.elapsed().as_secs_f64();
-                if let Some(e) = guard.after_step(model, step) {
-                    out.events.push(e);
-                }
-            });
-        self.reactions = [Vec3::ZERO; 2];
-        for out in &mut self.outputs {
-            for (tool, f) in &out.reactions {
-                self.reactions[tool.index()] += *f;
+        let mut stepped = Vec::new();
+        self.world.step(dt, step, &mut stepped);
+        for e in &stepped {
+            if matches!(e, EventKind::TieBroken { .. }) {
+                self.metrics.ties_torn += 1;
+                topology_changed = true;
             }
-            for e in &out.events {
-                if matches!(e, EventKind::TieBroken { .. }) {
-                    self.metrics.ties_torn += 1;
-                    topology_changed = true;
-                }
-            }
-            ev.append(&mut out.events);
         }
+        ev.append(&mut stepped);
 
         // Is the tumour free, and has it been lifted out?
         if topology_changed && !self.freed {
-            let k = &mut self.models[KIDNEY];
+            let k = self.world.model_mut(KIDNEY);
             k.refresh_topology();
             let still_held =
                 (0..k.mesh().len()).any(|i| k.regions()[i] == REGION_TUMOUR && k.is_anchored(i));
@@ -667,7 +620,7 @@ impl Nephrectomy {
             }
         }
         if self.freed && !self.removed {
-            let k = &self.models[KIDNEY];
+            let k = self.kidney();
             let (mut sum, mut n) = (Vec3::ZERO, 0);
             for i in 0..k.mesh().len() {
                 if k.regions()[i] == REGION_TUMOUR && k.alive()[i] {
@@ -702,7 +655,7 @@ impl Nephrectomy {
     fn sweep(&self, origin: Vec3, from: Vec3, to: Vec3, face: u32) -> Vec<u32> {
         let mut faces = vec![face];
         let n = (from.distance(to) / SWEEP_SPACING_M).ceil() as usize;
-        let k = &self.models[KIDNEY];
+        let k = self.kidney();
         for s in 1..n {
             let p = from.lerp(to, s as f32 / n as f32);
             let d = (p - origin).normalize_or_zero();
@@ -717,14 +670,14 @@ impl Nephrectomy {
         faces
     }
 
-    /// Healthy parenchyma area (at rest) cut away or carried off with the specimen, m^2.
     /// Reaction force on each tool after the last step, newtons.
     pub fn reactions(&self) -> [Vec3; 2] {
-        self.reactions
+        self.world.reactions()
     }
 
+    /// Healthy parenchyma area (at rest) cut away or carried off with the specimen, m^2.
     pub fn healthy_removed(&self) -> f32 {
-        let k = &self.models[KIDNEY];
+        let k = self.kidney();
         (0..k.mesh().len())
             .filter(|&f| {
                 k.regions()[f] == REGION_PARENCHYMA && (!k.alive()[f] || !k.is_anchored(f))
@@ -734,48 +687,19 @@ impl Nephrectomy {
     }
 
     pub fn snapshot(&mut self, step: u64) -> Snapshot {
-        let mut models: Vec<ModelSnapshot> =
-            self.models.iter_mut().map(|m| m.render_mesh()).collect();
-        for m in &mut models {
-            m.roles = match m.name.as_str() {
-                "kidney" => vec![SurfaceRole::Tissue, SurfaceRole::Target],
-                "renal_artery" => vec![SurfaceRole::Artery],
-                "renal_vein" => vec![SurfaceRole::Vein],
-                _ => vec![SurfaceRole::Duct],
-            };
-        }
+        let models = self.world.render(|_, m| match m.name() {
+            "kidney" => vec![SurfaceRole::Tissue, SurfaceRole::Target],
+            "renal_artery" => vec![SurfaceRole::Artery],
+            "renal_vein" => vec![SurfaceRole::Vein],
+            _ => vec![SurfaceRole::Duct],
+        });
         Snapshot {
             step,
             time_s: step as f64 * self.scenario.dt_s as f64,
             models,
             tools: self.tools,
-            reactions: self.reactions,
+            reactions: self.world.reactions(),
             target_found: self.identified,
         }
-    }
-
-    /// Heap bytes by part, summed over the models.
-    pub fn memory(&self) -> Vec<(&'static str, usize)> {
-        let mut total: Vec<(&'static str, usize)> = Vec::new();
-        for m in &self.models {
-            for (k, (name, bytes)) in m.memory().into_iter().enumerate() {
-                match total.get_mut(k) {
-                    Some(t) => t.1 += bytes,
-                    None => total.push((name, bytes)),
-                }
-            }
-        }
-        total
-    }
-
-    /// Digest of every model's state.
-    pub fn state_hash(&self) -> u64 {
-        let mut h = crate::models::Fnv::default();
-        for m in &self.models {
-            let v = m.state_hash();
-            h.write(v as u32);
-            h.write((v >> 32) as u32);
-        }
-        h.0
     }
 }

@@ -6,7 +6,7 @@ use crate::procedures::soft_tissue;
 use crate::procedures::{
     ModelReport, Procedure, ProcedureInfo, ProcedureReport, TaskStatus, Tunable,
 };
-use crate::sim::{InputFrame, SimEvent, Snapshot, TissueModel};
+use crate::sim::{InputFrame, SimEvent, Snapshot};
 use glam::Vec3;
 
 /// The scenario table of the instruments, whose laser pressure is tunable too.
@@ -88,31 +88,19 @@ impl Procedure for Nephrectomy {
     }
 
     fn model_reports(&self) -> Vec<ModelReport> {
-        self.models
-            .iter()
-            .map(|m| {
-                let s = m.sizes();
-                ModelReport {
-                    name: m.name().to_string(),
-                    kind: m.kind().to_string(),
-                    vertices: s.vertices,
-                    triangles: s.triangles,
-                    constraints: s.constraints,
-                }
-            })
-            .collect()
+        self.world().model_reports()
     }
 
     fn model_times(&self) -> Vec<f64> {
-        self.model_time_s.clone()
+        self.world().model_times()
     }
 
     fn memory(&self) -> Vec<(&'static str, usize)> {
-        Nephrectomy::memory(self)
+        self.world().memory()
     }
 
     fn state_hash(&self) -> u64 {
-        Nephrectomy::state_hash(self)
+        self.world().state_hash()
     }
 
     fn tunables(&self) -> Vec<Tunable> {
@@ -149,7 +137,7 @@ impl Procedure for Nephrectomy {
             TUNED_MODEL => soft_tissue::tune(
                 model,
                 &mut self.scenario.kidney,
-                &mut self.models[KIDNEY],
+                self.world.model_mut(KIDNEY),
                 values,
             ),
             _ => Err(TuneError::NoSuchModel(model.to_string())),

@@ -12,8 +12,8 @@
 use crate::collision::nearest_within;
 use crate::models::{Fnv, SimplexMesh, SoftBody};
 use crate::sim::{
-    Contact, ContactKind, EventKind, Hand, InputFrame, ModelOutput, ModelSnapshot, Quarantine,
-    SimEvent, Snapshot, SurfaceRole, TissueModel, ToolSnapshot,
+    Contact, ContactKind, EventKind, Hand, InputFrame, ModelId, SimEvent, Snapshot, SurfaceRole,
+    TissueModel, ToolSnapshot, World,
 };
 use glam::Vec3;
 use serde::Serialize;
@@ -98,6 +98,8 @@ pub const ROLES: [SurfaceRole; 3] = [
     SurfaceRole::Tissue,
 ];
 
+/// The block's place in the world.
+pub(super) const BLOCK: ModelId = ModelId(0);
 /// The most points the soft body's jaws hold (its grasp keeps the nearest this many).
 const MAX_HELD: usize = 24;
 /// A tip within this many radii of the surface is handed to the model as a contact.
@@ -150,20 +152,15 @@ struct Hold {
 pub struct Sandbox {
     pub scenario: Scenario,
     shape: BlockShape,
-    body: SoftBody,
-    guard: Quarantine,
-    output: ModelOutput,
-    contacts: Vec<Contact>,
+    /// The block, the world's one model.
+    world: World<SoftBody>,
     hold: Option<Hold>,
     tools: [ToolSnapshot; 2],
-    reactions: [Vec3; 2],
     prev_input: Option<InputFrame>,
     /// The probe's depth into the undeformed block after the last step, m.
     probe_depth_m: f32,
     overloaded: bool,
     pub metrics: Metrics,
-    /// Wall-clock seconds the block has spent stepping (benchmarks only; not in reports).
-    model_time_s: f64,
 }
 
 impl Sandbox {
@@ -173,26 +170,27 @@ impl Sandbox {
         };
         let (mesh, regions) = block(&shape, scenario.cells());
         let body = SoftBody::new(MODEL, SimplexMesh::dual(&mesh)?, regions, scenario.block);
+        let mut world = World::new();
+        world.add(body);
         Ok(Self {
             scenario,
             shape,
-            body,
-            guard: Quarantine::new(16),
-            output: ModelOutput::default(),
-            contacts: Vec::new(),
+            world,
             hold: None,
             tools: [ToolSnapshot::default(); 2],
-            reactions: [Vec3::ZERO; 2],
             prev_input: None,
             probe_depth_m: 0.0,
             overloaded: false,
             metrics: Metrics::default(),
-            model_time_s: 0.0,
         })
     }
 
     pub fn body(&self) -> &SoftBody {
-        &self.body
+        self.world.model(BLOCK)
+    }
+
+    pub fn world(&self) -> &World<SoftBody> {
+        &self.world
     }
 
     pub fn shape(&self) -> &BlockShape {
@@ -215,12 +213,12 @@ impl Sandbox {
 
     /// Reaction force on each tool after the last step, newtons.
     pub fn reactions(&self) -> [Vec3; 2] {
-        self.reactions
+        self.world.reactions()
     }
 
     /// A contact for a tip at `tip` pointing along `forward`, if the block is within reach.
     fn sphere(&self, hand: Hand, tip: Vec3, forward: Vec3, radius_m: f32) -> Option<Contact> {
-        let near = nearest_within(&self.body.surface(), tip, radius_m * NEAR_RADII);
+        let near = nearest_within(&self.body().surface(), tip, radius_m * NEAR_RADII);
         (!near.is_empty()).then_some(Contact {
             tool: hand,
             point: tip,
@@ -234,7 +232,6 @@ impl Sandbox {
     pub fn step(&mut self, input: &InputFrame, step: u64, events: &mut Vec<SimEvent>) {
         let dt = self.scenario.dt_s;
         let tools = self.scenario.tools;
-        self.contacts.clear();
         if let Some(prev) = &self.prev_input {
             let moved = |h: Hand| {
                 prev.hand(h)
@@ -256,8 +253,9 @@ impl Sandbox {
             active: false,
         };
         let r_probe = tools.probe_tip_radius_m;
-        self.contacts
-            .extend(self.sphere(Hand::Right, probe.position, probe_forward, r_probe));
+        if let Some(c) = self.sphere(Hand::Right, probe.position, probe_forward, r_probe) {
+            self.world.contact(BLOCK, c);
+        }
 
         // The grasper (left hand): a ball tip while open; closed, it holds what is in reach.
         let grasper = input.hand(Hand::Left);
@@ -272,54 +270,38 @@ impl Sandbox {
         let mut let_go = None;
         if gripping {
             if self.hold.is_none() {
-                let found = nearest_within(&self.body.surface(), tip, tools.grasp_radius_m);
+                let found = nearest_within(&self.body().surface(), tip, tools.grasp_radius_m);
                 self.hold = found.first().map(|&(_, nearest)| Hold {
                     points: found.iter().take(MAX_HELD).map(|&(_, f)| f).collect(),
-                    on_top: self.body.regions()[nearest as usize] == REGION_TOP,
+                    on_top: self.body().regions()[nearest as usize] == REGION_TOP,
                     lift_m: 0.0,
                     max_lift_m: 0.0,
                 });
             }
             if self.hold.is_some() {
-                self.contacts.push(Contact {
-                    tool: Hand::Left,
-                    point: tip,
-                    normal: -grasper.pose.forward(),
-                    kind: ContactKind::Grasp {
-                        rotation: grasper.pose.orientation,
-                        radius_m: tools.grasp_radius_m,
-                    },
-                });
+                self.world.contact(
+                    BLOCK,
+                    Contact::grasp(Hand::Left, &grasper.pose, tools.grasp_radius_m),
+                );
             }
         } else {
             let_go = self.hold.take();
             let r = tools.grasper_tip_radius_m;
             let forward = grasper.pose.forward();
-            self.contacts
-                .extend(self.sphere(Hand::Left, tip, forward, r));
+            if let Some(c) = self.sphere(Hand::Left, tip, forward, r) {
+                self.world.contact(BLOCK, c);
+            }
         }
 
         // The block steps, guarded against non-finite states.
-        self.output.clear();
-        if !self.guard.is_frozen() {
-            let t0 = std::time::Instant::now();
-            self.body.step(dt, &self.contacts, &mut self.output);
-            self.model_time_s += t0.elapsed().as_secs_f64();
-            if let Some(e) = self.guard.after_step(&mut self.body, step) {
-                self.output.events.push(e);
-            }
-        }
-        self.reactions = [Vec3::ZERO; 2];
-        for (tool, f) in &self.output.reactions {
-            self.reactions[tool.index()] += *f;
-        }
         let mut ev: Vec<EventKind> = Vec::new();
-        ev.append(&mut self.output.events);
+        self.world.step(dt, step, &mut ev);
 
         // Measurements.
         self.probe_depth_m = self.shape.penetration(probe.position, r_probe);
         if let Some(h) = &mut self.hold {
-            let (x, rest) = (self.body.positions(), &self.body.mesh().rest);
+            let body = self.world.model(BLOCK);
+            let (x, rest) = (body.positions(), &body.mesh().rest);
             let rise: f32 = h
                 .points
                 .iter()
@@ -330,7 +312,7 @@ impl Sandbox {
         }
         let lift_m = self.lift_m();
         let m = &mut self.metrics;
-        let [grasper_n, probe_n] = self.reactions.map(Vec3::length);
+        let [grasper_n, probe_n] = self.world.reactions().map(Vec3::length);
         m.max_probe_depth_m = m.max_probe_depth_m.max(self.probe_depth_m);
         m.max_probe_force_n = m.max_probe_force_n.max(probe_n);
         m.max_grasper_force_n = m.max_grasper_force_n.max(grasper_n);
@@ -366,14 +348,13 @@ impl Sandbox {
     }
 
     pub fn snapshot(&mut self, step: u64) -> Snapshot {
-        let mut model: ModelSnapshot = self.body.render_mesh();
-        model.roles = ROLES.to_vec();
+        let models = self.world.render(|_, _| ROLES.to_vec());
         Snapshot {
             step,
             time_s: step as f64 * f64::from(self.scenario.dt_s),
-            models: vec![model],
+            models,
             tools: self.tools,
-            reactions: self.reactions,
+            reactions: self.world.reactions(),
             // The target is given, not found: the top is highlighted from the start.
             target_found: true,
         }
@@ -382,7 +363,7 @@ impl Sandbox {
     /// Digest of the block's state and the task's progress.
     pub fn state_hash(&self) -> u64 {
         let mut h = Fnv::default();
-        let v = self.body.state_hash();
+        let v = self.body().state_hash();
         h.write(v as u32);
         h.write((v >> 32) as u32);
         h.write(self.metrics.steps_done.len() as u32);

@@ -6,7 +6,7 @@ use crate::procedures::soft_tissue;
 use crate::procedures::{
     ModelReport, Procedure, ProcedureInfo, ProcedureReport, TaskStatus, Tunable,
 };
-use crate::sim::{InputFrame, SimEvent, Snapshot, TissueModel};
+use crate::sim::{InputFrame, SimEvent, Snapshot};
 use glam::Vec3;
 use serde::Serialize;
 
@@ -68,7 +68,7 @@ impl Procedure for Sandbox {
                 ("probe depth".to_string(), mm(self.probe_depth_m())),
                 (
                     "probe force".to_string(),
-                    format!("{:.2} N", self.reactions[1].length()),
+                    format!("{:.2} N", self.reactions()[1].length()),
                 ),
                 ("lift".to_string(), mm(self.lift_m())),
             ],
@@ -96,28 +96,21 @@ impl Procedure for Sandbox {
     fn contacts_now(&self) -> [Option<(Vec3, Vec3)>; 2] {
         // Both instruments are tips: the block pushes each out along its normal.
         [0, 1].map(|k| {
-            let push = self.reactions[k];
+            let push = self.reactions()[k];
             (push.length() > 0.0).then(|| (self.tools[k].tip, push.normalize_or_zero()))
         })
     }
 
     fn model_reports(&self) -> Vec<ModelReport> {
-        let s = self.body.sizes();
-        vec![ModelReport {
-            name: self.body.name().to_string(),
-            kind: self.body.kind().to_string(),
-            vertices: s.vertices,
-            triangles: s.triangles,
-            constraints: s.constraints,
-        }]
+        self.world.model_reports()
     }
 
     fn model_times(&self) -> Vec<f64> {
-        vec![self.model_time_s]
+        self.world.model_times()
     }
 
     fn memory(&self) -> Vec<(&'static str, usize)> {
-        self.body.memory()
+        self.world.memory()
     }
 
     fn state_hash(&self) -> u64 {
@@ -132,7 +125,12 @@ impl Procedure for Sandbox {
         if model != MODEL {
             return Err(TuneError::NoSuchModel(model.to_string()));
         }
-        soft_tissue::tune(model, &mut self.scenario.block, &mut self.body, values)
+        soft_tissue::tune(
+            model,
+            &mut self.scenario.block,
+            self.world.model_mut(super::BLOCK),
+            values,
+        )
     }
 
     fn is_completed(&self) -> bool {

@@ -1,0 +1,356 @@
+//! The shared world: every tissue model of a procedure, the contacts the tools make with
+//! them this step, the interactions between them, and a quarantine per model.
+//!
+//! A step runs in three phases, always in the same order:
+//! 1. interactions (attachments, adhesions, couplings), in the order they were added, read
+//!    every model's points and leave forces for the models' points;
+//! 2. every model that is not quarantined steps with its contacts and forces, in parallel
+//!    (rayon); a model only touches its own slot, so the thread count cannot change a bit;
+//! 3. in model order, reactions are summed per tool and events collected.
+//!
+//! A model whose state goes non-finite is rolled back to its last checkpoint and frozen; it is
+//! reported once, and the other models go on.
+
+use super::{
+    Contact, CutStroke, EventKind, ModelOutput, ModelSnapshot, Quarantine, SurfaceRole,
+    TissueModel, ToolId,
+};
+use crate::collision::{RayHit, cast_ray, nearest_within};
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// Steps between checkpoints: a quarantined model loses at most this many steps.
+pub const CHECKPOINT_STEPS: u64 = 16;
+
+/// A model's place in its world, in the order models were added.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct ModelId(pub u32);
+
+impl ModelId {
+    pub fn index(self) -> usize {
+        self.0 as usize
+    }
+}
+
+/// Forces interactions put on models' points this step, newtons.
+#[derive(Debug, Default)]
+pub struct PointForces {
+    per_model: Vec<Vec<(u32, Vec3)>>,
+}
+
+impl PointForces {
+    /// Adds `force_n` on point `point` of `model`.
+    pub fn add(&mut self, model: ModelId, point: u32, force_n: Vec3) {
+        if let Some(list) = self.per_model.get_mut(model.index()) {
+            list.push((point, force_n));
+        }
+    }
+
+    /// The forces on `model`'s points so far, in the order they were added.
+    pub fn on(&self, model: ModelId) -> &[(u32, Vec3)] {
+        self.per_model.get(model.index()).map_or(&[], Vec::as_slice)
+    }
+}
+
+/// What interactions may read of the models: their points.
+pub trait PointSource {
+    /// Point `point` of `model`, metres; none if there is no such point (or it was cut away).
+    fn point(&self, model: ModelId, point: u32) -> Option<Vec3>;
+    /// The model's name, for events.
+    fn name(&self, model: ModelId) -> &str;
+}
+
+/// Something that couples models: it reads their points before they step and leaves forces
+/// on them. Applied in the order added, every step.
+pub trait Interaction: Send {
+    fn name(&self) -> &str;
+    fn apply(
+        &mut self,
+        dt_s: f32,
+        points: &dyn PointSource,
+        forces: &mut PointForces,
+        events: &mut Vec<EventKind>,
+    );
+}
+
+struct Slot<M> {
+    model: M,
+    guard: Quarantine,
+    contacts: Vec<Contact>,
+    output: ModelOutput,
+    /// This step's reaction on each tool from this model, newtons.
+    reactions: [Vec3; 2],
+    time_s: f64,
+}
+
+/// The models of one procedure and what couples them. `M` is one model type or an enum of
+/// the procedure's model types; `Box<dyn TissueModel>` works too.
+pub struct World<M> {
+    slots: Vec<Slot<M>>,
+    interactions: Vec<Box<dyn Interaction>>,
+    forces: PointForces,
+    reactions: [Vec3; 2],
+}
+
+impl<M: TissueModel> Default for World<M> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+struct Points<'a, M>(&'a [Slot<M>]);
+
+impl<M: TissueModel> PointSource for Points<'_, M> {
+    fn point(&self, model: ModelId, point: u32) -> Option<Vec3> {
+        self.0.get(model.index())?.model.point(point)
+    }
+
+    fn name(&self, model: ModelId) -> &str {
+        self.0.get(model.index()).map_or("", |s| s.model.name())
+    }
+}
+
+impl<M: TissueModel> World<M> {
+    pub fn new() -> Self {
+        Self {
+            slots: Vec::new(),
+            interactions: Vec::new(),
+            forces: PointForces::default(),
+            reactions: [Vec3::ZERO; 2],
+        }
+    }
+
+    /// Adds a model; it steps from the next step on.
+    pub fn add(&mut self, model: M) -> ModelId {
+        let id = ModelId(self.slots.len() as u32);
+        self.slots.push(Slot {
+            model,
+            guard: Quarantine::new(CHECKPOINT_STEPS),
+            contacts: Vec::new(),
+            output: ModelOutput::default(),
+            reactions: [Vec3::ZERO; 2],
+            time_s: 0.0,
+        });
+        self.forces.per_model.push(Vec::new());
+        id
+    }
+
+    /// Adds an interaction; it applies after those added before it.
+    pub fn add_interaction(&mut self, interaction: impl Interaction + 'static) {
+        self.interactions.push(Box::new(interaction));
+    }
+
+    pub fn len(&self) -> usize {
+        self.slots.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.slots.is_empty()
+    }
+
+    /// Every model's id, in order.
+    pub fn ids(&self) -> impl Iterator<Item = ModelId> + use<M> {
+        (0..self.slots.len() as u32).map(ModelId)
+    }
+
+    /// The model `id`. Ids come from [`World::add`] of this world.
+    pub fn model(&self, id: ModelId) -> &M {
+        &self.slots[id.index()].model
+    }
+
+    pub fn model_mut(&mut self, id: ModelId) -> &mut M {
+        &mut self.slots[id.index()].model
+    }
+
+    /// Every model with its id, in order.
+    pub fn models(&self) -> impl Iterator<Item = (ModelId, &M)> {
+        self.slots
+            .iter()
+            .enumerate()
+            .map(|(i, s)| (ModelId(i as u32), &s.model))
+    }
+
+    /// The model called `name`, if there is one.
+    pub fn find(&self, name: &str) -> Option<ModelId> {
+        self.models()
+            .find(|(_, m)| m.name() == name)
+            .map(|(id, _)| id)
+    }
+
+    /// Whether `id` was quarantined (it no longer steps).
+    pub fn is_frozen(&self, id: ModelId) -> bool {
+        self.slots[id.index()].guard.is_frozen()
+    }
+
+    /// Hands `contact` to model `id` for the next step.
+    pub fn contact(&mut self, id: ModelId, contact: Contact) {
+        self.slots[id.index()].contacts.push(contact);
+    }
+
+    /// The contacts model `id` has for the next step.
+    pub fn contacts(&self, id: ModelId) -> &[Contact] {
+        &self.slots[id.index()].contacts
+    }
+
+    /// Cuts model `id` now (a quarantined model is not cut); its events go to `events`.
+    pub fn cut(&mut self, id: ModelId, stroke: &CutStroke, events: &mut Vec<EventKind>) {
+        let slot = &mut self.slots[id.index()];
+        if slot.guard.is_frozen() {
+            return;
+        }
+        slot.output.clear();
+        slot.model.cut(stroke, &mut slot.output);
+        events.append(&mut slot.output.events);
+    }
+
+    /// Advances every model one step of `dt_s` (see the module's phases); `step` is the
+    /// step's number (for checkpoints). Events go to `events` in model order.
+    pub fn step(&mut self, dt_s: f32, step: u64, events: &mut Vec<EventKind>) {
+        for list in &mut self.forces.per_model {
+            list.clear();
+        }
+        let points = Points(&self.slots);
+        for interaction in &mut self.interactions {
+            interaction.apply(dt_s, &points, &mut self.forces, events);
+        }
+        let forces = &self.forces.per_model;
+        self.slots
+            .par_iter_mut()
+            .zip(forces.par_iter())
+            .for_each(|(slot, forces)| {
+                slot.output.clear();
+                slot.reactions = [Vec3::ZERO; 2];
+                if slot.guard.is_frozen() {
+                    return;
+                }
+                let t0 = std::time::Instant::now();
+                slot.model.apply_point_forces(forces);
+                slot.model.step(dt_s, &slot.contacts, &mut slot.output);
+                slot.time_s += t0.elapsed().as_secs_f64();
+                if let Some(e) = slot.guard.after_step(&mut slot.model, step) {
+                    slot.output.events.push(e);
+                    // A rolled-back model pushes nothing on the tools.
+                    slot.output.reactions.clear();
+                }
+                for (tool, f) in &slot.output.reactions {
+                    slot.reactions[tool.index()] += *f;
+                }
+            });
+        self.reactions = [Vec3::ZERO; 2];
+        for slot in &mut self.slots {
+            for (sum, r) in self.reactions.iter_mut().zip(slot.reactions) {
+                *sum += r;
+            }
+            events.append(&mut slot.output.events);
+            slot.contacts.clear();
+        }
+    }
+
+    /// The force the tissue put on each tool (left, right) in the last step, newtons: the sum
+    /// over models, in model order.
+    pub fn reactions(&self) -> [Vec3; 2] {
+        self.reactions
+    }
+
+    /// Model `id`'s part of [`World::reactions`].
+    pub fn reactions_from(&self, id: ModelId) -> [Vec3; 2] {
+        self.slots[id.index()].reactions
+    }
+
+    /// The reaction on one tool.
+    pub fn reaction(&self, tool: ToolId) -> Vec3 {
+        self.reactions[tool.index()]
+    }
+
+    /// The nearest surface any model shows along a ray (unit `dir`) within `max_m`; a tie
+    /// goes to the model added first.
+    pub fn cast_ray(&self, origin: Vec3, dir: Vec3, max_m: f32) -> Option<(ModelId, RayHit)> {
+        let mut best: Option<(ModelId, RayHit)> = None;
+        for (id, model) in self.models() {
+            if let Some(h) = cast_ray(&model.surface(), origin, dir, max_m)
+                && best.is_none_or(|(_, b)| h.distance_m < b.distance_m)
+            {
+                best = Some((id, h));
+            }
+        }
+        best
+    }
+
+    /// The model with a surface feature nearest `point` within `radius_m`: (model, distance,
+    /// feature); a tie goes to the model added first.
+    pub fn nearest(&self, point: Vec3, radius_m: f32) -> Option<(ModelId, f32, u32)> {
+        self.models()
+            .filter_map(|(id, m)| {
+                nearest_within(&m.surface(), point, radius_m)
+                    .first()
+                    .map(|&(d, f)| (id, d, f))
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
+    }
+
+    /// Every model's render mesh, with its surface roles from `roles`.
+    pub fn render(
+        &mut self,
+        roles: impl Fn(ModelId, &M) -> Vec<SurfaceRole>,
+    ) -> Vec<ModelSnapshot> {
+        self.slots
+            .iter_mut()
+            .enumerate()
+            .map(|(i, s)| {
+                let mut snap = s.model.render_mesh();
+                snap.roles = roles(ModelId(i as u32), &s.model);
+                snap
+            })
+            .collect()
+    }
+
+    /// Sizes of every model, for reports.
+    pub fn model_reports(&self) -> Vec<crate::procedures::ModelReport> {
+        self.models()
+            .map(|(_, m)| {
+                let s = m.sizes();
+                crate::procedures::ModelReport {
+                    name: m.name().to_string(),
+                    kind: m.kind().to_string(),
+                    vertices: s.vertices,
+                    triangles: s.triangles,
+                    constraints: s.constraints,
+                }
+            })
+            .collect()
+    }
+
+    /// Wall-clock seconds each model has spent stepping (benchmarks only; never in reports).
+    pub fn model_times(&self) -> Vec<f64> {
+        self.slots.iter().map(|s| s.time_s).collect()
+    }
+
+    /// Heap bytes by part, summed over the models (parts matched by name).
+    pub fn memory(&self) -> Vec<(&'static str, usize)> {
+        let mut total: Vec<(&'static str, usize)> = Vec::new();
+        for (_, m) in self.models() {
+            for (name, bytes) in m.memory() {
+                match total.iter_mut().find(|t| t.0 == name) {
+                    Some(t) => t.1 += bytes,
+                    None => total.push((name, bytes)),
+                }
+            }
+        }
+        total
+    }
+
+    /// A digest of every model's state, in model order.
+    pub fn state_hash(&self) -> u64 {
+        let mut h = crate::models::Fnv::default();
+        for (_, m) in self.models() {
+            let v = m.state_hash();
+            h.write(v as u32);
+            h.write((v >> 32) as u32);
+        }
+        h.0
+    }
+}
+
+#[cfg(test)]
+#[path = "world_tests.rs"]
+mod tests;

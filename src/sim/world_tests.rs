@@ -1,0 +1,303 @@
+use super::*;
+use crate::mesh::icosphere;
+use crate::models::{SimplexMesh, SoftBody, SoftBodyParams};
+use crate::sim::{Attachment, ContactKind, Hand, Link, LinkSpring};
+
+/// A soft ball of radius `r` at `center`, level-2 icosphere (320 points).
+fn ball(name: &str, center: Vec3, r: f32) -> SoftBody {
+    let mut m = icosphere(2);
+    for p in &mut m.positions {
+        *p = center + *p * r;
+    }
+    let s = SimplexMesh::dual(&m).expect("an icosphere has a dual");
+    let n = s.len();
+    SoftBody::new(name, s, vec![0; n], SoftBodyParams::default())
+}
+
+/// A press on top of the ball at `center` (radius `r`) with `pressure_pa`.
+fn press(center: Vec3, r: f32, pressure_pa: f32) -> Contact {
+    Contact {
+        tool: Hand::Right,
+        point: center + Vec3::Y * r,
+        normal: Vec3::Y,
+        kind: ContactKind::Press {
+            pressure_pa,
+            area_m2: 1e-4,
+        },
+    }
+}
+
+fn centers(n: usize) -> Vec<Vec3> {
+    (0..n)
+        .map(|i| Vec3::new(0.1 * i as f32, 0.0, 0.0))
+        .collect()
+}
+
+fn is_quarantine(e: &EventKind, name: &str) -> bool {
+    matches!(e, EventKind::Quarantined { model, .. } if model == name)
+}
+
+#[test]
+fn a_model_that_goes_bad_is_frozen_alone_and_the_others_go_on() {
+    let mut world = World::new();
+    let c = centers(3);
+    let ids: Vec<ModelId> = (0..3)
+        .map(|i| world.add(ball(&format!("ball{i}"), c[i], 0.02)))
+        .collect();
+    let mut events = Vec::new();
+    for step in 0..20 {
+        for (i, &id) in ids.iter().enumerate() {
+            world.contact(id, press(c[i], 0.02, 2000.0));
+        }
+        world.step(0.002, step, &mut events);
+    }
+    assert!(
+        events
+            .iter()
+            .all(|e| !matches!(e, EventKind::Quarantined { .. }))
+    );
+    let good = world.model(ids[1]).state_hash();
+    // A fault: one point of the middle ball becomes NaN.
+    world.model_mut(ids[1]).set_position(5, Vec3::NAN);
+    let before = [ids[0], ids[2]].map(|id| world.model(id).state_hash());
+    events.clear();
+    for step in 20..40 {
+        for (i, &id) in ids.iter().enumerate() {
+            world.contact(id, press(c[i], 0.02, 2000.0 + 100.0 * step as f32));
+        }
+        world.step(0.002, step, &mut events);
+    }
+    let quarantined: Vec<&EventKind> = events
+        .iter()
+        .filter(|e| matches!(e, EventKind::Quarantined { .. }))
+        .collect();
+    assert_eq!(quarantined.len(), 1, "{events:?}");
+    assert!(is_quarantine(quarantined[0], "ball1"));
+    assert!(world.is_frozen(ids[1]));
+    assert!(!world.is_frozen(ids[0]) && !world.is_frozen(ids[2]));
+    // The bad ball is back at its last checkpoint (step 16), finite.
+    let frozen = world.model(ids[1]).state_hash();
+    assert!(world.model(ids[1]).state_is_finite());
+    assert_ne!(
+        frozen, good,
+        "the checkpoint is step 16's state, not step 19's"
+    );
+    // The others kept stepping under their growing presses.
+    let after = [ids[0], ids[2]].map(|id| world.model(id).state_hash());
+    assert_ne!(before[0], after[0]);
+    assert_ne!(before[1], after[1]);
+    // And the frozen one no longer moves or pushes.
+    world.contact(ids[1], press(c[1], 0.02, 5000.0));
+    world.step(0.002, 40, &mut events);
+    assert_eq!(world.model(ids[1]).state_hash(), frozen);
+    assert_eq!(world.reactions_from(ids[1]), [Vec3::ZERO; 2]);
+    assert!(world.reactions()[1].is_finite());
+}
+
+/// Twelve balls pressed with pressures over six decades: the tool's reaction is a sum whose
+/// float rounding depends on the order of its terms.
+fn pressed_world(threads: usize, steps: u64) -> (u64, [Vec3; 2], Vec<[Vec3; 2]>, usize) {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("a thread pool");
+    pool.install(|| {
+        let mut world = World::new();
+        let c = centers(12);
+        for (i, p) in c.iter().enumerate() {
+            world.add(ball(&format!("ball{i}"), *p, 0.01 + 0.001 * i as f32));
+        }
+        let mut events = Vec::new();
+        for step in 0..steps {
+            for (i, id) in world.ids().enumerate() {
+                let pressure = 10f32.powi(i as i32 % 6) * (1.0 + 0.37 * i as f32);
+                world.contact(id, press(c[i], 0.01 + 0.001 * i as f32, pressure));
+            }
+            world.step(0.002, step, &mut events);
+        }
+        let parts = world.ids().map(|id| world.reactions_from(id)).collect();
+        (world.state_hash(), world.reactions(), parts, events.len())
+    })
+}
+
+#[test]
+fn one_two_and_three_threads_step_the_world_to_the_same_bits() {
+    let (hash1, sum1, parts, events1) = pressed_world(1, 30);
+    // The reaction is the sum of the models' parts in model order...
+    let forward = parts.iter().fold(Vec3::ZERO, |s, p| s + p[1]);
+    assert_eq!(
+        sum1[1].to_array().map(f32::to_bits),
+        forward.to_array().map(f32::to_bits)
+    );
+    // ...and this workload is one where the order shows: summed the other way round, or in
+    // two halves as two worker threads would, the bits differ. A reduction that followed the
+    // threads' chunks would fail the comparisons below.
+    let backward = parts.iter().rev().fold(Vec3::ZERO, |s, p| s + p[1]);
+    let halves = parts[..6].iter().fold(Vec3::ZERO, |s, p| s + p[1])
+        + parts[6..].iter().fold(Vec3::ZERO, |s, p| s + p[1]);
+    assert!(
+        backward != forward || halves != forward,
+        "the workload does not show summation order: {forward} {backward} {halves}"
+    );
+    for threads in [2, 3] {
+        let (hash, sum, _, events) = pressed_world(threads, 30);
+        assert_eq!(hash, hash1, "{threads} threads");
+        assert_eq!(
+            sum.map(|v| v.to_array().map(f32::to_bits)),
+            sum1.map(|v| v.to_array().map(f32::to_bits)),
+            "{threads} threads"
+        );
+        assert_eq!(events, events1);
+    }
+}
+
+/// Points at fixed places, for driving an attachment by hand.
+struct Fixed(Vec<Vec<Vec3>>);
+
+impl PointSource for Fixed {
+    fn point(&self, model: ModelId, point: u32) -> Option<Vec3> {
+        self.0.get(model.index())?.get(point as usize).copied()
+    }
+
+    fn name(&self, model: ModelId) -> &str {
+        ["a", "b"][model.index()]
+    }
+}
+
+/// Empty force lists for two models.
+fn two_forces() -> PointForces {
+    PointForces {
+        per_model: vec![Vec::new(); 2],
+    }
+}
+
+#[test]
+fn an_attachment_pulls_both_ends_with_equal_and_opposite_spring_forces() {
+    let spring = LinkSpring {
+        stiffness_n_per_m: 200.0,
+        damping_n_s_per_m: 0.5,
+        break_force_n: 3.0,
+    };
+    let links = vec![Link {
+        a: 0,
+        b: 1,
+        rest_m: 0.01,
+    }];
+    let mut att = Attachment::new("tie", ModelId(0), ModelId(1), spring, links);
+    let mut pts = Fixed(vec![
+        vec![Vec3::ZERO],
+        vec![Vec3::ZERO, Vec3::new(0.0, 0.0, 0.015)],
+    ]);
+    let mut forces = two_forces();
+    let mut events = Vec::new();
+    att.apply(0.002, &pts, &mut forces, &mut events);
+    // Stretched 5 mm at 200 N/m: 1 N pulling a toward b (+z); no damping on the first step.
+    let on_a = forces.on(ModelId(0));
+    let on_b = forces.on(ModelId(1));
+    assert_eq!(on_a.len(), 1);
+    assert_eq!(on_a[0].0, 0);
+    assert!(
+        (on_a[0].1 - Vec3::new(0.0, 0.0, 1.0)).length() < 1e-5,
+        "{:?}",
+        on_a[0].1
+    );
+    assert_eq!(on_b[0], (1, -on_a[0].1));
+    // Lengthening 1 mm in a 2 ms step: damping adds 0.5 N s/m x 0.5 m/s = 0.25 N, spring 1.2 N.
+    pts.0[1][1].z = 0.016;
+    let mut forces = two_forces();
+    att.apply(0.002, &pts, &mut forces, &mut events);
+    assert!(
+        (att.total_force().z - 1.45).abs() < 1e-4,
+        "{}",
+        att.total_force()
+    );
+    assert!(events.is_empty());
+    // Pulled to 3.2 N (> 3 N) it tears, once.
+    pts.0[1][1].z = 0.026;
+    let mut forces = two_forces();
+    att.apply(0.002, &pts, &mut forces, &mut events);
+    assert_eq!(events.len(), 1);
+    assert!(
+        matches!(&events[0], EventKind::Rupture { what, force_n, .. } if what == "tie" && *force_n > 3.0)
+    );
+    assert_eq!(att.holding(), 0);
+    assert!(forces.on(ModelId(0)).is_empty());
+    att.apply(0.002, &pts, &mut forces, &mut events);
+    assert_eq!(events.len(), 1);
+}
+
+#[test]
+fn attached_balls_move_toward_each_other_by_mirror_image_amounts() {
+    let mut world = World::new();
+    let a = world.add(ball("a", Vec3::ZERO, 0.02));
+    let b = world.add(ball("b", Vec3::new(0.06, 0.0, 0.0), 0.02));
+    // The point of each ball facing the other, tied with a link 1 cm shorter than the gap.
+    let facing = |id: ModelId, toward: Vec3, world: &World<SoftBody>| {
+        let m = world.model(id);
+        (0..m.mesh().len() as u32)
+            .max_by(|&i, &j| {
+                let (pi, pj) = (m.positions()[i as usize], m.positions()[j as usize]);
+                pi.dot(toward).total_cmp(&pj.dot(toward))
+            })
+            .expect("points")
+    };
+    let pa = facing(a, Vec3::X, &world);
+    let pb = facing(b, Vec3::NEG_X, &world);
+    let gap =
+        world.model(a).positions()[pa as usize].distance(world.model(b).positions()[pb as usize]);
+    let spring = LinkSpring {
+        stiffness_n_per_m: 100.0,
+        damping_n_s_per_m: 0.0,
+        break_force_n: f32::INFINITY,
+    };
+    world.add_interaction(Attachment::new(
+        "bridge",
+        a,
+        b,
+        spring,
+        vec![Link {
+            a: pa,
+            b: pb,
+            rest_m: gap - 0.01,
+        }],
+    ));
+    let mut events = Vec::new();
+    for step in 0..50 {
+        world.step(0.002, step, &mut events);
+    }
+    let xa = world.model(a).positions()[pa as usize];
+    let xb = world.model(b).positions()[pb as usize];
+    let rest_a = world.model(a).mesh().rest[pa as usize];
+    let rest_b = world.model(b).mesh().rest[pb as usize];
+    assert!(
+        xa.x > rest_a.x + 1e-6,
+        "a's point moved toward b: {xa} from {rest_a}"
+    );
+    assert!(
+        xb.x < rest_b.x - 1e-6,
+        "b's point moved toward a: {xb} from {rest_b}"
+    );
+    // Symmetric balls, symmetric pull: mirror-image displacements.
+    let (da, db) = (xa.x - rest_a.x, xb.x - rest_b.x);
+    assert!((da + db).abs() < 1e-3 * da.abs(), "{da} vs {db}");
+}
+
+#[test]
+fn boxed_models_of_any_kind_share_one_world() {
+    let mut world: World<Box<dyn TissueModel>> = World::new();
+    let id = world.add(Box::new(ball("boxed", Vec3::ZERO, 0.02)));
+    let mut events = Vec::new();
+    for step in 0..10 {
+        world.contact(id, press(Vec3::ZERO, 0.02, 2000.0));
+        world.step(0.002, step, &mut events);
+    }
+    // The press pushes the tool back up, out of the tissue.
+    assert!(
+        world.reaction(Hand::Right).y > 0.0,
+        "{}",
+        world.reaction(Hand::Right)
+    );
+    assert_eq!(world.find("boxed"), Some(id));
+    let hit = world.cast_ray(Vec3::new(0.0, 0.1, 0.0), Vec3::NEG_Y, 1.0);
+    assert!(hit.is_some_and(|(m, h)| m == id && (h.distance_m - 0.08).abs() < 2e-3));
+}
