@@ -3,7 +3,8 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use vesalius::procedures::Nephrectomy;
-use vesalius::scenario::{Scenario, builtin};
+use vesalius::procedures::nephrectomy::Scenario;
+use vesalius::scenario::builtin;
 use vesalius::trace::KeyTrace;
 
 fn nephrectomy_step(c: &mut Criterion) {

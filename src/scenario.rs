@@ -1,10 +1,10 @@
-//! Scenario files (`assets/scenarios/*.toml`): anatomy, model parameters with units, tools,
-//! task, vulnerable structures and metric weights. Every value is range-checked; an error names
-//! the file, the key and what is expected.
+//! Scenario files (`assets/scenarios/*.toml`), the parts every procedure shares: the
+//! procedure a file names, its timing (the top-level `dt_s` and `publish_hz`), input errors,
+//! range checks, the limits on a session's size and the window's save-back of tuned values.
+//! Each procedure reads the rest of its file itself (`procedures/<name>/scenario.rs`); every
+//! value is range-checked and an error names the file, the key and what is expected.
 
-use crate::models::SoftBodyParams;
-use serde::Deserialize;
-use std::path::Path;
+use crate::params::{ParamSpec, Params};
 
 /// The five procedures of the papers the product covers (the registry says which run today;
 /// it may hold others, such as the sandbox).
@@ -44,94 +44,50 @@ impl InputError {
     }
 }
 
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Scenario {
-    /// A registered procedure's name.
-    pub procedure: String,
-    /// Simulation step, seconds (1e-4 to 0.01).
+/// A scenario's timing: the top-level `dt_s` and `publish_hz` every procedure's file holds
+/// (its [`crate::params::TOP_LEVEL`] table).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Timing {
+    /// Simulation step, s.
     pub dt_s: f32,
-    /// Snapshot publication rate for renderers, Hz.
+    /// Snapshots published for renderers per second, Hz.
     pub publish_hz: f32,
-    pub anatomy: Anatomy,
-    pub kidney: SoftBodyParams,
-    pub vessels: SoftBodyParams,
-    pub tools: Tools,
-    pub task: Task,
-    pub vulnerable: Vec<Vulnerable>,
-    pub weights: Weights,
 }
 
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Anatomy {
-    /// Icosphere subdivision level of kidney and tumour (5 = full scene, 3 = coarse).
-    pub level: u32,
-    pub kidney_half_length_m: f32,
-    pub kidney_half_width_m: f32,
-    pub kidney_half_thickness_m: f32,
-    pub hilum_depth_m: f32,
-    /// Tumour radius, m (the paper's case: a 3-5 cm mass).
-    pub tumour_radius_m: f32,
-    /// Direction from the kidney centre to the tumour site (normalised on load).
-    pub tumour_direction: [f32; 3],
-    /// How far the tumour centre stands out of the surface, in tumour radii (exophytic > 0).
-    pub tumour_protrusion: f32,
-    /// Points around each vessel.
-    pub vessel_segments: u32,
-    /// Rings along each vessel.
-    pub vessel_rings: u32,
-    pub renal_artery_radius_m: f32,
-    pub renal_vein_radius_m: f32,
-    pub ureter_radius_m: f32,
-}
+impl Params for Timing {
+    const SPECS: &'static [ParamSpec] = &[
+        ParamSpec::new(
+            "dt_s",
+            "s",
+            0.002,
+            (1e-4, 0.01),
+            "simulation step (0.002: 500 Hz)",
+        ),
+        ParamSpec::new(
+            "publish_hz",
+            "Hz",
+            90.0,
+            (1.0, 1000.0),
+            "snapshots published for renderers per second (the Vive refreshes at 90 Hz)",
+        ),
+    ];
 
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Tools {
-    /// Laser pointer range, m.
-    pub laser_range_m: f32,
-    /// Trigger value above which the laser cuts, 0..1.
-    pub cut_threshold: f32,
-    /// Pressure the laser applies where it cuts, Pa.
-    pub laser_pressure_pa: f32,
-    /// Grasper tip radius (collision sphere), m.
-    pub grasper_tip_radius_m: f32,
-    /// Reach of the closing jaws, m.
-    pub grasp_radius_m: f32,
-    /// Grip value above which the jaws close, 0..1.
-    pub grip_threshold: f32,
-}
+    fn get(&self, key: &str) -> Option<f64> {
+        Some(match key {
+            "dt_s" => self.dt_s.into(),
+            "publish_hz" => self.publish_hz.into(),
+            _ => return None,
+        })
+    }
 
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Task {
-    /// Intended margin of healthy tissue around the tumour, m.
-    pub margin_m: f32,
-    /// Margin marks needed before cutting counts as planned.
-    pub marks_required: u32,
-    /// A mark counts if it lies within this distance of the intended margin, m.
-    pub mark_tolerance_m: f32,
-    /// The freed tumour counts as removed once lifted this far, m.
-    pub removal_distance_m: f32,
-    /// Time an expert needs, s (efficiency is full at or below it).
-    pub target_time_s: f32,
-}
-
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Vulnerable {
-    pub model: String,
-}
-
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Weights {
-    pub completion: f32,
-    pub margin: f32,
-    pub preservation: f32,
-    pub safety: f32,
-    pub efficiency: f32,
+    fn set(&mut self, key: &str, v: f64) -> bool {
+        match key {
+            "dt_s" => self.dt_s = v as f32,
+            "publish_hz" => self.publish_hz = v as f32,
+            _ => return false,
+        }
+        true
+    }
 }
 
 /// The scenario `text` with `values` written into its `[table]`, comments and layout kept:
@@ -271,10 +227,6 @@ pub fn check_procedure(file: &str, key: &str, name: &str) -> Result<(), InputErr
     Err(InputError::new(file, key, message))
 }
 
-struct Ranges<'a> {
-    file: &'a str,
-}
-
 /// Checks that `v` is a finite number in `[lo, hi]`; the error names `file` and `key`.
 pub fn check_number(
     file: &str,
@@ -300,19 +252,9 @@ pub fn check_number(
     Ok(())
 }
 
-impl Ranges<'_> {
-    fn num(&self, key: &str, v: f32, lo: f32, hi: f32, unit: &str) -> Result<(), InputError> {
-        check_number(self.file, key, v, (lo, hi), unit)
-    }
-
-    fn params(&self, section: &str, p: &SoftBodyParams) -> Result<(), InputError> {
-        crate::params::validate(self.file, section, p)
-    }
-}
-
 /// A direction shorter than this cannot be normalised safely (its square underflows).
 pub const MIN_DIRECTION_LENGTH: f32 = 1e-6;
-/// The most simulated points a scenario may ask for (about 40 times the full-size kidney).
+/// The most simulated points a scenario may ask for (about 40 times the largest shipped scene).
 pub const MAX_NODES: u64 = 2_000_000;
 /// The most point-steps a scripted session may ask for: about five hours of computing at the
 /// 5e7 point-steps per second a 2-core machine manages (a 4-hour session at full size is 4e11).
@@ -337,252 +279,4 @@ pub fn check_cost(file: &str, nodes: u64, steps: u64) -> Result<(), InputError> 
         ));
     }
     Ok(())
-}
-
-impl Scenario {
-    /// Simulated points the anatomy will have, estimated from its sizes before anything is
-    /// built: kidney and tumour (20 x 4^level faces each, one point per face) and three
-    /// vessels (two faces per segment and ring).
-    pub fn estimated_nodes(&self) -> u64 {
-        let a = &self.anatomy;
-        let sphere = 20 * 4u64.saturating_pow(a.level);
-        let tube = 2 * u64::from(a.vessel_segments) * u64::from(a.vessel_rings);
-        2 * sphere + 3 * tube
-    }
-
-    /// Parses and validates scenario text; `file` names it in errors.
-    pub fn parse(file: &str, text: &str) -> Result<Self, InputError> {
-        let s: Scenario = toml::from_str(text).map_err(|e| InputError::toml(file, &e))?;
-        s.validate(file)?;
-        Ok(s)
-    }
-
-    pub fn load(path: &Path) -> Result<Self, InputError> {
-        let file = path.display().to_string();
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| InputError::new(&file, "file", format!("cannot read: {e}")))?;
-        Self::parse(&file, &text)
-    }
-
-    pub fn validate(&self, file: &str) -> Result<(), InputError> {
-        check_procedure(file, "procedure", &self.procedure)?;
-        let r = Ranges { file };
-        r.num("dt_s", self.dt_s, 1e-4, 0.01, "s")?;
-        r.num("publish_hz", self.publish_hz, 1.0, 1000.0, "Hz")?;
-        let a = &self.anatomy;
-        if !(1..=7).contains(&a.level) {
-            return Err(InputError::new(
-                file,
-                "anatomy.level",
-                format!("must be 1 to 7, got {}", a.level),
-            ));
-        }
-        r.num(
-            "anatomy.kidney_half_length_m",
-            a.kidney_half_length_m,
-            0.01,
-            0.2,
-            "m",
-        )?;
-        r.num(
-            "anatomy.kidney_half_width_m",
-            a.kidney_half_width_m,
-            0.005,
-            0.2,
-            "m",
-        )?;
-        r.num(
-            "anatomy.kidney_half_thickness_m",
-            a.kidney_half_thickness_m,
-            0.005,
-            0.2,
-            "m",
-        )?;
-        r.num("anatomy.hilum_depth_m", a.hilum_depth_m, 0.0, 0.05, "m")?;
-        r.num(
-            "anatomy.tumour_radius_m",
-            a.tumour_radius_m,
-            0.005,
-            0.05,
-            "m",
-        )?;
-        r.num(
-            "anatomy.tumour_protrusion",
-            a.tumour_protrusion,
-            0.0,
-            0.95,
-            "radii",
-        )?;
-        for (i, c) in a.tumour_direction.iter().enumerate() {
-            r.num(&format!("anatomy.tumour_direction[{i}]"), *c, -1e3, 1e3, "")?;
-        }
-        let dir = glam::Vec3::from(a.tumour_direction);
-        if dir.length() < MIN_DIRECTION_LENGTH || dir.try_normalize().is_none() {
-            return Err(InputError::new(
-                file,
-                "anatomy.tumour_direction",
-                format!(
-                    "is a direction (normalised on load): its length must be at least \
-                     {MIN_DIRECTION_LENGTH}, got {:?} (length {})",
-                    a.tumour_direction,
-                    dir.length()
-                ),
-            ));
-        }
-        if !(3..=256).contains(&a.vessel_segments) || !(2..=1024).contains(&a.vessel_rings) {
-            return Err(InputError::new(
-                file,
-                "anatomy.vessel_segments",
-                "vessel_segments must be 3..256 and vessel_rings 2..1024",
-            ));
-        }
-        r.num(
-            "anatomy.renal_artery_radius_m",
-            a.renal_artery_radius_m,
-            5e-4,
-            0.02,
-            "m",
-        )?;
-        r.num(
-            "anatomy.renal_vein_radius_m",
-            a.renal_vein_radius_m,
-            5e-4,
-            0.02,
-            "m",
-        )?;
-        r.num(
-            "anatomy.ureter_radius_m",
-            a.ureter_radius_m,
-            5e-4,
-            0.02,
-            "m",
-        )?;
-        let nodes = self.estimated_nodes();
-        if nodes > MAX_NODES {
-            return Err(InputError::new(
-                file,
-                "anatomy",
-                format!(
-                    "asks for about {nodes} simulated points (level {}, vessels {} x {}); \
-                     at most {MAX_NODES} can be built and stepped: lower anatomy.level or the \
-                     vessel segments and rings",
-                    a.level, a.vessel_segments, a.vessel_rings
-                ),
-            ));
-        }
-        r.params("kidney", &self.kidney)?;
-        r.params("vessels", &self.vessels)?;
-        let t = &self.tools;
-        r.num("tools.laser_range_m", t.laser_range_m, 0.01, 5.0, "m")?;
-        r.num("tools.cut_threshold", t.cut_threshold, 0.01, 1.0, "")?;
-        r.num(
-            "tools.laser_pressure_pa",
-            t.laser_pressure_pa,
-            0.0,
-            1e5,
-            "Pa",
-        )?;
-        r.num(
-            "tools.grasper_tip_radius_m",
-            t.grasper_tip_radius_m,
-            1e-4,
-            0.02,
-            "m",
-        )?;
-        r.num("tools.grasp_radius_m", t.grasp_radius_m, 1e-4, 0.05, "m")?;
-        r.num("tools.grip_threshold", t.grip_threshold, 0.01, 1.0, "")?;
-        let k = &self.task;
-        r.num("task.margin_m", k.margin_m, 0.0, 0.03, "m")?;
-        r.num("task.mark_tolerance_m", k.mark_tolerance_m, 1e-4, 0.03, "m")?;
-        r.num(
-            "task.removal_distance_m",
-            k.removal_distance_m,
-            1e-3,
-            0.3,
-            "m",
-        )?;
-        r.num("task.target_time_s", k.target_time_s, 1.0, 7200.0, "s")?;
-        let w = &self.weights;
-        for (name, v) in [
-            ("completion", w.completion),
-            ("margin", w.margin),
-            ("preservation", w.preservation),
-            ("safety", w.safety),
-            ("efficiency", w.efficiency),
-        ] {
-            r.num(&format!("weights.{name}"), v, 0.0, 1e3, "")?;
-        }
-        if w.completion + w.margin + w.preservation + w.safety + w.efficiency <= 0.0 {
-            return Err(InputError::new(
-                file,
-                "weights",
-                "at least one weight must be positive",
-            ));
-        }
-        for (i, v) in self.vulnerable.iter().enumerate() {
-            if !["renal_artery", "renal_vein", "ureter"].contains(&v.model.as_str()) {
-                return Err(InputError::new(
-                    file,
-                    &format!("vulnerable[{i}].model"),
-                    format!(
-                        "unknown model '{}', expected renal_artery, renal_vein or ureter",
-                        v.model
-                    ),
-                ));
-            }
-        }
-        Ok(())
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::models::Tuning;
-
-    #[test]
-    fn tuned_values_are_written_into_their_table_keeping_comments() {
-        let text = builtin("nephrectomy").expect("builtin");
-        let before = Scenario::parse("s.toml", text).expect("parses");
-        let t = Tuning {
-            spring_n_per_m: 55.5,
-            damping_per_s: 3.0,
-            offset_m: 0.004,
-        };
-        let vals = |t: &Tuning| -> Vec<(String, f32)> {
-            Tuning::RANGES
-                .iter()
-                .zip(t.values())
-                .map(|((k, _, _), v)| ((*k).to_string(), v))
-                .collect()
-        };
-        let out = with_values("s.toml", text, "kidney", &vals(&t)).expect("written");
-        let after = Scenario::parse("s.toml", &out).expect("parses");
-        assert_eq!(Tuning::of(&after.kidney), t);
-        // The vessels keep their own values; every comment line survives; one line a key.
-        assert_eq!(after.vessels, before.vessels);
-        assert_eq!(out.lines().count(), text.lines().count());
-        assert!(out.contains("spring_n_per_m = 55.5   # pull of each point"));
-        assert!(out.contains("spring_n_per_m = 120.0"));
-        // A missing key is added to the table; no kidney table is an error naming it.
-        let short: String = text
-            .lines()
-            .filter(|l| !l.starts_with("offset_m = 0.002"))
-            .map(|l| format!("{l}\n"))
-            .collect();
-        assert_ne!(short, text);
-        let out = with_values("s.toml", &short, "kidney", &vals(&t)).expect("written");
-        assert_eq!(
-            Tuning::of(&Scenario::parse("s.toml", &out).expect("ok").kidney),
-            t
-        );
-        let e = with_values(
-            "s.toml",
-            "procedure = \"nephrectomy\"\n",
-            "kidney",
-            &vals(&t),
-        )
-        .expect_err("no table");
-        assert!(e.to_string().contains("s.toml") && e.to_string().contains("kidney"));
-    }
 }

@@ -2,7 +2,8 @@
 //! is expected; nothing panics.
 
 use std::process::Command;
-use vesalius::scenario::{Scenario, builtin};
+use vesalius::procedures::nephrectomy::Scenario;
+use vesalius::scenario::builtin;
 use vesalius::trace::{KeyTrace, Recording, Tail, TuningRecord};
 
 fn scenario() -> String {

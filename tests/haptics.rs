@@ -4,7 +4,8 @@
 //! a normal pointing back out, and a stiffness that is positive while it presses deeper.
 
 use glam::Vec3;
-use vesalius::scenario::{Scenario, builtin};
+use vesalius::procedures::nephrectomy::Scenario;
+use vesalius::scenario::builtin;
 use vesalius::session::Live;
 use vesalius::sim::{Hand, Pacing};
 use vesalius::trace::KeyTrace;

@@ -5,7 +5,6 @@
 use crate::collision::{cast_ray, nearest_within};
 use crate::mesh::{KidneyShape, TriMesh, TubeSpec, icosphere, kidney, tube};
 use crate::models::{SimplexMesh, SoftBody, Tie};
-use crate::scenario::Scenario;
 use crate::sim::{
     Contact, ContactKind, CutStroke, EventKind, Hand, InputFrame, ModelId, SimEvent, Snapshot,
     SurfaceRole, TissueModel, ToolSnapshot, World,
@@ -14,8 +13,10 @@ use glam::Vec3;
 use serde::Serialize;
 
 mod plugin;
+mod scenario;
 mod score;
 
+pub use scenario::{Anatomy, Scenario, Task, Tools, Vulnerable, Weights};
 pub use score::{ScoreParts, score};
 
 /// The registry's entry.
@@ -71,16 +72,7 @@ pub const INFO: super::ProcedureInfo = super::ProcedureInfo {
     ],
     // Tables 2 and 3 of the paper.
     profile_reference: Some(|| [crate::profiler::paper_cpu(), crate::profiler::paper_gpu()]),
-    param_tables: &[
-        (
-            "kidney",
-            <crate::models::SoftBodyParams as crate::params::Params>::SPECS,
-        ),
-        (
-            "vessels",
-            <crate::models::SoftBodyParams as crate::params::Params>::SPECS,
-        ),
-    ],
+    param_tables: scenario::PARAM_TABLES,
     legacy_tuned_model: Some(TUNED_MODEL),
     plan,
     build,

@@ -11,10 +11,13 @@ use glam::Vec3;
 
 /// The scenario table of the instruments, whose laser pressure is tunable too.
 const TOOLS: &str = "tools";
-/// The laser's pressure on the tissue it cuts, Pa (eq 4): the slider's range.
-const LASER_PRESSURE_PA: (f64, f64) = (0.0, 10_000.0);
+/// The laser's pressure on the tissue it cuts, Pa (eq 4): the slider's range, from its table.
+const LASER_PRESSURE_PA: (f64, f64) = match super::scenario::LASER_PRESSURE.tune {
+    Some(range) => range,
+    None => (0.0, 0.0),
+};
 /// Its key in `[tools]`.
-const LASER_PRESSURE: &str = "laser_pressure_pa";
+const LASER_PRESSURE: &str = super::scenario::LASER_PRESSURE.key;
 
 impl Procedure for Nephrectomy {
     fn info(&self) -> &'static ProcedureInfo {

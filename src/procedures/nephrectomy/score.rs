@@ -1,7 +1,7 @@
 //! Scoring of a nephrectomy session: five weighted components, each in [0, 1].
 
 use super::Metrics;
-use crate::scenario::Scenario;
+use super::Scenario;
 use serde::Serialize;
 
 #[derive(Debug, Clone, Serialize)]

@@ -82,10 +82,7 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
     // Where the demo trace starts the instruments: over the block's front corners, in view.
     desk_park: [Vec3::new(-0.04, 0.06, 0.03), Vec3::new(0.04, 0.06, 0.03)],
     profile_reference: None,
-    param_tables: &[(
-        "block",
-        <crate::models::SoftBodyParams as crate::params::Params>::SPECS,
-    )],
+    param_tables: scenario::PARAM_TABLES,
     legacy_tuned_model: None,
     plan,
     build,

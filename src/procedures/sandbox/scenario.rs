@@ -1,10 +1,12 @@
-//! The sandbox's scenario file: the block's size and resolution, its soft-body parameters
-//! (the `[block]` table, named like the model so the window's save-back writes where it
-//! read), the instruments and the task. Every value is range-checked here; an error names the
-//! file, the key and the expected range.
+//! The sandbox's scenario file: timing, the block's size and resolution, its soft-body
+//! parameters (the `[block]` table, named like the model so the window's save-back writes
+//! where it read), the instruments and the task. Every number has its entry in a parameter
+//! table; the tables check the ranges, and the checks that tie values together follow by
+//! hand. An error names the file, the key and the expected range.
 
 use crate::models::SoftBodyParams;
-use crate::scenario::InputError;
+use crate::params::{ParamSpec, Params, TOP_LEVEL};
+use crate::scenario::{InputError, Timing};
 use serde::Deserialize;
 
 /// The name scenarios and traces give this procedure.
@@ -66,25 +68,171 @@ pub struct Task {
 /// Most simulated points a sandbox may ask for (a step stays well under a millisecond).
 pub const MAX_POINTS: u64 = 200_000;
 
-/// Range checks that name the file and key.
-struct Check<'a> {
-    file: &'a str,
+/// A block edge's length, m.
+const fn edge(key: &'static str, default: f64, doc: &'static str) -> ParamSpec {
+    ParamSpec::new(key, "m", default, (0.01, 0.3), doc)
 }
 
-impl Check<'_> {
-    fn err(&self, key: &str, message: impl Into<String>) -> InputError {
-        InputError::new(self.file, key, message)
+impl Params for Geometry {
+    const SPECS: &'static [ParamSpec] = &[
+        edge(
+            "size_m[0]",
+            0.06,
+            "the block's width along x; it rests on the table top (y = 0), centred on the \
+             origin in x and z",
+        ),
+        edge("size_m[1]", 0.03, "its height along y"),
+        edge("size_m[2]", 0.04, "its depth along z"),
+        ParamSpec::new(
+            "resolution",
+            "cells",
+            24.0,
+            (2.0, 256.0),
+            "cells along the longest edge; the others get as many as keep the cells square \
+             (24: 2.5 mm cells, 3456 triangles; at most 200000 points)",
+        )
+        .whole(),
+    ];
+
+    fn get(&self, key: &str) -> Option<f64> {
+        Some(match key {
+            "size_m[0]" => self.size_m[0].into(),
+            "size_m[1]" => self.size_m[1].into(),
+            "size_m[2]" => self.size_m[2].into(),
+            "resolution" => self.resolution.into(),
+            _ => return None,
+        })
     }
 
-    fn num(&self, key: &str, v: f32, lo: f32, hi: f32, unit: &str) -> Result<(), InputError> {
-        crate::scenario::check_number(self.file, key, v, (lo, hi), unit)
-    }
-
-    /// The soft body's table ranges (`SoftBodyParams::SPECS`).
-    fn params(&self, table: &str, p: &SoftBodyParams) -> Result<(), InputError> {
-        crate::params::validate(self.file, table, p)
+    fn set(&mut self, key: &str, v: f64) -> bool {
+        let f = v as f32;
+        match key {
+            "size_m[0]" => self.size_m[0] = f,
+            "size_m[1]" => self.size_m[1] = f,
+            "size_m[2]" => self.size_m[2] = f,
+            // Saturates at 0 and u32::MAX (`as` does); the table checks the range.
+            "resolution" => self.resolution = v as u32,
+            _ => return false,
+        }
+        true
     }
 }
+
+/// A tip's radius or reach, m.
+const fn tip(key: &'static str, default: f64, doc: &'static str) -> ParamSpec {
+    ParamSpec::new(key, "m", default, (5e-4, 0.02), doc)
+}
+
+impl Params for Tools {
+    const SPECS: &'static [ParamSpec] = &[
+        tip(
+            "probe_tip_radius_m",
+            0.004,
+            "radius of the probe's rigid ball tip (an 8 mm ball)",
+        ),
+        tip(
+            "grasper_tip_radius_m",
+            0.002,
+            "radius of the open grasper's tip, a rigid sphere (the open jaws as a 4 mm ball)",
+        ),
+        tip(
+            "grasp_radius_m",
+            0.003,
+            "reach of the closing jaws: points this close to the tip are held",
+        ),
+        ParamSpec::new(
+            "grip_threshold",
+            "",
+            0.5,
+            (0.01, 1.0),
+            "grip value (0 to 1) at or above which the jaws close",
+        ),
+    ];
+
+    fn get(&self, key: &str) -> Option<f64> {
+        Some(match key {
+            "probe_tip_radius_m" => self.probe_tip_radius_m.into(),
+            "grasper_tip_radius_m" => self.grasper_tip_radius_m.into(),
+            "grasp_radius_m" => self.grasp_radius_m.into(),
+            "grip_threshold" => self.grip_threshold.into(),
+            _ => return None,
+        })
+    }
+
+    fn set(&mut self, key: &str, v: f64) -> bool {
+        let f = v as f32;
+        match key {
+            "probe_tip_radius_m" => self.probe_tip_radius_m = f,
+            "grasper_tip_radius_m" => self.grasper_tip_radius_m = f,
+            "grasp_radius_m" => self.grasp_radius_m = f,
+            "grip_threshold" => self.grip_threshold = f,
+            _ => return false,
+        }
+        true
+    }
+}
+
+/// The shallowest press a scenario may ask for, m.
+const MIN_PROBE_DEPTH_M: f64 = 5e-4;
+/// The deepest: half the tallest block, m. A hand check holds it to half the block's own
+/// height.
+const MAX_PROBE_DEPTH_M: f64 = 0.15;
+
+impl Params for Task {
+    const SPECS: &'static [ParamSpec] = &[
+        ParamSpec::new(
+            "probe_depth_m",
+            "m",
+            0.005,
+            (MIN_PROBE_DEPTH_M, MAX_PROBE_DEPTH_M),
+            "how far below the undeformed top the probe's tip must press; at most half the \
+             block's height",
+        ),
+        ParamSpec::new(
+            "lift_height_m",
+            "m",
+            0.01,
+            (1e-3, 0.05),
+            "how far the grasped top must be lifted before it is let go",
+        ),
+        ParamSpec::new(
+            "target_time_s",
+            "s",
+            10.0,
+            (1.0, 7200.0),
+            "time an expert needs: the efficiency component is full at or below it",
+        ),
+    ];
+
+    fn get(&self, key: &str) -> Option<f64> {
+        Some(match key {
+            "probe_depth_m" => self.probe_depth_m.into(),
+            "lift_height_m" => self.lift_height_m.into(),
+            "target_time_s" => self.target_time_s.into(),
+            _ => return None,
+        })
+    }
+
+    fn set(&mut self, key: &str, v: f64) -> bool {
+        let f = v as f32;
+        match key {
+            "probe_depth_m" => self.probe_depth_m = f,
+            "lift_height_m" => self.lift_height_m = f,
+            "target_time_s" => self.target_time_s = f,
+            _ => return false,
+        }
+        true
+    }
+}
+
+/// The scenario's tables with specs, as `INFO.param_tables` lists them (file order).
+pub const PARAM_TABLES: &[(&str, &[ParamSpec])] = &[
+    (TOP_LEVEL, Timing::SPECS),
+    ("geometry", Geometry::SPECS),
+    (MODEL, SoftBodyParams::SPECS),
+    ("tools", Tools::SPECS),
+    ("task", Task::SPECS),
+];
 
 impl Scenario {
     /// Parses and checks scenario text; `file` names it in errors.
@@ -109,28 +257,29 @@ impl Scenario {
         4 * (x * y + y * z + z * x)
     }
 
+    /// The top-level timing.
+    pub fn timing(&self) -> Timing {
+        Timing {
+            dt_s: self.dt_s,
+            publish_hz: self.publish_hz,
+        }
+    }
+
+    /// The tables' ranges, then the checks that tie values together.
     pub fn validate(&self, file: &str) -> Result<(), InputError> {
-        let c = Check { file };
+        use crate::params::validate;
+        let err = |key: &str, message: String| InputError::new(file, key, message);
         if self.procedure != NAME {
-            return Err(c.err(
+            return Err(err(
                 "procedure",
                 format!("must be \"{NAME}\", got \"{}\"", self.procedure),
             ));
         }
-        c.num("dt_s", self.dt_s, 1e-4, 0.01, "s")?;
-        c.num("publish_hz", self.publish_hz, 1.0, 1000.0, "Hz")?;
+        validate(file, TOP_LEVEL, &self.timing())?;
         let g = &self.geometry;
-        for (i, s) in g.size_m.iter().enumerate() {
-            c.num(&format!("geometry.size_m[{i}]"), *s, 0.01, 0.3, "m")?;
-        }
-        if !(2..=256).contains(&g.resolution) {
-            return Err(c.err(
-                "geometry.resolution",
-                format!("must be between 2 and 256 cells, got {}", g.resolution),
-            ));
-        }
+        validate(file, "geometry", g)?;
         if self.points() > MAX_POINTS {
-            return Err(c.err(
+            return Err(err(
                 "geometry.resolution",
                 format!(
                     "asks for {} simulated points; at most {MAX_POINTS}: lower the resolution",
@@ -138,36 +287,19 @@ impl Scenario {
                 ),
             ));
         }
-        c.params(MODEL, &self.block)?;
-        let t = &self.tools;
-        c.num(
-            "tools.probe_tip_radius_m",
-            t.probe_tip_radius_m,
-            5e-4,
-            0.02,
-            "m",
-        )?;
-        c.num(
-            "tools.grasper_tip_radius_m",
-            t.grasper_tip_radius_m,
-            5e-4,
-            0.02,
-            "m",
-        )?;
-        c.num("tools.grasp_radius_m", t.grasp_radius_m, 5e-4, 0.02, "m")?;
-        c.num("tools.grip_threshold", t.grip_threshold, 0.01, 1.0, "")?;
+        validate(file, MODEL, &self.block)?;
+        validate(file, "tools", &self.tools)?;
         let k = &self.task;
+        validate(file, "task", k)?;
         // The probe may not be asked to go through more than half the block.
         let half_height = 0.5 * g.size_m[1];
-        c.num(
+        crate::scenario::check_number(
+            file,
             "task.probe_depth_m",
             k.probe_depth_m,
-            5e-4,
-            half_height,
+            (MIN_PROBE_DEPTH_M as f32, half_height),
             "m",
         )?;
-        c.num("task.lift_height_m", k.lift_height_m, 1e-3, 0.05, "m")?;
-        c.num("task.target_time_s", k.target_time_s, 1.0, 7200.0, "s")?;
         Ok(())
     }
 }

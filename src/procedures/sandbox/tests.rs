@@ -92,6 +92,16 @@ fn run_demo() -> DemoRun {
     }
 }
 
+/// Every key of every table names its own field.
+#[test]
+fn every_table_key_reads_and_writes_its_own_field() {
+    let s = scenario();
+    crate::params::assert_round_trip(&s.timing());
+    crate::params::assert_round_trip(&s.geometry);
+    crate::params::assert_round_trip(&s.tools);
+    crate::params::assert_round_trip(&s.task);
+}
+
 #[test]
 fn the_scenario_parses_and_a_bad_value_names_its_key() {
     let s = scenario();
@@ -162,6 +172,15 @@ fn the_scenario_parses_and_a_bad_value_names_its_key() {
     )
     .expect_err("dt");
     assert!(e.message.contains("0.0001 and 0.01"), "{e}");
+    // The probe's depth: the table's range, then half the block's own height.
+    let e = Scenario::parse(
+        "bad.toml",
+        &INFO
+            .scenario
+            .replacen("probe_depth_m = 0.005", "probe_depth_m = 0.02", 1),
+    )
+    .expect_err("deep");
+    assert_eq!(e.message, "must be between 0.0005 and 0.015 m, got 0.02");
     let typo = INFO.scenario.replacen("grip_threshold", "grip_treshold", 1);
     let e = Scenario::parse("bad.toml", &typo).expect_err("typo");
     assert!(e.message.contains("grip_treshold"), "{e}");
