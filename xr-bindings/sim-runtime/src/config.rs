@@ -7,6 +7,8 @@ use std::path::PathBuf;
 
 /// The environment variable naming the settings file.
 pub const CONFIG_ENV: &str = "VESALIUS_XR_SIM_CONFIG";
+/// The haptics log's name in the output folder.
+pub const HAPTICS_FILE: &str = "haptics.jsonl";
 
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -146,7 +148,7 @@ impl Config {
         };
         let fail = |e: std::io::Error| format!("{}: {e}", dir.display());
         std::fs::create_dir_all(dir.join("frames")).map_err(fail)?;
-        std::fs::write(dir.join(crate::HAPTICS_FILE), "").map_err(fail)?;
+        std::fs::write(dir.join(HAPTICS_FILE), "").map_err(fail)?;
         Ok(())
     }
 
