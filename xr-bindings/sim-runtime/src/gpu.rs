@@ -19,6 +19,35 @@ pub(crate) const FORMATS: [vk::Format; 5] = [
 /// Images per swapchain.
 const IMAGES: usize = 3;
 
+/// Why a frame dump was not written (the message follows the PNG's path on stderr).
+#[derive(Debug, thiserror::Error)]
+pub(crate) enum DumpError {
+    #[error("no such image ({0})")]
+    NoSuchImage(usize),
+    #[error("not a colour layer (layer {0})")]
+    NotColour(u32),
+    #[error("empty image rectangle")]
+    EmptyRect,
+    #[error("no host-visible memory")]
+    NoHostMemory,
+    /// A Vulkan call of the read-back failed: which step (buffer, memory, bind, copy, map).
+    #[error("{step}: {source}")]
+    Vulkan {
+        step: &'static str,
+        source: vk::Result,
+    },
+    #[error("{}: {source}", path.display())]
+    Write {
+        path: std::path::PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{}: {source}", path.display())]
+    Encode {
+        path: std::path::PathBuf,
+        source: png::EncodingError,
+    },
+}
+
 /// The app's Vulkan device as the session binding gave it, with the functions the runtime
 /// calls on it.
 pub(crate) struct Device {
@@ -344,22 +373,22 @@ impl Swapchain {
         layer: u32,
         rect: sys::Rect2Di,
         path: &Path,
-    ) -> Result<(), String> {
+    ) -> Result<(), DumpError> {
         let Some(img) = self.images.get(image) else {
-            return Err("no such image".into());
+            return Err(DumpError::NoSuchImage(image));
         };
         if aspect(self.format) != vk::ImageAspectFlags::COLOR || layer >= self.layers {
-            return Err("not a colour layer".into());
+            return Err(DumpError::NotColour(layer));
         }
         let (x, y) = (rect.offset.x.max(0) as u32, rect.offset.y.max(0) as u32);
         let w = (rect.extent.width.max(0) as u32).min(self.size.0.saturating_sub(x));
         let h = (rect.extent.height.max(0) as u32).min(self.size.1.saturating_sub(y));
         if w == 0 || h == 0 {
-            return Err("empty image rectangle".into());
+            return Err(DumpError::EmptyRect);
         }
         let bytes = u64::from(w) * u64::from(h) * 4;
         let d = &dev.device;
-        let fail = |what: &str, e: vk::Result| format!("{what}: {e}");
+        let fail = |step: &'static str, source: vk::Result| DumpError::Vulkan { step, source };
         // SAFETY: a host-visible buffer made, used and destroyed here on the live device; the
         // copy waits on the queue before the memory is read.
         unsafe {
@@ -376,7 +405,7 @@ impl Swapchain {
                 vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT;
             let Some(kind) = dev.memory_type(req.memory_type_bits, host) else {
                 d.destroy_buffer(buffer, None);
-                return Err("no host-visible memory".into());
+                return Err(DumpError::NoHostMemory);
             };
             let memory = match d.allocate_memory(
                 &vk::MemoryAllocateInfo::default()
@@ -456,15 +485,24 @@ impl Swapchain {
 }
 
 /// Writes RGBA8 pixels as a PNG, whole or not at all.
-fn write_png(path: &Path, w: u32, h: u32, rgba: &[u8]) -> Result<(), String> {
+fn write_png(path: &Path, w: u32, h: u32, rgba: &[u8]) -> Result<(), DumpError> {
     let tmp = path.with_extension("png.partial");
-    let file = std::fs::File::create(&tmp).map_err(|e| format!("{}: {e}", tmp.display()))?;
+    let file = std::fs::File::create(&tmp).map_err(|source| DumpError::Write {
+        path: tmp.clone(),
+        source,
+    })?;
     let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w, h);
     enc.set_color(png::ColorType::Rgba);
     enc.set_depth(png::BitDepth::Eight);
     enc.set_compression(png::Compression::Fast);
     enc.write_header()
         .and_then(|mut wr| wr.write_image_data(rgba))
-        .map_err(|e| format!("{}: {e}", tmp.display()))?;
-    std::fs::rename(&tmp, path).map_err(|e| format!("{}: {e}", path.display()))
+        .map_err(|source| DumpError::Encode {
+            path: tmp.clone(),
+            source,
+        })?;
+    std::fs::rename(&tmp, path).map_err(|source| DumpError::Write {
+        path: path.to_path_buf(),
+        source,
+    })
 }

@@ -37,7 +37,7 @@ mod swapchain;
 mod system;
 mod tracking;
 
-pub use config::{CONFIG_ENV, Config, HAPTICS_FILE};
+pub use config::{CONFIG_ENV, Config, ConfigError, HAPTICS_FILE};
 pub use system::{
     API_VERSION, EYE_SIZE, FRAME_PERIOD_NS, RUNTIME_NAME, SYSTEM_NAME, VULKAN_ENABLE2,
 };
