@@ -1,6 +1,8 @@
 //! `vesalius bench`: step rates of each model and of the whole procedure at the scenario's
 //! sizes, driven by the procedure's demo trace.
 
+use crate::procedures::BuildError;
+use crate::scenario::InputError;
 use crate::sim::{Clock, Pacing};
 use crate::trace::KeyTrace;
 use serde::Serialize;
@@ -22,17 +24,28 @@ pub struct BenchLine {
     pub threads: usize,
 }
 
+/// Why a benchmark did not run.
+#[derive(Debug, thiserror::Error)]
+pub enum BenchError {
+    #[error("no procedure '{0}'")]
+    NoSuchProcedure(String),
+    /// The procedure's built-in scenario or demo trace is refused (a bug in the build).
+    #[error(transparent)]
+    Input(#[from] InputError),
+    #[error(transparent)]
+    Build(#[from] BuildError),
+}
+
 /// Runs the procedure's demo trace once on its default scenario, timing every model and the
 /// whole step.
-pub fn run(procedure: &str) -> Result<Vec<BenchLine>, String> {
-    let info =
-        crate::procedures::find(procedure).ok_or_else(|| format!("no procedure '{procedure}'"))?;
+pub fn run(procedure: &str) -> Result<Vec<BenchLine>, BenchError> {
+    let info = crate::procedures::find(procedure)
+        .ok_or_else(|| BenchError::NoSuchProcedure(procedure.to_string()))?;
     let file = format!("builtin {procedure} scenario");
-    let (_, plan) = crate::procedures::plan(&file, info.scenario).map_err(|e| e.to_string())?;
-    let trace = KeyTrace::parse(&format!("builtin {procedure} demo trace"), info.demo_trace)
-        .map_err(|e| e.to_string())?;
+    let (_, plan) = crate::procedures::plan(&file, info.scenario)?;
+    let trace = KeyTrace::parse(&format!("builtin {procedure} demo trace"), info.demo_trace)?;
     let dt = plan.dt_s;
-    let mut p = (info.build)(&file, info.scenario).map_err(|e| e.to_string())?;
+    let mut p = (info.build)(&file, info.scenario)?;
     let mut clock = Clock::new(dt, Pacing::AsFastAsPossible);
     let steps = (trace.duration_s() / dt as f64).ceil() as u64;
     let mut events = Vec::new();
@@ -70,4 +83,16 @@ pub fn run(procedure: &str) -> Result<Vec<BenchLine>, String> {
     });
     out.push(line("procedure".to_string(), wall, total));
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_unknown_procedure_is_named() {
+        let e = run("appendectomy").expect_err("no such procedure");
+        assert!(matches!(&e, BenchError::NoSuchProcedure(p) if p == "appendectomy"));
+        assert_eq!(e.to_string(), "no procedure 'appendectomy'");
+    }
 }

@@ -12,11 +12,11 @@
 
 use crate::procedures::{ToolInfo, ToolKind};
 use crate::profiler::FrameCounters;
-use crate::render::{EyeView, Fov, Gpu, RenderTarget, Renderer};
-use crate::session::{Live, Outcome};
+use crate::render::{EyeView, Fov, Gpu, RenderError, RenderTarget, Renderer};
+use crate::session::{Live, Outcome, SessionError};
 use crate::sim::{Buttons, EventKind, Hand, HandInput, InputFrame, Pacing, Pose};
 use glam::{Quat, Vec3};
-use xr_bindings::app::{EYE_FORMAT, HandReading, XrApp, XrSession};
+use xr_bindings::app::{EYE_FORMAT, HandReading, XrApp, XrError, XrSession};
 use xr_bindings::openxr as xr;
 use xr_bindings::{Command, SessionMachine};
 
@@ -107,8 +107,26 @@ pub struct XrOptions {
     pub eye_size: Option<(u32, u32)>,
 }
 
-fn err(e: impl std::fmt::Display) -> String {
-    e.to_string()
+/// Why a run in the headset stopped with an error.
+#[derive(Debug, thiserror::Error)]
+pub enum XrRunError {
+    /// An OpenXR call (or the loader, runtime, headset or its Vulkan device) failed.
+    #[error(transparent)]
+    Xr(#[from] XrError),
+    #[error(transparent)]
+    Render(#[from] RenderError),
+    /// The scenario, the output folder or the recording.
+    #[error(transparent)]
+    Session(#[from] SessionError),
+    #[error("the headset did not come back within 60 s")]
+    HeadsetGone,
+    #[error("the runtime located fewer than two views")]
+    TooFewViews,
+}
+
+/// A frame-loop call's result, its error named after the OpenXR function.
+fn call<T>(name: &'static str, r: xr::Result<T>) -> Result<T, XrRunError> {
+    r.map_err(|result| XrRunError::Xr(XrError::Call { call: name, result }))
 }
 
 fn field_pose(aim: ([f32; 3], [f32; 4])) -> Pose {
@@ -238,18 +256,16 @@ impl XrLoop {
         scenario_file: &str,
         opts: XrOptions,
         out: Option<&std::path::Path>,
-    ) -> Result<XrLoop, String> {
-        let (app, xg) = XrApp::open("vesalius").map_err(err)?;
+    ) -> Result<XrLoop, XrRunError> {
+        let (app, xg) = XrApp::open("vesalius")?;
         let gpu = Gpu::from_parts(xg.instance, xg.adapter, xg.device, xg.queue, xg.multiview);
         let renderer = Renderer::new(&gpu, EYE_FORMAT);
         let eye = opts.eye_size.unwrap_or(app.eye_size);
-        gpu.check_eye_size(eye).map_err(err)?;
-        let mut live =
-            Live::new(scenario_text, scenario_file, Pacing::AsFastAsPossible).map_err(err)?;
+        gpu.check_eye_size(eye)?;
+        let mut live = Live::new(scenario_text, scenario_file, Pacing::AsFastAsPossible)?;
         if let Some(dir) = out {
-            crate::session::prepare(dir).map_err(err)?;
-            live.stream_to(&dir.join(crate::session::RECORDING))
-                .map_err(err)?;
+            crate::session::prepare(dir)?;
+            live.stream_to(&dir.join(crate::session::RECORDING))?;
         }
         let dt = f64::from(live.dt_s());
         Ok(XrLoop {
@@ -296,14 +312,14 @@ impl XrLoop {
 
     /// Polls the runtime's events, then waits for, simulates, draws and submits one frame
     /// when the session runs.
-    pub fn tick(&mut self) -> Result<Tick, String> {
+    pub fn tick(&mut self) -> Result<Tick, XrRunError> {
         if crate::session::interrupt::interrupted().is_some() {
             self.live.set_ended(crate::session::ended::INTERRUPTED);
             return Ok(Tick::Exit);
         }
-        self.live.flush_if_due().map_err(err)?;
+        self.live.flush_if_due()?;
         if self.session.is_none() {
-            let s = self.app.session(&self.gpu.device, self.eye).map_err(err)?;
+            let s = self.app.session(&self.gpu.device, self.eye)?;
             self.session = Some(s);
             self.sessions += 1;
             if self.sessions > 1 {
@@ -313,7 +329,7 @@ impl XrLoop {
                 self.exit_asked = false;
             }
         }
-        while let Some(ev) = self.app.poll(&mut self.buf).map_err(err)? {
+        while let Some(ev) = self.app.poll(&mut self.buf)? {
             let xr::Event::SessionStateChanged(e) = ev else {
                 continue;
             };
@@ -322,14 +338,13 @@ impl XrLoop {
             };
             match self.machine.on_state(e.state()) {
                 Some(Command::BeginSession) => {
-                    xs.session
-                        .begin(xr::ViewConfigurationType::PRIMARY_STEREO)
-                        .map_err(|r| format!("xrBeginSession failed: {r}"))?;
+                    call(
+                        "xrBeginSession",
+                        xs.session.begin(xr::ViewConfigurationType::PRIMARY_STEREO),
+                    )?;
                 }
                 Some(Command::EndSession) => {
-                    xs.session
-                        .end()
-                        .map_err(|r| format!("xrEndSession failed: {r}"))?;
+                    call("xrEndSession", xs.session.end())?;
                 }
                 Some(Command::Exit) => return Ok(Tick::Exit),
                 Some(Command::Recreate) => {
@@ -341,10 +356,10 @@ impl XrLoop {
                     while !self.app.headset_present() {
                         tries += 1;
                         if tries > 600 {
-                            return Err("the headset did not come back within 60 s".into());
+                            return Err(XrRunError::HeadsetGone);
                         }
                         std::thread::sleep(std::time::Duration::from_millis(100));
-                        self.live.flush_if_due().map_err(err)?;
+                        self.live.flush_if_due()?;
                     }
                     return Ok(Tick::Idle);
                 }
@@ -358,17 +373,13 @@ impl XrLoop {
         self.frame()
     }
 
-    fn frame(&mut self) -> Result<Tick, String> {
+    fn frame(&mut self) -> Result<Tick, XrRunError> {
         let dt = self.dt;
         let Some((xs, waiter, stream)) = self.session.as_mut() else {
             return Ok(Tick::Idle);
         };
-        let fs = waiter
-            .wait()
-            .map_err(|r| format!("xrWaitFrame failed: {r}"))?;
-        stream
-            .begin()
-            .map_err(|r| format!("xrBeginFrame failed: {r}"))?;
+        let fs = call("xrWaitFrame", waiter.wait())?;
+        call("xrBeginFrame", stream.begin())?;
         let t = fs.predicted_display_time;
         let live = &mut self.live;
         let tools = live.info().tools;
@@ -382,7 +393,7 @@ impl XrLoop {
         }
         let focused = self.machine.focused();
         let readings = if focused {
-            xs.read_hands(&self.app.controls, t).map_err(err)?
+            xs.read_hands(&self.app.controls, t)?
         } else {
             [HandReading::default(); 2]
         };
@@ -427,7 +438,7 @@ impl XrLoop {
                     between(&before[1], &now[1], s),
                 ],
             };
-            for e in live.step(frame).map_err(err)? {
+            for e in live.step(frame)? {
                 if let EventKind::Cut { faces, .. } = e.kind {
                     // Cuts are the lasers' doing.
                     for (k, t) in tools.iter().enumerate() {
@@ -456,12 +467,11 @@ impl XrLoop {
                             a,
                             profile.frequency_hz,
                             profile.pulse_s,
-                        )
-                        .map_err(err)?;
+                        )?;
                         self.buzzing[k] = true;
                     }
                     _ if self.buzzing[k] => {
-                        xs.stop_vibration(&self.app.controls, k).map_err(err)?;
+                        xs.stop_vibration(&self.app.controls, k)?;
                         self.buzzing[k] = false;
                     }
                     _ => {}
@@ -470,45 +480,43 @@ impl XrLoop {
         }
         let rendered = fs.should_render;
         if rendered {
-            let views = xs.views(t).map_err(err)?;
+            let views = xs.views(t)?;
             if views.len() < 2 {
-                return Err("the runtime located fewer than two views".into());
+                return Err(XrRunError::TooFewViews);
             }
             let eyes = [eye_view(&views[0]), eye_view(&views[1])];
             self.renderer.update(&live.snapshot());
             let multiview = self.gpu.multiview;
             let copy = self.mirror.as_ref().map(|m| (m, &self.gpu));
-            self.counters =
-                draw(xs, &mut self.renderer, self.eye, &eyes, multiview, copy).map_err(err)?;
-            xs.end_frame(stream, t, &views).map_err(err)?;
+            self.counters = draw(xs, &mut self.renderer, self.eye, &eyes, multiview, copy)?;
+            xs.end_frame(stream, t, &views)?;
             self.frames += 1;
         } else {
-            stream
-                .end(t, xr::EnvironmentBlendMode::OPAQUE, &[])
-                .map_err(|r| format!("xrEndFrame failed: {r}"))?;
+            call(
+                "xrEndFrame",
+                stream.end(t, xr::EnvironmentBlendMode::OPAQUE, &[]),
+            )?;
         }
-        self.gpu.check().map_err(err)?;
+        self.gpu.check()?;
         let done = self
             .opts
             .duration_s
             .is_some_and(|d| live.time_s() + dt * 0.5 > d);
         if done && !self.exit_asked && self.machine.focused() {
-            xs.session
-                .request_exit()
-                .map_err(|r| format!("xrRequestExitSession failed: {r}"))?;
+            call("xrRequestExitSession", xs.session.request_exit())?;
             self.exit_asked = true;
         }
         Ok(Tick::Frame { rendered })
     }
 
     /// Ends the loop: the session's outcome and what ran it.
-    pub fn finish(mut self) -> Result<XrRun, String> {
+    pub fn finish(mut self) -> Result<XrRun, XrRunError> {
         let device = self.gpu.describe();
         if self.live.ended() == crate::session::ended::END_OF_INPUT {
             self.live.set_ended(crate::session::ended::XR_EXIT);
         }
         Ok(XrRun {
-            outcome: self.live.finish(Vec::new()).map_err(err)?,
+            outcome: self.live.finish(Vec::new())?,
             runtime: self.app.runtime_name.clone(),
             frames: self.frames,
             sessions: self.sessions,
@@ -525,7 +533,7 @@ pub fn run(
     scenario_file: &str,
     opts: XrOptions,
     out: Option<&std::path::Path>,
-) -> Result<XrRun, String> {
+) -> Result<XrRun, XrRunError> {
     let mut xr_loop = XrLoop::open(scenario_text, scenario_file, opts, out)?;
     while xr_loop.tick()? != Tick::Exit {}
     xr_loop.finish()

@@ -173,7 +173,24 @@ pub enum CliError {
     Input(#[from] InputError),
     #[error(transparent)]
     Session(#[from] SessionError),
-    /// A failure reported by a part that describes its errors in words.
+    /// A session in a headset (`run --xr`).
+    #[error(transparent)]
+    Xr(#[from] vesalius::xr::XrRunError),
+    /// A session in the desktop window.
+    #[error(transparent)]
+    Window(#[from] vesalius::ui::window::WindowError),
+    #[error(transparent)]
+    Bench(#[from] vesalius::bench::BenchError),
+    #[error(transparent)]
+    Render(#[from] vesalius::render::RenderError),
+    /// A procedure refused its (checked) scenario.
+    #[error(transparent)]
+    Build(#[from] vesalius::procedures::BuildError),
+    /// The simulated runtime's settings (`run --xr-sim` keeps those named by
+    /// `VESALIUS_XR_SIM_CONFIG`).
+    #[error(transparent)]
+    SimSettings(#[from] vesalius_sim_runtime::ConfigError),
+    /// A failure of the command itself (a file it writes, a child process), in words.
     #[error("{0}")]
     Failed(String),
     /// Standard output was closed (`| head`): stop quietly.
@@ -182,12 +199,6 @@ pub enum CliError {
     /// A signal ended the session; its files were written.
     #[error("the session was interrupted by {name}; its files were written")]
     Interrupted { signal: i32, name: &'static str },
-}
-
-impl From<String> for CliError {
-    fn from(s: String) -> Self {
-        CliError::Failed(s)
-    }
 }
 
 impl CliError {

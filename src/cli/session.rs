@@ -124,8 +124,7 @@ fn render_frames(
     eye_size: Option<(u32, u32)>,
 ) -> Result<(), CliError> {
     let eye_size = eye_size.unwrap_or(vesalius::render::camera::VIVE_EYE_SIZE);
-    let failed = |e: &dyn std::fmt::Display| CliError::Failed(e.to_string());
-    let gpu = vesalius::render::Gpu::headless(true).map_err(|e| failed(&e))?;
+    let gpu = vesalius::render::Gpu::headless(true)?;
     let sim_ms = outcome.wall_s * 1e3 / outcome.report.steps.max(1) as f64;
     let view = vesalius::procedures::find(&outcome.report.procedure)
         .map_or(vesalius::procedures::REGISTRY[0].view, |p| p.view);
@@ -137,10 +136,8 @@ fn render_frames(
         eye_size,
         sim_ms,
         Some(&dir.join("frames")),
-    )
-    .map_err(|e| failed(&e))?;
-    vesalius::render::frames::write_profiler_csv(&dir.join("profiler.csv"), &done.counters)
-        .map_err(|e| failed(&e))?;
+    )?;
+    vesalius::render::frames::write_profiler_csv(&dir.join("profiler.csv"), &done.counters)?;
     let mean = done.frame_ms.iter().sum::<f64>() / done.frame_ms.len().max(1) as f64;
     say!(
         "rendered {} stereo frames {}x{} per eye on {}: {:.1} ms per frame",
@@ -306,8 +303,7 @@ fn run_xr_sim(a: &RunArgs, trace: &Path) -> Result<(), CliError> {
         Some(f) if !f.is_empty() => {
             let f = PathBuf::from(f);
             let text = std::fs::read_to_string(&f).map_err(|e| failed(&f, e))?;
-            vesalius_sim_runtime::Config::parse(&f.display().to_string(), &text)
-                .map_err(CliError::Failed)?;
+            vesalius_sim_runtime::Config::parse(&f.display().to_string(), &text)?;
             text.parse::<toml::Table>()
                 .map_err(|e| CliError::Failed(format!("{}: {e}", f.display())))?
         }

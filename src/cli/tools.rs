@@ -87,7 +87,7 @@ fn check_one(path: &Path) -> Result<&'static str, InputError> {
         Ok("interaction profile")
     } else if has("out_dir") || has("inject") || has("frames_every") || has("trace") {
         vesalius_sim_runtime::Config::parse(&file, &text)
-            .map_err(|e| InputError::new(&file, "settings", e))?;
+            .map_err(|e| InputError::new(&file, "settings", e.to_string()))?;
         Ok("simulated runtime settings")
     } else {
         vesalius::procedures::plan(&file, &text)?;
@@ -144,7 +144,7 @@ pub fn profile(
     let file = format!("builtin {procedure} scenario");
     let (_, plan) = vesalius::procedures::plan(&file, text)?;
     let dt = f64::from(plan.dt_s);
-    let mut sim = (info.build)(&file, text).map_err(|e| CliError::Failed(e.to_string()))?;
+    let mut sim = (info.build)(&file, text)?;
     let steps = (keys.duration_s() * 0.4 / dt).ceil() as u64;
     let mut events = Vec::new();
     let t0 = std::time::Instant::now();
@@ -153,13 +153,11 @@ pub fn profile(
         events.clear();
     }
     let sim_ms = t0.elapsed().as_secs_f64() * 1e3 / steps.max(1) as f64;
-    let gpu =
-        vesalius::render::Gpu::headless(!two_pass).map_err(|e| CliError::Failed(e.to_string()))?;
+    let gpu = vesalius::render::Gpu::headless(!two_pass)?;
     // Five frames of the same instant: the first pays for pipeline warm-up.
     let snap = sim.snapshot(steps.saturating_sub(1));
     let done =
-        vesalius::render::frames::render_repeated(&gpu, &info.view, &snap, 5, eye_size, sim_ms)
-            .map_err(|e| CliError::Failed(e.to_string()))?;
+        vesalius::render::frames::render_repeated(&gpu, &info.view, &snap, 5, eye_size, sim_ms)?;
     // Total memory as the last frame measured it: heap (simulation, snapshot, renderer) plus
     // every GPU buffer and texture, while all of them were alive.
     let ours = done.counters.last().cloned().unwrap_or_default();

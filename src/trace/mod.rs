@@ -12,5 +12,5 @@ mod stream;
 mod tests;
 
 pub use keys::{Key, KeyTrace};
-pub use recording::{Recording, Tail, TuningRecord};
+pub use recording::{Recording, Tail, TuningRecord, TuningRecordError};
 pub use stream::{RecordingHeader, RecordingSink, RecordingWriter};

@@ -38,25 +38,31 @@ impl TuningRecord {
 
     /// The soft-body tuning these values make: each of [`Tuning::RANGES`] exactly once, in
     /// range. `Err` says what is wrong.
-    pub fn to_tuning(&self) -> Result<Tuning, String> {
+    pub fn to_tuning(&self) -> Result<Tuning, TuningRecordError> {
+        let model = || self.model.clone();
         let mut v = [f32::NAN; 3];
         let mut seen = [false; 3];
         for (name, value) in &self.values {
             let i = Tuning::RANGES
                 .iter()
                 .position(|r| r.0 == name)
-                .ok_or_else(|| format!("{}: no soft-body parameter named {name}", self.model))?;
+                .ok_or_else(|| TuningRecordError::UnknownParameter {
+                    model: model(),
+                    name: name.clone(),
+                })?;
             if std::mem::replace(&mut seen[i], true) {
-                return Err(format!("{}: {name} is given twice", self.model));
+                return Err(TuningRecordError::GivenTwice {
+                    model: model(),
+                    name: name.clone(),
+                });
             }
             v[i] = *value;
         }
         if let Some(i) = seen.iter().position(|s| !s) {
-            return Err(format!(
-                "{}: {} is missing",
-                self.model,
-                Tuning::RANGES[i].0
-            ));
+            return Err(TuningRecordError::Missing {
+                model: model(),
+                name: Tuning::RANGES[i].0,
+            });
         }
         let t = Tuning {
             spring_n_per_m: v[0],
@@ -64,9 +70,42 @@ impl TuningRecord {
             offset_m: v[2],
         };
         t.check()
-            .map_err(|(name, m)| format!("{}.{name}: {m}", self.model))?;
+            .map_err(|(name, message)| TuningRecordError::OutOfRange {
+                model: model(),
+                name,
+                message,
+            })?;
         Ok(t)
     }
+}
+
+/// What is wrong with a tuning record: as a recording's block (the reader refuses it, the
+/// writer never writes it), or as a soft-body tuning ([`TuningRecord::to_tuning`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum TuningRecordError {
+    #[error("step {step} is out of order or past the last frame ({frames})")]
+    OutOfOrder { step: u64, frames: u64 },
+    #[error("no model named")]
+    NoModel,
+    #[error("{count} values, at most {}", u16::MAX)]
+    TooManyValues { count: usize },
+    #[error("value {index}: name {name:?} is empty or repeated")]
+    BadName { index: usize, name: String },
+    #[error("{name} is not a finite number ({value})")]
+    NotFinite { name: String, value: f32 },
+    #[error("{model}: no soft-body parameter named {name}")]
+    UnknownParameter { model: String, name: String },
+    #[error("{model}: {name} is given twice")]
+    GivenTwice { model: String, name: String },
+    #[error("{model}: {name} is missing")]
+    Missing { model: String, name: &'static str },
+    /// A value outside its range: `message` says the range and the value.
+    #[error("{model}.{name}: {message}")]
+    OutOfRange {
+        model: String,
+        name: &'static str,
+        message: String,
+    },
 }
 
 /// How a recording ends.
@@ -244,25 +283,33 @@ pub(super) fn check_tuning(
     t: &TuningRecord,
     frames: u64,
     previous_step: Option<u64>,
-) -> Result<(), String> {
+) -> Result<(), TuningRecordError> {
     if t.step > frames || previous_step.is_some_and(|p| t.step < p) {
-        return Err(format!(
-            "step {} is out of order or past the last frame ({frames})",
-            t.step
-        ));
+        return Err(TuningRecordError::OutOfOrder {
+            step: t.step,
+            frames,
+        });
     }
     if t.model.is_empty() {
-        return Err("no model named".into());
+        return Err(TuningRecordError::NoModel);
     }
     if t.values.len() > usize::from(u16::MAX) {
-        return Err(format!("{} values, at most {}", t.values.len(), u16::MAX));
+        return Err(TuningRecordError::TooManyValues {
+            count: t.values.len(),
+        });
     }
-    for (i, (name, v)) in t.values.iter().enumerate() {
-        if name.is_empty() || t.values[..i].iter().any(|(n, _)| n == name) {
-            return Err(format!("value {i}: name {name:?} is empty or repeated"));
+    for (index, (name, v)) in t.values.iter().enumerate() {
+        if name.is_empty() || t.values[..index].iter().any(|(n, _)| n == name) {
+            return Err(TuningRecordError::BadName {
+                index,
+                name: name.clone(),
+            });
         }
         if !v.is_finite() {
-            return Err(format!("{name} is not a finite number ({v})"));
+            return Err(TuningRecordError::NotFinite {
+                name: name.clone(),
+                value: *v,
+            });
         }
     }
     Ok(())

@@ -6,7 +6,10 @@ mod writer;
 
 use super::blocks::{self, BlockKind, Next, PREAMBLE_BYTES};
 use super::codec::encode_frame;
-use super::{Recording, RecordingHeader, RecordingSink, RecordingWriter, Tail, TuningRecord};
+use super::{
+    Recording, RecordingHeader, RecordingSink, RecordingWriter, Tail, TuningRecord,
+    TuningRecordError,
+};
 use crate::models::Tuning;
 use crate::sim::{Buttons, HandInput, InputFrame, Pose};
 use glam::{Quat, Vec3};

@@ -4,7 +4,7 @@
 use super::*;
 
 impl App {
-    pub(super) fn redraw(&mut self, el: &ActiveEventLoop) -> Result<(), String> {
+    pub(super) fn redraw(&mut self, el: &ActiveEventLoop) -> Result<(), WindowError> {
         let t0 = Instant::now();
         if self.sim.as_ref().is_some_and(SimThread::finished) {
             self.end_session()?;
@@ -149,7 +149,7 @@ impl App {
             wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
                 v.surface.configure(&v.gpu.device, &v.config);
             }
-            other => return Err(format!("the window's swapchain failed: {other:?}")),
+            other => return Err(WindowError::Swapchain(format!("{other:?}"))),
         }
         // The screenshot: the same frame, painted again into a texture that is read back.
         let due = match (self.opts.screenshot_at_s, &self.outcome) {
@@ -168,7 +168,7 @@ impl App {
         for id in &out.textures_delta.free {
             v.painter.free_texture(id);
         }
-        v.gpu.check().map_err(|e| e.to_string())?;
+        v.gpu.check()?;
         self.frames += 1;
         let frame_ms = t0.elapsed().as_secs_f32() * 1e3;
         self.dashboard.frame(
@@ -306,7 +306,7 @@ fn screenshot(
     jobs: &[egui::ClippedPrimitive],
     screen: &egui_wgpu::ScreenDescriptor,
     path: &std::path::Path,
-) -> Result<(u32, u32), String> {
+) -> Result<(u32, u32), WindowError> {
     let size = (screen.size_in_pixels[0], screen.size_in_pixels[1]);
     let format = v.config.format;
     let texture = colour_texture(
@@ -319,8 +319,7 @@ fn screenshot(
     );
     let target = texture.create_view(&wgpu::TextureViewDescriptor::default());
     paint(v, jobs, screen, &target);
-    let mut pixels = crate::render::gpu::read_texture(&v.gpu, &texture, size, 1)
-        .map_err(|e| e.to_string())?
+    let mut pixels = crate::render::gpu::read_texture(&v.gpu, &texture, size, 1)?
         .pop()
         .unwrap_or_default();
     if matches!(
@@ -334,6 +333,6 @@ fn screenshot(
     for p in pixels.chunks_exact_mut(4) {
         p[3] = 255;
     }
-    crate::render::gpu::write_png(path, size, &pixels).map_err(|e| e.to_string())?;
+    crate::render::gpu::write_png(path, size, &pixels)?;
     Ok(size)
 }

@@ -10,16 +10,17 @@ use super::runner::{SimThread, Source};
 use crate::assess::alarms::AlarmRules;
 use crate::profiler::Tracked;
 use crate::render::gpu::{EYE_FORMAT, colour_texture, tracked_texture};
-use crate::render::{Gpu, RenderTarget, Renderer};
-use crate::session::Outcome;
+use crate::render::{Gpu, RenderError, RenderTarget, Renderer};
+use crate::session::{Outcome, SessionError};
 use crate::sim::{Hand, InputFrame, Pacing};
-use crate::xr::{MirrorEye, Tick, XrLoop, XrOptions};
+use crate::xr::{MirrorEye, Tick, XrLoop, XrOptions, XrRunError};
 use arc_swap::ArcSwap;
 use glam::Vec2;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
 use winit::application::ApplicationHandler;
+use winit::error::EventLoopError;
 use winit::event::{ElementState, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, EventLoop};
 use winit::keyboard::{Key, NamedKey};
@@ -59,15 +60,82 @@ enum ViewMode {
     Free,
 }
 
+/// Why the window, or the session in it, stopped with an error.
+#[derive(Debug, thiserror::Error)]
+pub enum WindowError {
+    #[error("unknown procedure '{0}'")]
+    UnknownProcedure(String),
+    /// The scenario, the output folder, the recording or the session's files.
+    #[error(transparent)]
+    Session(#[from] SessionError),
+    /// The headset's session (under XR).
+    #[error(transparent)]
+    Xr(#[from] XrRunError),
+    #[error(transparent)]
+    Render(#[from] RenderError),
+    #[error("cannot open a window ({0}); is DISPLAY set? (headless: xvfb-run, or --headless)")]
+    NoDisplay(#[source] EventLoopError),
+    /// The event loop failed while the window was open.
+    #[error(transparent)]
+    EventLoop(EventLoopError),
+    #[error(transparent)]
+    CreateWindow(#[from] winit::error::OsError),
+    #[error("cannot draw into the window: {0}")]
+    Surface(#[from] wgpu::CreateSurfaceError),
+    #[error("no Vulkan adapter can draw into the window: {0}")]
+    NoAdapter(#[from] wgpu::RequestAdapterError),
+    #[error("cannot open the GPU: {0}")]
+    Device(#[from] wgpu::RequestDeviceError),
+    #[error("this GPU cannot draw into the window")]
+    SurfaceUnsupported,
+    #[error("the window's surface offers no format")]
+    NoSurfaceFormat,
+    /// The surface gave no image to draw into: its state (`Timeout`, `Occluded`, ...).
+    #[error("the window's swapchain failed: {0}")]
+    Swapchain(String),
+    #[error("the session ended without an outcome")]
+    NoOutcome,
+    /// A failure after which the session's files were written all the same.
+    #[error("{error} (the session so far is in {})", dir.display())]
+    Kept {
+        error: Box<WindowError>,
+        dir: PathBuf,
+    },
+    /// A failure after which the session's files could not be written either.
+    #[error("{error} (and its record could not be written: {record})")]
+    RecordLost {
+        error: Box<WindowError>,
+        record: Box<WindowError>,
+    },
+}
+
+/// Why the tuned scenario was not saved (shown in the window, which carries on).
+#[derive(Debug, thiserror::Error)]
+enum SaveError {
+    #[error(transparent)]
+    Scenario(#[from] crate::scenario::InputError),
+    #[error("{}: {source}", path.display())]
+    Write {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+}
+
 /// Writes `text` to `path` through a temporary file and a rename: never half a file.
-fn write_atomic(path: &std::path::Path, text: &str) -> Result<(), String> {
+fn write_atomic(path: &std::path::Path, text: &str) -> Result<(), SaveError> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        std::fs::create_dir_all(dir).map_err(|source| SaveError::Write {
+            path: dir.to_path_buf(),
+            source,
+        })?;
     }
     let tmp = path.with_extension("partial");
     std::fs::write(&tmp, text)
         .and_then(|()| std::fs::rename(&tmp, path))
-        .map_err(|e| format!("{}: {e}", path.display()))
+        .map_err(|source| SaveError::Write {
+            path: path.to_path_buf(),
+            source,
+        })
 }
 
 /// What a window session did.
@@ -83,9 +151,9 @@ pub struct WindowRun {
 }
 
 /// Runs the window until the session ends and its screenshot is taken, or the user closes it.
-pub fn run(opts: WindowOptions) -> Result<WindowRun, String> {
+pub fn run(opts: WindowOptions) -> Result<WindowRun, WindowError> {
     let info = crate::procedures::find(&opts.procedure)
-        .ok_or_else(|| format!("unknown procedure '{}'", opts.procedure))?;
+        .ok_or_else(|| WindowError::UnknownProcedure(opts.procedure.clone()))?;
     let hands = DesktopHands::parked(info);
     let desk = Arc::new(ArcSwap::from_pointee(hands.frame));
     let source = match &opts.trace {
@@ -106,22 +174,17 @@ pub fn run(opts: WindowOptions) -> Result<WindowRun, String> {
             (None, Some(l))
         }
         None => (
-            Some(
-                SimThread::start(
-                    &opts.scenario_text,
-                    &opts.scenario_file,
-                    source,
-                    Pacing::RealTime,
-                    opts.out.as_deref(),
-                )
-                .map_err(|e| e.to_string())?,
-            ),
+            Some(SimThread::start(
+                &opts.scenario_text,
+                &opts.scenario_file,
+                source,
+                Pacing::RealTime,
+                opts.out.as_deref(),
+            )?),
             None,
         ),
     };
-    let event_loop = EventLoop::new().map_err(|e| {
-        format!("cannot open a window ({e}); is DISPLAY set? (headless: xvfb-run, or --headless)")
-    })?;
+    let event_loop = EventLoop::new().map_err(WindowError::NoDisplay)?;
     let source = match (&opts.trace, &xr) {
         (_, Some(l)) => format!("headset ({})", l.runtime_name()),
         (Some((_, name)), None) => format!("playing {name}"),
@@ -169,27 +232,27 @@ pub fn run(opts: WindowOptions) -> Result<WindowRun, String> {
         error: None,
         start: Instant::now(),
     };
-    event_loop.run_app(&mut app).map_err(|e| e.to_string())?;
-    if let Some(e) = app.error.take() {
+    event_loop
+        .run_app(&mut app)
+        .map_err(WindowError::EventLoop)?;
+    if let Some(error) = app.error.take() {
         // Keep what the session did before the failure: its record is written all the same.
-        let kept = match app.end_session() {
-            Ok(()) => app
-                .opts
-                .out
-                .as_ref()
-                .map(|d| format!(" (the session so far is in {})", d.display()))
-                .unwrap_or_default(),
-            Err(e2) => format!(" (and its record could not be written: {e2})"),
-        };
-        return Err(format!("{e}{kept}"));
+        return Err(match (app.end_session(), app.opts.out.clone()) {
+            (Ok(()), Some(dir)) => WindowError::Kept {
+                error: Box::new(error),
+                dir,
+            },
+            (Ok(()), None) => error,
+            (Err(record), _) => WindowError::RecordLost {
+                error: Box::new(error),
+                record: Box::new(record),
+            },
+        });
     }
     if app.outcome.is_none() {
         app.end_session()?;
     }
-    let outcome = app
-        .outcome
-        .take()
-        .ok_or("the session ended without an outcome")?;
+    let outcome = app.outcome.take().ok_or(WindowError::NoOutcome)?;
     let device = app
         .view
         .as_ref()
@@ -248,22 +311,23 @@ struct App {
     frames: u64,
     shot: Option<((u32, u32), PathBuf)>,
     shot_taken: bool,
-    error: Option<String>,
+    error: Option<WindowError>,
     start: Instant,
 }
 
 impl App {
-    fn fail(&mut self, el: &ActiveEventLoop, e: impl std::fmt::Display) {
-        self.error.get_or_insert(e.to_string());
+    /// Keeps the first failure (`run` returns it) and closes the window.
+    fn fail(&mut self, el: &ActiveEventLoop, e: impl Into<WindowError>) {
+        self.error.get_or_insert(e.into());
         el.exit();
     }
 }
 
 impl App {
     /// The session ended: keep its outcome, write its files, show its report.
-    fn end_session(&mut self) -> Result<(), String> {
+    fn end_session(&mut self) -> Result<(), WindowError> {
         let outcome = if let Some(sim) = self.sim.take() {
-            sim.finish().map_err(|e| e.to_string())?
+            sim.finish()?
         } else if let Some(x) = self.xr.take() {
             let run = x.finish()?;
             self.xr_run = Some((run.runtime, run.frames, run.sessions, run.eye_size));
@@ -273,7 +337,7 @@ impl App {
         };
         let written = match &self.opts.out {
             Some(dir) => {
-                crate::session::write_outputs(&outcome, dir).map_err(|e| e.to_string())?;
+                crate::session::write_outputs(&outcome, dir)?;
                 Some(dir.display().to_string())
             }
             None => None,
@@ -324,7 +388,7 @@ impl App {
                 &self.opts.scenario_text,
                 &self.dashboard.status.tunables,
             )
-            .map_err(|e| e.to_string())
+            .map_err(SaveError::from)
             .and_then(|text| write_atomic(path, &text));
             self.dashboard.saved = Some(match written {
                 Ok(()) => format!("saved to {}", path.display()),
@@ -440,5 +504,42 @@ impl ApplicationHandler for App {
             self.last_window_frame = Some((t, Instant::now()));
             v.window.request_redraw();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_failure_says_what_became_of_the_session() {
+        let kept = WindowError::Kept {
+            error: Box::new(WindowError::NoOutcome),
+            dir: PathBuf::from("out/run1"),
+        };
+        assert_eq!(
+            kept.to_string(),
+            "the session ended without an outcome (the session so far is in out/run1)"
+        );
+        let lost = WindowError::RecordLost {
+            error: Box::new(WindowError::SurfaceUnsupported),
+            record: Box::new(WindowError::UnknownProcedure("x".into())),
+        };
+        assert_eq!(
+            lost.to_string(),
+            "this GPU cannot draw into the window (and its record could not be written: \
+             unknown procedure 'x')"
+        );
+    }
+
+    #[test]
+    fn a_scenario_that_cannot_be_saved_names_the_file() {
+        let e = write_atomic(std::path::Path::new("/proc/no-such/tuned.toml"), "x")
+            .expect_err("/proc is not writable");
+        assert!(
+            matches!(&e, SaveError::Write { path, .. } if path.starts_with("/proc")),
+            "{e:?}"
+        );
+        assert!(e.to_string().starts_with("/proc/no-such"), "{e}");
     }
 }

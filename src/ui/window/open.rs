@@ -4,22 +4,18 @@
 use super::*;
 
 impl App {
-    pub(super) fn open(&mut self, el: &ActiveEventLoop) -> Result<View, String> {
+    pub(super) fn open(&mut self, el: &ActiveEventLoop) -> Result<View, WindowError> {
         let (w, h) = self.opts.size;
         let attrs = Window::default_attributes()
             .with_title(format!("Vesalius: {}", self.opts.procedure))
             .with_inner_size(winit::dpi::LogicalSize::new(w, h))
             .with_min_inner_size(winit::dpi::LogicalSize::new(800, 500));
-        let window = Arc::new(el.create_window(attrs).map_err(|e| e.to_string())?);
+        let window = Arc::new(el.create_window(attrs)?);
         let (gpu, surface) = match &self.xr {
             Some(x) => {
                 // The headset's device draws the window too: its frames are copied, not sent
                 // across devices.
-                let surface = x
-                    .gpu
-                    .instance
-                    .create_surface(window.clone())
-                    .map_err(|e| format!("cannot draw into the window: {e}"))?;
+                let surface = x.gpu.instance.create_surface(window.clone())?;
                 (x.gpu.clone(), surface)
             }
             None => own_gpu(el, &window)?,
@@ -32,27 +28,23 @@ impl App {
 fn own_gpu(
     el: &ActiveEventLoop,
     window: &Arc<Window>,
-) -> Result<(Gpu, wgpu::Surface<'static>), String> {
+) -> Result<(Gpu, wgpu::Surface<'static>), WindowError> {
     let mut desc =
         wgpu::InstanceDescriptor::new_with_display_handle(Box::new(el.owned_display_handle()));
     desc.backends = wgpu::Backends::VULKAN;
     let instance = wgpu::Instance::new(desc);
-    let surface = instance
-        .create_surface(window.clone())
-        .map_err(|e| format!("cannot draw into the window: {e}"))?;
+    let surface = instance.create_surface(window.clone())?;
     let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
         power_preference: wgpu::PowerPreference::HighPerformance,
         force_fallback_adapter: false,
         compatible_surface: Some(&surface),
         apply_limit_buckets: false,
-    }))
-    .map_err(|e| format!("no Vulkan adapter can draw into the window: {e}"))?;
+    }))?;
     let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
         label: Some("vesalius window"),
         required_limits: wgpu::Limits::default().using_resolution(adapter.limits()),
         ..Default::default()
-    }))
-    .map_err(|e| format!("cannot open the GPU: {e}"))?;
+    }))?;
     // One view, no headset: no multiview.
     Ok((
         Gpu::from_parts(instance, adapter, device, queue, false),
@@ -64,10 +56,10 @@ fn finish_open(
     window: Arc<Window>,
     gpu: Gpu,
     surface: wgpu::Surface<'static>,
-) -> Result<View, String> {
+) -> Result<View, WindowError> {
     let caps = surface.get_capabilities(&gpu.adapter);
     if caps.formats.is_empty() {
-        return Err("this GPU cannot draw into the window".into());
+        return Err(WindowError::SurfaceUnsupported);
     }
     // egui blends in gamma space: it prefers a plain (non-sRGB) 8-bit target.
     let format = [
@@ -77,7 +69,7 @@ fn finish_open(
     .into_iter()
     .find(|f| caps.formats.contains(f))
     .or_else(|| caps.formats.first().copied())
-    .ok_or("the window's surface offers no format")?;
+    .ok_or(WindowError::NoSurfaceFormat)?;
     let size = window.inner_size();
     let config = wgpu::SurfaceConfiguration {
         usage: wgpu::TextureUsages::RENDER_ATTACHMENT,

@@ -1,31 +1,16 @@
 //! The frame loop on a simulated 90 Hz display clock (`xrWaitFrame` returns at once with
 //! deterministic predicted display times, so a headless run goes as fast as the app renders),
-//! reference spaces, and the eye views the app renders from.
+//! and the eye views the app renders from.
 
-use super::session::{enter, result, running, with_session};
-use super::swapchain::{self, ViewImage};
-use super::{arg, arg_mut, check_system, spaces, sys, two_call};
+use crate::ffi::{arg, arg_mut, two_call, xr_try};
+use crate::spaces;
+use crate::state::{check_system, enter, result, running, with_session};
+use crate::swapchain::{self, ViewImage};
+use crate::system::{FIRST_DISPLAY_NS, FRAME_PERIOD_NS};
+use openxr_sys as sys;
 
-/// The Vive's refresh period: 90 Hz, nanoseconds.
-pub const FRAME_PERIOD_NS: i64 = 1_000_000_000 / xr_bindings::vive::REFRESH_HZ;
-/// Predicted display time of the first frame, nanoseconds (any fixed non-zero origin).
-pub const FIRST_DISPLAY_NS: i64 = 1_000_000_000;
 /// Most composition layers a frame may submit.
 const MAX_LAYERS: u32 = 16;
-
-/// Where the app stands in the wait / begin / end cycle.
-#[derive(Debug, Default, Clone, Copy)]
-pub(crate) struct FrameLoop {
-    /// Frames returned by `xrWaitFrame`.
-    pub(crate) waited: u64,
-    /// The predicted display time of the waited frame not yet begun.
-    pending: Option<i64>,
-    /// The display time of the frame begun and not yet ended.
-    begun: Option<i64>,
-    /// Frames ended, and those that carried a two-view projection layer.
-    pub(crate) ended: u64,
-    pub(crate) projected: u64,
-}
 
 pub(crate) fn lookup(name: &str) -> Option<sys::pfn::VoidFunction> {
     // SAFETY (all transmutes): each turns a function pointer of the exact pfn type OpenXR
@@ -41,16 +26,6 @@ pub(crate) fn lookup(name: &str) -> Option<sys::pfn::VoidFunction> {
                 sys::pfn::EnumerateEnvironmentBlendModes,
                 V,
             >(blend_modes)),
-            "xrEnumerateReferenceSpaces" => Some(
-                transmute::<sys::pfn::EnumerateReferenceSpaces, V>(reference_spaces),
-            ),
-            "xrCreateReferenceSpace" => Some(transmute::<sys::pfn::CreateReferenceSpace, V>(
-                spaces::create_reference_space,
-            )),
-            "xrDestroySpace" => Some(transmute::<sys::pfn::DestroySpace, V>(
-                spaces::destroy_space,
-            )),
-            "xrLocateSpace" => Some(transmute::<sys::pfn::LocateSpace, V>(spaces::locate_space)),
             "xrLocateViews" => Some(transmute::<sys::pfn::LocateViews, V>(locate_views)),
             _ => None,
         }
@@ -239,24 +214,6 @@ unsafe extern "system" fn blend_modes(
     let modes = [sys::EnvironmentBlendMode::OPAQUE];
     // SAFETY: the pointers come from the caller under the two-call idiom's contract.
     unsafe { two_call(capacity, count, out, &modes, |a, b| *b = *a) }
-}
-
-unsafe extern "system" fn reference_spaces(
-    session: sys::Session,
-    capacity: u32,
-    count: *mut u32,
-    out: *mut sys::ReferenceSpaceType,
-) -> sys::Result {
-    let r = result(with_session(session, |_| Ok(())));
-    if r != sys::Result::SUCCESS {
-        return r;
-    }
-    // SAFETY: the pointers come from the caller under the two-call idiom's contract.
-    unsafe {
-        two_call(capacity, count, out, &spaces::REFERENCE_SPACES, |a, b| {
-            *b = *a
-        })
-    }
 }
 
 unsafe extern "system" fn locate_views(

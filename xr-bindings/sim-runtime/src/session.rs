@@ -4,87 +4,16 @@
 //! A begun session becomes SYNCHRONIZED at the app's first `xrWaitFrame` and VISIBLE, then
 //! FOCUSED, at its first `xrEndFrame` (see `frame.rs`).
 
-use super::{Runtime, arg, arg_mut, check_system, runtime, sys};
+use crate::ffi::{arg, arg_mut, xr_try};
+use crate::gpu::Device;
+use crate::state::{
+    FrameLoop, SessionData, check_system, enter, live, result, running, runtime, with_session,
+};
+use crate::system::SESSION;
+use openxr_sys as sys;
 use std::ffi::{c_char, c_void};
 use sys::Handle;
 use sys::platform::{VkDevice, VkGetInstanceProcAddr, VkInstance, VkPhysicalDevice};
-
-/// The one session handle this runtime hands out.
-pub(crate) const SESSION: u64 = 1;
-
-/// What the runtime keeps of the app's Vulkan objects (as addresses: the runtime state is
-/// shared between threads, and it never dereferences them itself).
-#[derive(Clone, Copy)]
-pub(crate) struct VulkanState {
-    gipa: Option<VkGetInstanceProcAddr>,
-    instance: usize,
-    requirements_queried: bool,
-}
-
-impl VulkanState {
-    pub(crate) const NONE: VulkanState = VulkanState {
-        gipa: None,
-        instance: 0,
-        requirements_queried: false,
-    };
-}
-
-pub(crate) struct SessionData {
-    /// The latest state the runtime has put the session in (queued for the app).
-    pub(crate) state: sys::SessionState,
-    pub(crate) begun: bool,
-    pub(crate) exit_requested: bool,
-    pub(crate) frames: crate::frame::FrameLoop,
-    /// Reference spaces: handle n is `spaces[n - 1]` (None once destroyed).
-    pub(crate) spaces: Vec<Option<crate::spaces::SpaceData>>,
-    /// The app's Vulkan device from the session's graphics binding.
-    pub(crate) device: Option<crate::swapchain::Device>,
-    /// Swapchains: handle n is `swapchains[n - 1]` (None once destroyed).
-    pub(crate) swapchains: Vec<Option<crate::swapchain::Swapchain>>,
-}
-
-impl SessionData {
-    /// Frees the swapchains' images on the app's device.
-    pub(crate) fn release_gpu(&mut self) {
-        if let Some(dev) = self.device.as_ref() {
-            for mut c in self.swapchains.drain(..).flatten() {
-                c.destroy(dev);
-            }
-        }
-    }
-}
-
-/// A session state change waiting in the event queue.
-pub(crate) struct Event {
-    pub(crate) session: u64,
-    /// A session state change, or (None) XrEventDataInteractionProfileChanged.
-    pub(crate) state: Option<sys::SessionState>,
-    pub(crate) time_ns: i64,
-}
-
-pub(crate) fn enter(rt: &mut Runtime, state: sys::SessionState) {
-    if let Some(s) = rt.session.as_mut() {
-        s.state = state;
-        rt.events.push_back(Event {
-            session: SESSION,
-            state: Some(state),
-            time_ns: rt.now_ns,
-        });
-        let line = format!("{} {} {:?}", rt.now_ns, rt.sessions_made, state);
-        rt.state_log.push(line);
-    }
-}
-
-/// Tells the app that what its actions are bound to changed (attached, controller gone or back).
-pub(crate) fn profile_changed(rt: &mut Runtime) {
-    if rt.session.is_some() {
-        rt.events.push_back(Event {
-            session: SESSION,
-            state: None,
-            time_ns: rt.now_ns,
-        });
-    }
-}
 
 /// The session functions and, when the app enabled it, XR_KHR_vulkan_enable2's.
 pub(crate) fn lookup(name: &str) -> Option<sys::pfn::VoidFunction> {
@@ -118,7 +47,7 @@ pub(crate) fn lookup(name: &str) -> Option<sys::pfn::VoidFunction> {
             "xrRequestExitSession" => Some(transmute::<sys::pfn::RequestExitSession, V>(
                 request_exit_session,
             )),
-            _ => crate::frame::lookup(name).or_else(|| crate::swapchain::lookup(name)),
+            _ => None,
         }
     }
 }
@@ -314,14 +243,14 @@ unsafe extern "system" fn create_session(
     }
     // SAFETY: the binding's handles are live (the app's contract) and were made through
     // `gipa`'s instance (checked just above).
-    let device = unsafe { crate::swapchain::Device::load(gipa, &binding) };
+    let device = unsafe { Device::load(gipa, &binding) };
     rt.sessions_made += 1;
     rt.input.reset_session();
     rt.session = Some(SessionData {
         state: sys::SessionState::UNKNOWN,
         begun: false,
         exit_requested: false,
-        frames: crate::frame::FrameLoop::default(),
+        frames: FrameLoop::default(),
         spaces: Vec::new(),
         device: Some(device),
         swapchains: Vec::new(),
@@ -331,36 +260,6 @@ unsafe extern "system" fn create_session(
     // SAFETY: `session` is non-null (checked) and writable.
     unsafe { *session = sys::Session::from_raw(SESSION) };
     sys::Result::SUCCESS
-}
-
-/// The live session, or the error for a bad handle.
-pub(crate) fn with_session<T>(
-    session: sys::Session,
-    f: impl FnOnce(&mut Runtime) -> Result<T, sys::Result>,
-) -> Result<T, sys::Result> {
-    let mut rt = runtime();
-    if session.into_raw() != SESSION || rt.session.is_none() || !rt.instance_alive {
-        return Err(sys::Result::ERROR_HANDLE_INVALID);
-    }
-    f(&mut rt)
-}
-
-/// The session of a runtime `with_session` has checked.
-pub(crate) fn live(rt: &mut Runtime) -> Result<&mut SessionData, sys::Result> {
-    rt.session.as_mut().ok_or(sys::Result::ERROR_HANDLE_INVALID)
-}
-
-/// The session, which must have begun.
-pub(crate) fn running(rt: &mut Runtime) -> Result<&mut SessionData, sys::Result> {
-    let s = live(rt)?;
-    if !s.begun {
-        return Err(sys::Result::ERROR_SESSION_NOT_RUNNING);
-    }
-    Ok(s)
-}
-
-pub(crate) fn result(r: Result<(), sys::Result>) -> sys::Result {
-    r.err().unwrap_or(sys::Result::SUCCESS)
 }
 
 unsafe extern "system" fn destroy_session(session: sys::Session) -> sys::Result {
@@ -393,7 +292,7 @@ unsafe extern "system" fn begin_session(
             return Err(sys::Result::ERROR_VIEW_CONFIGURATION_TYPE_UNSUPPORTED);
         }
         s.begun = true;
-        s.frames = crate::frame::FrameLoop::default();
+        s.frames = FrameLoop::default();
         Ok(())
     }))
 }
