@@ -2,9 +2,13 @@
 //! hits; the models consume them.
 
 mod face_bvh;
+mod primitives;
 mod ray_mesh;
 mod sphere_vertices;
 
 pub use face_bvh::{FaceBvh, PATCH_FACES};
+pub use primitives::{
+    CapsuleSet, GeneralizedCylinder, PrimitiveError, PrimitiveHit, SphereSet, SurfaceContact,
+};
 pub use ray_mesh::{RayHit, cast_ray};
 pub use sphere_vertices::nearest_within;
