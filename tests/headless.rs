@@ -59,6 +59,30 @@ fn the_demo_removes_the_tumour_by_cutting_and_replays_byte_for_byte() {
         None,
         "no model went non-finite (the quarantine is a safety net, not a step of the demo)"
     );
+    // Lifting the tumour out loads the grasper past its 3.5 N full scale: the supervisor's
+    // alarm is an event, raised when the overload begins, naming the force.
+    let alarms: Vec<(&str, &str)> = o
+        .events
+        .iter()
+        .filter_map(|e| match &e.kind {
+            vesalius::sim::EventKind::Alarm { tool, message } => {
+                Some((tool.as_str(), message.as_str()))
+            }
+            _ => None,
+        })
+        .collect();
+    assert!(!alarms.is_empty(), "no alarm event");
+    for (tool, message) in &alarms {
+        assert_eq!(*tool, "grasper");
+        let newtons: f32 = message
+            .trim_end_matches(" N")
+            .rsplit(' ')
+            .next()
+            .and_then(|n| n.parse().ok())
+            .unwrap_or(0.0);
+        assert!(newtons >= 3.5, "{message}");
+    }
+    assert_eq!(r.events.get("alarm"), Some(&(alarms.len() as u64)));
     let deviation = r.metrics["cut_deviation_mean_m"]
         .as_f64()
         .expect("deviation");

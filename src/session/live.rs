@@ -33,6 +33,9 @@ pub struct Live {
     /// The newest haptic frame, for device loops and vibration.
     haptics: Arc<HapticSlot>,
     last_haptics: HapticFrame,
+    /// Raises an alarm event when a condition begins (a tool near or on a vulnerable
+    /// structure, a holding tool pressing too hard).
+    alarms: crate::assess::alarms::AlarmWatch,
 }
 
 /// Weight of the newest estimate in the smoothed stiffness.
@@ -112,6 +115,9 @@ impl Live {
             start: Instant::now(),
             haptics: Arc::new(HapticSlot::new()),
             last_haptics: HapticFrame::default(),
+            alarms: crate::assess::alarms::AlarmWatch::new(
+                crate::assess::alarms::AlarmRules::for_procedure(info),
+            ),
         })
     }
 
@@ -207,7 +213,32 @@ impl Live {
             tools: [0, 1].map(|k| feel(&last[k], forces[k], contacts[k])),
         };
         self.haptics.publish(&self.last_haptics);
+        self.raise_alarms(step);
         Ok(&self.events[before..])
+    }
+
+    /// Alarm events for the conditions that began with this step.
+    fn raise_alarms(&mut self, step: u64) {
+        let t = self.proc_.status(self.alarms.rules.near_m);
+        let f = self.proc_.reactions();
+        let status = Status {
+            step,
+            time_s: self.clock.time_s(),
+            force_n: [f[0].length(), f[1].length()],
+            touching: t.touching,
+            near: t.near,
+            ..Status::default()
+        };
+        let (_, raised) = self.alarms.update(&status);
+        for a in raised {
+            self.events.push(SimEvent {
+                step,
+                kind: crate::sim::EventKind::Alarm {
+                    tool: a.tool.to_string(),
+                    message: a.message(),
+                },
+            });
+        }
     }
 
     /// Writes what the recording holds so far when a second has passed (for loops that wait

@@ -122,6 +122,11 @@ pub enum EventKind {
     Release {
         tool: String,
     },
+    /// The supervisor's alarm went off for a tool (raised once when its condition begins).
+    Alarm {
+        tool: String,
+        message: String,
+    },
     /// A task step was completed.
     TaskStep {
         name: String,
@@ -164,6 +169,7 @@ impl EventKind {
             EventKind::Rupture { .. } => "rupture",
             EventKind::Grasp { .. } => "grasp",
             EventKind::Release { .. } => "release",
+            EventKind::Alarm { .. } => "alarm",
             EventKind::TaskStep { .. } => "task_step",
             EventKind::Quarantined { .. } => "quarantined",
             EventKind::ControllerLost { .. } => "controller_lost",

@@ -10,6 +10,7 @@ mod input;
 mod model;
 mod quarantine;
 mod snapshot;
+mod surface;
 mod world;
 
 pub use attachment::{Attachment, Link, LinkSpring};
@@ -17,9 +18,8 @@ pub use clock::{Clock, Pacing};
 pub use events::{EventKind, ProcedureEvent, SimEvent, shortest_f32};
 pub use haptic::{HapticFrame, HapticSlot, ToolHaptics};
 pub use input::{Buttons, Hand, HandInput, InputFrame, Pose};
-pub use model::{
-    Contact, ContactKind, CutStroke, ModelOutput, ModelSizes, SurfaceView, TissueModel, ToolId,
-};
+pub use model::{Contact, ContactKind, CutStroke, ModelOutput, ModelSizes, TissueModel, ToolId};
 pub use quarantine::Quarantine;
 pub use snapshot::{ModelSnapshot, Snapshot, SnapshotBus, SurfaceRole, ToolSnapshot};
+pub use surface::{Collider, MeshSurface, TriangleSource};
 pub use world::{CHECKPOINT_STEPS, Interaction, ModelId, PointForces, PointSource, World};

@@ -1,5 +1,4 @@
 use super::EventKind;
-use crate::models::SimplexMesh;
 use glam::{Quat, Vec3};
 
 /// Which instrument: the hand holding it.
@@ -61,30 +60,6 @@ impl ModelOutput {
     }
 }
 
-/// What collision and rendering read of a model's surface.
-pub struct SurfaceView<'a> {
-    pub mesh: &'a SimplexMesh,
-    /// Simplex vertex positions, metres.
-    pub positions: &'a [Vec3],
-    pub normals: &'a [Vec3],
-    /// Faces (= simplex vertices) still present.
-    pub alive: &'a [bool],
-    /// Region index per face (names are the model's).
-    pub regions: &'a [u8],
-    /// BVH over patches of faces, refit every step.
-    pub bvh: &'a crate::collision::FaceBvh,
-}
-
-impl SurfaceView<'_> {
-    /// The render triangle of face `f`, positions mapped from the simplex mesh.
-    pub fn triangle(&self, f: u32) -> [Vec3; 3] {
-        self.mesh.corners[f as usize].map(|r| {
-            self.mesh
-                .render_position(r as usize, self.positions, self.normals)
-        })
-    }
-}
-
 /// Sizes for reports and benchmarks.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 pub struct ModelSizes {
@@ -102,7 +77,8 @@ pub trait TissueModel: Send {
     fn cut(&mut self, stroke: &CutStroke, out: &mut ModelOutput) {
         let _ = (stroke, out);
     }
-    fn surface(&self) -> SurfaceView<'_>;
+    /// What tools, rays and cuts see of the model.
+    fn collider(&self) -> super::Collider<'_>;
     /// Render positions, normals and live triangles for a snapshot.
     fn render_mesh(&mut self) -> crate::sim::ModelSnapshot;
     /// Saves the current state as the last good one.
@@ -147,8 +123,8 @@ impl TissueModel for Box<dyn TissueModel> {
     fn cut(&mut self, stroke: &CutStroke, out: &mut ModelOutput) {
         (**self).cut(stroke, out);
     }
-    fn surface(&self) -> SurfaceView<'_> {
-        (**self).surface()
+    fn collider(&self) -> super::Collider<'_> {
+        (**self).collider()
     }
     fn render_mesh(&mut self) -> crate::sim::ModelSnapshot {
         (**self).render_mesh()

@@ -15,7 +15,7 @@ use super::{
     Contact, CutStroke, EventKind, ModelOutput, ModelSnapshot, Quarantine, SurfaceRole,
     TissueModel, ToolId,
 };
-use crate::collision::{RayHit, cast_ray, nearest_within};
+use crate::collision::RayHit;
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -267,7 +267,7 @@ impl<M: TissueModel> World<M> {
     pub fn cast_ray(&self, origin: Vec3, dir: Vec3, max_m: f32) -> Option<(ModelId, RayHit)> {
         let mut best: Option<(ModelId, RayHit)> = None;
         for (id, model) in self.models() {
-            if let Some(h) = cast_ray(&model.surface(), origin, dir, max_m)
+            if let Some(h) = model.collider().cast_ray(origin, dir, max_m)
                 && best.is_none_or(|(_, b)| h.distance_m < b.distance_m)
             {
                 best = Some((id, h));
@@ -281,7 +281,8 @@ impl<M: TissueModel> World<M> {
     pub fn nearest(&self, point: Vec3, radius_m: f32) -> Option<(ModelId, f32, u32)> {
         self.models()
             .filter_map(|(id, m)| {
-                nearest_within(&m.surface(), point, radius_m)
+                m.collider()
+                    .nearest_within(point, radius_m)
                     .first()
                     .map(|&(d, f)| (id, d, f))
             })

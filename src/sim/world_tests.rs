@@ -301,3 +301,158 @@ fn boxed_models_of_any_kind_share_one_world() {
     let hit = world.cast_ray(Vec3::new(0.0, 0.1, 0.0), Vec3::NEG_Y, 1.0);
     assert!(hit.is_some_and(|(m, h)| m == id && (h.distance_m - 0.08).abs() < 2e-3));
 }
+
+/// A taut strand (a rod's collider: a centreline with a radius per point) that sags under a
+/// sphere tool by the tool's depth; enough of a model to show the world's queries and
+/// contacts reach a model that is no triangle mesh.
+struct Strand {
+    centreline: Vec<Vec3>,
+    radii: Vec<f32>,
+    regions: Vec<u8>,
+    saved: Vec<Vec3>,
+}
+
+impl Strand {
+    fn new() -> Self {
+        // 10 cm along x at y = 0.05, 2 mm thick tapering to 1 mm; the far half is region 1.
+        let centreline: Vec<Vec3> = (0..11)
+            .map(|i| Vec3::new(-0.05 + 0.01 * i as f32, 0.05, 0.0))
+            .collect();
+        let radii = (0..11).map(|i| 0.002 - 0.0001 * i as f32).collect();
+        let regions = (0..10).map(|i| u8::from(i >= 5)).collect();
+        Self {
+            saved: centreline.clone(),
+            centreline,
+            radii,
+            regions,
+        }
+    }
+}
+
+impl TissueModel for Strand {
+    fn name(&self) -> &str {
+        "strand"
+    }
+    fn kind(&self) -> &'static str {
+        "test_strand"
+    }
+    fn sizes(&self) -> crate::sim::ModelSizes {
+        crate::sim::ModelSizes {
+            vertices: self.centreline.len(),
+            triangles: 0,
+            constraints: 0,
+        }
+    }
+    fn step(&mut self, _dt_s: f32, contacts: &[Contact], out: &mut crate::sim::ModelOutput) {
+        for c in contacts {
+            if let ContactKind::Sphere { radius_m } = c.kind {
+                let tube = crate::collision::GeneralizedCylinder {
+                    centreline: &self.centreline,
+                    radii: &self.radii,
+                };
+                let touched = tube.sphere_contacts(c.point, radius_m);
+                let push: Vec3 = touched.iter().map(|t| -t.normal * t.depth_m).sum();
+                for t in &touched {
+                    for k in [t.feature as usize, t.feature as usize + 1] {
+                        self.centreline[k] += -t.normal * t.depth_m * 0.5;
+                    }
+                }
+                // The strand pushes back like a 100 N/m spring.
+                out.reactions.push((c.tool, -push * 100.0));
+            }
+        }
+    }
+    fn collider(&self) -> crate::sim::Collider<'_> {
+        crate::sim::Collider::Tube(
+            crate::collision::GeneralizedCylinder {
+                centreline: &self.centreline,
+                radii: &self.radii,
+            },
+            &self.regions,
+        )
+    }
+    fn render_mesh(&mut self) -> ModelSnapshot {
+        ModelSnapshot {
+            name: "strand".into(),
+            positions: self.centreline.clone(),
+            normals: vec![Vec3::Y; self.centreline.len()],
+            indices: Vec::new(),
+            regions: Vec::new(),
+            roles: Vec::new(),
+            cut_edge: Vec::new(),
+        }
+    }
+    fn checkpoint(&mut self) {
+        self.saved.clone_from(&self.centreline);
+    }
+    fn restore(&mut self) {
+        self.centreline.clone_from(&self.saved);
+    }
+    fn state_is_finite(&self) -> bool {
+        self.centreline.iter().all(|p| p.is_finite())
+    }
+    fn state_hash(&self) -> u64 {
+        let mut h = crate::models::Fnv::default();
+        for p in &self.centreline {
+            for c in p.to_array() {
+                h.write(c.to_bits());
+            }
+        }
+        h.0
+    }
+    fn point(&self, i: u32) -> Option<Vec3> {
+        self.centreline.get(i as usize).copied()
+    }
+}
+
+#[test]
+fn rays_and_nearest_reach_every_kind_of_model_through_its_collider() {
+    let mut world: World<Box<dyn TissueModel>> = World::new();
+    let ball_id = world.add(Box::new(ball("ball", Vec3::ZERO, 0.02)));
+    let strand_id = world.add(Box::new(Strand::new()));
+    // Straight down at x = 0.025 the strand (radius 2 mm - 7.5 x 0.1 mm = 1.25 mm there,
+    // segment 7) lies above the ball.
+    let hit = world.cast_ray(Vec3::new(0.025, 0.1, 0.0), Vec3::NEG_Y, 1.0);
+    let (id, h) = hit.expect("the strand is in the way");
+    assert_eq!(id, strand_id);
+    assert_eq!(h.feature, 7);
+    assert!(
+        (h.distance_m - (0.05 - 0.00125)).abs() < 2e-5,
+        "{}",
+        h.distance_m
+    );
+    assert_eq!(world.model(id).collider().region(h.feature), 1);
+    // Beside the strand, the ray goes on to the ball's top (r = 2 cm; a level-2 icosphere's
+    // flat facets sit up to 1 mm inside it).
+    let (id, h) = world
+        .cast_ray(Vec3::new(0.0, 0.1, 0.01), Vec3::NEG_Y, 1.0)
+        .expect("the ball is below");
+    assert_eq!(id, ball_id);
+    assert!(h.distance_m > 0.1 - 0.0174 && h.distance_m < 0.1 - 0.0172 + 1.5e-3);
+    // Nearest to a point just under the strand's first segment: the strand, 1 mm off.
+    let (id, d, f) = world
+        .nearest(Vec3::new(-0.045, 0.05 - 0.00295, 0.0), 0.005)
+        .expect("something near");
+    assert_eq!((id, f), (strand_id, 0));
+    assert!((d - 0.001).abs() < 2e-5, "{d}");
+    // A ball tip pressed 1 mm into the strand's middle pushes it and feels it.
+    world.contact(
+        strand_id,
+        Contact {
+            tool: Hand::Left,
+            point: Vec3::new(0.0, 0.05 + 0.0015 + 0.002 - 0.001, 0.0),
+            normal: Vec3::Y,
+            kind: ContactKind::Sphere { radius_m: 0.002 },
+        },
+    );
+    let before = world.model(strand_id).point(5).expect("a point");
+    let mut events = Vec::new();
+    world.step(0.002, 0, &mut events);
+    let after = world.model(strand_id).point(5).expect("a point");
+    assert!(after.y < before.y, "{before} -> {after}");
+    assert!(
+        world.reaction(Hand::Left).y > 0.0,
+        "{}",
+        world.reaction(Hand::Left)
+    );
+}

@@ -8,7 +8,6 @@
 //! the simplex-to-render mapping and f32 rounding, over the distance to the sphere.
 
 use super::{Case, Measured};
-use crate::collision::cast_ray;
 use crate::mesh::{TriMesh, icosphere};
 use crate::models::{SimplexMesh, SoftBody, SoftBodyParams};
 use crate::sim::TissueModel;
@@ -135,13 +134,9 @@ fn cast(ray: &Ray) -> Measured {
     };
     let n = s.len();
     let body = SoftBody::new("sphere", s, vec![0; n], SoftBodyParams::default());
-    let view = body.surface();
-    let hit = cast_ray(
-        &view,
-        ray.origin.as_vec3(),
-        ray.dir.as_vec3().normalize(),
-        1.0,
-    );
+    let hit = body
+        .collider()
+        .cast_ray(ray.origin.as_vec3(), ray.dir.as_vec3().normalize(), 1.0);
     let measured = hit.map_or(f64::NAN, |h| h.distance_m as f64);
     Measured::at_rest(reference, measured)
 }

@@ -11,8 +11,8 @@ use super::simplex::SimplexMesh;
 use super::xpbd::{self, Bend, Stretch};
 use crate::collision::FaceBvh;
 use crate::sim::{
-    Contact, ContactKind, CutStroke, EventKind, ModelOutput, ModelSizes, ModelSnapshot,
-    SurfaceView, TissueModel, ToolId,
+    Collider, Contact, ContactKind, CutStroke, EventKind, MeshSurface, ModelOutput, ModelSizes,
+    ModelSnapshot, TissueModel, ToolId, TriangleSource,
 };
 use glam::{Quat, Vec3};
 use parry3d::bounding_volume::Aabb;

@@ -52,6 +52,14 @@ impl SoftBody {
     }
 }
 
+/// The render triangles, placed from the simplex points (what rays and the renderer see).
+impl TriangleSource for SoftBody {
+    fn triangle(&self, f: u32) -> [Vec3; 3] {
+        self.mesh.corners[f as usize]
+            .map(|r| self.mesh.render_position(r as usize, &self.x, &self.normal))
+    }
+}
+
 impl TissueModel for SoftBody {
     fn name(&self) -> &str {
         &self.name
@@ -339,15 +347,14 @@ impl TissueModel for SoftBody {
         }
     }
 
-    fn surface(&self) -> SurfaceView<'_> {
-        SurfaceView {
-            mesh: &self.mesh,
-            positions: &self.x,
-            normals: &self.normal,
+    fn collider(&self) -> Collider<'_> {
+        Collider::Mesh(MeshSurface {
+            triangles: self,
+            points: &self.x,
             alive: &self.alive,
             regions: &self.region,
             bvh: &self.bvh,
-        }
+        })
     }
 
     fn render_mesh(&mut self) -> ModelSnapshot {

@@ -2,7 +2,6 @@
 //! tumour tied to its bed, renal artery, renal vein and ureter. The right controller is a
 //! laser pointer that identifies, marks and cuts; the left is a grasper that lifts the tumour.
 
-use crate::collision::{cast_ray, nearest_within};
 use crate::mesh::{KidneyShape, TriMesh, TubeSpec, icosphere, kidney, tube};
 use crate::models::{SimplexMesh, SoftBody, Tie};
 use crate::sim::{
@@ -363,7 +362,8 @@ impl Nephrectomy {
                 .zip(&self.vulnerable)
                 .filter(|(_, v)| **v)
                 .filter_map(|((_, m), _)| {
-                    nearest_within(&m.surface(), point, within_m)
+                    m.collider()
+                        .nearest_within(point, within_m)
                         .first()
                         .map(|&(d, _)| (m.name().to_string(), d))
                 })
@@ -427,14 +427,14 @@ impl Nephrectomy {
         let mut strokes: Vec<(ModelId, CutStroke, f32)> = Vec::new();
         let mut touching_vessel = [false; 2];
         if let Some((m, h)) = hit {
-            let region = self.world.model(m).regions()[h.face as usize];
+            let region = self.world.model(m).regions()[h.feature as usize];
             if m == KIDNEY && region == REGION_TUMOUR && !self.identified {
                 self.identified = true;
                 ev.push(event("tumour_identified", ()));
                 self.task_step("identify", &mut ev);
             }
             if mark_pressed && m == KIDNEY && region == REGION_PARENCHYMA {
-                let rest = self.kidney().mesh().rest[h.face as usize];
+                let rest = self.kidney().mesh().rest[h.feature as usize];
                 let err = self.margin_error(rest);
                 self.metrics.marks += 1;
                 if err <= self.scenario.task.mark_tolerance_m {
@@ -479,7 +479,7 @@ impl Nephrectomy {
                             .is_none_or(|p| p.distance(h.point) < 4.0 * CUT_CONTINUITY_M);
                     if continuous {
                         let from = self.last_cut_point.unwrap_or(h.point);
-                        let faces = self.sweep(origin, from, h.point, h.face);
+                        let faces = self.sweep(origin, from, h.point, h.feature);
                         let length = from.distance(h.point);
                         self.metrics.cut_length_m += length;
                         self.last_cut_point = Some(h.point);
@@ -526,7 +526,9 @@ impl Nephrectomy {
                 .world
                 .models()
                 .filter(|(_, b)| {
-                    !nearest_within(&b.surface(), tip, tools.grasper_tip_radius_m * 1.5).is_empty()
+                    !b.collider()
+                        .nearest_within(tip, tools.grasper_tip_radius_m * 1.5)
+                        .is_empty()
                 })
                 .map(|(m, _)| m)
                 .collect();
@@ -651,10 +653,12 @@ impl Nephrectomy {
         for s in 1..n {
             let p = from.lerp(to, s as f32 / n as f32);
             let d = (p - origin).normalize_or_zero();
-            if let Some(h) = cast_ray(&k.surface(), origin, d, self.scenario.tools.laser_range_m)
+            if let Some(h) = k
+                .collider()
+                .cast_ray(origin, d, self.scenario.tools.laser_range_m)
                 && h.point.distance(p) < CUT_CONTINUITY_M
             {
-                faces.push(h.face);
+                faces.push(h.feature);
             }
         }
         faces.sort_unstable();

@@ -9,7 +9,6 @@
 //! bottom stays on the table (over the demo its points never even wake; a test holds them
 //! within 0.5 mm). Pinning the bottom points would need a hook the model does not have.
 
-use crate::collision::nearest_within;
 use crate::models::{Fnv, SimplexMesh, SoftBody};
 use crate::sim::{
     Contact, ContactKind, EventKind, Hand, InputFrame, ModelId, SimEvent, Snapshot, SurfaceRole,
@@ -215,7 +214,10 @@ impl Sandbox {
 
     /// A contact for a tip at `tip` pointing along `forward`, if the block is within reach.
     fn sphere(&self, hand: Hand, tip: Vec3, forward: Vec3, radius_m: f32) -> Option<Contact> {
-        let near = nearest_within(&self.body().surface(), tip, radius_m * NEAR_RADII);
+        let near = self
+            .body()
+            .collider()
+            .nearest_within(tip, radius_m * NEAR_RADII);
         (!near.is_empty()).then_some(Contact {
             tool: hand,
             point: tip,
@@ -267,7 +269,10 @@ impl Sandbox {
         let mut let_go = None;
         if gripping {
             if self.hold.is_none() {
-                let found = nearest_within(&self.body().surface(), tip, tools.grasp_radius_m);
+                let found = self
+                    .body()
+                    .collider()
+                    .nearest_within(tip, tools.grasp_radius_m);
                 self.hold = found.first().map(|&(_, nearest)| Hold {
                     points: found.iter().take(MAX_HELD).map(|&(_, f)| f).collect(),
                     on_top: self.body().regions()[nearest as usize] == REGION_TOP,
