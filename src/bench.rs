@@ -1,5 +1,7 @@
 //! `vesalius bench`: step rates of each model and of the whole procedure at the scenario's
-//! sizes, driven by the procedure's demo trace.
+//! sizes, driven by the procedure's demo trace, with the share of points each model kept
+//! awake; then the same models with every point kept awake (a sleeping model must never read
+//! as fast), over the first [`ALL_AWAKE_S`] simulated seconds of the trace.
 
 use crate::procedures::BuildError;
 use crate::scenario::InputError;
@@ -22,7 +24,14 @@ pub struct BenchLine {
     pub triangles: usize,
     pub constraints: usize,
     pub threads: usize,
+    /// Mean share of the points stepped each step (1: none asleep).
+    pub awake_fraction: f64,
+    /// Every point was kept awake for this line.
+    pub all_awake: bool,
 }
+
+/// Simulated seconds of the all-awake pass (the whole demo all awake would take minutes).
+pub const ALL_AWAKE_S: f64 = 1.0;
 
 /// Why a benchmark did not run.
 #[derive(Debug, thiserror::Error)]
@@ -37,17 +46,37 @@ pub enum BenchError {
 }
 
 /// Runs the procedure's demo trace once on its default scenario, timing every model and the
-/// whole step.
+/// whole step; then again over its first [`ALL_AWAKE_S`] seconds with every point awake.
 pub fn run(procedure: &str) -> Result<Vec<BenchLine>, BenchError> {
     let info = crate::procedures::find(procedure)
         .ok_or_else(|| BenchError::NoSuchProcedure(procedure.to_string()))?;
-    let file = format!("builtin {procedure} scenario");
-    let (_, plan) = crate::procedures::plan(&file, info.scenario)?;
     let trace = KeyTrace::parse(&format!("builtin {procedure} demo trace"), info.demo_trace)?;
+    let mut out = pass(info, &trace, trace.duration_s(), false)?;
+    out.extend(pass(
+        info,
+        &trace,
+        ALL_AWAKE_S.min(trace.duration_s()),
+        true,
+    )?);
+    Ok(out)
+}
+
+/// One timed run of `seconds` of the trace; `all_awake` keeps every point stepping.
+fn pass(
+    info: &crate::procedures::ProcedureInfo,
+    trace: &KeyTrace,
+    seconds: f64,
+    all_awake: bool,
+) -> Result<Vec<BenchLine>, BenchError> {
+    let file = format!("builtin {} scenario", info.name);
+    let (_, plan) = crate::procedures::plan(&file, info.scenario)?;
     let dt = plan.dt_s;
     let mut p = (info.build)(&file, info.scenario)?;
+    if all_awake {
+        p.stay_awake();
+    }
     let mut clock = Clock::new(dt, Pacing::AsFastAsPossible);
-    let steps = (trace.duration_s() / dt as f64).ceil() as u64;
+    let steps = (seconds / dt as f64).ceil() as u64;
     let mut events = Vec::new();
     let t0 = Instant::now();
     while clock.step() < steps {
@@ -58,7 +87,7 @@ pub fn run(procedure: &str) -> Result<Vec<BenchLine>, BenchError> {
     }
     let wall = t0.elapsed().as_secs_f64();
     let threads = rayon::current_num_threads();
-    let line = |model: String, secs: f64, sizes: [usize; 3]| {
+    let line = |model: String, secs: f64, sizes: [usize; 3], awake_fraction: f64| {
         let sps = steps as f64 / secs.max(1e-12);
         BenchLine {
             model,
@@ -70,18 +99,36 @@ pub fn run(procedure: &str) -> Result<Vec<BenchLine>, BenchError> {
             triangles: sizes[1],
             constraints: sizes[2],
             threads,
+            awake_fraction,
+            all_awake,
         }
     };
     let models = p.model_reports();
+    let awake = p.awake_fractions();
     let mut out: Vec<BenchLine> = models
         .iter()
         .zip(p.model_times())
-        .map(|(m, t)| line(m.name.clone(), t, [m.vertices, m.triangles, m.constraints]))
+        .zip(&awake)
+        .map(|((m, t), a)| {
+            line(
+                m.name.clone(),
+                t,
+                [m.vertices, m.triangles, m.constraints],
+                *a,
+            )
+        })
         .collect();
     let total = models.iter().fold([0; 3], |a, m| {
         [a[0] + m.vertices, a[1] + m.triangles, a[2] + m.constraints]
     });
-    out.push(line("procedure".to_string(), wall, total));
+    // The whole procedure's share: awake points over all points.
+    let awake_points: f64 = models
+        .iter()
+        .zip(&awake)
+        .map(|(m, a)| m.vertices as f64 * a)
+        .sum();
+    let share = awake_points / (total[0].max(1) as f64);
+    out.push(line("procedure".to_string(), wall, total, share));
     Ok(out)
 }
 

@@ -74,11 +74,21 @@ fn bench_and_profile_run_the_sandbox() {
         .map(|l| serde_json::from_str(l).expect("JSON line"))
         .collect();
     let names: Vec<&str> = lines.iter().filter_map(|l| l["model"].as_str()).collect();
-    assert_eq!(names, ["block", "procedure"]);
+    assert_eq!(names, ["block", "procedure", "block", "procedure"]);
     for l in &lines {
         assert!(l["steps_per_s"].as_f64().unwrap_or(0.0) > 0.0, "{l}");
         assert_eq!(l["triangles"], 3456);
+        let awake = l["awake_fraction"].as_f64().unwrap_or(f64::NAN);
+        if l["all_awake"] == true {
+            // Kept awake, every point steps every step.
+            assert_eq!(awake, 1.0, "{l}");
+        } else {
+            // The demo touches the top of the block only: most of it sleeps.
+            assert!(awake > 0.0 && awake < 0.5, "{l}");
+        }
     }
+    assert_eq!(lines[2]["all_awake"], true);
+    assert_eq!(lines[0]["all_awake"], false);
     let p = ok(&bin()
         .args(["profile", "sandbox", "--json", "--eye-size", "64x64"])
         .output()

@@ -107,12 +107,18 @@ pub fn bench(procedure: Option<&str>, json: bool) -> Result<(), CliError> {
             if json {
                 say!("{}", serde_json::to_string(l).unwrap_or_default());
             } else {
+                let awake = if l.all_awake {
+                    "all awake".to_string()
+                } else {
+                    format!("{:>5.1}% awake", 100.0 * l.awake_fraction)
+                };
                 say!(
-                    "{:<14} {:>9.0} steps/s  dt {:.4} s  real-time x{:>6.2}  {:>6} vertices {:>6} triangles {:>7} constraints  ({} threads)",
+                    "{:<14} {:>9.0} steps/s  dt {:.4} s  real-time x{:>6.2}  {:>12}  {:>6} vertices {:>6} triangles {:>7} constraints  ({} threads)",
                     l.model,
                     l.steps_per_s,
                     l.dt_s,
                     l.realtime_factor,
+                    awake,
                     l.vertices,
                     l.triangles,
                     l.constraints,

@@ -204,6 +204,10 @@ pub trait Procedure: Send {
     fn model_times(&self) -> Vec<f64>;
     /// Heap bytes by part.
     fn memory(&self) -> Vec<(&'static str, usize)>;
+    /// The mean share of each model's points awake so far (benchmarks).
+    fn awake_fractions(&self) -> Vec<f64>;
+    /// Keeps every point of every model stepping from now on (benchmarks).
+    fn stay_awake(&mut self);
     /// A deterministic digest of the state, for replay and determinism checks.
     fn state_hash(&self) -> u64;
     /// The values the supervisor may tune now.

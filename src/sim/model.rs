@@ -93,6 +93,14 @@ pub trait TissueModel: Send {
     fn memory(&self) -> Vec<(&'static str, usize)> {
         Vec::new()
     }
+    /// The share of the model's points the last step worked on (1 for a model that never
+    /// sleeps).
+    fn awake_fraction(&self) -> f32 {
+        1.0
+    }
+    /// Keeps every point stepping from now on, never asleep (benchmarks: a sleeping model
+    /// must never read as fast).
+    fn stay_awake(&mut self) {}
     /// Point `i` (a node, particle or simplex point), metres, for interactions between
     /// models; none if the model has no such point or it was cut away.
     fn point(&self, i: u32) -> Option<Vec3> {
@@ -143,6 +151,12 @@ impl TissueModel for Box<dyn TissueModel> {
     }
     fn memory(&self) -> Vec<(&'static str, usize)> {
         (**self).memory()
+    }
+    fn awake_fraction(&self) -> f32 {
+        (**self).awake_fraction()
+    }
+    fn stay_awake(&mut self) {
+        (**self).stay_awake();
     }
     fn point(&self, i: u32) -> Option<Vec3> {
         (**self).point(i)

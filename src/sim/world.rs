@@ -81,6 +81,9 @@ struct Slot<M> {
     /// This step's reaction on each tool from this model, newtons.
     reactions: [Vec3; 2],
     time_s: f64,
+    /// Sum over the steps taken of the share of points awake, and the steps taken.
+    awake_sum: f64,
+    stepped: u64,
 }
 
 /// The models of one procedure and what couples them. `M` is one model type or an enum of
@@ -130,6 +133,8 @@ impl<M: TissueModel> World<M> {
             output: ModelOutput::default(),
             reactions: [Vec3::ZERO; 2],
             time_s: 0.0,
+            awake_sum: 0.0,
+            stepped: 0,
         });
         self.forces.per_model.push(Vec::new());
         id
@@ -227,6 +232,8 @@ impl<M: TissueModel> World<M> {
                 slot.model.apply_point_forces(forces);
                 slot.model.step(dt_s, &slot.contacts, &mut slot.output);
                 slot.time_s += t0.elapsed().as_secs_f64();
+                slot.awake_sum += f64::from(slot.model.awake_fraction());
+                slot.stepped += 1;
                 if let Some(e) = slot.guard.after_step(&mut slot.model, step) {
                     slot.output.events.push(e);
                     // A rolled-back model pushes nothing on the tools.
@@ -324,6 +331,21 @@ impl<M: TissueModel> World<M> {
     /// Wall-clock seconds each model has spent stepping (benchmarks only; never in reports).
     pub fn model_times(&self) -> Vec<f64> {
         self.slots.iter().map(|s| s.time_s).collect()
+    }
+
+    /// The mean share of each model's points awake over the steps it took (benchmarks).
+    pub fn awake_fractions(&self) -> Vec<f64> {
+        self.slots
+            .iter()
+            .map(|s| s.awake_sum / s.stepped.max(1) as f64)
+            .collect()
+    }
+
+    /// Keeps every point of every model stepping from now on (benchmarks).
+    pub fn stay_awake(&mut self) {
+        for s in &mut self.slots {
+            s.model.stay_awake();
+        }
     }
 
     /// Heap bytes by part, summed over the models (parts matched by name).

@@ -183,6 +183,8 @@ pub struct SoftBody {
     volume: Vec<f64>,
     steps_since_resum: u32,
     contacting: [bool; 2],
+    /// Never let a point sleep (benchmarks of the all-awake cost).
+    stay_awake: bool,
 }
 
 impl SoftBody {
@@ -269,6 +271,7 @@ impl SoftBody {
             volume: Vec::new(),
             steps_since_resum: 0,
             contacting: [false; 2],
+            stay_awake: false,
             x,
             mesh,
         };

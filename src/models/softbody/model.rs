@@ -239,7 +239,7 @@ impl TissueModel for SoftBody {
             } else {
                 self.still[i] = 0;
             }
-            if self.still[i] >= SLEEP_STEPS || !self.alive[i] {
+            if (self.still[i] >= SLEEP_STEPS && !self.stay_awake) || !self.alive[i] {
                 self.awake[i] = false;
                 self.v[i] = Vec3::ZERO;
                 if self.anchored[i] {
@@ -324,6 +324,17 @@ impl TissueModel for SoftBody {
 
     fn memory(&self) -> Vec<(&'static str, usize)> {
         SoftBody::memory(self)
+    }
+
+    fn awake_fraction(&self) -> f32 {
+        self.active.len() as f32 / self.x.len().max(1) as f32
+    }
+
+    fn stay_awake(&mut self) {
+        self.stay_awake = true;
+        for i in 0..self.x.len() {
+            self.wake(i);
+        }
     }
 
     fn point(&self, i: u32) -> Option<Vec3> {

@@ -109,6 +109,14 @@ impl Procedure for Sandbox {
         self.world.model_times()
     }
 
+    fn awake_fractions(&self) -> Vec<f64> {
+        self.world.awake_fractions()
+    }
+
+    fn stay_awake(&mut self) {
+        self.world.stay_awake();
+    }
+
     fn memory(&self) -> Vec<(&'static str, usize)> {
         self.world.memory()
     }
