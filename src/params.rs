@@ -86,6 +86,28 @@ fn shown(v: f64) -> String {
     }
 }
 
+/// `Params::get` and `Params::set` for a struct whose keys are its field names (numbers:
+/// `f32`, or a whole-number type for counts).
+#[macro_export]
+macro_rules! param_fields {
+    ($($field:ident),+ $(,)?) => {
+        fn get(&self, key: &str) -> Option<f64> {
+            match key {
+                $(stringify!($field) => Some(f64::from(self.$field)),)+
+                _ => None,
+            }
+        }
+
+        fn set(&mut self, key: &str, v: f64) -> bool {
+            match key {
+                $(stringify!($field) => self.$field = v as _,)+
+                _ => return false,
+            }
+            true
+        }
+    };
+}
+
 /// A parameter struct with its table.
 pub trait Params {
     const SPECS: &'static [ParamSpec];

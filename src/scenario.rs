@@ -72,22 +72,7 @@ impl Params for Timing {
         ),
     ];
 
-    fn get(&self, key: &str) -> Option<f64> {
-        Some(match key {
-            "dt_s" => self.dt_s.into(),
-            "publish_hz" => self.publish_hz.into(),
-            _ => return None,
-        })
-    }
-
-    fn set(&mut self, key: &str, v: f64) -> bool {
-        match key {
-            "dt_s" => self.dt_s = v as f32,
-            "publish_hz" => self.publish_hz = v as f32,
-            _ => return false,
-        }
-        true
-    }
+    crate::param_fields!(dt_s, publish_hz);
 }
 
 /// The scenario `text` with `values` written into its `[table]`, comments and layout kept:

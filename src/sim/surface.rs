@@ -1,7 +1,7 @@
 //! What tools, rays, cutting and rendering see of a model, whatever the model is: a collider.
 //! A deforming triangle surface with its BVH (soft bodies), a set of spheres (mass-spring and
 //! shape-matching clusters), capsules (shafts, jaws) or a generalized cylinder (rods and
-//! catheters: a centreline with a radius per point). Every answer names a *feature*: a face,
+//! tubes: a centreline with a radius per point). Every answer names a *feature*: a face,
 //! a sphere, a capsule or a centreline segment, with the region the model gave it.
 
 use crate::collision::{

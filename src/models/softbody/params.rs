@@ -46,126 +46,95 @@ pub struct Tuning {
 }
 
 // The table: one entry per parameter (units, one default, scenario range, live slider).
-const SPRING: ParamSpec = spec(
+const SPRING: ParamSpec = ParamSpec::new(
     "spring_n_per_m",
     "N/m",
     40.0,
     (0.0, 1e5),
     "spring pulling each anchored point to its rest position (eq 2), per unit-mass point",
-    Some((1.0, 400.0)),
-);
-const DAMPING: ParamSpec = spec(
+)
+.tune(1.0, 400.0);
+const DAMPING: ParamSpec = ParamSpec::new(
     "damping_per_s",
     "1/s",
     8.0,
     (0.0, 1e3),
     "velocity damping d in v (1 - d dt) (eq 5)",
-    Some((0.0, 50.0)),
-);
-const CONTACT_AREA: ParamSpec = spec(
+)
+.tune(0.0, 50.0);
+const CONTACT_AREA: ParamSpec = ParamSpec::new(
     "contact_area_m2",
     "m^2",
     1e-4,
     (1e-8, 1e-2),
     "area a pressing tool's pressure acts on (eq 4: P n dA)",
-    None,
 );
-const OFFSET: ParamSpec = spec(
+const OFFSET: ParamSpec = ParamSpec::new(
     "offset_m",
     "m",
     0.002,
     (0.0, 0.05),
     "lift of a contact force's origin above the contact along the normal",
-    Some((0.0, 0.01)),
-);
-const FALLOFF: ParamSpec = spec(
+)
+.tune(0.0, 0.01);
+const FALLOFF: ParamSpec = ParamSpec::new(
     "falloff_m",
     "m",
     0.006,
     (1e-4, 0.1),
     "distance scale l of the falloff F / (1 + (d / l)^2) (eq 6)",
-    None,
 );
-const VOLUME: ParamSpec = spec(
+const VOLUME: ParamSpec = ParamSpec::new(
     "volume_stiffness_pa",
     "Pa",
     2000.0,
     (0.0, 1e6),
     "internal pressure per unit relative volume loss (eq 3)",
-    None,
 );
-const STRETCH: ParamSpec = spec(
+const STRETCH: ParamSpec = ParamSpec::new(
     "stretch_compliance_m_per_n",
     "m/N",
     1e-3,
     (0.0, 1.0),
     "XPBD compliance of the stretch constraints (eq 11)",
-    None,
 );
-const BEND: ParamSpec = spec(
+const BEND: ParamSpec = ParamSpec::new(
     "bend_compliance_per_n_m",
     "rad/(N m)",
     0.1,
     (0.0, 10.0),
     "XPBD compliance of the dihedral bending constraints (eq 12)",
-    None,
 );
-const TIE_COMPLIANCE: ParamSpec = spec(
+const TIE_COMPLIANCE: ParamSpec = ParamSpec::new(
     "tie_compliance_m_per_n",
     "m/N",
     5e-3,
     (0.0, 1.0),
     "XPBD compliance of the breakable ties between regions (5e-3: 200 N/m, so a tie at the \
      default 2 N break force tears past about 1 cm of stretch)",
-    None,
 );
-const TIE_BREAK: ParamSpec = spec(
+const TIE_BREAK: ParamSpec = ParamSpec::new(
     "tie_break_force_n",
     "N",
     2.0,
     (1e-3, 1e3),
     "a tie tears when its constraint force exceeds this",
-    None,
 );
-const ITERATIONS: ParamSpec = ParamSpec {
-    whole: true,
-    ..spec(
-        "solver_iterations",
-        "",
-        1.0,
-        (1.0, 100.0),
-        "constraint projections per step",
-        None,
-    )
-};
-const SLEEP: ParamSpec = spec(
+const ITERATIONS: ParamSpec = ParamSpec::new(
+    "solver_iterations",
+    "",
+    1.0,
+    (1.0, 100.0),
+    "constraint projections per step",
+)
+.whole();
+const SLEEP: ParamSpec = ParamSpec::new(
     "sleep_speed_m_per_s",
     "m/s",
     1e-4,
     (0.0, 0.1),
     "speed under which a point at rest counts as still and may sleep",
-    None,
 );
-
-const fn spec(
-    key: &'static str,
-    unit: &'static str,
-    default: f64,
-    (min, max): (f64, f64),
-    doc: &'static str,
-    tune: Option<(f64, f64)>,
-) -> ParamSpec {
-    ParamSpec {
-        key,
-        unit,
-        default,
-        min,
-        max,
-        doc,
-        whole: false,
-        tune,
-    }
-}
 
 /// A tunable spec's slider range, as the tuning checks it.
 const fn slider(s: ParamSpec) -> (&'static str, f32, f32) {
@@ -191,45 +160,20 @@ impl Params for SoftBodyParams {
         SLEEP,
     ];
 
-    fn get(&self, key: &str) -> Option<f64> {
-        Some(match key {
-            "spring_n_per_m" => self.spring_n_per_m.into(),
-            "damping_per_s" => self.damping_per_s.into(),
-            "contact_area_m2" => self.contact_area_m2.into(),
-            "offset_m" => self.offset_m.into(),
-            "falloff_m" => self.falloff_m.into(),
-            "volume_stiffness_pa" => self.volume_stiffness_pa.into(),
-            "stretch_compliance_m_per_n" => self.stretch_compliance_m_per_n.into(),
-            "bend_compliance_per_n_m" => self.bend_compliance_per_n_m.into(),
-            "tie_compliance_m_per_n" => self.tie_compliance_m_per_n.into(),
-            "tie_break_force_n" => self.tie_break_force_n.into(),
-            "solver_iterations" => self.solver_iterations.into(),
-            "sleep_speed_m_per_s" => self.sleep_speed_m_per_s.into(),
-            _ => return None,
-        })
-    }
-
-    fn set(&mut self, key: &str, v: f64) -> bool {
-        let f = v as f32;
-        match key {
-            "spring_n_per_m" => self.spring_n_per_m = f,
-            "damping_per_s" => self.damping_per_s = f,
-            "contact_area_m2" => self.contact_area_m2 = f,
-            "offset_m" => self.offset_m = f,
-            "falloff_m" => self.falloff_m = f,
-            "volume_stiffness_pa" => self.volume_stiffness_pa = f,
-            "stretch_compliance_m_per_n" => self.stretch_compliance_m_per_n = f,
-            "bend_compliance_per_n_m" => self.bend_compliance_per_n_m = f,
-            "tie_compliance_m_per_n" => self.tie_compliance_m_per_n = f,
-            "tie_break_force_n" => self.tie_break_force_n = f,
-            "solver_iterations" => {
-                self.solver_iterations = v.clamp(0.0, f64::from(u32::MAX)) as u32
-            }
-            "sleep_speed_m_per_s" => self.sleep_speed_m_per_s = f,
-            _ => return false,
-        }
-        true
-    }
+    crate::param_fields!(
+        spring_n_per_m,
+        damping_per_s,
+        contact_area_m2,
+        offset_m,
+        falloff_m,
+        volume_stiffness_pa,
+        stretch_compliance_m_per_n,
+        bend_compliance_per_n_m,
+        tie_compliance_m_per_n,
+        tie_break_force_n,
+        solver_iterations,
+        sleep_speed_m_per_s
+    );
 }
 
 impl Tuning {

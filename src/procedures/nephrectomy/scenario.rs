@@ -307,31 +307,14 @@ impl Params for Tools {
         ),
     ];
 
-    fn get(&self, key: &str) -> Option<f64> {
-        Some(match key {
-            "laser_range_m" => self.laser_range_m.into(),
-            "cut_threshold" => self.cut_threshold.into(),
-            "laser_pressure_pa" => self.laser_pressure_pa.into(),
-            "grasper_tip_radius_m" => self.grasper_tip_radius_m.into(),
-            "grasp_radius_m" => self.grasp_radius_m.into(),
-            "grip_threshold" => self.grip_threshold.into(),
-            _ => return None,
-        })
-    }
-
-    fn set(&mut self, key: &str, v: f64) -> bool {
-        let f = v as f32;
-        match key {
-            "laser_range_m" => self.laser_range_m = f,
-            "cut_threshold" => self.cut_threshold = f,
-            "laser_pressure_pa" => self.laser_pressure_pa = f,
-            "grasper_tip_radius_m" => self.grasper_tip_radius_m = f,
-            "grasp_radius_m" => self.grasp_radius_m = f,
-            "grip_threshold" => self.grip_threshold = f,
-            _ => return false,
-        }
-        true
-    }
+    crate::param_fields!(
+        laser_range_m,
+        cut_threshold,
+        laser_pressure_pa,
+        grasper_tip_radius_m,
+        grasp_radius_m,
+        grip_threshold
+    );
 }
 
 impl Params for Task {
@@ -375,29 +358,13 @@ impl Params for Task {
         ),
     ];
 
-    fn get(&self, key: &str) -> Option<f64> {
-        Some(match key {
-            "margin_m" => self.margin_m.into(),
-            "marks_required" => self.marks_required.into(),
-            "mark_tolerance_m" => self.mark_tolerance_m.into(),
-            "removal_distance_m" => self.removal_distance_m.into(),
-            "target_time_s" => self.target_time_s.into(),
-            _ => return None,
-        })
-    }
-
-    fn set(&mut self, key: &str, v: f64) -> bool {
-        let f = v as f32;
-        match key {
-            "margin_m" => self.margin_m = f,
-            "marks_required" => self.marks_required = v as u32,
-            "mark_tolerance_m" => self.mark_tolerance_m = f,
-            "removal_distance_m" => self.removal_distance_m = f,
-            "target_time_s" => self.target_time_s = f,
-            _ => return false,
-        }
-        true
-    }
+    crate::param_fields!(
+        margin_m,
+        marks_required,
+        mark_tolerance_m,
+        removal_distance_m,
+        target_time_s
+    );
 }
 
 /// A score component's weight: relative, 0 leaves the component out.
@@ -435,29 +402,7 @@ impl Params for Weights {
         ),
     ];
 
-    fn get(&self, key: &str) -> Option<f64> {
-        Some(match key {
-            "completion" => self.completion.into(),
-            "margin" => self.margin.into(),
-            "preservation" => self.preservation.into(),
-            "safety" => self.safety.into(),
-            "efficiency" => self.efficiency.into(),
-            _ => return None,
-        })
-    }
-
-    fn set(&mut self, key: &str, v: f64) -> bool {
-        let f = v as f32;
-        match key {
-            "completion" => self.completion = f,
-            "margin" => self.margin = f,
-            "preservation" => self.preservation = f,
-            "safety" => self.safety = f,
-            "efficiency" => self.efficiency = f,
-            _ => return false,
-        }
-        true
-    }
+    crate::param_fields!(completion, margin, preservation, safety, efficiency);
 }
 
 /// The scenario's tables with specs, as `INFO.param_tables` lists them (file order).

@@ -149,27 +149,12 @@ impl Params for Tools {
         ),
     ];
 
-    fn get(&self, key: &str) -> Option<f64> {
-        Some(match key {
-            "probe_tip_radius_m" => self.probe_tip_radius_m.into(),
-            "grasper_tip_radius_m" => self.grasper_tip_radius_m.into(),
-            "grasp_radius_m" => self.grasp_radius_m.into(),
-            "grip_threshold" => self.grip_threshold.into(),
-            _ => return None,
-        })
-    }
-
-    fn set(&mut self, key: &str, v: f64) -> bool {
-        let f = v as f32;
-        match key {
-            "probe_tip_radius_m" => self.probe_tip_radius_m = f,
-            "grasper_tip_radius_m" => self.grasper_tip_radius_m = f,
-            "grasp_radius_m" => self.grasp_radius_m = f,
-            "grip_threshold" => self.grip_threshold = f,
-            _ => return false,
-        }
-        true
-    }
+    crate::param_fields!(
+        probe_tip_radius_m,
+        grasper_tip_radius_m,
+        grasp_radius_m,
+        grip_threshold
+    );
 }
 
 /// The shallowest press a scenario may ask for, m.
@@ -204,25 +189,7 @@ impl Params for Task {
         ),
     ];
 
-    fn get(&self, key: &str) -> Option<f64> {
-        Some(match key {
-            "probe_depth_m" => self.probe_depth_m.into(),
-            "lift_height_m" => self.lift_height_m.into(),
-            "target_time_s" => self.target_time_s.into(),
-            _ => return None,
-        })
-    }
-
-    fn set(&mut self, key: &str, v: f64) -> bool {
-        let f = v as f32;
-        match key {
-            "probe_depth_m" => self.probe_depth_m = f,
-            "lift_height_m" => self.lift_height_m = f,
-            "target_time_s" => self.target_time_s = f,
-            _ => return false,
-        }
-        true
-    }
+    crate::param_fields!(probe_depth_m, lift_height_m, target_time_s);
 }
 
 /// The scenario's tables with specs, as `INFO.param_tables` lists them (file order).
