@@ -1,0 +1,796 @@
+//! The haptics bindings' real FFI path against the fake vendor libraries the build script
+//! compiles from `tests/fake/*.c` (same symbols and C types as libHD.so and libdhd.so): units,
+//! the HD servo callback protocol, DHD calls and return codes, and typed errors.
+//!
+//! The fakes keep process-wide state, so every test holds `LOCK` and resets the fake first. No
+//! test asserts timing: waits are for counts, bounded only so a broken build fails instead of
+//! hanging.
+
+use std::ffi::{CString, c_char, c_int, c_long, c_uint};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard, PoisonError, mpsc};
+use std::time::{Duration, Instant};
+
+use libloading::Library;
+use xr_bindings::haptics::{
+    DHD_DEVICE_FALCON, DhdDevice, ForceStatus, HapticsError, HdCommand, HdDevice, HdErrorInfo,
+    HdState, fake_library_dir,
+};
+
+static LOCK: Mutex<()> = Mutex::new(());
+
+fn lock() -> MutexGuard<'static, ()> {
+    LOCK.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+fn hd_path() -> PathBuf {
+    fake_library_dir().join("libHD.so")
+}
+
+fn dhd_path() -> PathBuf {
+    fake_library_dir().join("libdhd.so")
+}
+
+/// Runs `f` with the environment variable `key` set to `value`.
+fn with_env<T>(key: &str, value: &str, f: impl FnOnce() -> T) -> T {
+    // SAFETY: every test in this file holds LOCK, so no other thread of this process reads or
+    // writes the environment meanwhile.
+    unsafe { std::env::set_var(key, value) };
+    let r = f();
+    // SAFETY: as above.
+    unsafe { std::env::remove_var(key) };
+    r
+}
+
+/// Waits until `cond` holds; the bound only turns a hang into a failure.
+fn wait_for(what: &str, mut cond: impl FnMut() -> bool) {
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while !cond() {
+        assert!(Instant::now() < deadline, "timed out waiting for {what}");
+        std::thread::sleep(Duration::from_millis(1));
+    }
+}
+
+/// Asserts that `text` contains each of `parts`.
+fn assert_mentions(text: &str, parts: &[&str]) {
+    for p in parts {
+        assert!(text.contains(p), "{text:?} does not mention {p:?}");
+    }
+}
+
+fn approx(a: [f64; 3], b: [f64; 3]) -> bool {
+    a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-12)
+}
+
+/// One of the fake libraries, opened again by path (the loader hands back the instance the
+/// bindings opened, so its state is shared), with its control symbols.
+struct Fake {
+    lib: Library,
+    prefix: &'static str,
+}
+
+impl Fake {
+    fn open(path: &Path, prefix: &'static str) -> Fake {
+        // SAFETY: the fake's initialiser only reads environment variables.
+        let lib = unsafe { Library::new(path) }
+            .unwrap_or_else(|e| panic!("{}: {e} (the build script builds it)", path.display()));
+        Fake { lib, prefix }
+    }
+
+    /// # Safety
+    /// `T` must be the prototype of `<prefix>_<name>` in tests/fake/*.c.
+    unsafe fn sym<T: Copy>(&self, name: &str) -> T {
+        let full = format!("{}_{name}", self.prefix);
+        // SAFETY: per the caller; the library stays loaded while `self` lives.
+        unsafe {
+            *self
+                .lib
+                .get::<T>(full.as_bytes())
+                .unwrap_or_else(|e| panic!("{full}: {e}"))
+        }
+    }
+
+    fn reset(&self) {
+        // SAFETY: `void fake_*_reset(void)`.
+        unsafe { self.sym::<unsafe extern "C" fn()>("reset")() }
+    }
+
+    fn set_int(&self, name: &str, v: c_int) {
+        // SAFETY: every `set_*` named with this helper is `void f(int)`.
+        unsafe { self.sym::<unsafe extern "C" fn(c_int)>(name)(v) }
+    }
+
+    fn set_xyz(&self, name: &str, v: [f64; 3]) {
+        // SAFETY: every `set_*` named with this helper is `void f(double, double, double)`.
+        unsafe { self.sym::<unsafe extern "C" fn(f64, f64, f64)>(name)(v[0], v[1], v[2]) }
+    }
+
+    fn get_int(&self, name: &str) -> c_int {
+        // SAFETY: every query named with this helper is `int f(void)`.
+        unsafe { self.sym::<unsafe extern "C" fn() -> c_int>(name)() }
+    }
+
+    fn get_long(&self, name: &str) -> c_long {
+        // SAFETY: every query named with this helper is `long f(void)`.
+        unsafe { self.sym::<unsafe extern "C" fn() -> c_long>(name)() }
+    }
+
+    fn get_f64(&self, name: &str) -> f64 {
+        // SAFETY: every query named with this helper is `double f(void)`.
+        unsafe { self.sym::<unsafe extern "C" fn() -> f64>(name)() }
+    }
+
+    /// How often the vendor call `call` was made since the last reset.
+    fn calls(&self, call: &str) -> c_long {
+        let c = CString::new(call).expect("a call name");
+        // SAFETY: `long fake_*_call_count(const char*)`, reading the string during the call.
+        let n = unsafe {
+            self.sym::<unsafe extern "C" fn(*const c_char) -> c_long>("call_count")(c.as_ptr())
+        };
+        assert!(n >= 0, "the fake does not export {call}");
+        n
+    }
+
+    /// The forces the fake received, one per frame (HD) or per call (DHD).
+    fn force_log(&self) -> Vec<[f64; 3]> {
+        // SAFETY: `long fake_*_force_log(double* out, int max)`, which writes at most `max`
+        // triples; with a null `out` it only returns the count.
+        unsafe {
+            let f = self.sym::<unsafe extern "C" fn(*mut f64, c_int) -> c_long>("force_log");
+            let n = f(std::ptr::null_mut(), 0);
+            let mut out = vec![[0.0f64; 3]; usize::try_from(n).expect("a count")];
+            let max = c_int::try_from(out.len()).expect("a small log");
+            f(out.as_mut_ptr().cast(), max);
+            out
+        }
+    }
+
+    fn last_force(&self) -> [f64; 3] {
+        let mut f = [0.0f64; 3];
+        // SAFETY: `void fake_*_last_force(double* out)`, which writes 3 doubles.
+        unsafe { self.sym::<unsafe extern "C" fn(*mut f64)>("last_force")(f.as_mut_ptr()) };
+        f
+    }
+}
+
+fn fake_hd() -> Fake {
+    Fake::open(&hd_path(), "fake_hd")
+}
+
+fn fake_dhd() -> Fake {
+    Fake::open(&dhd_path(), "fake_dhd")
+}
+
+fn hd_enabled(fake: &Fake, cap: c_uint) -> c_int {
+    // SAFETY: `int fake_hd_is_enabled(unsigned int)`.
+    unsafe { fake.sym::<unsafe extern "C" fn(c_uint) -> c_int>("is_enabled")(cap) }
+}
+
+/// The name the last hdInitDevice got, `None` for HD_DEFAULT_DEVICE (NULL).
+fn hd_init_name(fake: &Fake) -> Option<String> {
+    let mut buf = [0u8; 128];
+    // SAFETY: `int fake_hd_init_name(char* out, int cap)`, which writes at most `cap` bytes
+    // including the NUL.
+    let given = unsafe {
+        fake.sym::<unsafe extern "C" fn(*mut c_char, c_int) -> c_int>("init_name")(
+            buf.as_mut_ptr().cast(),
+            128,
+        )
+    };
+    let end = buf.iter().position(|b| *b == 0).unwrap_or(buf.len());
+    (given != 0).then(|| String::from_utf8_lossy(&buf[..end]).into_owned())
+}
+
+fn open_hd(fake: &Fake) -> HdDevice {
+    fake.reset();
+    HdDevice::open_from(&hd_path(), None).expect("the fake HD device opens")
+}
+
+fn stop_after(n: u64, force_n: [f64; 3]) -> impl FnMut(&HdState) -> HdCommand + Send + 'static {
+    move |s| {
+        if s.tick >= n {
+            HdCommand::Stop
+        } else {
+            HdCommand::Continue { force_n }
+        }
+    }
+}
+
+#[test]
+fn hd_missing_library_is_named_and_the_override_is_honoured() {
+    let _g = lock();
+    let missing = Path::new("/nonexistent/vesalius-test/libHD.so");
+    let err = HdDevice::open_from(missing, None).expect_err("no library there");
+    assert!(
+        matches!(
+            &err,
+            HapticsError::LibraryMissing {
+                library: "libHD.so",
+                env_var: "VESALIUS_LIBHD",
+                ..
+            }
+        ),
+        "{err:?}"
+    );
+    assert_mentions(
+        &err.to_string(),
+        &[
+            "libHD.so (3D Systems OpenHaptics) was not found: install OpenHaptics for Linux",
+            "LD_LIBRARY_PATH",
+            "VESALIUS_LIBHD",
+            "/nonexistent/vesalius-test/libHD.so",
+        ],
+    );
+
+    // The override is the only file tried when set.
+    let err = with_env("VESALIUS_LIBHD", "/nonexistent/override/libHD.so", || {
+        HdDevice::open(None)
+    })
+    .expect_err("the override names no file");
+    assert_mentions(&err.to_string(), &["/nonexistent/override/libHD.so"]);
+
+    let fake = fake_hd();
+    fake.reset();
+    let path = hd_path();
+    let dev = with_env(
+        "VESALIUS_LIBHD",
+        path.to_str().expect("a UTF-8 path"),
+        || HdDevice::open(None),
+    )
+    .expect("the override names the fake");
+    assert_eq!(fake.calls("hdInitDevice"), 1);
+    drop(dev);
+    assert_eq!(fake.calls("hdDisableDevice"), 1, "drop disables the device");
+}
+
+#[test]
+fn hd_units_nominal_values_and_forces_cross_the_ffi_unchanged() {
+    let _g = lock();
+    let fake = fake_hd();
+    fake.reset();
+    fake.set_xyz("set_position_mm", [12.5, -3.0, 40.0]);
+    fake.set_xyz("set_velocity_mm_s", [100.0, 0.0, -50.0]);
+    fake.set_int("set_buttons", 0b10);
+    let mut dev = HdDevice::open_from(&hd_path(), None).expect("opens");
+    assert_eq!(
+        hd_init_name(&fake),
+        None,
+        "None is HD_DEFAULT_DEVICE (NULL)"
+    );
+    assert!((dev.nominal_max_force_n() - 3.3).abs() < 1e-12);
+    assert!(
+        (dev.nominal_max_stiffness_n_per_m() - 700.0).abs() < 1e-9,
+        "0.7 N/mm is 700 N/m"
+    );
+
+    assert_eq!(hd_enabled(&fake, 0x4000), 0);
+    dev.enable_force_output().expect("enables");
+    assert_eq!(hd_enabled(&fake, 0x4000), 1, "HD_FORCE_OUTPUT enabled");
+
+    let (tx, rx) = mpsc::channel::<HdState>();
+    dev.start(move |s| {
+        let _ = tx.send(*s);
+        HdCommand::Continue {
+            force_n: [1.5, -0.25, 0.0],
+        }
+    })
+    .expect("starts");
+    wait_for("50 servo ticks", || dev.servo_status().ticks >= 50);
+    let status = dev.stop().expect("stops");
+    assert!(
+        !status.running && status.ticks >= 50 && status.first_error.is_none(),
+        "{status:?}"
+    );
+    assert_eq!(fake.get_long("scheduler_rate"), 1000);
+
+    let states: Vec<HdState> = rx.try_iter().collect();
+    assert_eq!(states.len() as u64, status.ticks);
+    for (i, s) in states.iter().enumerate() {
+        assert_eq!(s.tick, i as u64 + 1);
+        assert!(approx(s.position_m, [0.0125, -0.003, 0.04]), "{s:?}");
+        assert!(approx(s.velocity_m_per_s, [0.1, 0.0, -0.05]), "{s:?}");
+        assert_eq!(s.buttons, 0b10);
+        assert_eq!(s.error, None);
+    }
+    let log = fake.force_log();
+    assert_eq!(log.len() as u64, status.ticks, "one force per frame");
+    assert!(log.iter().all(|f| *f == [1.5, -0.25, 0.0]), "{log:?}");
+    assert_eq!(fake.get_long("protocol_errors"), 0);
+
+    dev.close().expect("closes");
+    assert_eq!(fake.get_int("open_devices"), 0);
+}
+
+#[test]
+fn hd_servo_protocol_frames_stop_and_unschedule() {
+    let _g = lock();
+    let fake = fake_hd();
+    let mut dev = open_hd(&fake);
+    let calls = Arc::new(AtomicU64::new(0));
+
+    // A callback that returns Stop on its 5th call is not called again, nor unscheduled.
+    let c = Arc::clone(&calls);
+    let mut inner = stop_after(5, [0.2, 0.0, 0.0]);
+    dev.start(move |s| {
+        c.fetch_add(1, Ordering::SeqCst);
+        inner(s)
+    })
+    .expect("starts");
+    wait_for("the callback to finish", || {
+        !dev.servo_status().running && fake.get_int("active_callbacks") == 0
+    });
+    assert_eq!(calls.load(Ordering::SeqCst), 5);
+    assert_eq!(fake.calls("hdBeginFrame"), 5);
+    assert_eq!(fake.calls("hdEndFrame"), 5);
+    let log = fake.force_log();
+    assert_eq!(log.len(), 5);
+    assert!(
+        log[..4].iter().all(|f| *f == [0.2, 0.0, 0.0]) && log[4] == [0.0; 3],
+        "{log:?}"
+    );
+    let status = dev.stop().expect("stops");
+    assert_eq!(status.ticks, 5);
+    assert_eq!(
+        fake.calls("hdUnschedule"),
+        0,
+        "a finished callback is not unscheduled"
+    );
+    assert_eq!(fake.calls("hdStopScheduler"), 1);
+    assert_eq!(fake.get_int("scheduler_running"), 0);
+
+    // A callback that continues runs until stop(), which unschedules it; its force is clamped
+    // to the nominal 3.3 N.
+    let c = Arc::clone(&calls);
+    dev.start(move |_| {
+        c.fetch_add(1, Ordering::SeqCst);
+        HdCommand::Continue {
+            force_n: [10.0, 0.0, 0.0],
+        }
+    })
+    .expect("starts again");
+    wait_for("20 more ticks", || dev.servo_status().ticks >= 20);
+    assert!(matches!(
+        dev.start(|_| HdCommand::Stop),
+        Err(HapticsError::ServoRunning)
+    ));
+    let mut other = HdDevice::open_from(&hd_path(), None).expect("a second device opens");
+    assert!(matches!(
+        other.start(|_| HdCommand::Stop),
+        Err(HapticsError::SchedulerBusy)
+    ));
+    drop(other);
+    let status = dev.stop().expect("stops");
+    assert_eq!(fake.calls("hdUnschedule"), 1);
+    assert_eq!(fake.get_int("active_callbacks"), 0);
+    assert_eq!(fake.get_int("scheduler_running"), 0);
+    let total = calls.load(Ordering::SeqCst);
+    assert_eq!(total, 5 + status.ticks);
+    assert_eq!(fake.calls("hdBeginFrame"), fake.calls("hdEndFrame"));
+    assert_eq!(fake.calls("hdBeginFrame") as u64, total);
+    let ticks = fake.get_long("ticks");
+    std::thread::sleep(Duration::from_millis(20));
+    assert_eq!(
+        fake.get_long("ticks"),
+        ticks,
+        "the scheduler thread stopped"
+    );
+    assert_eq!(
+        calls.load(Ordering::SeqCst),
+        total,
+        "the callback is not called after stop()"
+    );
+    let log = fake.force_log();
+    assert!(
+        log[5..].iter().all(|f| approx(*f, [3.3, 0.0, 0.0])),
+        "{:?}",
+        &log[5..]
+    );
+
+    // A non-finite force is rendered as zero; start() after a finished callback needs no stop().
+    dev.start(stop_after(3, [f64::NAN, 1.0, 0.0]))
+        .expect("starts");
+    wait_for("the callback to finish", || !dev.servo_status().running);
+    dev.start(stop_after(1, [0.0; 3]))
+        .expect("starts after a finished servo");
+    wait_for("the callback to finish", || !dev.servo_status().running);
+    dev.stop().expect("stops");
+    let log = fake.force_log();
+    assert_eq!(log.len() as u64, total + 4);
+    assert!(
+        log[log.len() - 4..].iter().all(|f| *f == [0.0; 3]),
+        "{log:?}"
+    );
+    assert_eq!(fake.get_long("protocol_errors"), 0);
+    assert_eq!(fake.calls("hdSetSchedulerRate"), 4);
+}
+
+#[test]
+fn hd_init_and_start_failures_are_typed() {
+    let _g = lock();
+    let fake = fake_hd();
+    fake.reset();
+    fake.set_int("set_fail_init", 0x0302);
+    let err = HdDevice::open_from(&hd_path(), Some("Phantom 2")).expect_err("init fails");
+    match &err {
+        HapticsError::HdInit {
+            device,
+            code,
+            name,
+            message,
+            ..
+        } => {
+            assert_eq!(
+                (device.as_str(), *code, *name),
+                ("Phantom 2", 0x0302, "HD_COMM_ERROR")
+            );
+            assert_eq!(
+                message,
+                "communication error: no device on the port (fake libHD)"
+            );
+        }
+        other => panic!("expected HdInit, got {other:?}"),
+    }
+    assert_mentions(&err.to_string(), &["HD_COMM_ERROR", "0x0302", "Phantom 2"]);
+    assert_eq!(hd_init_name(&fake).as_deref(), Some("Phantom 2"));
+
+    // The knob the CLI tests use.
+    with_env("FAKE_HD_FAIL_INIT", "1", || fake.reset());
+    let err = HdDevice::open_from(&hd_path(), None).expect_err("init fails");
+    assert!(
+        matches!(err, HapticsError::HdInit { code: 0x0302, .. }),
+        "{err:?}"
+    );
+    fake.reset();
+
+    let err = HdDevice::open_from(&hd_path(), Some("a\0b")).expect_err("NUL in the name");
+    assert!(
+        matches!(err, HapticsError::InvalidDeviceName { .. }),
+        "{err:?}"
+    );
+    assert_eq!(fake.calls("hdInitDevice"), 0);
+
+    // hdStartScheduler failing: typed error, the callback unscheduled and never called.
+    let mut dev = HdDevice::open_from(&hd_path(), None).expect("opens");
+    fake.set_int("set_fail_start", 1);
+    let calls = Arc::new(AtomicU64::new(0));
+    let c = Arc::clone(&calls);
+    let err = dev
+        .start(move |_| {
+            c.fetch_add(1, Ordering::SeqCst);
+            HdCommand::Stop
+        })
+        .expect_err("the scheduler fails to start");
+    assert!(
+        matches!(
+            err,
+            HapticsError::HdCall {
+                call: "hdStartScheduler",
+                code: 0x0304,
+                name: "HD_TIMER_ERROR",
+                ..
+            }
+        ),
+        "{err:?}"
+    );
+    assert_eq!(fake.calls("hdUnschedule"), 1);
+    assert_eq!(fake.get_int("active_callbacks"), 0);
+    assert_eq!(calls.load(Ordering::SeqCst), 0);
+    fake.set_int("set_fail_start", 0);
+    dev.start(stop_after(2, [0.0; 3]))
+        .expect("the scheduler is free again");
+    wait_for("the callback to finish", || !dev.servo_status().running);
+    dev.close().expect("closes");
+}
+
+#[test]
+fn hd_device_fault_reaches_the_callback_and_the_owner() {
+    let _g = lock();
+    let fake = fake_hd();
+    let mut dev = open_hd(&fake);
+    fake.set_int("set_fault_after_ticks", 10);
+    let (tx, rx) = mpsc::channel::<HdState>();
+    dev.start(move |s| {
+        let _ = tx.send(*s);
+        if s.error.is_some() {
+            HdCommand::Stop
+        } else {
+            HdCommand::Continue {
+                force_n: [0.5, 0.0, 0.0],
+            }
+        }
+    })
+    .expect("starts");
+    wait_for("the callback to stop on the fault", || {
+        !dev.servo_status().running
+    });
+    let states: Vec<HdState> = rx.try_iter().collect();
+    assert_eq!(states.len(), 11, "the fault of frame 10 reaches call 11");
+    assert!(states[..10].iter().all(|s| s.error.is_none()));
+    let fault = HdErrorInfo {
+        code: 0x0300,
+        internal: 42,
+    };
+    assert_eq!(states[10].error, Some(fault));
+    assert_eq!(fault.name(), Some("HD_DEVICE_FAULT"));
+    assert_eq!(dev.servo_status().first_error, Some(fault));
+    let err = dev.check_servo().expect_err("the owner sees the fault");
+    assert!(
+        matches!(&err, HapticsError::DeviceFault { code: 0x0300, name: "HD_DEVICE_FAULT", internal: 42, message } if message.contains("device fault")),
+        "{err:?}"
+    );
+    assert!(err.to_string().contains("HD_DEVICE_FAULT (0x0300"), "{err}");
+    dev.stop().expect("stops");
+    assert!(
+        dev.check_servo().is_err(),
+        "the fault stays reported after stop()"
+    );
+    dev.close().expect("closes");
+
+    // A callback that ignores the fault keeps running; the owner polls and stops it.
+    let mut dev = open_hd(&fake);
+    fake.set_int("set_fault_after_ticks", 5);
+    dev.start(|_| HdCommand::Continue {
+        force_n: [0.1, 0.0, 0.0],
+    })
+    .expect("starts");
+    wait_for("the owner to see the fault", || dev.check_servo().is_err());
+    assert!(dev.servo_status().running);
+    let status = dev.stop().expect("stops");
+    assert_eq!(status.first_error.map(|e| e.code), Some(0x0300));
+    dev.close().expect("closes");
+}
+
+#[test]
+fn hd_panicking_callback_stops_with_zero_force() {
+    let _g = lock();
+    let fake = fake_hd();
+    let mut dev = open_hd(&fake);
+    // Keep the deliberate panic's message and backtrace out of the test output.
+    let default_hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let p = info.payload();
+        let msg = p
+            .downcast_ref::<&str>()
+            .copied()
+            .or_else(|| p.downcast_ref::<String>().map(String::as_str));
+        if !msg.is_some_and(|m| m.starts_with("deliberate panic")) {
+            default_hook(info);
+        }
+    }));
+    dev.start(|s| {
+        if s.tick == 3 {
+            panic!("deliberate panic in a servo callback (test)");
+        }
+        HdCommand::Continue {
+            force_n: [1.0, 0.0, 0.0],
+        }
+    })
+    .expect("starts");
+    wait_for("the servo to stop", || !dev.servo_status().running);
+    drop(std::panic::take_hook());
+    let status = dev.servo_status();
+    assert!(status.callback_panicked && status.ticks == 3, "{status:?}");
+    assert_eq!(
+        fake.force_log(),
+        vec![[1.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0; 3]]
+    );
+    assert_eq!(fake.calls("hdBeginFrame"), fake.calls("hdEndFrame"));
+    assert_eq!(dev.check_servo(), Err(HapticsError::CallbackPanicked));
+    dev.close().expect("closes");
+}
+
+#[test]
+fn dhd_missing_library_is_named_and_the_override_is_honoured() {
+    let _g = lock();
+    let err = DhdDevice::open_from(Path::new("/nonexistent/vesalius-test/libdhd.so"))
+        .expect_err("no library there");
+    assert_mentions(
+        &err.to_string(),
+        &[
+            "libdhd.so (Force Dimension SDK) was not found: install the Force Dimension SDK",
+            "LD_LIBRARY_PATH",
+            "VESALIUS_LIBDHD",
+            "/nonexistent/vesalius-test/libdhd.so",
+        ],
+    );
+
+    let err = with_env(
+        "VESALIUS_LIBDHD",
+        "/nonexistent/override/libdhd.so",
+        DhdDevice::open,
+    )
+    .expect_err("the override names no file");
+    assert!(
+        matches!(
+            err,
+            HapticsError::LibraryMissing {
+                library: "libdhd.so",
+                ..
+            }
+        ),
+        "{err:?}"
+    );
+
+    let fake = fake_dhd();
+    fake.reset();
+    let path = dhd_path();
+    let dev = with_env(
+        "VESALIUS_LIBDHD",
+        path.to_str().expect("a UTF-8 path"),
+        DhdDevice::open,
+    )
+    .expect("the override names the fake");
+    assert_eq!(fake.get_int("is_open"), 1);
+    drop(dev);
+    assert_eq!(fake.get_int("is_open"), 0, "drop closes the device");
+}
+
+#[test]
+fn dhd_queries_units_and_explicit_ids() {
+    let _g = lock();
+    let fake = fake_dhd();
+    fake.reset();
+    fake.set_int("set_open_id", 2);
+    fake.set_xyz("set_position_m", [0.0125, -0.02, 0.031]);
+    fake.set_int("set_buttons", 0b101);
+    let mut dev = DhdDevice::open_from(&dhd_path()).expect("opens");
+    assert_eq!(dev.id(), 2);
+    assert_eq!(dev.system_name().expect("a name"), "Falcon");
+    assert_eq!(dev.system_type().expect("a type"), DHD_DEVICE_FALCON);
+    assert_eq!(dev.max_force_n().expect("exported"), Some(8.0));
+    assert_eq!(
+        dev.position_m().expect("a position"),
+        [0.0125, -0.02, 0.031],
+        "metres pass unchanged"
+    );
+    assert_eq!(dev.buttons(), 0b101);
+
+    dev.set_max_force_n(Some(5.0)).expect("sets");
+    assert_eq!(fake.get_f64("max_force"), 5.0);
+    dev.set_max_force_n(None).expect("removes the limit");
+    assert_eq!(fake.get_f64("max_force"), -1.0);
+    assert_eq!(
+        dev.max_force_n().expect("exported"),
+        None,
+        "negative is no limit"
+    );
+    let err = dev
+        .set_max_force_n(Some(f64::NAN))
+        .expect_err("NaN refused");
+    assert!(
+        matches!(err, HapticsError::InvalidArgument { .. }),
+        "{err:?}"
+    );
+    assert_eq!(
+        fake.calls("dhdSetMaxForce"),
+        2,
+        "a refused value is not sent"
+    );
+
+    assert_eq!(fake.get_int("force_enabled"), -1);
+    dev.enable_force(true).expect("enables");
+    assert_eq!(fake.get_int("force_enabled"), 1);
+    dev.enable_force(false).expect("disables");
+    assert_eq!(fake.get_int("force_enabled"), 0);
+
+    dev.close().expect("closes");
+    assert_eq!(fake.get_int("is_open"), 0);
+    assert_eq!(fake.calls("dhdClose"), 1);
+    assert_eq!(
+        fake.get_long("default_id_calls"),
+        0,
+        "every call named the device's ID"
+    );
+}
+
+#[test]
+fn dhd_forces_watchdog_and_return_codes() {
+    let _g = lock();
+    let fake = fake_dhd();
+    fake.reset();
+    let mut dev = DhdDevice::open_from(&dhd_path()).expect("opens");
+
+    assert_eq!(dev.set_watchdog(Duration::from_millis(1)).expect("sets"), 8);
+    assert_eq!(fake.get_int("watchdog"), 8, "1 ms is 8 units of 125 us");
+    assert_eq!(
+        dev.set_watchdog(Duration::from_nanos(2_000_001))
+            .expect("sets"),
+        17
+    );
+    assert_eq!(fake.get_int("watchdog"), 17, "rounded up");
+    let err = dev
+        .set_watchdog(Duration::from_millis(32))
+        .expect_err("too long");
+    assert!(
+        matches!(err, HapticsError::InvalidArgument { .. }),
+        "{err:?}"
+    );
+    assert_eq!(fake.get_int("watchdog"), 17, "a refused value is not sent");
+
+    assert_eq!(
+        dev.set_force_n([1.5, -2.0, 0.25]).expect("sent"),
+        ForceStatus::default()
+    );
+    assert_eq!(fake.last_force(), [1.5, -2.0, 0.25]);
+    let s = dev.set_force_n([10.0, 0.0, 0.0]).expect("sent");
+    assert_eq!(
+        s,
+        ForceStatus {
+            saturated: true,
+            timeguard: false
+        }
+    );
+    assert_eq!(fake.last_force(), [8.0, 0.0, 0.0]);
+    fake.set_int("set_timeguard", 1);
+    let s = dev
+        .set_force_n([1.0, 0.0, 0.0])
+        .expect("a timeguard is not an error");
+    assert_eq!(
+        s,
+        ForceStatus {
+            saturated: false,
+            timeguard: true
+        }
+    );
+    fake.set_int("set_timeguard", 0);
+    let err = dev
+        .set_force_n([f64::NAN, 1.0, 0.0])
+        .expect_err("NaN refused");
+    assert!(
+        matches!(err, HapticsError::NonFiniteForce { .. }),
+        "{err:?}"
+    );
+    assert_eq!(fake.last_force(), [0.0; 3], "zero force sent instead");
+
+    // Every dhdSetForce after the 5th fails.
+    fake.set_int("set_fault_after_forces", 5);
+    dev.set_force_n([0.5, 0.0, 0.0]).expect("the 5th is served");
+    let err = dev.set_force_n([0.5, 0.0, 0.0]).expect_err("the 6th fails");
+    match &err {
+        HapticsError::DhdCall {
+            call: "dhdSetForce",
+            message,
+        } => {
+            assert!(message.contains("USB transfer failed"), "{message}");
+        }
+        other => panic!("expected DhdCall, got {other:?}"),
+    }
+    assert_eq!(
+        fake.force_log(),
+        vec![
+            [1.5, -2.0, 0.25],
+            [8.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0; 3],
+            [0.5, 0.0, 0.0]
+        ]
+    );
+    assert_eq!(fake.get_long("default_id_calls"), 0);
+    drop(dev);
+}
+
+#[test]
+fn dhd_open_failure_is_typed() {
+    let _g = lock();
+    let fake = fake_dhd();
+    fake.reset();
+    fake.set_int("set_fail_open", 1);
+    let err = DhdDevice::open_from(&dhd_path()).expect_err("open fails");
+    match &err {
+        HapticsError::DhdOpen { message } => assert_eq!(message, "no device found (fake libdhd)"),
+        other => panic!("expected DhdOpen, got {other:?}"),
+    }
+    assert_mentions(&err.to_string(), &["no device found (fake libdhd)"]);
+
+    with_env("FAKE_DHD_FAIL_OPEN", "1", || fake.reset());
+    assert!(matches!(
+        DhdDevice::open_from(&dhd_path()),
+        Err(HapticsError::DhdOpen { .. })
+    ));
+    fake.reset();
+    let dev = DhdDevice::open_from(&dhd_path()).expect("opens once the knob is off");
+    drop(dev);
+    assert_eq!(fake.calls("dhdOpen"), 1);
+    assert_eq!(fake.calls("dhdClose"), 1);
+}
