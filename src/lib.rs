@@ -6,6 +6,7 @@
 pub mod assess;
 pub mod bench;
 pub mod collision;
+pub mod haptics;
 pub mod mesh;
 pub mod models;
 pub mod params;

@@ -4,6 +4,7 @@
 
 #[macro_use]
 mod output;
+mod haptics;
 mod session;
 mod tools;
 
@@ -92,6 +93,24 @@ enum Command {
         /// separately; they do not fail the command).
         #[arg(long)]
         known_failures: bool,
+    },
+    /// The 1 kHz force-feedback servo loop against a procedure stepping on its own thread;
+    /// prints rate_hz, period_p50_error_ms, period_p99_error_ms, max_force_n, clamps and
+    /// stalls (and more), one `key value` a line.
+    Haptics {
+        /// The device: the simulated stylus, or a Phantom / Falcon.
+        #[arg(long, value_enum)]
+        device: haptics::DeviceArg,
+        /// The procedure the stylus works in.
+        #[arg(long, value_parser = procedures(), default_value = "sandbox")]
+        procedure: String,
+        /// How long the servo loop runs, seconds.
+        #[arg(long, value_name = "S", value_parser = positive_seconds, default_value_t = 3.0,
+              allow_negative_numbers = true)]
+        seconds: f64,
+        /// Print one JSON object.
+        #[arg(long)]
+        json: bool,
     },
     /// The simulated OpenXR runtime.
     #[command(name = "xr-sim", subcommand)]
@@ -190,6 +209,9 @@ pub enum CliError {
     /// `VESALIUS_XR_SIM_CONFIG`).
     #[error(transparent)]
     SimSettings(#[from] vesalius_sim_runtime::ConfigError),
+    /// A force-feedback device or the servo loop.
+    #[error(transparent)]
+    Haptics(#[from] vesalius::haptics::HapticsError),
     /// A failure of the command itself (a file it writes, a child process), in words.
     #[error("{0}")]
     Failed(String),
@@ -361,6 +383,12 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
             json,
             known_failures,
         } => tools::verify(json, known_failures),
+        Command::Haptics {
+            device,
+            procedure,
+            seconds,
+            json,
+        } => haptics::haptics(device, &procedure, seconds, json),
         Command::XrSim(XrSimCommand::Manifest { out }) => {
             let path = tools::xr_sim_manifest(out)?;
             say!("{}", path.display());

@@ -156,6 +156,38 @@ pub enum EventKind {
     /// A procedure's own event.
     #[serde(skip)]
     Procedure(ProcedureEvent),
+    /// A force-feedback output was limited to the device's nominal maximum (raised once when a
+    /// run of limited servo ticks begins): `quantity` is `force_n` or `stiffness_n_per_m`,
+    /// `requested` what the model asked for and `limit` what the device was given, in that
+    /// quantity's unit.
+    HapticClamp {
+        hand: String,
+        quantity: String,
+        requested: f32,
+        limit: f32,
+    },
+    /// The simulation stopped publishing haptic frames (`phase` `begin`: `silent_s` since the
+    /// last one; the device's force fades to zero) or started again (`end`: `silent_s` the
+    /// whole silence; the force ramps back).
+    HapticStall {
+        hand: String,
+        phase: String,
+        silent_s: f32,
+    },
+    /// The device's force gain changed course: `start` (the stylus held still, the start-up
+    /// ramp from 0 begins), `full` (the start-up ramp reached 1), `recover` (after a stall or
+    /// a non-finite value the force ramps back from `gain`), `recovered` (back at 1).
+    HapticRamp {
+        hand: String,
+        phase: String,
+        gain: f32,
+    },
+    /// A non-finite value reached the servo loop (`what`: `force`, `stiffness`, `position` or
+    /// `velocity`); the device was given zero force (raised once when such a run begins).
+    HapticNonFinite {
+        hand: String,
+        what: String,
+    },
 }
 
 impl EventKind {
@@ -178,6 +210,10 @@ impl EventKind {
             EventKind::SessionRestarted => "session_restarted",
             EventKind::TissueTuned { .. } => "tissue_tuned",
             EventKind::Procedure(p) => p.name,
+            EventKind::HapticClamp { .. } => "haptic_clamp",
+            EventKind::HapticStall { .. } => "haptic_stall",
+            EventKind::HapticRamp { .. } => "haptic_ramp",
+            EventKind::HapticNonFinite { .. } => "haptic_non_finite",
         }
     }
 }

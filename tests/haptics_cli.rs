@@ -1,0 +1,102 @@
+//! `vesalius haptics`: the servo loop against the sandbox with the simulated stylus prints
+//! every figure, finite, with a force that is felt and never above the device's limit; the
+//! vendor devices not built in yet fail cleanly (exit 1, a message naming their library).
+//! Figures are checked for sense, not speed: the machine running the tests is shared.
+
+use std::process::{Command, Output};
+use vesalius::haptics::DeviceKind;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_vesalius"))
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "{}\n{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+const KEYS: [&str; 6] = [
+    "rate_hz",
+    "period_p50_error_ms",
+    "period_p99_error_ms",
+    "max_force_n",
+    "clamps",
+    "stalls",
+];
+
+#[test]
+fn the_simulated_stylus_reports_every_figure_as_json() {
+    let o = bin()
+        .args(["haptics", "--device", "sim", "--seconds", "1", "--json"])
+        .output()
+        .expect("runs");
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON object");
+    for key in KEYS.iter().chain(&["ticks", "sim_steps", "limit_force_n"]) {
+        let x = v[key].as_f64().unwrap_or(f64::NAN);
+        assert!(x.is_finite() && x >= 0.0, "{key}: {v}");
+    }
+    let limit = DeviceKind::Simulated.table_limits().max_force_n;
+    let max = v["max_force_n"].as_f64().unwrap_or(f64::NAN);
+    assert!(
+        max > 0.0 && max <= limit,
+        "max_force_n {max} (limit {limit}): {v}"
+    );
+    assert_eq!(v["limit_force_n"].as_f64(), Some(limit));
+    // It ran the loop and the procedure (counts, not rates).
+    assert!(v["ticks"].as_u64().unwrap_or(0) > 100, "{v}");
+    assert!(v["sim_steps"].as_u64().unwrap_or(0) > 10, "{v}");
+    assert!(v["rate_hz"].as_f64().unwrap_or(0.0) > 0.0, "{v}");
+    assert!(v["clamps"].is_u64() && v["stalls"].is_u64(), "{v}");
+}
+
+#[test]
+fn plain_text_is_one_key_and_value_a_line() {
+    let o = bin()
+        .args(["haptics", "--device", "sim", "--seconds", "0.3"])
+        .output()
+        .expect("runs");
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    for key in KEYS {
+        let line = out
+            .lines()
+            .find(|l| l.split(' ').next() == Some(key))
+            .unwrap_or_else(|| panic!("no {key} in {out}"));
+        let value: Option<f64> = line.split(' ').nth(1).and_then(|v| v.parse().ok());
+        assert!(value.is_some_and(f64::is_finite), "{line}");
+        assert_eq!(line.split(' ').count(), 2, "{line}");
+    }
+}
+
+#[test]
+fn vendor_devices_fail_with_a_message_naming_their_library() {
+    for (device, library) in [("phantom", "libHD"), ("falcon", "libdhd")] {
+        let o = bin()
+            .args(["haptics", "--device", device, "--seconds", "1"])
+            .output()
+            .expect("runs");
+        assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains(library) && err.contains(device), "{err}");
+        assert!(!err.contains("panicked"), "{err}");
+        assert!(o.stdout.is_empty());
+    }
+}
+
+#[test]
+fn bad_flags_are_usage_errors() {
+    for args in [
+        &["haptics"][..],
+        &["haptics", "--device", "omni"],
+        &["haptics", "--device", "sim", "--seconds", "0"],
+        &["haptics", "--device", "sim", "--seconds", "-1"],
+        &["haptics", "--device", "sim", "--procedure", "appendectomy"],
+    ] {
+        let o = bin().args(args).output().expect("runs");
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", text(&o));
+    }
+}
