@@ -3,20 +3,9 @@
 //! vendor devices not built in yet fail cleanly (exit 1, a message naming their library).
 //! Figures are checked for sense, not speed: the machine running the tests is shared.
 
-use std::process::{Command, Output};
+mod common;
+use common::{bin, text};
 use vesalius::haptics::DeviceKind;
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_vesalius"))
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}\n{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
 
 const KEYS: [&str; 6] = [
     "rate_hz",

@@ -4,7 +4,7 @@
 //! output folders, endless traces and absurd scenarios are refused before the first step.
 
 mod common;
-use common::{Scratch, bin, report};
+use common::{Scratch, bin, report, text};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
@@ -71,14 +71,6 @@ fn replay(rec: &Path, out: &Path) -> Output {
         .arg(out)
         .output()
         .expect("runs")
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}\n{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
 }
 
 #[test]
