@@ -1,6 +1,9 @@
 //! `vesalius haptics`: the servo loop against the sandbox with the simulated stylus prints
-//! every figure, finite, with a force that is felt and never above the device's limit; the
-//! vendor devices not built in yet fail cleanly (exit 1, a message naming their library).
+//! every figure, finite, with a force that is felt and never above the device's limit. The
+//! Phantom (OpenHaptics HD, pushed by its scheduler) and the Falcon (DHD, pulled by our thread)
+//! run the same loop through their vendor libraries, here the fakes `xr-bindings` builds, found
+//! the way users' are (LD_LIBRARY_PATH); without a library, or when the device faults, the
+//! command fails cleanly (exit 1, a message naming the library or the fault).
 //! Figures are checked for sense, not speed: the machine running the tests is shared.
 
 mod common;
@@ -61,18 +64,88 @@ fn plain_text_is_one_key_and_value_a_line() {
     }
 }
 
+/// The command with the fake vendor libraries on the loader's path and no override.
+fn with_fakes(args: &[&str], knobs: &[(&str, &str)]) -> std::process::Output {
+    let dir = xr_bindings::haptics::fake_library_dir();
+    let mut c = bin();
+    c.args(args)
+        .env("LD_LIBRARY_PATH", dir)
+        .env_remove("VESALIUS_LIBHD")
+        .env_remove("VESALIUS_LIBDHD");
+    for (k, v) in knobs {
+        c.env(k, v);
+    }
+    c.output().expect("runs")
+}
+
 #[test]
 fn vendor_devices_fail_with_a_message_naming_their_library() {
     for (device, library) in [("phantom", "libHD"), ("falcon", "libdhd")] {
         let o = bin()
             .args(["haptics", "--device", device, "--seconds", "1"])
+            .env_remove("LD_LIBRARY_PATH")
+            .env_remove("VESALIUS_LIBHD")
+            .env_remove("VESALIUS_LIBDHD")
             .output()
             .expect("runs");
         assert_eq!(o.status.code(), Some(1), "{}", text(&o));
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(err.contains(library) && err.contains(device), "{err}");
+        assert!(err.contains("LD_LIBRARY_PATH"), "{err}");
         assert!(!err.contains("panicked"), "{err}");
         assert!(o.stdout.is_empty());
+    }
+}
+
+/// Each vendor path runs the servo at its rate against the sandbox with the stylus held 1 mm
+/// into the block (the device's origin is 15 mm above the block's top), feels it, and never
+/// goes past its device's limit.
+#[test]
+fn vendor_devices_run_the_servo_through_their_libraries() {
+    for (device, knob, value, kind) in [
+        (
+            "phantom",
+            "FAKE_HD_POSITION_MM",
+            "0,-16,0",
+            DeviceKind::PhantomOmni,
+        ),
+        (
+            "falcon",
+            "FAKE_DHD_POSITION_M",
+            "0,-0.016,0",
+            DeviceKind::Falcon,
+        ),
+    ] {
+        let o = with_fakes(
+            &["haptics", "--device", device, "--seconds", "1.5", "--json"],
+            &[(knob, value)],
+        );
+        assert_eq!(o.status.code(), Some(0), "{device}: {}", text(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON object");
+        let limit = kind.table_limits().max_force_n;
+        assert_eq!(v["limit_force_n"].as_f64(), Some(limit), "{device}: {v}");
+        let max = v["max_force_n"].as_f64().unwrap_or(f64::NAN);
+        assert!(max > 0.0 && max <= limit, "{device}: max {max} N: {v}");
+        assert!(v["ticks"].as_u64().unwrap_or(0) > 100, "{device}: {v}");
+        assert_eq!(v["non_finite"].as_u64(), Some(0), "{device}: {v}");
+    }
+}
+
+/// A device that faults mid-session ends it: exit 1, the vendor's own words, no panic.
+#[test]
+fn a_device_fault_ends_the_session_with_an_error_naming_it() {
+    for (device, knob, words) in [
+        ("phantom", "FAKE_HD_FAULT_AFTER_TICKS", "HD_DEVICE_FAULT"),
+        ("falcon", "FAKE_DHD_FAULT_AFTER_FORCES", "dhdSetForce"),
+    ] {
+        let o = with_fakes(
+            &["haptics", "--device", device, "--seconds", "5"],
+            &[(knob, "200")],
+        );
+        assert_eq!(o.status.code(), Some(1), "{device}: {}", text(&o));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains(words), "{device}: {err}");
+        assert!(!err.contains("panicked"), "{device}: {err}");
     }
 }
 

@@ -102,17 +102,13 @@ impl DeviceState {
 /// Why a device cannot be used, or failed.
 #[derive(Debug, thiserror::Error)]
 pub enum HapticsError {
-    /// The device's driver is not wired into this build yet.
-    #[error(
-        "--device {flag}: the {device} driver ({api}, {library}) is not built into this \
-         version of vesalius yet; use --device sim for the simulated stylus"
-    )]
-    NotBuiltIn {
+    /// The device named on the command line could not be opened: its vendor library is
+    /// missing, no device answered, or the device refused a setting.
+    #[error("--device {flag}: {source}")]
+    Vendor {
         /// The command-line name (`phantom`, `falcon`).
         flag: &'static str,
-        device: &'static str,
-        api: &'static str,
-        library: &'static str,
+        source: xr_bindings::haptics::HapticsError,
     },
     /// The device reported an error (a fault mid-session, a failed write).
     #[error("{device}: {message}")]

@@ -15,7 +15,9 @@
 //!   device's scheduler) and its timing figures.
 //! - [`stand`]: the servo loop against a procedure stepping on its own thread (`vesalius
 //!   haptics`).
-//! - [`vendor`]: [`open_device`], where a device named on the command line is opened.
+//! - [`vendor`]: [`open_device`], where a device named on the command line is opened, and the
+//!   adapters of the vendor drivers: [`HdStylus`] (OpenHaptics HD, push) and [`DhdStylus`]
+//!   (Force Dimension DHD, pull).
 //!
 //! Units are SI throughout: metres, newtons, seconds, N/m. The device frame has x right, y up
 //! and z toward the user, as the field has; a [`Workspace`] scales and offsets one into the
@@ -38,4 +40,4 @@ pub use safety::{Safety, SafetyCounters, SafetyOutput, SafetyParams, TickInput};
 pub use servo::{ServoConfig, ServoLinks, ServoReport, StylusSlot, run_servo};
 pub use simulated::{Keyframe, Script, ScriptError, SimulatedStylus, StylusParams};
 pub use stand::{StandOptions, StandReport, run_stand};
-pub use vendor::{DeviceChoice, open_device};
+pub use vendor::{DeviceChoice, DhdStylus, HdStylus, open_device};
