@@ -351,3 +351,25 @@ fn a_grasped_free_piece_follows_the_grasper_and_keeps_its_shape() {
         .fold(0.0, f32::max);
     assert!(worst < 0.002, "shape error {worst} m");
 }
+
+/// A closed surface painted in two regions is still one body of gas: one pressure group whose
+/// rest volume is the ball's (4/3 pi r^3), wherever the ball is (a region alone would be an
+/// open patch whose divergence "volume" depends on the origin).
+#[test]
+fn the_regions_of_one_closed_surface_share_its_gas() {
+    let r = 0.02f32;
+    let m = ball(3, r, Vec3::new(0.05, 0.01, -0.03));
+    let s = SimplexMesh::dual(&m).expect("closed mesh");
+    let regions: Vec<u8> = s.rest.iter().map(|p| u8::from(p.z > -0.03)).collect();
+    assert!(regions.contains(&0) && regions.contains(&1));
+    let mut b = SoftBody::new("test", s, regions, SoftBodyParams::default());
+    b.update_topology();
+    let g = b.pressure_group[0];
+    assert!(b.pressure_group.iter().all(|&q| q == g), "one group");
+    let ball_volume = 4.0 / 3.0 * std::f32::consts::PI * r * r * r;
+    let v = b.rest_volume[g as usize];
+    assert!(
+        (v - ball_volume).abs() < 0.03 * ball_volume,
+        "{v} vs {ball_volume} m^3"
+    );
+}
