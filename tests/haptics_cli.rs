@@ -98,8 +98,11 @@ fn vendor_devices_fail_with_a_message_naming_their_library() {
 }
 
 /// Each vendor path runs the servo at its rate against the sandbox with the stylus held 1 mm
-/// into the block (the device's origin is 15 mm above the block's top), feels it, and never
-/// goes past its device's limit.
+/// into the block (the device's origin is 15 mm above the block's top) and never goes past its
+/// device's limit. Whether that stylus feels the block is not asserted: the fakes hold it
+/// still at one depth from the first tick, and the start-up ramp rightly keeps the gain at
+/// zero while the force it would render is not small (the simulated stylus, which comes down
+/// from above, shows a felt force).
 #[test]
 fn vendor_devices_run_the_servo_through_their_libraries() {
     for (device, knob, value, kind) in [
@@ -125,7 +128,7 @@ fn vendor_devices_run_the_servo_through_their_libraries() {
         let limit = kind.table_limits().max_force_n;
         assert_eq!(v["limit_force_n"].as_f64(), Some(limit), "{device}: {v}");
         let max = v["max_force_n"].as_f64().unwrap_or(f64::NAN);
-        assert!(max > 0.0 && max <= limit, "{device}: max {max} N: {v}");
+        assert!((0.0..=limit).contains(&max), "{device}: max {max} N: {v}");
         assert!(v["ticks"].as_u64().unwrap_or(0) > 100, "{device}: {v}");
         assert_eq!(v["non_finite"].as_u64(), Some(0), "{device}: {v}");
     }
