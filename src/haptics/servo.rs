@@ -10,22 +10,21 @@ use super::device::{
 };
 use super::render::ServoCore;
 use super::safety::SafetyParams;
-use crate::sim::{Hand, HapticSlot, SimEvent};
+use crate::sim::{Hand, HapticSlot, SeqWords, SimEvent};
 use glam::DVec3;
 use serde::Serialize;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering, fence};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 /// Words in a stylus state: position and velocity (3 each) and the buttons.
 const STYLUS_WORDS: usize = 7;
 
 /// The stylus' newest state, written by the servo loop and read by the simulation: a
-/// sequence lock as [`HapticSlot`] is, so neither side ever waits on the other.
+/// sequence lock ([`SeqWords`]) as [`HapticSlot`] is, so neither side ever waits on the other.
 #[derive(Debug, Default)]
 pub struct StylusSlot {
-    seq: AtomicU64,
-    words: [AtomicU64; STYLUS_WORDS],
+    words: SeqWords<STYLUS_WORDS>,
 }
 
 impl StylusSlot {
@@ -37,7 +36,7 @@ impl StylusSlot {
     pub fn publish(&self, s: &DeviceState) {
         let p = s.position_m.to_array();
         let v = s.velocity_m_per_s.to_array();
-        let w = [
+        self.words.write([
             p[0].to_bits(),
             p[1].to_bits(),
             p[2].to_bits(),
@@ -45,39 +44,19 @@ impl StylusSlot {
             v[1].to_bits(),
             v[2].to_bits(),
             u64::from(s.buttons),
-        ];
-        let seq = self.seq.load(Ordering::Relaxed);
-        self.seq.store(seq.wrapping_add(1), Ordering::Relaxed);
-        fence(Ordering::Release);
-        for (slot, word) in self.words.iter().zip(w) {
-            slot.store(word, Ordering::Relaxed);
-        }
-        self.seq.store(seq.wrapping_add(2), Ordering::Release);
+        ]);
     }
 
     /// The newest whole state; none before the first publish.
     pub fn latest(&self) -> Option<DeviceState> {
-        loop {
-            let before = self.seq.load(Ordering::Acquire);
-            if before == 0 {
-                return None;
+        self.words.read().map(|w| {
+            let f = |i: usize| f64::from_bits(w[i]);
+            DeviceState {
+                position_m: DVec3::new(f(0), f(1), f(2)),
+                velocity_m_per_s: DVec3::new(f(3), f(4), f(5)),
+                buttons: w[6] as u32,
             }
-            if before % 2 == 1 {
-                std::hint::spin_loop();
-                continue;
-            }
-            let w: [u64; STYLUS_WORDS] =
-                std::array::from_fn(|i| self.words[i].load(Ordering::Relaxed));
-            fence(Ordering::Acquire);
-            if self.seq.load(Ordering::Relaxed) == before {
-                let f = |i: usize| f64::from_bits(w[i]);
-                return Some(DeviceState {
-                    position_m: DVec3::new(f(0), f(1), f(2)),
-                    velocity_m_per_s: DVec3::new(f(3), f(4), f(5)),
-                    buttons: w[6] as u32,
-                });
-            }
-        }
+        })
     }
 }
 

@@ -3,13 +3,13 @@
 //! tissue feels there) into a slot that never blocks the step. Force-feedback loops at 1 kHz
 //! and the Vive's vibration read the newest frame.
 //!
-//! The slot is a sequence lock over plain atomics: the single writer marks the sequence odd,
+//! The slot is a sequence lock ([`SeqWords`]) over plain atomics: the single writer marks the sequence odd,
 //! stores the words, marks it even; a reader copies the words and keeps the copy only if the
 //! sequence was even and unchanged around it. The writer never waits; a reader retries (a
 //! few hundred nanoseconds) when it raced a write.
 
 use glam::Vec3;
-use std::sync::atomic::{AtomicU32, AtomicU64, Ordering, fence};
+use std::sync::atomic::{AtomicU64, Ordering, fence};
 
 /// What one instrument feels after a step.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -37,46 +37,83 @@ pub struct HapticFrame {
 
 /// Words per tool: force, point, normal (3 each), stiffness, contact flag.
 const TOOL_WORDS: usize = 11;
-/// Words in a frame: the time (two words) and both tools.
+/// Words in a frame: the step, the time and both tools.
 const WORDS: usize = 2 + 2 * TOOL_WORDS;
 
-/// The newest haptic frame, written by the simulation and read by any thread.
+/// A sequence lock over `N` words: one writer that never waits, readers that retry when they
+/// raced a write. The one mechanism behind [`HapticSlot`] and the servo's stylus slot.
 #[derive(Debug)]
-pub struct HapticSlot {
+pub struct SeqWords<const N: usize> {
     seq: AtomicU64,
-    step: AtomicU64,
-    words: [AtomicU32; WORDS],
+    words: [AtomicU64; N],
 }
 
-impl Default for HapticSlot {
+impl<const N: usize> Default for SeqWords<N> {
     fn default() -> Self {
-        HapticSlot {
+        SeqWords {
             seq: AtomicU64::new(0),
-            step: AtomicU64::new(0),
-            words: std::array::from_fn(|_| AtomicU32::new(0)),
+            words: std::array::from_fn(|_| AtomicU64::new(0)),
         }
     }
 }
 
-fn encode(f: &HapticFrame) -> [u32; WORDS] {
-    let mut w = [0u32; WORDS];
-    let t = f.time_s.to_bits();
-    w[0] = t as u32;
-    w[1] = (t >> 32) as u32;
+impl<const N: usize> SeqWords<N> {
+    /// Stores `w` (one writer at a time). Never waits.
+    pub fn write(&self, w: [u64; N]) {
+        let s = self.seq.load(Ordering::Relaxed);
+        self.seq.store(s.wrapping_add(1), Ordering::Relaxed);
+        fence(Ordering::Release);
+        for (slot, word) in self.words.iter().zip(w) {
+            slot.store(word, Ordering::Relaxed);
+        }
+        self.seq.store(s.wrapping_add(2), Ordering::Release);
+    }
+
+    /// The newest whole set of words; none before the first write.
+    pub fn read(&self) -> Option<[u64; N]> {
+        loop {
+            let before = self.seq.load(Ordering::Acquire);
+            if before == 0 {
+                return None;
+            }
+            if before % 2 == 1 {
+                std::hint::spin_loop();
+                continue;
+            }
+            let w: [u64; N] = std::array::from_fn(|i| self.words[i].load(Ordering::Relaxed));
+            fence(Ordering::Acquire);
+            if self.seq.load(Ordering::Relaxed) == before {
+                return Some(w);
+            }
+        }
+    }
+}
+
+/// The newest haptic frame, written by the simulation and read by any thread.
+#[derive(Debug, Default)]
+pub struct HapticSlot {
+    words: SeqWords<WORDS>,
+}
+
+fn encode(f: &HapticFrame) -> [u64; WORDS] {
+    let mut w = [0u64; WORDS];
+    w[0] = f.step;
+    w[1] = f.time_s.to_bits();
     for (k, tool) in f.tools.iter().enumerate() {
         let o = 2 + k * TOOL_WORDS;
         let v = [tool.force_n, tool.point, tool.normal];
         for (j, c) in v.iter().flat_map(|v| v.to_array()).enumerate() {
-            w[o + j] = c.to_bits();
+            w[o + j] = u64::from(c.to_bits());
         }
-        w[o + 9] = tool.stiffness_n_per_m.to_bits();
-        w[o + 10] = u32::from(tool.in_contact);
+        w[o + 9] = u64::from(tool.stiffness_n_per_m.to_bits());
+        w[o + 10] = u64::from(tool.in_contact);
     }
     w
 }
 
-fn decode(step: u64, w: &[u32; WORDS]) -> HapticFrame {
-    let f = |i: usize| f32::from_bits(w[i]);
+fn decode(w: &[u64; WORDS]) -> HapticFrame {
+    // The low half holds an f32's bits (encode wrote no more).
+    let f = |i: usize| f32::from_bits(w[i] as u32);
     let v = |i: usize| Vec3::new(f(i), f(i + 1), f(i + 2));
     let tool = |k: usize| {
         let o = 2 + k * TOOL_WORDS;
@@ -89,8 +126,8 @@ fn decode(step: u64, w: &[u32; WORDS]) -> HapticFrame {
         }
     };
     HapticFrame {
-        step,
-        time_s: f64::from_bits(u64::from(w[0]) | (u64::from(w[1]) << 32)),
+        step: w[0],
+        time_s: f64::from_bits(w[1]),
         tools: [tool(0), tool(1)],
     }
 }
@@ -102,31 +139,12 @@ impl HapticSlot {
 
     /// Publishes a frame (one writer: the simulation thread). Never waits.
     pub fn publish(&self, f: &HapticFrame) {
-        let s = self.seq.load(Ordering::Relaxed);
-        self.seq.store(s.wrapping_add(1), Ordering::Relaxed);
-        fence(Ordering::Release);
-        self.step.store(f.step, Ordering::Relaxed);
-        for (slot, word) in self.words.iter().zip(encode(f)) {
-            slot.store(word, Ordering::Relaxed);
-        }
-        self.seq.store(s.wrapping_add(2), Ordering::Release);
+        self.words.write(encode(f));
     }
 
-    /// The newest whole frame (the default one before the first publish).
+    /// The newest whole frame (the all-zero one before the first publish).
     pub fn latest(&self) -> HapticFrame {
-        loop {
-            let before = self.seq.load(Ordering::Acquire);
-            if before % 2 == 1 {
-                std::hint::spin_loop();
-                continue;
-            }
-            let step = self.step.load(Ordering::Relaxed);
-            let w: [u32; WORDS] = std::array::from_fn(|i| self.words[i].load(Ordering::Relaxed));
-            fence(Ordering::Acquire);
-            if self.seq.load(Ordering::Relaxed) == before {
-                return decode(step, &w);
-            }
-        }
+        decode(&self.words.read().unwrap_or([0; WORDS]))
     }
 }
 

@@ -16,7 +16,7 @@ mod world;
 pub use attachment::{Attachment, Link, LinkSpring};
 pub use clock::{Clock, Pacing};
 pub use events::{EventKind, ProcedureEvent, SimEvent, shortest_f32};
-pub use haptic::{HapticFrame, HapticSlot, ToolHaptics};
+pub use haptic::{HapticFrame, HapticSlot, SeqWords, ToolHaptics};
 pub use input::{Buttons, Hand, HandInput, InputFrame, Pose};
 pub use model::{Contact, ContactKind, CutStroke, ModelOutput, ModelSizes, TissueModel, ToolId};
 pub use quarantine::Quarantine;
