@@ -20,6 +20,7 @@ fn main() {
     for (source, _) in FAKES {
         println!("cargo:rerun-if-changed={source}");
     }
+    println!("cargo:rerun-if-changed=tests/fake/fake_common.h");
     let Some(out_dir) = std::env::var_os("OUT_DIR") else {
         println!("cargo:warning=OUT_DIR is not set; the fake haptics libraries are not built");
         return;

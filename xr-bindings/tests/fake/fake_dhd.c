@@ -27,6 +27,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "fake_common.h"
+
 #define EXPORT __attribute__((visibility("default")))
 
 #define DHD_TIMEGUARD 1
@@ -349,32 +351,20 @@ EXPORT void fake_dhd_set_buttons(unsigned int mask) {
 
 /* The last watchdog value set, in units of 125 us; -1 if none was. */
 EXPORT int fake_dhd_watchdog(void) {
-    pthread_mutex_lock(&lock);
-    int w = st.watchdog;
-    pthread_mutex_unlock(&lock);
-    return w;
+    FAKE_LOCKED_READ(lock, int, st.watchdog);
 }
 
 EXPORT double fake_dhd_max_force(void) {
-    pthread_mutex_lock(&lock);
-    double f = st.max_force_n;
-    pthread_mutex_unlock(&lock);
-    return f;
+    FAKE_LOCKED_READ(lock, double, st.max_force_n);
 }
 
 /* 1 or 0 as last set by dhdEnableForce; -1 if it was not called. */
 EXPORT int fake_dhd_force_enabled(void) {
-    pthread_mutex_lock(&lock);
-    int e = st.force_enabled;
-    pthread_mutex_unlock(&lock);
-    return e;
+    FAKE_LOCKED_READ(lock, int, st.force_enabled);
 }
 
 EXPORT int fake_dhd_is_open(void) {
-    pthread_mutex_lock(&lock);
-    int o = st.is_open;
-    pthread_mutex_unlock(&lock);
-    return o;
+    FAKE_LOCKED_READ(lock, int, st.is_open);
 }
 
 EXPORT void fake_dhd_last_force(double *out) {
@@ -386,33 +376,15 @@ EXPORT void fake_dhd_last_force(double *out) {
 /* Copies up to `max` applied forces (3 doubles each) into `out`; returns how many the log holds
  * in all. */
 EXPORT long fake_dhd_force_log(double *out, int max) {
-    pthread_mutex_lock(&lock);
-    long n = st.force_log_len < max ? st.force_log_len : max;
-    if (out != NULL && n > 0) {
-        memcpy(out, force_log, (size_t)n * sizeof force_log[0]);
-    }
-    long total = st.force_log_len;
-    pthread_mutex_unlock(&lock);
-    return total;
+    return fake_copy_force_log(&lock, (const double (*)[3])force_log, &st.force_log_len, out, max);
 }
 
 /* How often the DHD call `name` was made since the last reset; -1 for a name not exported. */
 EXPORT long fake_dhd_call_count(const char *name) {
-    for (int i = 0; i < CALL_COUNT; i++) {
-        if (name != NULL && strcmp(name, CALL_NAMES[i]) == 0) {
-            pthread_mutex_lock(&lock);
-            long n = st.calls[i];
-            pthread_mutex_unlock(&lock);
-            return n;
-        }
-    }
-    return -1;
+    return fake_count_calls(&lock, CALL_NAMES, st.calls, CALL_COUNT, name);
 }
 
 /* Calls that passed ID -1 (the default device) instead of the ID dhdOpen returned. */
 EXPORT long fake_dhd_default_id_calls(void) {
-    pthread_mutex_lock(&lock);
-    long n = st.default_id_calls;
-    pthread_mutex_unlock(&lock);
-    return n;
+    FAKE_LOCKED_READ(lock, long, st.default_id_calls);
 }

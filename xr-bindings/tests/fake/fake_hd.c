@@ -35,6 +35,8 @@
 #include <string.h>
 #include <time.h>
 
+#include "fake_common.h"
+
 typedef unsigned int HHD;
 typedef unsigned int HDenum;
 typedef unsigned int HDErrorCode;
@@ -676,10 +678,7 @@ EXPORT void fake_hd_set_buttons(int buttons) {
 
 /* Passes the scheduler thread made over its callbacks. */
 EXPORT long fake_hd_ticks(void) {
-    pthread_mutex_lock(&lock);
-    long t = st.ticks;
-    pthread_mutex_unlock(&lock);
-    return t;
+    FAKE_LOCKED_READ(lock, long, st.ticks);
 }
 
 /* The force (N) committed by the last hdEndFrame, into out[0..3]. */
@@ -692,34 +691,16 @@ EXPORT void fake_hd_last_force(double *out) {
 /* Copies up to `max` committed forces (one per frame, 3 doubles each) into `out`; returns how
  * many frames the log holds in all. */
 EXPORT long fake_hd_force_log(double *out, int max) {
-    pthread_mutex_lock(&lock);
-    long n = st.force_log_len < max ? st.force_log_len : max;
-    if (out != NULL && n > 0) {
-        memcpy(out, force_log, (size_t)n * sizeof force_log[0]);
-    }
-    long total = st.force_log_len;
-    pthread_mutex_unlock(&lock);
-    return total;
+    return fake_copy_force_log(&lock, (const double (*)[3])force_log, &st.force_log_len, out, max);
 }
 
 /* How often the HD call `name` was made since the last reset; -1 for a name not exported. */
 EXPORT long fake_hd_call_count(const char *name) {
-    for (int i = 0; i < CALL_COUNT; i++) {
-        if (name != NULL && strcmp(name, CALL_NAMES[i]) == 0) {
-            pthread_mutex_lock(&lock);
-            long n = st.calls[i];
-            pthread_mutex_unlock(&lock);
-            return n;
-        }
-    }
-    return -1;
+    return fake_count_calls(&lock, CALL_NAMES, st.calls, CALL_COUNT, name);
 }
 
 EXPORT unsigned long fake_hd_scheduler_rate(void) {
-    pthread_mutex_lock(&lock);
-    unsigned long r = st.rate_hz;
-    pthread_mutex_unlock(&lock);
-    return r;
+    FAKE_LOCKED_READ(lock, unsigned long, st.rate_hz);
 }
 
 /* Whether capability `cap` (HD_FORCE_OUTPUT ...) is enabled; -1 for an unknown one. */
@@ -754,18 +735,12 @@ EXPORT int fake_hd_active_callbacks(void) {
 }
 
 EXPORT int fake_hd_scheduler_running(void) {
-    pthread_mutex_lock(&lock);
-    int r = st.scheduler_running;
-    pthread_mutex_unlock(&lock);
-    return r;
+    FAKE_LOCKED_READ(lock, int, st.scheduler_running);
 }
 
 /* Frame-protocol misuses seen: begin inside a frame, end outside one, force set outside one. */
 EXPORT long fake_hd_protocol_errors(void) {
-    pthread_mutex_lock(&lock);
-    long n = st.protocol_errors;
-    pthread_mutex_unlock(&lock);
-    return n;
+    FAKE_LOCKED_READ(lock, long, st.protocol_errors);
 }
 
 /* Copies the name the last hdInitDevice got into `out`; returns 0 if it got NULL (the default
