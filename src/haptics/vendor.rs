@@ -54,6 +54,14 @@ pub fn open_device(choice: DeviceChoice) -> Result<Box<dyn HapticDevice>, Haptic
     })
 }
 
+/// A vendor error on an open device, named for people.
+fn device_fault(device: &str, source: vendor::HapticsError) -> HapticsError {
+    HapticsError::Device {
+        device: device.to_string(),
+        message: source.to_string(),
+    }
+}
+
 /// How often the owner of an HD servo looks for its end or a device fault.
 const HD_POLL: Duration = Duration::from_millis(2);
 
@@ -96,13 +104,6 @@ impl HdStylus {
             limits,
         })
     }
-
-    fn fault(&self, source: vendor::HapticsError) -> HapticsError {
-        HapticsError::Device {
-            device: self.name.clone(),
-            message: source.to_string(),
-        }
-    }
 }
 
 /// HD's state as the servo sees it.
@@ -133,7 +134,7 @@ impl PushDevice for HdStylus {
     fn run(&mut self, mut servo: ServoCallback) -> Result<(), HapticsError> {
         self.device
             .enable_force_output()
-            .map_err(|e| self.fault(e))?;
+            .map_err(|e| device_fault(&self.name, e))?;
         self.device
             .start(move |s: &HdState| {
                 // A device fault ends the servo with zero force; the owner reports it.
@@ -149,7 +150,7 @@ impl PushDevice for HdStylus {
                     HdCommand::Stop
                 }
             })
-            .map_err(|e| self.fault(e))?;
+            .map_err(|e| device_fault(&self.name, e))?;
         // Wait for the servo to say it is done, or for the device to fault.
         let outcome = loop {
             std::thread::sleep(HD_POLL);
@@ -162,9 +163,9 @@ impl PushDevice for HdStylus {
         };
         let stopped = self.device.stop();
         let disabled = self.device.disable_force_output();
-        outcome.map_err(|e| self.fault(e))?;
-        stopped.map_err(|e| self.fault(e))?;
-        disabled.map_err(|e| self.fault(e))?;
+        outcome.map_err(|e| device_fault(&self.name, e))?;
+        stopped.map_err(|e| device_fault(&self.name, e))?;
+        disabled.map_err(|e| device_fault(&self.name, e))?;
         Ok(())
     }
 }
@@ -260,13 +261,6 @@ impl DhdStylus {
             saturated: 0,
         })
     }
-
-    fn fault(&self, source: vendor::HapticsError) -> HapticsError {
-        HapticsError::Device {
-            device: self.name.clone(),
-            message: source.to_string(),
-        }
-    }
 }
 
 impl HapticDevice for DhdStylus {
@@ -286,7 +280,11 @@ impl HapticDevice for DhdStylus {
 
 impl PullDevice for DhdStylus {
     fn read(&mut self) -> Result<DeviceState, HapticsError> {
-        let position = DVec3::from_array(self.device.position_m().map_err(|e| self.fault(e))?);
+        let position = DVec3::from_array(
+            self.device
+                .position_m()
+                .map_err(|e| device_fault(&self.name, e))?,
+        );
         let velocity = self.velocity.update(position, Instant::now());
         Ok(DeviceState {
             position_m: position,
@@ -299,7 +297,7 @@ impl PullDevice for DhdStylus {
         let status = self
             .device
             .set_force_n(force_n.to_array())
-            .map_err(|e| self.fault(e))?;
+            .map_err(|e| device_fault(&self.name, e))?;
         self.saturated += u64::from(status.saturated);
         Ok(())
     }
