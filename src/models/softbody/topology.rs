@@ -177,15 +177,17 @@ impl SoftBody {
         }
     }
 
-    /// Sorts the points into pressure groups: one per connected part (regions of one surface
-    /// share its gas: a region alone is an open patch whose "volume" depends on the origin). A closed part
-    /// encloses a volume whatever its pose; an open part (cut) only while it is anchored in
-    /// place, so a cut-free open piece gets no internal pressure (its "volume" would change
-    /// as it moves, pumping energy into it). Rest volumes are taken over what is left, at
-    /// rest, so the pressure starts from zero.
+    /// Sorts the points into pressure groups: one per connected part (the regions of one
+    /// surface share its gas: a region alone is an open patch whose "volume" depends on the
+    /// origin). A closed part encloses a volume whatever its pose; an open part (cut) only
+    /// while it is anchored in place, so a cut-free open piece gets no internal pressure (its
+    /// "volume" would change as it moves, pumping energy into it). Rest volumes are taken over
+    /// what is left, at rest, so the pressure starts from zero.
     pub(super) fn regroup_pressure(&mut self) {
         let n = self.x.len();
-        let mut key_to_group: Vec<(u32, u32)> = Vec::new();
+        // Groups are numbered in the order their parts first appear; a part is named by its
+        // component (a point index).
+        let mut group_of_part = vec![NO_GROUP; n];
         let mut closed: Vec<bool> = Vec::new();
         let mut anchored: Vec<bool> = Vec::new();
         let mut group = vec![NO_GROUP; n];
@@ -193,17 +195,13 @@ impl SoftBody {
             if !self.alive[i] {
                 continue;
             }
-            let key = self.component[i];
-            let g = match key_to_group.binary_search_by(|e| e.0.cmp(&key)) {
-                Ok(k) => key_to_group[k].1,
-                Err(k) => {
-                    let g = closed.len() as u32;
-                    key_to_group.insert(k, (key, g));
-                    closed.push(true);
-                    anchored.push(false);
-                    g
-                }
-            };
+            let part = &mut group_of_part[self.component[i] as usize];
+            if *part == NO_GROUP {
+                *part = closed.len() as u32;
+                closed.push(true);
+                anchored.push(false);
+            }
+            let g = *part;
             group[i] = g;
             let g = g as usize;
             anchored[g] |= self.anchored[i];
