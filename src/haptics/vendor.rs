@@ -132,9 +132,8 @@ impl HapticDevice for HdStylus {
 
 impl PushDevice for HdStylus {
     fn run(&mut self, mut servo: ServoCallback) -> Result<(), HapticsError> {
-        self.device
-            .enable_force_output()
-            .map_err(|e| device_fault(&self.name, e))?;
+        let fault = |e| device_fault(&self.name, e);
+        self.device.enable_force_output().map_err(fault)?;
         self.device
             .start(move |s: &HdState| {
                 // A device fault ends the servo with zero force; the owner reports it.
@@ -150,7 +149,7 @@ impl PushDevice for HdStylus {
                     HdCommand::Stop
                 }
             })
-            .map_err(|e| device_fault(&self.name, e))?;
+            .map_err(fault)?;
         // Wait for the servo to say it is done, or for the device to fault.
         let outcome = loop {
             std::thread::sleep(HD_POLL);
@@ -163,9 +162,9 @@ impl PushDevice for HdStylus {
         };
         let stopped = self.device.stop();
         let disabled = self.device.disable_force_output();
-        outcome.map_err(|e| device_fault(&self.name, e))?;
-        stopped.map_err(|e| device_fault(&self.name, e))?;
-        disabled.map_err(|e| device_fault(&self.name, e))?;
+        outcome.map_err(fault)?;
+        stopped.map_err(fault)?;
+        disabled.map_err(fault)?;
         Ok(())
     }
 }
