@@ -3,10 +3,11 @@
 //! tissue feels there) into a slot that never blocks the step. Force-feedback loops at 1 kHz
 //! and the Vive's vibration read the newest frame.
 //!
-//! The slot is a sequence lock ([`SeqWords`]) over plain atomics: the single writer marks the sequence odd,
-//! stores the words, marks it even; a reader copies the words and keeps the copy only if the
-//! sequence was even and unchanged around it. The writer never waits; a reader retries (a
-//! few hundred nanoseconds) when it raced a write.
+//! The slot is a sequence lock over plain atomics ([`SeqWords`], which the servo's stylus
+//! slot uses too): the single writer marks the sequence odd, stores the words, marks it even;
+//! a reader copies the words and keeps the copy only if the sequence was even and unchanged
+//! around it. The writer never waits; a reader retries (a few hundred nanoseconds) when it
+//! raced a write.
 
 use glam::Vec3;
 use std::sync::atomic::{AtomicU64, Ordering, fence};
