@@ -516,14 +516,14 @@ mod tests {
     #[test]
     fn live_values_are_checked_against_their_sliders() {
         use crate::models::SoftBodyParams;
-        let ok = [("spring_n_per_m".to_string(), 100.0)];
+        let ok = [("foundation_pa_per_m".to_string(), 2e6)];
         assert!(check_tuning::<SoftBodyParams>("tissue", &ok).is_ok());
-        let high = [("spring_n_per_m".to_string(), 500.0)];
+        let high = [("foundation_pa_per_m".to_string(), 2e7)];
         let e = check_tuning::<SoftBodyParams>("tissue", &high)
             .expect_err("above")
             .to_string();
         assert!(
-            e.contains("tissue.spring_n_per_m") && e.contains("400"),
+            e.contains("tissue.foundation_pa_per_m") && e.contains("10000000"),
             "{e}"
         );
         let fixed = [("falloff_m".to_string(), 0.01)];

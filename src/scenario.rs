@@ -54,22 +54,31 @@ pub struct Timing {
     pub publish_hz: f32,
 }
 
+impl Timing {
+    /// The `dt_s` entry with a procedure's own default (the range is the same for all).
+    pub const fn dt_spec(default_s: f64, doc: &'static str) -> ParamSpec {
+        ParamSpec::new("dt_s", "s", default_s, DT_RANGE_S, doc)
+    }
+
+    /// The `publish_hz` entry.
+    pub const PUBLISH_HZ: ParamSpec = ParamSpec::new(
+        "publish_hz",
+        "Hz",
+        90.0,
+        (1.0, 1000.0),
+        "snapshots published for renderers per second (the Vive refreshes at 90 Hz)",
+    );
+}
+
+/// The steps a scenario may take, s.
+const DT_RANGE_S: (f64, f64) = (1e-4, 0.01);
+
+/// The ranges every procedure's timing is checked against; each procedure lists its own
+/// default step in its `PARAM_TABLES` (see [`Timing::dt_spec`]).
 impl Params for Timing {
     const SPECS: &'static [ParamSpec] = &[
-        ParamSpec::new(
-            "dt_s",
-            "s",
-            0.002,
-            (1e-4, 0.01),
-            "simulation step (0.002: 500 Hz)",
-        ),
-        ParamSpec::new(
-            "publish_hz",
-            "Hz",
-            90.0,
-            (1.0, 1000.0),
-            "snapshots published for renderers per second (the Vive refreshes at 90 Hz)",
-        ),
+        Timing::dt_spec(0.002, "simulation step (0.002: 500 Hz)"),
+        Timing::PUBLISH_HZ,
     ];
 
     crate::param_fields!(dt_s, publish_hz);

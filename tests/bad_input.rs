@@ -47,33 +47,37 @@ fn the_good_files_parse() {
 
 #[test]
 fn a_missing_key_is_named() {
-    let e = scenario_error(&scenario().replace("dt_s = 0.002", ""));
+    let e = scenario_error(&scenario().replace("dt_s = 0.004", ""));
     assert!(e.starts_with("bad.toml: ") && e.contains("dt_s"), "{e}");
 }
 
 #[test]
 fn a_wrong_type_is_named_with_its_line() {
-    let e =
-        scenario_error(&scenario().replace("spring_n_per_m = 40.0", "spring_n_per_m = \"stiff\""));
+    let e = scenario_error(&scenario().replace(
+        "foundation_pa_per_m = 1.6e6",
+        "foundation_pa_per_m = \"stiff\"",
+    ));
     assert!(
-        e.contains("bad.toml") && e.contains("line") && e.contains("spring_n_per_m"),
+        e.contains("bad.toml") && e.contains("line") && e.contains("foundation_pa_per_m"),
         "{e}"
     );
 }
 
 #[test]
 fn out_of_range_and_nan_numbers_are_rejected_with_the_expected_range() {
-    let e = scenario_error(&scenario().replace("spring_n_per_m = 40.0", "spring_n_per_m = -5.0"));
+    let e = scenario_error(
+        &scenario().replace("foundation_pa_per_m = 1.6e6", "foundation_pa_per_m = -5.0"),
+    );
     assert!(
-        e.contains("kidney.spring_n_per_m") && e.contains("between 0"),
+        e.contains("kidney.foundation_pa_per_m") && e.contains("between 0"),
         "{e}"
     );
-    let e = scenario_error(&scenario().replace("damping_per_s = 8.0", "damping_per_s = nan"));
+    let e = scenario_error(&scenario().replace("damping_per_s = 600.0", "damping_per_s = nan"));
     assert!(
         e.contains("kidney.damping_per_s") && e.contains("finite"),
         "{e}"
     );
-    let e = scenario_error(&scenario().replace("dt_s = 0.002", "dt_s = 0.5"));
+    let e = scenario_error(&scenario().replace("dt_s = 0.004", "dt_s = 0.5"));
     assert!(e.contains("dt_s") && e.contains("0.01"), "{e}");
     let e = scenario_error(&scenario().replace("margin_m = 0.005", "margin_m = inf"));
     assert!(e.contains("task.margin_m"), "{e}");
@@ -135,14 +139,14 @@ fn a_truncated_recording_reads_up_to_it_and_a_corrupt_one_is_rejected() {
     let rec = Recording {
         procedure: "nephrectomy".into(),
         session_id: "0123456789abcdef".into(),
-        dt_s: 0.002,
+        dt_s: 0.004,
         scenario: scenario(),
         frames: (0..3).map(|i| frame(i as f32 * 0.01)).collect(),
         tunings: vec![TuningRecord {
             step: 1,
             model: "kidney".into(),
             values: vec![
-                ("spring_n_per_m".into(), 60.0),
+                ("foundation_pa_per_m".into(), 60.0),
                 ("damping_per_s".into(), 4.0),
             ],
         }],
@@ -180,7 +184,7 @@ fn the_cli_reports_bad_files_and_exits_non_zero() {
     let bad = dir.join("bad.toml");
     std::fs::write(
         &bad,
-        scenario().replace("spring_n_per_m = 40.0", "spring_n_per_m = -1.0"),
+        scenario().replace("foundation_pa_per_m = 1.6e6", "foundation_pa_per_m = -1.0"),
     )
     .expect("write");
     let o = Command::new(env!("CARGO_BIN_EXE_vesalius"))
@@ -191,7 +195,7 @@ fn the_cli_reports_bad_files_and_exits_non_zero() {
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
-        err.contains("bad.toml: kidney.spring_n_per_m: must be between"),
+        err.contains("bad.toml: kidney.foundation_pa_per_m: must be between"),
         "{err}"
     );
     let o = Command::new(env!("CARGO_BIN_EXE_vesalius"))

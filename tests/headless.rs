@@ -59,30 +59,19 @@ fn the_demo_removes_the_tumour_by_cutting_and_replays_byte_for_byte() {
         None,
         "no model went non-finite (the quarantine is a safety net, not a step of the demo)"
     );
-    // Lifting the tumour out loads the grasper past its 3.5 N full scale: the supervisor's
-    // alarm is an event, raised when the overload begins, naming the force.
-    let alarms: Vec<(&str, &str)> = o
+    // Lifting the freed tumour out takes about its weight (a 4 cm ball of tissue, 35 g:
+    // 0.34 N), far below the grasper's 3.5 N full scale, and the trace keeps 5 mm from the
+    // vessels: the supervisor sees no alarm. (The alarm rules have their own tests.)
+    let alarms: Vec<&str> = o
         .events
         .iter()
         .filter_map(|e| match &e.kind {
-            vesalius::sim::EventKind::Alarm { tool, message } => {
-                Some((tool.as_str(), message.as_str()))
-            }
+            vesalius::sim::EventKind::Alarm { message, .. } => Some(message.as_str()),
             _ => None,
         })
         .collect();
-    assert!(!alarms.is_empty(), "no alarm event");
-    for (tool, message) in &alarms {
-        assert_eq!(*tool, "grasper");
-        let newtons: f32 = message
-            .trim_end_matches(" N")
-            .rsplit(' ')
-            .next()
-            .and_then(|n| n.parse().ok())
-            .unwrap_or(0.0);
-        assert!(newtons >= 3.5, "{message}");
-    }
-    assert_eq!(r.events.get("alarm"), Some(&(alarms.len() as u64)));
+    assert!(alarms.is_empty(), "{alarms:?}");
+    assert_eq!(r.events.get("alarm"), None);
     let deviation = r.metrics["cut_deviation_mean_m"]
         .as_f64()
         .expect("deviation");
@@ -231,9 +220,9 @@ fn a_live_tissue_tuning_is_recorded_and_replayed_at_its_step() {
         let mut live =
             session::Live::new(&text, "coarse", Pacing::AsFastAsPossible).expect("scenario");
         let steps = live.steps_for(7.0);
-        let spring = value(&live, "spring_n_per_m") * 4.0;
+        let spring = value(&live, "foundation_pa_per_m") * 4.0;
         let t = vec![
-            ("spring_n_per_m".to_string(), spring),
+            ("foundation_pa_per_m".to_string(), spring),
             ("damping_per_s".to_string(), 2.0),
         ];
         while live.step_count() < steps {
@@ -244,7 +233,7 @@ fn a_live_tissue_tuning_is_recorded_and_replayed_at_its_step() {
             live.step(frame).expect("steps");
         }
         assert_eq!(
-            value(&live, "spring_n_per_m") == spring && value(&live, "damping_per_s") == 2.0,
+            value(&live, "foundation_pa_per_m") == spring && value(&live, "damping_per_s") == 2.0,
             tune_at.is_some()
         );
         let o = live.finish(Vec::new()).expect("finishes");
@@ -253,9 +242,13 @@ fn a_live_tissue_tuning_is_recorded_and_replayed_at_its_step() {
         };
         (o.report, rec)
     };
-    let (tuned, tuned_rec) = run(Some(2700));
+    // The tuning lands 5.4 s in, whatever the scenario's step.
+    let at = session::Live::new(&text, "coarse", Pacing::AsFastAsPossible)
+        .expect("scenario")
+        .steps_for(5.4);
+    let (tuned, tuned_rec) = run(Some(at));
     assert_eq!(tuned_rec.tunings.len(), 1);
-    assert_eq!(tuned_rec.tunings[0].step, 2700);
+    assert_eq!(tuned_rec.tunings[0].step, at);
     assert_eq!(tuned_rec.tunings[0].model, "kidney");
     assert_eq!(tuned.events.get("tissue_tuned"), Some(&1));
     let (plain, _) = run(None);
@@ -286,7 +279,7 @@ fn a_live_tissue_tuning_is_recorded_and_replayed_at_its_step() {
     let mut live = session::Live::new(&text, "coarse", Pacing::AsFastAsPossible).expect("ok");
     let before = live.tunables();
     let bad = [
-        ("spring_n_per_m".to_string(), 50.0),
+        ("foundation_pa_per_m".to_string(), 3.2e6),
         ("offset_m".to_string(), f32::NAN),
     ];
     let e = live

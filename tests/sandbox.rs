@@ -77,7 +77,7 @@ fn bench_and_profile_run_the_sandbox() {
     assert_eq!(names, ["block", "procedure", "block", "procedure"]);
     for l in &lines {
         assert!(l["steps_per_s"].as_f64().unwrap_or(0.0) > 0.0, "{l}");
-        assert_eq!(l["triangles"], 3456);
+        assert_eq!(l["triangles"], 4172);
         let awake = l["awake_fraction"].as_f64().unwrap_or(f64::NAN);
         if l["all_awake"] == true {
             // Kept awake, every point steps every step.

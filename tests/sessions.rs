@@ -315,7 +315,7 @@ fn absurd_scenarios_are_refused_before_anything_is_built() {
         (
             "costly.toml",
             base.replace("level = 5", "level = 6")
-                .replace("dt_s = 0.002", "dt_s = 0.0001"),
+                .replace("dt_s = 0.004", "dt_s = 0.0001"),
             long,
             "point-steps",
         ),

@@ -4,6 +4,9 @@
 
 use std::path::Path;
 use std::process::Command;
+use vesalius::procedures::nephrectomy;
+use vesalius::sim::Hand;
+use vesalius::xr::{HapticProfile, Pulse};
 
 fn run(out: &Path) -> serde_json::Value {
     let _ = std::fs::remove_dir_all(out);
@@ -95,11 +98,26 @@ fn the_demo_trace_under_the_simulated_runtime_completes_with_vibration_and_stere
             assert!((0.0..=1.0).contains(&a) && l["frequency_hz"].as_f64().is_some());
         }
     }
-    let laser_cut_pulses = lines
-        .iter()
-        .filter(|l| l["hand"] == "right" && l["frequency_hz"] == 250.0)
-        .count();
-    assert_eq!(laser_cut_pulses, pulses("right"));
+    // The laser's pulses are its cuts' ticks and the buzz of its beam's pressure on the
+    // tissue, nothing else. The grasper's hand feels the jaws take hold of the tumour as a
+    // knock of its own.
+    let at = |hand: &str, hz: f32| {
+        lines
+            .iter()
+            .filter(|l| l["hand"] == hand && l["frequency_hz"] == f64::from(hz))
+            .count()
+    };
+    let cut_hz = Pulse::Cut { faces: 1 }.buzz().frequency_hz;
+    let beam_hz = HapticProfile::for_tool(nephrectomy::INFO.tool(Hand::Right)).frequency_hz;
+    let ticks = at("right", cut_hz);
+    assert!(ticks >= 50, "{ticks} cut ticks");
+    assert_eq!(ticks + at("right", beam_hz), pulses("right"));
+    let knocks = at("left", Pulse::Grasp.buzz().frequency_hz);
+    assert!(knocks >= 1, "{knocks} grasp pulses");
+    assert!(
+        knocks < pulses("left"),
+        "the grasper also buzzes while it holds"
+    );
     // Stereo frames, every 30th: the organ is drawn and the eyes see it from 63 mm apart.
     let frames = std::fs::read_dir(sim.join("frames"))
         .expect("frames")

@@ -207,7 +207,7 @@ fn the_grasper_vibrates_exactly_while_it_presses_the_kidney_and_harder_when_deep
     let expected: Vec<(usize, f32)> = peak
         .iter()
         .enumerate()
-        .filter_map(|(j, f)| grasper_haptics().amplitude(*f, 0).map(|a| (j, a)))
+        .filter_map(|(j, f)| grasper_haptics().amplitude(*f).map(|a| (j, a)))
         .collect();
     let frame_of = |l: &Value| (l["t_s"].as_f64().expect("t_s") / PERIOD_S).round() as usize;
     let pulses: Vec<(usize, f32)> = run

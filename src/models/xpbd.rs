@@ -1,6 +1,6 @@
 //! XPBD projections of the paper's constraints: stretch (eq 11) and dihedral bending (eq 12).
 //! Compliance (inverse stiffness) makes the stiffness independent of dt and iteration count.
-//! Every particle has unit mass (inverse mass 1) unless it is pinned (inverse mass 0).
+//! Each particle carries its inverse mass (0 when pinned), so lambda / dt^2 is a force in newtons.
 
 use glam::Vec3;
 
@@ -31,7 +31,7 @@ pub struct Bend {
 pub const MAX_BEND_CORRECTION_RAD: f32 = 0.02;
 
 /// Projects one stretch constraint; returns the Lagrange multiplier increment. The force the
-/// constraint exerts is lambda / dt^2 (newtons with unit mass).
+/// constraint exerts is lambda / dt^2, newtons.
 pub fn project_stretch(
     x: &mut [Vec3],
     w: &[f32],
@@ -101,36 +101,15 @@ pub fn project_bend(
     dt_s: f32,
     lambda: f32,
 ) -> f32 {
-    let Some((n1, n2, e)) = hinge(x, c) else {
+    let Some((constraint, g)) = bend_gradient(x, c) else {
         return 0.0;
     };
-    let (ia, ib, ic, id) = (c.a as usize, c.b as usize, c.c as usize, c.d as usize);
-    let mut constraint = signed_angle(n1, n2, e) - c.rest_rad;
-    // The shorter way round.
-    let tau = std::f32::consts::TAU;
-    if constraint > std::f32::consts::PI {
-        constraint -= tau;
-    } else if constraint < -std::f32::consts::PI {
-        constraint += tau;
-    }
     // Linearisation holds for small corrections only: a nearly rigid hinge asked to turn far
     // in one projection overshoots, and Gauss-Seidel sweeps can then feed the overshoot
     // back (a free piece pushed by a tip blew up this way). Turn at most this far per
     // projection; the rest follows over the next steps.
-    constraint = constraint.clamp(-MAX_BEND_CORRECTION_RAD, MAX_BEND_CORRECTION_RAD);
-    let len = e.length();
-    let eh = e / len;
-    let m1 = n1 / n1.length_squared();
-    let m2 = n2 / n2.length_squared();
-    let (a, b, pc, pd) = (x[ia], x[ib], x[ic], x[id]);
-    // d(angle)/dx for a, b, c, d.
-    let g = [
-        -((pc - b).dot(eh) * m1 + (pd - b).dot(eh) * m2),
-        (pc - a).dot(eh) * m1 + (pd - a).dot(eh) * m2,
-        -len * m1,
-        -len * m2,
-    ];
-    let idx = [ia, ib, ic, id];
+    let constraint = constraint.clamp(-MAX_BEND_CORRECTION_RAD, MAX_BEND_CORRECTION_RAD);
+    let idx = [c.a, c.b, c.c, c.d].map(|i| i as usize);
     let denom: f32 = (0..4).map(|k| w[idx[k]] * g[k].length_squared()).sum();
     let alpha = compliance / (dt_s * dt_s);
     if denom + alpha <= 1e-12 {
@@ -141,6 +120,58 @@ pub fn project_bend(
         x[idx[k]] += g[k] * (w[idx[k]] * dl);
     }
     dl
+}
+
+/// A hinge's constraint value (the signed angle from rest, the shorter way round) and its
+/// gradients for a, b, c, d (Bridson et al.'s bending directions), or None when degenerate.
+pub fn bend_gradient(x: &[Vec3], c: &Bend) -> Option<(f32, [Vec3; 4])> {
+    let (n1, n2, e) = hinge(x, c)?;
+    let mut constraint = signed_angle(n1, n2, e) - c.rest_rad;
+    let tau = std::f32::consts::TAU;
+    if constraint > std::f32::consts::PI {
+        constraint -= tau;
+    } else if constraint < -std::f32::consts::PI {
+        constraint += tau;
+    }
+    let len = e.length();
+    let eh = e / len;
+    let m1 = n1 / n1.length_squared();
+    let m2 = n2 / n2.length_squared();
+    let (a, b, pc, pd) = (
+        x[c.a as usize],
+        x[c.b as usize],
+        x[c.c as usize],
+        x[c.d as usize],
+    );
+    Some((
+        constraint,
+        [
+            -((pc - b).dot(eh) * m1 + (pd - b).dot(eh) * m2),
+            (pc - a).dot(eh) * m1 + (pd - a).dot(eh) * m2,
+            -len * m1,
+            -len * m2,
+        ],
+    ))
+}
+
+/// The elastic force a compliant stretch constraint exerts on its ends (a, b) where they are:
+/// -C / alpha times its gradient, newtons. Zero for a rigid (alpha = 0) constraint.
+pub fn stretch_force(x: &[Vec3], c: &Stretch, compliance_m_per_n: f32) -> [Vec3; 2] {
+    let d = x[c.a as usize] - x[c.b as usize];
+    let len = d.length();
+    if compliance_m_per_n <= 0.0 || len <= f32::EPSILON {
+        return [Vec3::ZERO; 2];
+    }
+    let f = d / len * (-(len - c.rest_m) / compliance_m_per_n);
+    [f, -f]
+}
+
+/// The elastic forces a compliant hinge exerts on a, b, c, d where they are, newtons.
+pub fn bend_force(x: &[Vec3], c: &Bend, compliance: f32) -> [Vec3; 4] {
+    match bend_gradient(x, c) {
+        Some((constraint, g)) if compliance > 0.0 => g.map(|g| g * (-constraint / compliance)),
+        _ => [Vec3::ZERO; 4],
+    }
 }
 
 #[cfg(test)]

@@ -47,7 +47,7 @@ pub(super) fn decode_legacy(mut r: Reader, version: u32) -> Result<Recording, In
                 *c = r.f32("tunings")?;
             }
             let t = Tuning {
-                spring_n_per_m: v[0],
+                foundation_pa_per_m: v[0],
                 damping_per_s: v[1],
                 // v[2] was a tool pressure the model never read; it is dropped.
                 offset_m: v[3],

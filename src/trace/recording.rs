@@ -65,7 +65,7 @@ impl TuningRecord {
             });
         }
         let t = Tuning {
-            spring_n_per_m: v[0],
+            foundation_pa_per_m: v[0],
             damping_per_s: v[1],
             offset_m: v[2],
         };

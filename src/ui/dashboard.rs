@@ -461,7 +461,7 @@ mod tests {
             value,
         };
         let start = vec![
-            slider("spring_n_per_m", "spring (N/m)", 40.0, 400.0),
+            slider("foundation_pa_per_m", "foundation (N/m^3)", 1.6e6, 1e7),
             slider("damping_per_s", "damping (1/s)", 8.0, 50.0),
         ];
         d.update(Status {
@@ -477,7 +477,7 @@ mod tests {
                 }
             });
             harness
-                .get_by_role_and_label(egui::accesskit::Role::Slider, "spring (N/m)")
+                .get_by_role_and_label(egui::accesskit::Role::Slider, "foundation (N/m^3)")
                 .focus();
             harness.run();
             harness.key_press(egui::Key::ArrowRight);
@@ -491,8 +491,8 @@ mod tests {
         let (model, values) = &tuned[0];
         assert_eq!(model, "tissue");
         assert_eq!(values.len(), 1, "only the moved slider: {values:?}");
-        assert_eq!(values[0].0, "spring_n_per_m");
-        assert!(values[0].1 > 40.0, "{values:?}");
+        assert_eq!(values[0].0, "foundation_pa_per_m");
+        assert!(values[0].1 > 1.6e6, "{values:?}");
         assert_eq!(asked.iter().filter(|a| a.save).count(), 1);
     }
 }

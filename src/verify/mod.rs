@@ -14,8 +14,9 @@ use std::time::Instant;
 
 mod collision_cases;
 mod forces_cases;
+pub mod hertz_cases;
 mod softbody_cases;
-mod softbody_contact_cases;
+pub mod softbody_contact_cases;
 mod xpbd_cases;
 
 /// One case's outcome: a row of the verification table.
@@ -133,6 +134,7 @@ pub fn cases() -> Vec<Case> {
     all.extend(forces_cases::cases());
     all.extend(softbody_cases::cases());
     all.extend(softbody_contact_cases::cases());
+    all.extend(hertz_cases::cases());
     all.extend(xpbd_cases::cases());
     all.extend(collision_cases::cases());
     all

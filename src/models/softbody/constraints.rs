@@ -1,4 +1,5 @@
-//! The XPBD constraints (stretch, bending, ties) gathered around awake points and projected.
+//! The XPBD constraints (stretch and bending, eqs 11-12) gathered around awake points and
+//! projected with the points' masses. Ties are springs of the implicit step, not constraints.
 
 use super::*;
 
@@ -16,7 +17,7 @@ impl SoftBody {
                 let live = match self.kind(id) {
                     Constraint::Stretch(k) => self.stretch_alive[k as usize],
                     Constraint::Bend(k) => self.bend_alive[k as usize],
-                    Constraint::Tie(k) => self.ties[k as usize].alive,
+                    Constraint::Tie(_) => false,
                 };
                 let (word, bit) = (id as usize / 64, 1u64 << (id % 64));
                 if live && self.listed[word] & bit == 0 {
@@ -30,7 +31,7 @@ impl SoftBody {
         }
     }
 
-    pub(super) fn project(&mut self, dt: f32, out: &mut ModelOutput) {
+    pub(super) fn project(&mut self, dt: f32) {
         let p = self.params;
         let list = std::mem::take(&mut self.constraints_now);
         // One Lagrange multiplier per listed constraint, from zero each step.
@@ -56,36 +57,38 @@ impl SoftBody {
                         dt,
                         l,
                     ),
-                    Constraint::Tie(k) => {
-                        let t = self.ties[k as usize];
-                        xpbd::project_stretch(
-                            &mut self.x,
-                            &self.inv_mass,
-                            &Stretch {
-                                a: t.a,
-                                b: t.b,
-                                rest_m: t.rest_m,
-                            },
-                            p.tie_compliance_m_per_n,
-                            dt,
-                            l,
-                        )
-                    }
+                    Constraint::Tie(_) => 0.0,
                 };
                 self.lambda[li] = l + dl;
             }
         }
-        // Ties whose force exceeds the threshold tear.
+        // Keep the multipliers of the constraints on points a tool holds (pinned by a tip or
+        // grasped): lambda / dt^2 is the force the constraint exerted on them this step, part
+        // of what the tool feels. Sorted by constraint for lookup.
+        self.constraint_lambda.clear();
         for (li, &id) in list.iter().enumerate() {
-            if let Constraint::Tie(k) = self.kind(id) {
-                let force = self.lambda[li].abs() / (dt * dt);
-                if force > p.tie_break_force_n {
-                    self.ties[k as usize].alive = false;
-                    self.topology_dirty = true;
-                    out.events.push(EventKind::TieBroken {
-                        model: self.name.clone(),
-                        force_n: force,
-                    });
+            let held = |q: u32| self.pinned[q as usize] != 0 || self.kinematic[q as usize];
+            if matches!(self.kind(id), Constraint::Tie(_)) {
+                continue;
+            }
+            if self.constraint_points(id).into_iter().any(held) {
+                self.constraint_lambda.push((id, self.lambda[li]));
+            }
+        }
+        self.constraint_lambda.sort_unstable_by_key(|&(id, _)| id);
+        self.last_dt_s = dt;
+        // Sleeping points the constraints moved: woken when moved noticeably, else put back.
+        let stamp = self.next_stamp();
+        for &id in &list {
+            for q in self.constraint_points(id) {
+                let q = q as usize;
+                if !self.awake[q] && self.stamp[q] != stamp && self.alive[q] {
+                    self.stamp[q] = stamp;
+                    if (self.x[q] - self.sleep_at[q]).length() > WAKE_DISTANCE_M {
+                        self.wake(q);
+                    } else {
+                        self.x[q] = self.sleep_at[q];
+                    }
                 }
             }
         }

@@ -3,21 +3,6 @@
 use super::*;
 
 impl SoftBody {
-    /// The spring force (eq 2) pulling point `i` to its goal: its rest position, or for a
-    /// piece cut free, its rest position carried by the piece's motion. Zero for a free point
-    /// of no piece.
-    pub(super) fn spring_pull(&self, i: usize) -> Vec3 {
-        let k = self.params.spring_n_per_m;
-        if self.anchored[i] {
-            forces::spring_force(k, self.x[i], self.mesh.rest[i])
-        } else if let Some(part) = self.free_parts.get(self.part_of[i] as usize) {
-            let goal = part.rotation * self.mesh.rest[i] + part.translation;
-            forces::spring_force(k, self.x[i], goal)
-        } else {
-            Vec3::ZERO
-        }
-    }
-
     pub(super) fn next_stamp(&mut self) -> u32 {
         self.stamp_now = self.stamp_now.wrapping_add(1);
         if self.stamp_now == 0 {
@@ -37,30 +22,43 @@ impl SoftBody {
                     pressure_pa,
                     area_m2,
                 } => {
+                    // The tool presses with P A in all (eq 4). It is shared among the points
+                    // near the contact by area, weighted by eq 6's falloff from the offset
+                    // point, so the total is the tool's whatever the mesh's resolution.
                     let pressed = pressure_pa * area_m2;
                     let from = forces::offset_point(c.point, c.normal, p.offset_m);
                     // Beyond 2 falloff lengths the force is under a fifth of the peak: ignored.
                     let reach = 2.0 * p.falloff_m;
                     let q = Aabb::new(from - Vec3::splat(reach), from + Vec3::splat(reach));
                     let found: Vec<u32> = self.bvh.faces_in(&q).collect();
-                    let mut total = Vec3::ZERO;
+                    let mut share: Vec<(usize, Vec3, f32)> = Vec::new();
                     for f in found {
                         let i = f as usize;
-                        if !self.alive[i] || (self.x[i] - from).length() > reach {
+                        let d = self.x[i] - from;
+                        let dist = d.length();
+                        if !self.alive[i] || dist > reach {
                             continue;
                         }
-                        self.wake(i);
-                        self.refresh_normal(i);
-                        let cf = forces::contact_force(
-                            self.x[i],
-                            self.normal[i],
-                            from,
-                            pressed,
-                            p.falloff_m,
-                        );
-                        self.force[i] += cf.pressure + cf.offset;
-                        total += cf.pressure + cf.offset;
-                        self.touched.push(i as u32);
+                        let dir = if dist > f32::EPSILON {
+                            d / dist
+                        } else {
+                            -c.normal
+                        };
+                        let w = self.rest_area[i] * forces::falloff(1.0, dist, p.falloff_m);
+                        share.push((i, dir, w));
+                    }
+                    let sum: f32 = share.iter().map(|s| s.2).sum();
+                    let mut total = Vec3::ZERO;
+                    if sum > 0.0 {
+                        for (i, dir, w) in share {
+                            self.wake(i);
+                            let f = dir * (pressed * w / sum);
+                            if self.force[i] == Vec3::ZERO {
+                                self.touched.push(i as u32);
+                            }
+                            self.force[i] += f;
+                            total += f;
+                        }
                     }
                     out.reactions.push((c.tool, -total));
                 }
@@ -80,17 +78,14 @@ impl SoftBody {
                     if let Some(h) = self.held.iter_mut().find(|h| h.tool == c.tool) {
                         h.rotation = rotation;
                         let (rot, pts) = (h.rotation, h.points.clone());
-                        // The held tissue pulls the jaws back toward its rest (eq 2's springs;
-                        // nothing once the piece is cut free and carried).
-                        let mut pull = Vec3::ZERO;
+                        // The jaws carry the held points; what the tissue does to them is
+                        // summed for the tool at the end of the step.
                         for (i, local) in pts {
                             let target = c.point + rot * local;
                             let i = i as usize;
                             self.wake(i);
                             self.x[i] = target;
-                            pull += self.spring_pull(i);
                         }
-                        out.reactions.push((c.tool, pull));
                         continue;
                     }
                     let q = Aabb::new(
@@ -146,7 +141,13 @@ impl SoftBody {
             let h = self.held.remove(k);
             for (i, _) in h.points {
                 self.kinematic[i as usize] = false;
-                self.inv_mass[i as usize] = if self.alive[i as usize] { 1.0 } else { 0.0 };
+                let (i, m) = (i as usize, self.mass[i as usize]);
+                self.inv_mass[i] = if self.alive[i] && m > 0.0 {
+                    1.0 / m
+                } else {
+                    0.0
+                };
+                let i = i as u32;
                 self.wake(i as usize);
             }
             out.events.push(EventKind::Release {
@@ -161,6 +162,195 @@ impl SoftBody {
                 });
             }
             self.contacting[h] = seen[h];
+        }
+    }
+}
+
+/// A point within this fraction of a tip's radius of its surface counts as on it.
+const PIN_BAND: f32 = 1e-3;
+
+/// Where a point inside a tip goes: a point ahead of the tip's centre goes on ahead of it (to
+/// the sphere, along the way the tool points), so the tip tents the surface like a probe;
+/// pushed straight out from the centre, the points in front would slide aside and let the
+/// tip through between them. A point behind the centre is pushed straight out.
+fn out_of_tip(d: Vec3, ahead: Vec3, radius_m: f32) -> Vec3 {
+    let len = d.length();
+    let along = d.dot(ahead);
+    if along >= 0.0 {
+        let t = (along * along + radius_m * radius_m - len * len).sqrt() - along;
+        ahead * t
+    } else {
+        let dir = if len > 1e-9 { d / len } else { ahead };
+        dir * (radius_m - len)
+    }
+}
+
+impl SoftBody {
+    fn pin(&mut self, i: usize, tool: ToolId) {
+        if self.pinned[i] == 0 {
+            self.pinned[i] = tool.index() as u8 + 1;
+            self.pins.push((i as u32, tool));
+        }
+        self.wake(i);
+    }
+
+    fn push_tip(&mut self, i: usize, corr: Vec3) {
+        self.x[i] += corr;
+        // Few points are pushed a step (those at the tips): a short list, not an array.
+        match self.pushed.iter_mut().find(|(q, _)| *q as usize == i) {
+            Some((_, d)) => *d += corr,
+            None => self.pushed.push((i as u32, corr)),
+        }
+    }
+
+    /// A rigid tip's radius and the points within twice it (by the BVH's boxes); none for
+    /// another kind of contact.
+    fn near_tip(&self, c: &Contact) -> Option<(f32, Vec<u32>)> {
+        let ContactKind::Sphere { radius_m } = c.kind else {
+            return None;
+        };
+        let reach = Vec3::splat(radius_m * 2.0);
+        let q = Aabb::new(c.point - reach, c.point + reach);
+        Some((radius_m, self.bvh.faces_in(&q).collect()))
+    }
+
+    /// Pins the points each tip touches for this step: points inside it are moved onto its
+    /// surface; points on its surface stay held while the tissue still presses on the tip
+    /// (a point the tissue pulls away is let go).
+    pub(super) fn pin_tips(&mut self, contacts: &[Contact]) {
+        self.pins.clear();
+        for c in contacts {
+            let Some((radius_m, found)) = self.near_tip(c) else {
+                continue;
+            };
+            for f in found {
+                let i = f as usize;
+                if !self.alive[i] || self.kinematic[i] {
+                    continue;
+                }
+                let d = self.x[i] - c.point;
+                let len = d.length();
+                // On the surface (within the band, either side of it, as rounding leaves a
+                // point that was put there), a point stays held only while the tissue presses
+                // it on the tip; a tip never pulls tissue.
+                let on_surface = (len - radius_m).abs() < radius_m * PIN_BAND;
+                if on_surface && self.link_force(i).dot(d) >= 0.0 {
+                    continue;
+                }
+                if len < radius_m {
+                    self.push_tip(i, out_of_tip(d, -c.normal, radius_m));
+                    self.pin(i, c.tool);
+                } else if on_surface {
+                    self.pin(i, c.tool);
+                }
+            }
+        }
+    }
+
+    /// Moves onto each tip's surface the points the constraints carried into it; they count
+    /// as held by the tip this step.
+    pub(super) fn push_out_of_tips(&mut self, contacts: &[Contact]) {
+        for c in contacts {
+            let Some((radius_m, found)) = self.near_tip(c) else {
+                continue;
+            };
+            for f in found {
+                let i = f as usize;
+                let d = self.x[i] - c.point;
+                if self.alive[i] && !self.kinematic[i] && d.length() < radius_m {
+                    self.push_tip(i, out_of_tip(d, -c.normal, radius_m));
+                    self.pin(i, c.tool);
+                }
+            }
+        }
+    }
+
+    /// Each tool's reaction: the sum of everything the tissue does to the points its tip
+    /// holds and its jaws carry (equal and opposite to what the tool does to them).
+    pub(super) fn tool_reactions(&mut self, out: &mut ModelOutput) {
+        let mut sum = [Vec3::ZERO; 2];
+        let mut any = [false; 2];
+        for &(i, tool) in &self.pins {
+            sum[tool.index()] += self.tissue_force(i as usize);
+            any[tool.index()] = true;
+        }
+        for h in &self.held {
+            for &(i, _) in &h.points {
+                if self.alive[i as usize] {
+                    sum[h.tool.index()] += self.tissue_force(i as usize);
+                }
+            }
+            any[h.tool.index()] = true;
+        }
+        for t in ToolId::BOTH {
+            if any[t.index()] {
+                out.reactions.push((t, sum[t.index()]));
+            }
+        }
+    }
+
+    /// Ties whose force over their area exceeds the tie strength tear.
+    pub(super) fn break_ties(&mut self, out: &mut ModelOutput) {
+        let (k, strength) = (
+            self.params.tie_stiffness_pa_per_m,
+            self.params.tie_strength_pa,
+        );
+        for t in 0..self.ties.len() {
+            let tie = self.ties[t];
+            if !tie.alive {
+                continue;
+            }
+            let (a, b) = (tie.a as usize, tie.b as usize);
+            if !(self.awake[a] || self.awake[b]) {
+                continue;
+            }
+            let area = self.rest_area[a];
+            let force = k * area * (self.displacement(a) - self.displacement(b)).length();
+            if force > strength * area {
+                self.ties[t].alive = false;
+                self.topology_dirty = true;
+                out.events.push(EventKind::TieBroken {
+                    model: self.name.clone(),
+                    force_n: force,
+                });
+            }
+        }
+    }
+
+    /// Wakes the sleeping neighbours of awake points that their links now load by more than
+    /// twice the force a point may sleep under.
+    pub(super) fn wake_loaded_neighbours(&mut self) {
+        let mut wake = Vec::new();
+        for &i in &self.active {
+            for l in self.links_of(i as usize) {
+                let j = l.to as usize;
+                if self.awake[j] || !self.alive[j] {
+                    continue;
+                }
+                if self.link_force(j).length() > 2.0 * SLEEP_FORCE_N {
+                    wake.push(j);
+                }
+            }
+        }
+        // The gas pressure pushes on sleeping points too: wake those it loads noticeably. (A
+        // pressure that could not load even a point stretched to four times the largest rest
+        // area past that skips the scan of every point.)
+        let reach = 4.0 * self.max_rest_area;
+        let loud = |p: &f32| p.abs() * reach > 2.0 * SLEEP_FORCE_N;
+        if self.pressure_now.iter().any(loud) {
+            for j in 0..self.x.len() {
+                if self.awake[j] || !self.alive[j] {
+                    continue;
+                }
+                if let Some(&pg) = self.pressure_now.get(self.pressure_group[j] as usize)
+                    && pg.abs() * self.area[j] > 2.0 * SLEEP_FORCE_N
+                {
+                    wake.push(j);
+                }
+            }
+        }
+        for j in wake {
+            self.wake(j);
         }
     }
 }

@@ -1,9 +1,11 @@
-//! The force-based soft body on a 2-simplex mesh (nephrectomy paper): per-point spring,
-//! damping, pressure and offset forces integrated explicitly with unit mass, then XPBD stretch
-//! and dihedral bending constraints, and breakable ties between regions.
+//! The force-based soft body on a 2-simplex mesh (nephrectomy paper): each point with its real
+//! mass is held to its rest shape by an elastic foundation (eq 2's spring per unit area, plus
+//! a shear layer between neighbours), pushed by pressure and offset forces (eqs 3-6) and
+//! damped (eq 5), integrated implicitly (see `implicit`); then XPBD stretch and dihedral
+//! bending constraints (eqs 11-12) with the same masses; breakable ties between regions.
 //!
 //! Points at rest sleep: a point whose speed stayed below `sleep_speed_m_per_s` for
-//! `SLEEP_STEPS` steps at its rest position is skipped until a contact, a constraint or a cut
+//! `SLEEP_TIME_S` seconds at its rest position is skipped until a contact, a constraint or a cut
 //! wakes it. A sleeping point is exactly at rest, so skipping it changes nothing.
 
 use super::forces;
@@ -17,9 +19,14 @@ use crate::sim::{
 use glam::{Quat, Vec3};
 use parry3d::bounding_volume::Aabb;
 
-const SLEEP_STEPS: u16 = 30;
-/// A sleeping anchored point must be this close to rest, metres.
-const SLEEP_DISTANCE_M: f32 = 2e-5;
+/// How long a point must stay slow and unloaded before it sleeps, s (a time, not a step
+/// count, so that the awake set does not grow with a shorter step).
+const SLEEP_TIME_S: f32 = 0.06;
+/// An anchored point may sleep (and be put exactly at rest) only while doing so changes the
+/// force its foundation and links exert by less than this, newtons: the shear layer carries
+/// a load far from where it is applied, and snapping a loaded tail to rest would leak load
+/// into sleeping points (a tool would feel less than the body bears).
+const SLEEP_FORCE_N: f32 = 1e-5;
 /// A point that belongs to no pressure group.
 const NO_GROUP: u32 = u32::MAX;
 /// A sleeping point nudged less than this by a constraint is put back and stays asleep, m.
@@ -27,8 +34,10 @@ const WAKE_DISTANCE_M: f32 = 1e-5;
 /// BVH leaves are enlarged by this margin so that small motions need no refit, metres.
 const BVH_MARGIN_M: f32 = 1e-3;
 
+mod cg;
 mod constraints;
 mod contacts;
+mod implicit;
 mod model;
 mod params;
 #[cfg(test)]
@@ -49,6 +58,10 @@ struct FreePart {
     radius_m: f32,
     /// How far the piece moved since its BVH leaves were last refreshed, m.
     bvh_drift_m: f32,
+    /// The motion at the start of the previous step: with the current one, how fast a point
+    /// carried by the piece moves (a point at rest on a moving piece may sleep).
+    prev_rotation: Quat,
+    prev_translation: Vec3,
 }
 
 impl Default for FreePart {
@@ -59,6 +72,8 @@ impl Default for FreePart {
             translation: Vec3::ZERO,
             radius_m: 0.0,
             bvh_drift_m: 0.0,
+            prev_rotation: Quat::IDENTITY,
+            prev_translation: Vec3::ZERO,
         }
     }
 }
@@ -135,6 +150,33 @@ pub struct SoftBody {
     anchored: Vec<bool>,
     kinematic: Vec<bool>,
     inv_mass: Vec<f32>,
+    /// Each point's mass, kg, and its rest area, m^2.
+    mass: Vec<f32>,
+    rest_area: Vec<f32>,
+    /// The largest rest area of any point, m^2.
+    max_rest_area: f32,
+    /// Per point: the shear layer's stiffness to each of its three neighbours (0: no link),
+    /// N/m; the live ties per point (CSR); and the density and moduli the masses and links
+    /// were built with.
+    shear_k: Vec<[f32; 3]>,
+    tie_start: Vec<u32>,
+    tie_links: Vec<implicit::Link>,
+    link_params: [f32; 3],
+    /// Per point: 0, or 1 + the tool whose tip holds it this step.
+    pinned: Vec<u8>,
+    /// The points tips hold this step, and which tool holds each.
+    pins: Vec<(u32, ToolId)>,
+    /// Per point: its index among this step's unknowns (or `NO_GROUP`).
+    slot: Vec<u32>,
+    unknowns: Vec<u32>,
+    /// The implicit step's system and solver vectors, kept to avoid allocating.
+    cg: cg::CgSystem,
+    /// Per pressure group: the pressure this step, Pa.
+    pressure_now: Vec<f32>,
+    /// The Lagrange multipliers from the last projection of the constraints on held points,
+    /// (constraint, lambda) sorted by constraint, and that step's dt.
+    constraint_lambda: Vec<(u32, f32)>,
+    last_dt_s: f32,
     stretch: Vec<Stretch>,
     stretch_alive: Vec<bool>,
     bend: Vec<Bend>,
@@ -164,15 +206,14 @@ pub struct SoftBody {
     leaf_pad: Vec<f32>,
     topology_dirty: bool,
     component: Vec<u32>,
-    checkpoint: (Vec<Vec3>, Vec<Vec3>),
+    checkpoint: Vec<Vec3>,
     // Scratch, reused every step.
     stamp: Vec<u32>,
     stamp_now: u32,
     force: Vec<Vec3>,
     touched: Vec<u32>,
-    /// Per point: how far the instrument tips pushed it this step (and which points).
-    pushed: Vec<Vec3>,
-    pushed_list: Vec<u32>,
+    /// The points the instrument tips pushed this step and how far (each point once).
+    pushed: Vec<(u32, Vec3)>,
     constraints_now: Vec<u32>,
     moved: Vec<u32>,
     before: Vec<Vec3>,
@@ -235,6 +276,21 @@ impl SoftBody {
             anchored: vec![true; n],
             kinematic: vec![false; n],
             inv_mass: vec![1.0; n],
+            mass: vec![0.0; n],
+            rest_area: vec![0.0; n],
+            max_rest_area: 0.0,
+            shear_k: Vec::new(),
+            tie_start: Vec::new(),
+            tie_links: Vec::new(),
+            link_params: [0.0; 3],
+            pinned: vec![0; n],
+            pins: Vec::new(),
+            slot: vec![NO_GROUP; n],
+            unknowns: Vec::new(),
+            cg: cg::CgSystem::default(),
+            pressure_now: Vec::new(),
+            constraint_lambda: Vec::new(),
+            last_dt_s: 0.0,
             stretch_alive: vec![true; stretch.len()],
             bend_alive: vec![true; bend.len()],
             stretch,
@@ -256,13 +312,12 @@ impl SoftBody {
             leaf_pad: vec![0.0; n],
             topology_dirty: true,
             component: vec![0; n],
-            checkpoint: (x.clone(), vec![Vec3::ZERO; n]),
+            checkpoint: x.clone(),
             stamp: vec![0; n],
             stamp_now: 0,
             force: vec![Vec3::ZERO; n],
             touched: Vec::new(),
-            pushed: vec![Vec3::ZERO; n],
-            pushed_list: Vec::new(),
+            pushed: Vec::new(),
             constraints_now: Vec::new(),
             moved: Vec::new(),
             before: Vec::new(),
@@ -289,6 +344,8 @@ impl SoftBody {
         }
         body.bvh = FaceBvh::new(&body.mesh.rest, |f| body.leaf_aabb(f));
         body.rebuild_adjacency();
+        body.compute_masses();
+        body.rebuild_links();
         body
     }
 
@@ -312,9 +369,19 @@ impl SoftBody {
     }
 
     /// Changes the tunable parameters from the next step on (points at rest stay asleep:
-    /// at rest none of these four moves them).
+    /// at rest none of these moves them).
     pub fn tune(&mut self, t: &Tuning) {
         t.apply(&mut self.params);
+    }
+
+    /// Each point's mass, kg.
+    pub fn masses(&self) -> &[f32] {
+        &self.mass
+    }
+
+    /// Each point's rest area, m^2.
+    pub fn rest_areas(&self) -> &[f32] {
+        &self.rest_area
     }
 
     /// The model's name in the scenario ("kidney", "renal_artery", ...).
@@ -427,6 +494,24 @@ impl SoftBody {
             Constraint::Bend(id - ns)
         } else {
             Constraint::Tie(id - ns - nb)
+        }
+    }
+
+    /// The points constraint `id` acts on (a two-point constraint names each twice).
+    fn constraint_points(&self, id: u32) -> [u32; 4] {
+        match self.kind(id) {
+            Constraint::Stretch(k) => {
+                let s = self.stretch[k as usize];
+                [s.a, s.b, s.a, s.b]
+            }
+            Constraint::Bend(k) => {
+                let b = self.bend[k as usize];
+                [b.a, b.b, b.c, b.d]
+            }
+            Constraint::Tie(k) => {
+                let t = self.ties[k as usize];
+                [t.a, t.b, t.a, t.b]
+            }
         }
     }
 

@@ -33,20 +33,28 @@ impl SoftBody {
             ("sleep_at", b(&self.sleep_at)),
             ("groups+parts+component+stamp", b(&self.pressure_group) * 4),
             ("bvh", self.bvh.heap_bytes()),
-            ("checkpoint", b(&self.checkpoint.0) + b(&self.checkpoint.1)),
+            ("checkpoint", b(&self.checkpoint)),
             (
                 "force+pushed+before",
                 b(&self.force) + b(&self.pushed) + b(&self.before),
+            ),
+            (
+                "mass+rest_area+slot+pinned",
+                b(&self.mass) + b(&self.rest_area) + b(&self.slot) + b(&self.pinned),
+            ),
+            (
+                "links",
+                b(&self.shear_k) + b(&self.tie_start) + b(&self.tie_links),
+            ),
+            (
+                "implicit solve",
+                b(&self.unknowns) + self.cg.heap_bytes() + b(&self.constraint_lambda),
             ),
             ("constraints_now", b(&self.constraints_now)),
             ("lambda+listed", b(&self.lambda) + b(&self.listed)),
             (
                 "lists",
-                b(&self.active)
-                    + b(&self.touched)
-                    + b(&self.moved)
-                    + b(&self.pushed_list)
-                    + b(&self.bvh_pending),
+                b(&self.active) + b(&self.touched) + b(&self.moved) + b(&self.bvh_pending),
             ),
         ]
     }
@@ -81,9 +89,15 @@ impl TissueModel for SoftBody {
         if self.topology_dirty {
             self.update_topology();
         }
+        self.refresh_moduli();
+        // Ties are judged where the step starts, before anything moves them.
+        self.break_ties(out);
         let p = self.params;
         self.apply_contacts(contacts, out);
         self.match_free_parts();
+        // Tips hold the points they touch where the tip's surface is (eq 9's contact as a
+        // position constraint): those points are fixed for the solve.
+        self.pin_tips(contacts);
         // Normals and areas of every point whose neighbourhood may move (eq 3 needs them).
         self.active.sort_unstable();
         self.active.dedup();
@@ -103,143 +117,83 @@ impl TissueModel for SoftBody {
             self.refresh_normal(i as usize);
         }
         let volumes = self.region_volumes();
-        let pressure: Vec<f32> = volumes
+        self.pressure_now = volumes
             .iter()
             .zip(&self.rest_volume)
             .map(|(&v, &v0)| forces::volume_pressure(p.volume_stiffness_pa, v0, v))
             .collect();
-        // Forces and explicit integration (eqs 1, 4, 5, 7, 8).
+        // Mass, damping, foundation, shear layer and ties: one implicit step (eqs 1-8).
         self.before.clear();
         for k in 0..self.active.len() {
             let i = self.active[k] as usize;
             self.before.push(self.x[i]);
             if self.kinematic[i] || !self.alive[i] {
                 self.v[i] = Vec3::ZERO;
-                continue;
             }
-            let mut f = self.force[i] + self.spring_pull(i);
-            if let Some(&pg) = pressure.get(self.pressure_group[i] as usize) {
-                f += forces::pressure_force(pg, self.normal[i], self.area[i]);
-            }
-            let (x, v) = forces::integrate(self.x[i], self.v[i], f, p.damping_per_s, dt);
-            self.x[i] = x;
-            self.v[i] = v;
         }
+        self.solve_implicit(dt);
         for &i in &self.touched {
             self.force[i as usize] = Vec3::ZERO;
         }
         self.touched.clear();
-        // Constraints (Algorithm 2), then the instrument tips as inequality constraints.
+        // Constraints (Algorithm 2) with the pinned points fixed, then the tips again for
+        // points the constraints carried into them.
+        for &(i, _) in &self.pins {
+            self.inv_mass[i as usize] = 0.0;
+        }
         self.collect_constraints();
         let n_active = self.active.len();
-        self.project(dt, out);
-        for c in contacts {
-            if let ContactKind::Sphere { radius_m } = c.kind {
-                let q = Aabb::new(
-                    c.point - Vec3::splat(radius_m * 2.0),
-                    c.point + Vec3::splat(radius_m * 2.0),
-                );
-                let found: Vec<u32> = self.bvh.faces_in(&q).collect();
-                let mut held_back = Vec3::ZERO;
-                for f in found {
-                    let i = f as usize;
-                    let d = self.x[i] - c.point;
-                    let len = d.length();
-                    if self.alive[i] && !self.kinematic[i] && len < radius_m {
-                        // A point ahead of the tip's centre goes on ahead of it (to the
-                        // sphere, along the way the tool points), so the tip tents the surface
-                        // like a probe; pushed straight out from the centre, the points in
-                        // front would slide aside and let the tip through between them. A
-                        // point behind the centre is pushed straight out.
-                        let ahead = -c.normal;
-                        let along = d.dot(ahead);
-                        let corr = if along >= 0.0 {
-                            let t =
-                                (along * along + radius_m * radius_m - len * len).sqrt() - along;
-                            ahead * t
-                        } else {
-                            let dir = if len > 1e-9 { d / len } else { ahead };
-                            dir * (radius_m - len)
-                        };
-                        self.x[i] += corr;
-                        held_back += self.spring_pull(i);
-                        if self.pushed[i] == Vec3::ZERO {
-                            self.pushed_list.push(i as u32);
-                        }
-                        self.pushed[i] += corr;
-                        self.wake(i);
-                    }
-                }
-                // The tissue presses on the tip with the pull of the points the tip holds
-                // away from their rest (eq 2's springs): it grows with depth and is gone the
-                // moment the tip leaves the tissue. The share the dent's rim passes on through
-                // the stretch constraints is left out. (The correction over dt^2 would
-                // measure how fast the tip moves into the tissue, not how hard it presses.)
-                out.reactions.push((c.tool, held_back));
+        self.project(dt);
+        self.push_out_of_tips(contacts);
+        for &(i, _) in &self.pins {
+            let i = i as usize;
+            if !self.kinematic[i] && self.alive[i] && self.mass[i] > 0.0 {
+                self.inv_mass[i] = 1.0 / self.mass[i];
             }
         }
-        // Constraint corrections become velocity; points moved by neighbours wake up. A tip's
-        // push moves tissue and stops it moving into the tip (an inelastic contact), but adds
-        // no speed of its own: turned into velocity, the correction fights the bending
-        // constraints and pumps energy into a free piece every step.
+        // What each tool feels: everything the tissue does to the points it holds.
+        self.tool_reactions(out);
+        // Velocities from the positions; points moved by neighbours wake up. A tip's push
+        // moves tissue and stops it moving into the tip (an inelastic contact), but adds no
+        // speed of its own.
+        self.pushed.sort_unstable_by_key(|&(q, _)| q);
         for k in 0..n_active {
             let i = self.active[k] as usize;
             if self.alive[i] && !self.kinematic[i] {
-                let push = self.pushed[i];
+                let push = if self.pushed.is_empty() {
+                    Vec3::ZERO
+                } else {
+                    self.pushed
+                        .binary_search_by_key(&(i as u32), |&(q, _)| q)
+                        .map_or(Vec3::ZERO, |p| self.pushed[p].1)
+                };
                 let mut v = (self.x[i] - push - self.before[k]) / dt;
-                // Inelastic contact: no speed left into the tip.
                 let n = push.normalize_or_zero();
                 v -= n * v.dot(n).min(0.0);
                 self.v[i] = v;
             }
         }
-        for &i in &self.pushed_list {
-            self.pushed[i as usize] = Vec3::ZERO;
+        self.pushed.clear();
+        for &(i, _) in &self.pins {
+            self.pinned[i as usize] = 0;
         }
-        self.pushed_list.clear();
-        let stamp2 = self.next_stamp();
-        let list = std::mem::take(&mut self.constraints_now);
-        for &id in &list {
-            let pts: [u32; 4] = match self.kind(id) {
-                Constraint::Stretch(k) => {
-                    let s = self.stretch[k as usize];
-                    [s.a, s.b, s.a, s.b]
-                }
-                Constraint::Bend(k) => {
-                    let b = self.bend[k as usize];
-                    [b.a, b.b, b.c, b.d]
-                }
-                Constraint::Tie(k) => {
-                    let t = self.ties[k as usize];
-                    [t.a, t.b, t.a, t.b]
-                }
-            };
-            for q in pts {
-                let q = q as usize;
-                if !self.awake[q] && self.stamp[q] != stamp2 && self.alive[q] {
-                    self.stamp[q] = stamp2;
-                    if (self.x[q] - self.sleep_at[q]).length() > WAKE_DISTANCE_M {
-                        self.wake(q);
-                    } else {
-                        self.x[q] = self.sleep_at[q];
-                    }
-                }
-            }
-        }
-        self.constraints_now = list;
-        // Sleep bookkeeping and velocity from the projected positions.
+        self.wake_loaded_neighbours();
+        // Sleep bookkeeping: a point slower than the sleep speed (relative to where its goal
+        // carries it) and holding almost no load for SLEEP_TIME_S sleeps.
         let v_sleep = p.sleep_speed_m_per_s;
+        let sleep_steps = (SLEEP_TIME_S / dt).ceil().clamp(1.0, f32::from(u16::MAX)) as u16;
         let mut k = 0;
         while k < self.active.len() {
             let i = self.active[k] as usize;
-            let resting =
-                !self.anchored[i] || (self.x[i] - self.mesh.rest[i]).length() < SLEEP_DISTANCE_M;
-            if !self.kinematic[i] && self.v[i].length() < v_sleep && resting {
-                self.still[i] += 1;
+            let resting = !self.anchored[i]
+                || (self.x[i] - self.mesh.rest[i]).length() * self.total_k(i) < SLEEP_FORCE_N;
+            let slow = (self.v[i] - self.goal_velocity(i, dt)).length() < v_sleep;
+            if !self.kinematic[i] && slow && resting {
+                self.still[i] = self.still[i].saturating_add(1);
             } else {
                 self.still[i] = 0;
             }
-            if (self.still[i] >= SLEEP_STEPS && !self.stay_awake) || !self.alive[i] {
+            if (self.still[i] >= sleep_steps && !self.stay_awake) || !self.alive[i] {
                 self.awake[i] = false;
                 self.v[i] = Vec3::ZERO;
                 if self.anchored[i] {
@@ -286,6 +240,7 @@ impl TissueModel for SoftBody {
             removed += 1;
             self.alive[i] = false;
             self.inv_mass[i] = 0.0;
+            self.pinned[i] = 0;
             if let Some(v) = self.volume.get_mut(self.pressure_group[i] as usize) {
                 *v -= self.volume_term[i] as f64;
             }
@@ -406,14 +361,15 @@ impl TissueModel for SoftBody {
         }
     }
 
+    /// Keeps the positions only: a restored body is put to sleep where it was, at rest.
     fn checkpoint(&mut self) {
-        self.checkpoint.0.clone_from(&self.x);
-        self.checkpoint.1.clone_from(&self.v);
+        self.checkpoint.clone_from(&self.x);
     }
 
     fn restore(&mut self) {
-        self.x.clone_from(&self.checkpoint.0);
-        self.v.clone_from(&self.checkpoint.1);
+        self.x.clone_from(&self.checkpoint);
+        self.v.fill(Vec3::ZERO);
+        self.sleep_at.clone_from(&self.x);
         for i in 0..self.x.len() {
             self.refresh_normal(i);
         }

@@ -7,9 +7,16 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SoftBodyParams {
-    /// Spring pulling each anchored point to its rest position, N/m per unit-mass point.
-    pub spring_n_per_m: f32,
-    /// Velocity damping d in v (1 - d dt), 1/s.
+    /// Tissue density, kg/m^3: each point's mass is its area's share of the mass of the
+    /// volume its part encloses.
+    pub density_kg_per_m3: f32,
+    /// Winkler modulus of the elastic foundation that holds the surface to its rest shape
+    /// (eq 2's spring, per unit area): a point of area A is held with A times this, N/m^3.
+    pub foundation_pa_per_m: f32,
+    /// Shear modulus of the Pasternak layer that couples neighbouring points' displacements,
+    /// N/m: it spreads a load over the surface, the second parameter of the foundation.
+    pub shear_layer_n_per_m: f32,
+    /// Mass-proportional velocity damping, 1/s (eq 5, integrated implicitly).
     pub damping_per_s: f32,
     /// Area over which a pressing tool applies its pressure, m^2 (the pressure is the tool's).
     pub contact_area_m2: f32,
@@ -23,10 +30,11 @@ pub struct SoftBodyParams {
     pub stretch_compliance_m_per_n: f32,
     /// XPBD compliance of the dihedral bending constraints (eq 12), rad/(N m).
     pub bend_compliance_per_n_m: f32,
-    /// XPBD compliance of the ties, m/N.
-    pub tie_compliance_m_per_n: f32,
-    /// A tie breaks when its constraint force exceeds this, N.
-    pub tie_break_force_n: f32,
+    /// Stiffness of the ties between regions per unit of tied area, N/m^3 (a tie from a
+    /// point of area A pulls with A times this per metre of relative displacement).
+    pub tie_stiffness_pa_per_m: f32,
+    /// A tie tears when its force over its area exceeds this, Pa.
+    pub tie_strength_pa: f32,
     /// Constraint projections per step.
     pub solver_iterations: u32,
     /// Speed under which a point counts as still, m/s.
@@ -37,8 +45,8 @@ pub struct SoftBodyParams {
 /// paper lets users tune the soft-body variables live, its Figure 5).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct Tuning {
-    /// Spring to the rest position, N/m per unit-mass point (eq 2).
-    pub spring_n_per_m: f32,
+    /// Winkler modulus of the foundation (eq 2's spring per unit area), N/m^3.
+    pub foundation_pa_per_m: f32,
     /// Velocity damping, 1/s (eq 5).
     pub damping_per_s: f32,
     /// Lift of the force origin above the contact, m.
@@ -46,22 +54,39 @@ pub struct Tuning {
 }
 
 // The table: one entry per parameter (units, one default, scenario range, live slider).
-const SPRING: ParamSpec = ParamSpec::new(
-    "spring_n_per_m",
-    "N/m",
-    40.0,
-    (0.0, 1e5),
-    "spring pulling each anchored point to its rest position (eq 2), per unit-mass point",
+const DENSITY: ParamSpec = ParamSpec::new(
+    "density_kg_per_m3",
+    "kg/m^3",
+    1050.0,
+    (1.0, 2e4),
+    "tissue density; a point's mass is its area's share of its part's enclosed mass \
+     (soft tissue about 1050: Duck, Physical Properties of Tissue, 1990)",
+);
+const FOUNDATION: ParamSpec = ParamSpec::new(
+    "foundation_pa_per_m",
+    "N/m^3",
+    1.6e6,
+    (0.0, 1e10),
+    "Winkler modulus holding the surface to its rest shape (eq 2 per unit area); with the \
+     shear layer, calibrated to Hertz for E = 16 kPa (docs/physics.md)",
 )
-.tune(1.0, 400.0);
+.tune(1e4, 1e7);
+const SHEAR: ParamSpec = ParamSpec::new(
+    "shear_layer_n_per_m",
+    "N/m",
+    10.0,
+    (0.0, 1e5),
+    "Pasternak shear layer coupling neighbours' displacements, spreading a load",
+);
 const DAMPING: ParamSpec = ParamSpec::new(
     "damping_per_s",
     "1/s",
-    8.0,
-    (0.0, 1e3),
-    "velocity damping d in v (1 - d dt) (eq 5)",
+    600.0,
+    (0.0, 1e4),
+    "mass-proportional velocity damping (eq 5), integrated implicitly; near critical for \
+     the default foundation",
 )
-.tune(0.0, 50.0);
+.tune(0.0, 2000.0);
 const CONTACT_AREA: ParamSpec = ParamSpec::new(
     "contact_area_m2",
     "m^2",
@@ -94,31 +119,34 @@ const VOLUME: ParamSpec = ParamSpec::new(
 const STRETCH: ParamSpec = ParamSpec::new(
     "stretch_compliance_m_per_n",
     "m/N",
-    1e-3,
-    (0.0, 1.0),
-    "XPBD compliance of the stretch constraints (eq 11)",
+    2.0,
+    (0.0, 1e3),
+    "XPBD compliance of the stretch constraints (eq 11), with the points' real masses; \
+     the shear layer carries the surface's stiffness, so this stays soft enough to converge \
+     in one projection at 2 ms",
 );
 const BEND: ParamSpec = ParamSpec::new(
     "bend_compliance_per_n_m",
     "rad/(N m)",
-    0.1,
-    (0.0, 10.0),
-    "XPBD compliance of the dihedral bending constraints (eq 12)",
+    1e6,
+    (0.0, 1e9),
+    "XPBD compliance of the dihedral bending constraints (eq 12), with the points' real \
+     masses; soft enough to converge in one projection at 2 ms",
 );
-const TIE_COMPLIANCE: ParamSpec = ParamSpec::new(
-    "tie_compliance_m_per_n",
-    "m/N",
-    5e-3,
-    (0.0, 1.0),
-    "XPBD compliance of the breakable ties between regions (5e-3: 200 N/m, so a tie at the \
-     default 2 N break force tears past about 1 cm of stretch)",
+const TIE_STIFFNESS: ParamSpec = ParamSpec::new(
+    "tie_stiffness_pa_per_m",
+    "N/m^3",
+    5e6,
+    (0.0, 1e10),
+    "stiffness of the ties between regions per unit of tied area",
 );
-const TIE_BREAK: ParamSpec = ParamSpec::new(
-    "tie_break_force_n",
-    "N",
-    2.0,
-    (1e-3, 1e3),
-    "a tie tears when its constraint force exceeds this",
+const TIE_STRENGTH: ParamSpec = ParamSpec::new(
+    "tie_strength_pa",
+    "Pa",
+    1e4,
+    (1.0, 1e8),
+    "a tie tears when its force over its area exceeds this (5e6 N/m^3 and 1e4 Pa: a tie \
+     tears past 2 mm of relative displacement)",
 );
 const ITERATIONS: ParamSpec = ParamSpec::new(
     "solver_iterations",
@@ -146,7 +174,9 @@ const fn slider(s: ParamSpec) -> (&'static str, f32, f32) {
 
 impl Params for SoftBodyParams {
     const SPECS: &'static [ParamSpec] = &[
-        SPRING,
+        DENSITY,
+        FOUNDATION,
+        SHEAR,
         DAMPING,
         CONTACT_AREA,
         OFFSET,
@@ -154,14 +184,16 @@ impl Params for SoftBodyParams {
         VOLUME,
         STRETCH,
         BEND,
-        TIE_COMPLIANCE,
-        TIE_BREAK,
+        TIE_STIFFNESS,
+        TIE_STRENGTH,
         ITERATIONS,
         SLEEP,
     ];
 
     crate::param_fields!(
-        spring_n_per_m,
+        density_kg_per_m3,
+        foundation_pa_per_m,
+        shear_layer_n_per_m,
         damping_per_s,
         contact_area_m2,
         offset_m,
@@ -169,8 +201,8 @@ impl Params for SoftBodyParams {
         volume_stiffness_pa,
         stretch_compliance_m_per_n,
         bend_compliance_per_n_m,
-        tie_compliance_m_per_n,
-        tie_break_force_n,
+        tie_stiffness_pa_per_m,
+        tie_strength_pa,
         solver_iterations,
         sleep_speed_m_per_s
     );
@@ -179,17 +211,17 @@ impl Params for SoftBodyParams {
 impl Tuning {
     /// Each tunable value's name and slider range, from the parameter table.
     pub const RANGES: [(&'static str, f32, f32); 3] =
-        [slider(SPRING), slider(DAMPING), slider(OFFSET)];
+        [slider(FOUNDATION), slider(DAMPING), slider(OFFSET)];
     pub fn of(p: &SoftBodyParams) -> Tuning {
         Tuning {
-            spring_n_per_m: p.spring_n_per_m,
+            foundation_pa_per_m: p.foundation_pa_per_m,
             damping_per_s: p.damping_per_s,
             offset_m: p.offset_m,
         }
     }
 
     pub fn values(&self) -> [f32; 3] {
-        [self.spring_n_per_m, self.damping_per_s, self.offset_m]
+        [self.foundation_pa_per_m, self.damping_per_s, self.offset_m]
     }
 
     /// `Err(key, message)` for the first value outside its range or not a number.
@@ -204,7 +236,7 @@ impl Tuning {
 
     /// These values written into `p`.
     pub fn apply(&self, p: &mut SoftBodyParams) {
-        p.spring_n_per_m = self.spring_n_per_m;
+        p.foundation_pa_per_m = self.foundation_pa_per_m;
         p.damping_per_s = self.damping_per_s;
         p.offset_m = self.offset_m;
     }
@@ -215,7 +247,9 @@ impl Default for SoftBodyParams {
     fn default() -> Self {
         let d = |s: ParamSpec| s.default as f32;
         Self {
-            spring_n_per_m: d(SPRING),
+            density_kg_per_m3: d(DENSITY),
+            foundation_pa_per_m: d(FOUNDATION),
+            shear_layer_n_per_m: d(SHEAR),
             damping_per_s: d(DAMPING),
             contact_area_m2: d(CONTACT_AREA),
             offset_m: d(OFFSET),
@@ -223,8 +257,8 @@ impl Default for SoftBodyParams {
             volume_stiffness_pa: d(VOLUME),
             stretch_compliance_m_per_n: d(STRETCH),
             bend_compliance_per_n_m: d(BEND),
-            tie_compliance_m_per_n: d(TIE_COMPLIANCE),
-            tie_break_force_n: d(TIE_BREAK),
+            tie_stiffness_pa_per_m: d(TIE_STIFFNESS),
+            tie_strength_pa: d(TIE_STRENGTH),
             solver_iterations: ITERATIONS.default as u32,
             sleep_speed_m_per_s: d(SLEEP),
         }

@@ -101,8 +101,8 @@ fn tie_after_stretch(stretch_m: f32) -> bool {
 #[test]
 fn a_tie_breaks_at_its_threshold_and_not_below() {
     let p = SoftBodyParams::default();
-    // XPBD, one iteration, unit masses: F = C / (2 dt^2 + compliance).
-    let at_threshold = p.tie_break_force_n * (2.0 * 0.002f32 * 0.002 + p.tie_compliance_m_per_n);
+    // A tie tears where its force over its area, stiffness x stretch, passes its strength.
+    let at_threshold = p.tie_strength_pa / p.tie_stiffness_pa_per_m;
     assert!(
         tie_after_stretch(0.9 * at_threshold),
         "tie broke below its threshold"
@@ -186,7 +186,7 @@ fn the_bvh_follows_deformation_through_partial_and_full_refits() {
         .map(|i| (b.positions()[i] - b.mesh.rest[i]).length())
         .fold(0.0, f32::max);
     assert!(
-        moved > 5.0 * BVH_MARGIN_M,
+        moved > 2.0 * BVH_MARGIN_M,
         "the tip moved the surface {moved} m"
     );
     // A cut removes leaves (whole-tree refit), then the drag goes on (partial again).
@@ -290,8 +290,7 @@ fn a_free_ball_pushed_by_a_tip_stays_whole() {
     let m = ball(5, 0.02, Vec3::ZERO);
     let mut b = body_of(&m, vec![1; m.triangle_count()]);
     let params = SoftBodyParams {
-        spring_n_per_m: 120.0,
-        damping_per_s: 10.0,
+        foundation_pa_per_m: 4e6,
         volume_stiffness_pa: 4000.0,
         ..SoftBodyParams::default()
     };

@@ -55,6 +55,7 @@ impl SoftBody {
         }
         self.regroup_free_parts();
         self.regroup_pressure();
+        self.rebuild_links();
         self.topology_dirty = false;
     }
 
@@ -92,6 +93,7 @@ impl SoftBody {
                 .fold(0.0, f32::max);
             let (q, t) = self.fit_part(part);
             (part.rotation, part.translation) = (q, t);
+            (part.prev_rotation, part.prev_translation) = (q, t);
         }
         self.free_parts = parts;
     }
@@ -125,6 +127,10 @@ impl SoftBody {
     /// jaws. Sleeping points of the piece ride along rigidly (they stay asleep; only points
     /// disturbed relative to the piece wake), which keeps a carried specimen cheap.
     pub(super) fn match_free_parts(&mut self) {
+        for part in &mut self.free_parts {
+            part.prev_rotation = part.rotation;
+            part.prev_translation = part.translation;
+        }
         for k in 0..self.free_parts.len() {
             let part = &self.free_parts[k];
             let busy = part

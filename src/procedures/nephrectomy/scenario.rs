@@ -405,9 +405,18 @@ impl Params for Weights {
     crate::param_fields!(completion, margin, preservation, safety, efficiency);
 }
 
+/// The top level: a 4 ms step, where the implicit kidney keeps up with real time on two cores.
+const TIMING: &[ParamSpec] = &[
+    Timing::dt_spec(
+        0.004,
+        "simulation step (0.004: 250 Hz; a force-feedback servo renders at 1 kHz between steps)",
+    ),
+    Timing::PUBLISH_HZ,
+];
+
 /// The scenario's tables with specs, as `INFO.param_tables` lists them (file order).
 pub const PARAM_TABLES: &[(&str, &[ParamSpec])] = &[
-    (TOP_LEVEL, Timing::SPECS),
+    (TOP_LEVEL, TIMING),
     ("anatomy", Anatomy::SPECS),
     ("kidney", SoftBodyParams::SPECS),
     ("vessels", SoftBodyParams::SPECS),
@@ -526,7 +535,7 @@ mod tests {
         let text = builtin("nephrectomy").expect("builtin");
         let before = Scenario::parse("s.toml", text).expect("parses");
         let t = Tuning {
-            spring_n_per_m: 55.5,
+            foundation_pa_per_m: 2.5e6,
             damping_per_s: 3.0,
             offset_m: 0.004,
         };
@@ -543,8 +552,9 @@ mod tests {
         // The vessels keep their own values; every comment line survives; one line a key.
         assert_eq!(after.vessels, before.vessels);
         assert_eq!(out.lines().count(), text.lines().count());
-        assert!(out.contains("spring_n_per_m = 55.5   # pull of each point"));
-        assert!(out.contains("spring_n_per_m = 120.0"));
+        assert!(out.contains("foundation_pa_per_m = 2500000.0"));
+        assert!(out.contains("# Winkler modulus: eq 2's spring per unit area"));
+        assert!(out.contains("foundation_pa_per_m = 4e6           # vessel walls"));
         // A missing key is added to the table; no kidney table is an error naming it.
         let short: String = text
             .lines()

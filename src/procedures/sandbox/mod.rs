@@ -23,7 +23,7 @@ mod scenario;
 #[cfg(test)]
 mod tests;
 
-pub use block::{BlockShape, REGION_BOTTOM, REGION_SIDES, REGION_TOP, block};
+pub use block::{BlockShape, REGION_BOTTOM, REGION_SIDES, REGION_TOP, block, divisions};
 pub use plugin::{ScoreParts, score};
 pub use scenario::{Geometry, MODEL, NAME, Scenario, Task, Tools};
 

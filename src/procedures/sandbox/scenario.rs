@@ -213,15 +213,12 @@ impl Scenario {
     /// the cells square (at least one).
     pub fn cells(&self) -> [u32; 3] {
         let g = &self.geometry;
-        let longest = g.size_m.iter().copied().fold(f32::MIN_POSITIVE, f32::max);
-        g.size_m
-            .map(|s| ((s / longest * g.resolution as f32).round() as u32).max(1))
+        super::block::divisions(glam::Vec3::from(g.size_m), g.resolution)
     }
 
-    /// Simulated points: one per triangle, two triangles per cell on each of the six sides.
+    /// Simulated points: one per triangle of the block's surface.
     pub fn points(&self) -> u64 {
-        let [x, y, z] = self.cells().map(u64::from);
-        4 * (x * y + y * z + z * x)
+        super::block::triangle_count(glam::Vec3::from(self.geometry.size_m), self.cells())
     }
 
     /// The top-level timing.

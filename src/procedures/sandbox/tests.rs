@@ -107,12 +107,12 @@ fn the_scenario_parses_and_a_bad_value_names_its_key() {
     let s = scenario();
     assert_eq!(s.procedure, "sandbox");
     assert_eq!(s.geometry.size_m, [0.06, 0.03, 0.04]);
-    assert_eq!(s.cells(), [24, 12, 16]);
-    assert_eq!(s.points(), 3456);
+    assert_eq!(s.cells(), [24, 14, 18]);
+    assert_eq!(s.points(), 4172);
     let plan = (INFO.plan)("sandbox.toml", INFO.scenario).expect("plans");
     assert_eq!(
         (plan.dt_s, plan.publish_hz, plan.nodes),
-        (0.002, 90.0, 3456)
+        (0.002, 90.0, 4172)
     );
     for (from, to, key) in [
         (
@@ -129,9 +129,9 @@ fn the_scenario_parses_and_a_bad_value_names_its_key() {
         ("resolution = 24", "resolution = 1", "geometry.resolution"),
         ("resolution = 24", "resolution = 256", "geometry.resolution"),
         (
-            "spring_n_per_m = 40.0",
-            "spring_n_per_m = -1.0",
-            "block.spring_n_per_m",
+            "foundation_pa_per_m = 1.6e6",
+            "foundation_pa_per_m = -1.0",
+            "block.foundation_pa_per_m",
         ),
         (
             "solver_iterations = 1",
@@ -207,7 +207,9 @@ fn the_block_is_closed_outward_and_evenly_divided() {
         "{}",
         mesh.volume()
     );
-    let area = mesh.triangle_area(0);
+    let area = (0..mesh.triangle_count())
+        .map(|f| mesh.triangle_area(f))
+        .fold(0.0, f32::max);
     for (f, t) in mesh.triangles.iter().enumerate() {
         let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
         let normal = (b - a).cross(c - a).normalize();
@@ -216,10 +218,10 @@ fn the_block_is_closed_outward_and_evenly_divided() {
             normal.dot(centroid - shape.centre()) > 0.0,
             "face {f} faces in"
         );
-        assert!(
-            (mesh.triangle_area(f) - area).abs() < 0.01 * area,
-            "face {f}"
-        );
+        // Whole triangles (the sides' a little smaller than the top's), or the half ones
+        // that end the shifted rows.
+        let a = mesh.triangle_area(f);
+        assert!(a > 0.4 * area, "face {f}: {a} vs {area}");
         // Regions: the top faces up, the bottom down, the sides sideways.
         let want = match (normal.y > 0.9, normal.y < -0.9) {
             (true, _) => REGION_TOP,
@@ -229,7 +231,8 @@ fn the_block_is_closed_outward_and_evenly_divided() {
         assert_eq!(regions[f], want, "face {f}");
     }
     let top = regions.iter().filter(|&&r| r == REGION_TOP).count();
-    assert_eq!(top, 2 * 24 * 16);
+    // Rows of 2 x 24 + 1 triangles, 18 rows.
+    assert_eq!(top, 18 * 49);
 }
 
 /// Steps a probe whose ball reaches `depth_m` into the top centre: it comes down over 0.1 s,
@@ -251,12 +254,10 @@ fn hold_probe(depth_m: f32, mut each: impl FnMut(&Sandbox)) -> Sandbox {
     s
 }
 
-/// The reference the sandbox is for: a ball held at a depth in a flat top. The model's
-/// reaction is the rest springs' pull (k (rest - x), unit-mass points) of the points the ball
-/// pushed out of itself that step. Held still, the dent does not come to rest (the points
-/// on the ball chatter, and the step's reaction with them, by about 40 %), so the check is on
-/// means over a second; each step's reaction is still bounded by the springs of every point
-/// on the ball.
+/// The reference the sandbox is for: a ball held at a depth in a flat top. What the probe
+/// feels is the sum of what the tissue does to the points it holds, so at rest it equals the
+/// load the whole block bears (its foundation and gas pressure, summed over every point from
+/// the positions alone): Newton's third law and statics.
 #[test]
 fn a_held_probe_pushes_back_up_harder_deeper_and_not_at_all_above() {
     hold_probe(-0.0005, |s| {
@@ -265,20 +266,8 @@ fn a_held_probe_pushes_back_up_harder_deeper_and_not_at_all_above() {
     });
     let mut last = 0.0;
     for depth in [0.001, 0.003, 0.006] {
-        let (mut reaction, mut springs) = (Vec3::ZERO, Vec3::ZERO);
-        let s = hold_probe(depth, |s| {
-            let b = s.body();
-            let (tip, r) = (s.tools[1].tip, s.scenario.tools.probe_tip_radius_m);
-            let k = s.scenario.block.spring_n_per_m;
-            let on_ball: Vec3 = (0..b.mesh().len())
-                .filter(|&i| b.positions()[i].distance(tip) < r * 1.001)
-                .map(|i| k * (b.mesh().rest[i] - b.positions()[i]))
-                .sum();
-            let f = s.reactions()[1];
-            assert!(f.y <= on_ball.y + 1e-3, "{depth} m: {f} over {on_ball}");
-            reaction += f / 500.0;
-            springs += on_ball / 500.0;
-        });
+        let mut reaction = Vec3::ZERO;
+        let s = hold_probe(depth, |s| reaction = s.reactions()[1]);
         assert!(
             (s.probe_depth_m() - depth).abs() < 1e-6,
             "{}",
@@ -287,11 +276,16 @@ fn a_held_probe_pushes_back_up_harder_deeper_and_not_at_all_above() {
         // Up, nearly straight up on a flat top, and more the deeper.
         assert!(reaction.y > last, "{depth} m: {reaction} after {last} N");
         assert!(
-            reaction.x.hypot(reaction.z) < 0.1 * reaction.y,
+            reaction.x.hypot(reaction.z) < 0.05 * reaction.y,
             "{reaction}"
         );
-        // Most of the ball's springs push on it on the mean step.
-        assert!(reaction.y > 0.75 * springs.y, "{reaction} vs {springs}");
+        // Within 3%: the gas pressure's share on the sleeping part of the block is borne
+        // there (the verify case `tip_reaction_balance` holds 1% on a body kept awake).
+        let load = crate::verify::softbody_contact_cases::body_load_n(s.body());
+        assert!(
+            (reaction.as_dvec3() - load).length() < 0.03 * load.length(),
+            "{depth} m: reaction {reaction} vs the block's load {load}"
+        );
         eprintln!("probe {:.0} mm deep: mean {reaction} N", depth * 1e3);
         last = reaction.y;
     }
@@ -396,7 +390,7 @@ fn tune_refuses_a_bad_value_and_changes_nothing() {
         (
             "block",
             vec![
-                ("spring_n_per_m".to_string(), 50.0),
+                ("foundation_pa_per_m".to_string(), 2e6),
                 ("damping_per_s".to_string(), 1e6),
             ],
             "block.damping_per_s",
@@ -413,7 +407,7 @@ fn tune_refuses_a_bad_value_and_changes_nothing() {
         ),
         (
             "kidney",
-            vec![("spring_n_per_m".to_string(), 50.0)],
+            vec![("foundation_pa_per_m".to_string(), 50.0)],
             "kidney",
         ),
     ] {
@@ -422,11 +416,11 @@ fn tune_refuses_a_bad_value_and_changes_nothing() {
         assert_eq!(s.tunables(), before);
         assert_eq!(s.body().params, params);
     }
-    s.tune("block", &[("spring_n_per_m".to_string(), 50.0)])
+    s.tune("block", &[("foundation_pa_per_m".to_string(), 2e6)])
         .expect("in range");
-    assert_eq!(s.body().params.spring_n_per_m, 50.0);
-    assert_eq!(s.scenario.block.spring_n_per_m, 50.0);
-    assert_eq!(s.tunables()[0].value, 50.0);
+    assert_eq!(s.body().params.foundation_pa_per_m, 2e6);
+    assert_eq!(s.scenario.block.foundation_pa_per_m, 2e6);
+    assert_eq!(s.tunables()[0].value, 2e6);
 }
 
 #[test]
@@ -469,7 +463,7 @@ fn the_registry_builds_plans_and_plays_the_sandbox() {
     let keys = KeyTrace::parse("sandbox-demo.toml", INFO.demo_trace).expect("trace");
     assert_eq!(keys, demo_keys());
     let (info, plan) = crate::procedures::plan("sandbox.toml", INFO.scenario).expect("plan");
-    assert_eq!((info.name, plan.nodes), (NAME, 3456));
+    assert_eq!((info.name, plan.nodes), (NAME, 4172));
     let mut p = crate::procedures::build("sandbox.toml", INFO.scenario).expect("build");
     let mut ev = Vec::new();
     p.step(&keys.sample(0.0), 0, &mut ev);

@@ -342,12 +342,12 @@ fn legacy_bytes(version: u32, rec: &Recording, tunings: &[(u64, Tuning)]) -> Vec
 #[test]
 fn versions_1_and_2_still_read() {
     let rec = recording("0.002", 7);
-    let t = |spring_n_per_m| Tuning {
-        spring_n_per_m,
+    let t = |foundation_pa_per_m| Tuning {
+        foundation_pa_per_m,
         damping_per_s: 4.0,
         offset_m: 0.002,
     };
-    let tunings = [(0, t(60.0)), (3, t(70.0)), (7, t(80.0))];
+    let tunings = [(0, t(6.0e6)), (3, t(7.0e6)), (7, t(8.0e6))];
     let legacy = Recording {
         session_id: String::new(),
         tunings: vec![],
@@ -366,9 +366,9 @@ fn versions_1_and_2_still_read() {
         .iter()
         .map(|(n, _)| n.as_str())
         .collect();
-    assert_eq!(names, ["spring_n_per_m", "damping_per_s", "offset_m"]);
+    assert_eq!(names, ["foundation_pa_per_m", "damping_per_s", "offset_m"]);
     assert_eq!(v2.tunings[1].model, tuned_model());
-    assert_eq!(v2.tunings[1].values[0].1, 70.0);
+    assert_eq!(v2.tunings[1].values[0].1, 7.0e6);
     for (r, (step, t)) in v2.tunings.iter().zip(&tunings) {
         assert_eq!((r.step, r.to_tuning()), (*step, Ok(*t)));
     }
@@ -402,8 +402,8 @@ fn versions_1_and_2_still_read() {
 
 #[test]
 fn a_tuning_record_maps_to_a_soft_body_tuning_only_when_complete_and_in_range() {
-    let r = tuned(5, 60.0);
-    assert_eq!(r.to_tuning().map(|t| t.spring_n_per_m), Ok(60.0));
+    let r = tuned(5, 6.0e6);
+    assert_eq!(r.to_tuning().map(|t| t.foundation_pa_per_m), Ok(6e6));
     let mut missing = r.clone();
     missing.values.pop();
     assert_eq!(
@@ -434,6 +434,6 @@ fn a_tuning_record_maps_to_a_soft_body_tuning_only_when_complete_and_in_range() 
     );
     assert!(tuned(5, -1.0).to_tuning().is_err_and(|e| {
         e.to_string()
-            .contains(&format!("{}.spring_n_per_m", tuned_model()))
+            .contains(&format!("{}.foundation_pa_per_m", tuned_model()))
     }));
 }

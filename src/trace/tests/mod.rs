@@ -32,7 +32,7 @@ fn tuned_model() -> &'static str {
 
 fn scenario(dt_s: &str) -> String {
     format!(
-        "procedure = \"{}\"\ndt_s = {dt_s}\n\n[{}]\nspring_n_per_m = 40.0\n",
+        "procedure = \"{}\"\ndt_s = {dt_s}\n\n[{}]\nfoundation_pa_per_m = 1.6e6\n",
         procedure(),
         tuned_model()
     )
@@ -57,9 +57,9 @@ fn frame(i: usize) -> InputFrame {
     }
 }
 
-fn tuned(step: u64, spring_n_per_m: f32) -> TuningRecord {
+fn tuned(step: u64, foundation_pa_per_m: f32) -> TuningRecord {
     let t = Tuning {
-        spring_n_per_m,
+        foundation_pa_per_m,
         damping_per_s: 4.0,
         offset_m: 0.002,
     };
@@ -75,14 +75,14 @@ fn recording(dt_s: &str, frames: usize) -> Recording {
         scenario: scenario(dt_s),
         frames: (0..frames).map(frame).collect(),
         tunings: vec![
-            tuned(0, 60.0),
-            tuned(end / 2, 80.0),
+            tuned(0, 6.0e6),
+            tuned(end / 2, 8.0e6),
             TuningRecord {
                 step: end / 2,
                 model: "fat".into(),
                 values: vec![("pressure_pa".into(), 10.0), ("damping_per_s".into(), 2.5)],
             },
-            tuned(end, 90.0),
+            tuned(end, 9.0e6),
         ],
         tail: Tail::Ended {
             how: "completed".into(),

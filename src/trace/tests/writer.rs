@@ -79,7 +79,7 @@ fn session_into(budget: usize) -> (Option<usize>, Vec<u8>) {
             for i in 0..150 {
                 results.push(w.push_frame(&frame(i)).map_err(|e| e.kind()));
             }
-            results.push(w.push_tuning(&tuned(150, 50.0)).map_err(|e| e.kind()));
+            results.push(w.push_tuning(&tuned(150, 5.0e6)).map_err(|e| e.kind()));
             results.push(w.push_frame(&frame(150)).map_err(|e| e.kind()));
             results.push(w.flush_if_due().map_err(|e| e.kind()));
             results.push(w.flush().map_err(|e| e.kind()));
@@ -188,11 +188,13 @@ fn a_non_finite_frame_or_bad_tuning_is_refused_and_the_writer_goes_on() {
     nan.hands[0].pose.position.x = f32::NAN;
     let e = w.push_frame(&nan).expect_err("nan");
     assert_eq!(e.kind(), io::ErrorKind::InvalidInput);
-    let e = w.push_tuning(&tuned(2, 50.0)).expect_err("past the frames");
-    assert_eq!(e.kind(), io::ErrorKind::InvalidInput);
-    w.push_tuning(&tuned(1, 50.0)).expect("tuning");
     let e = w
-        .push_tuning(&tuned(0, 50.0))
+        .push_tuning(&tuned(2, 5.0e6))
+        .expect_err("past the frames");
+    assert_eq!(e.kind(), io::ErrorKind::InvalidInput);
+    w.push_tuning(&tuned(1, 5.0e6)).expect("tuning");
+    let e = w
+        .push_tuning(&tuned(0, 5.0e6))
         .expect_err("before the previous");
     assert_eq!(e.kind(), io::ErrorKind::InvalidInput);
     w.push_frame(&frame(1)).expect("push");
@@ -200,7 +202,7 @@ fn a_non_finite_frame_or_bad_tuning_is_refused_and_the_writer_goes_on() {
     w.finish("error").expect("finish");
     let r = Recording::read(&path).expect("reads");
     assert_eq!(r.frames, [frame(0), frame(1)]);
-    assert_eq!(r.tunings, [tuned(1, 50.0)]);
+    assert_eq!(r.tunings, [tuned(1, 5.0e6)]);
     assert_eq!(
         r.tail,
         Tail::Ended {

@@ -2,7 +2,8 @@
 //! simulated one) drives the simulation. Each frame the app waits for the runtime's display
 //! time, reads both controllers, steps the simulation up to that time (the controller poses
 //! interpolated between frames, so the instruments move at the simulation's rate), vibrates
-//! the controllers on contact, and draws both eyes into the swapchain in one multiview pass.
+//! the controllers with the contact force and with pulses for grasps, cuts and tears (see
+//! [`vibration`]), and draws both eyes into the swapchain in one multiview pass.
 //!
 //! Each controller holds the instrument its procedure gives that hand: the aim-pose ray is the
 //! instrument's axis, the trigger its trigger (a laser cuts), the grip its jaws, the trackpad
@@ -10,7 +11,6 @@
 //! freezes its instrument and raises `controller_lost`; a lost session stops the simulation,
 //! keeps its record, and a new session carries on when the headset returns.
 
-use crate::procedures::{ToolInfo, ToolKind};
 use crate::profiler::FrameCounters;
 use crate::render::{EyeView, Fov, Gpu, RenderError, RenderTarget, Renderer};
 use crate::session::{Live, Outcome, SessionError};
@@ -20,70 +20,10 @@ use xr_bindings::app::{EYE_FORMAT, HandReading, XrApp, XrError, XrSession};
 use xr_bindings::openxr as xr;
 use xr_bindings::{Command, SessionMachine};
 
-/// Vibration for one instrument: contact force to amplitude, and its buzz.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct HapticProfile {
-    /// Force that gives full amplitude, newtons.
-    pub full_force_n: f32,
-    /// Force at or below which there is no contact to feel, newtons: only rounding noise, so
-    /// that the first touch is felt in the frame it happens.
-    pub threshold_n: f32,
-    /// Vibration frequency, Hz.
-    pub frequency_hz: f32,
-    /// Length of each pulse, seconds (pulses repeat every frame while contact lasts).
-    pub pulse_s: f64,
-    /// Amplitude while the instrument is cutting, whatever the force (0..1).
-    pub cutting_amplitude: f32,
-}
-
-/// A holding or pressing instrument (grasper, probe): a soft 160 Hz pulse (the Vive's
-/// actuator resonates near there), full at the instrument's full-scale force.
-const HOLDING_HAPTICS: HapticProfile = HapticProfile {
-    full_force_n: 3.5,
-    threshold_n: 1e-6,
-    frequency_hz: 160.0,
-    pulse_s: 0.025,
-    cutting_amplitude: 0.0,
+pub mod vibration;
+pub use vibration::{
+    AMPLITUDE_FLOOR, Buzz, FORCE_FLOOR_N, FrameFeel, HapticProfile, Order, Pulse, Vibrator,
 };
-/// A laser: a sharper 250 Hz buzz, and half amplitude while it removes tissue (the Vive
-/// paper's "vibrational feedback" when triangles are cut).
-const LASER_HAPTICS: HapticProfile = HapticProfile {
-    full_force_n: 1.0,
-    threshold_n: 1e-6,
-    frequency_hz: 250.0,
-    pulse_s: 0.025,
-    cutting_amplitude: 0.5,
-};
-
-impl HapticProfile {
-    /// The vibration of an instrument.
-    pub fn for_tool(tool: &ToolInfo) -> HapticProfile {
-        let base = match tool.kind {
-            ToolKind::Laser => LASER_HAPTICS,
-            ToolKind::Grasper | ToolKind::Probe => HOLDING_HAPTICS,
-        };
-        HapticProfile {
-            full_force_n: tool.full_scale_n,
-            ..base
-        }
-    }
-
-    /// The amplitude for this frame's peak contact force and cut faces; `None`: no contact.
-    pub fn amplitude(&self, force_n: f32, cut_faces: u32) -> Option<f32> {
-        let touching = force_n.is_finite() && force_n > self.threshold_n;
-        let cutting = cut_faces > 0 && self.cutting_amplitude > 0.0;
-        if !touching && !cutting {
-            return None;
-        }
-        let from_force = if touching {
-            (force_n / self.full_force_n).clamp(0.05, 1.0)
-        } else {
-            0.0
-        };
-        let from_cut = if cutting { self.cutting_amplitude } else { 0.0 };
-        Some(from_force.max(from_cut))
-    }
-}
 
 /// What a run under an XR runtime did.
 pub struct XrRun {
@@ -234,7 +174,7 @@ pub struct XrLoop {
     held: [HandInput; 2],
     /// Whether each controller was tracked at the last focused frame (none yet: unknown).
     tracked: [Option<bool>; 2],
-    buzzing: [bool; 2],
+    vibrator: Vibrator,
     frames: u64,
     sessions: u32,
     /// Display time (ns) that corresponds to simulated time 0 in the current session.
@@ -268,6 +208,7 @@ impl XrLoop {
             live.stream_to(&dir.join(crate::session::RECORDING))?;
         }
         let dt = f64::from(live.dt_s());
+        let vibrator = Vibrator::new(&live.info().tools);
         Ok(XrLoop {
             app,
             gpu,
@@ -280,7 +221,7 @@ impl XrLoop {
             session: None,
             held: [HandInput::default(); 2],
             tracked: [None; 2],
-            buzzing: [false; 2],
+            vibrator,
             frames: 0,
             sessions: 0,
             origin: None,
@@ -349,7 +290,7 @@ impl XrLoop {
                 Some(Command::Exit) => return Ok(Tick::Exit),
                 Some(Command::Recreate) => {
                     self.live.note(EventKind::SessionLost);
-                    self.buzzing = [false; 2];
+                    self.vibrator.reset();
                     self.session = None;
                     // Wait for the headset to come back (a real runtime: minutes at most).
                     let mut tries = 0u32;
@@ -427,8 +368,7 @@ impl XrLoop {
             }
         }
         // Step the simulation up to the display time, inputs interpolated.
-        let mut peak = [0.0f32; 2];
-        let mut cut = [0u32; 2];
+        let mut feel = FrameFeel::default();
         let span = (target_s - self.last_t_s).max(1e-9);
         while live.time_s() + dt * 0.5 <= target_s {
             let s = ((live.time_s() - self.last_t_s) / span).clamp(0.0, 1.0) as f32;
@@ -439,42 +379,34 @@ impl XrLoop {
                 ],
             };
             for e in live.step(frame)? {
-                if let EventKind::Cut { faces, .. } = e.kind {
-                    // Cuts are the lasers' doing.
-                    for (k, t) in tools.iter().enumerate() {
-                        if t.kind == ToolKind::Laser {
-                            cut[k] += faces;
-                        }
-                    }
-                }
+                feel.note(&e.kind, &tools);
             }
             // Vibration reads the haptic channel, as a force-feedback loop would.
             let felt = haptics.latest();
-            for k in 0..2 {
-                peak[k] = peak[k].max(felt.tools[k].force_n.length());
-            }
+            feel.touch([
+                felt.tools[0].force_n.length(),
+                felt.tools[1].force_n.length(),
+            ]);
         }
         self.last_t_s = live.time_s();
         self.held = now;
-        // Vibration while in contact, stopped when contact ends.
+        // Contact buzz and event pulses; a stop when they end.
         if focused {
-            for (k, profile) in tools.iter().map(HapticProfile::for_tool).enumerate() {
-                match profile.amplitude(peak[k], cut[k]) {
-                    Some(a) if self.tracked[k] == Some(true) => {
+            let tracked = self.tracked.map(|t| t == Some(true));
+            let orders = self.vibrator.orders(self.last_t_s, &feel, tracked);
+            for (k, order) in orders.into_iter().enumerate() {
+                match order {
+                    Order::Vibrate(b) => {
                         xs.vibrate(
                             &self.app.controls,
                             k,
-                            a,
-                            profile.frequency_hz,
-                            profile.pulse_s,
+                            b.amplitude,
+                            b.frequency_hz,
+                            b.duration_s,
                         )?;
-                        self.buzzing[k] = true;
                     }
-                    _ if self.buzzing[k] => {
-                        xs.stop_vibration(&self.app.controls, k)?;
-                        self.buzzing[k] = false;
-                    }
-                    _ => {}
+                    Order::Stop => xs.stop_vibration(&self.app.controls, k)?,
+                    Order::Nothing => {}
                 }
             }
         }
@@ -594,33 +526,4 @@ fn draw(
         }
     })?;
     Ok(counters)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn amplitude_grows_with_force_and_stops_without_contact() {
-        let tool = |kind, full_scale_n| ToolInfo {
-            hand: Hand::Left,
-            name: "tool",
-            kind,
-            full_scale_n,
-        };
-        let g = HapticProfile::for_tool(&tool(ToolKind::Grasper, 3.5));
-        let laser = HapticProfile::for_tool(&tool(ToolKind::Laser, 1.0));
-        assert_eq!(g.amplitude(0.0, 0), None);
-        assert_eq!(g.amplitude(1e-7, 0), None);
-        assert_eq!(g.amplitude(1e-4, 0), Some(0.05));
-        let a = g.amplitude(0.875, 0).expect("contact");
-        let b = g.amplitude(1.75, 0).expect("contact");
-        assert!((a - 0.25).abs() < 1e-6 && (b - 0.5).abs() < 1e-6);
-        assert_eq!(g.amplitude(10.0, 0), Some(1.0));
-        assert_eq!(g.amplitude(f32::NAN, 0), None);
-        // The laser buzzes while it cuts, even without a reaction force.
-        assert_eq!(laser.amplitude(0.0, 3), Some(0.5));
-        assert_eq!(g.amplitude(0.0, 3), None);
-        assert_eq!(laser.frequency_hz, 250.0);
-    }
 }
