@@ -1,7 +1,9 @@
 //! `haptics`: the 1 kHz servo loop against a procedure, with its timing and force figures.
 
-use super::CliError;
-use vesalius::haptics::{DeviceChoice, StandOptions, open_device, run_stand};
+use super::{CliError, RunArgs};
+use vesalius::haptics::{
+    BoundOptions, DeviceChoice, SafetyParams, StandOptions, open_device, run_bound, run_stand,
+};
 use vesalius::session::interrupt;
 
 /// A device on the command line.
@@ -74,4 +76,62 @@ pub fn haptics(
         }),
         None => Ok(()),
     }
+}
+
+/// `run <procedure> --haptics D[,D]`: a recorded session driven by the devices, then its
+/// report and one line per device.
+pub fn run_with_devices(a: &RunArgs) -> Result<(), CliError> {
+    if a.haptics.len() > 2 {
+        return Err(CliError::Usage(format!(
+            "--haptics: one or two devices (one per hand), got {}",
+            a.haptics.len()
+        )));
+    }
+    if a.haptics
+        .iter()
+        .filter(|d| **d == DeviceArg::Phantom)
+        .count()
+        > 1
+    {
+        return Err(CliError::Usage(
+            "--haptics phantom,phantom: two OpenHaptics devices share HD's one scheduler, \
+             which this version drives for one device only; use one Phantom, or a Phantom \
+             and a Falcon"
+                .into(),
+        ));
+    }
+    let (file, text) = super::session::scenario_text(&a.procedure, a.scenario.as_deref())?;
+    if let Some(dir) = &a.out {
+        vesalius::session::prepare(dir)?;
+    }
+    let mut devices = Vec::new();
+    for d in &a.haptics {
+        devices.push(open_device((*d).into())?);
+    }
+    let opts = BoundOptions {
+        scenario_text: &text,
+        scenario_file: &file,
+        out: a.out.as_deref(),
+        seconds: a.seconds,
+        scale: a.workspace_scale,
+        safety: SafetyParams::default(),
+    };
+    let run = run_bound(&mut devices, &opts)?;
+    super::session::finish(&run.outcome, a.out.as_deref())?;
+    for d in &run.devices {
+        let s = &d.servo;
+        say!(
+            "{} on the {} hand: {:.1} Hz, period error p99 {:.3} ms, max force {:.2} N (limit {:.1} N), {} clamps, {} stalls, clutch let go {} times",
+            d.device,
+            d.hand.name(),
+            s.rate_hz,
+            s.period_p99_error_ms,
+            s.max_force_n,
+            s.limit_force_n,
+            s.clamps,
+            s.stalls,
+            d.reanchors
+        );
+    }
+    super::session::interrupted()
 }

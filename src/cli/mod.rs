@@ -180,6 +180,19 @@ struct RunArgs {
     /// The longest session allowed, seconds: traces with later keys are refused (4 h).
     #[arg(long, value_name = "S", value_parser = positive_seconds, default_value_t = vesalius::session::DEFAULT_MAX_SESSION_S)]
     max_session: f64,
+    /// Force-feedback devices driving the instruments, one or two of sim, phantom, falcon
+    /// (`phantom,phantom`: left and right hand). No window; ends after --seconds or Ctrl-C.
+    #[arg(long, value_name = "DEVICES", value_enum, value_delimiter = ',',
+          conflicts_with_all = ["headless", "trace", "xr", "xr_sim", "screenshot"])]
+    haptics: Vec<haptics::DeviceArg>,
+    /// With --haptics: field metres per device metre (below 1: finer motion, softer feel).
+    #[arg(long, value_name = "S", requires = "haptics", default_value_t = 1.0,
+          value_parser = positive_scale)]
+    workspace_scale: f64,
+    /// With --haptics: how long the session runs, simulated seconds.
+    #[arg(long, value_name = "S", requires = "haptics", default_value_t = 60.0,
+          value_parser = positive_seconds, allow_negative_numbers = true)]
+    seconds: f64,
 }
 
 /// A command's failure, and the exit code it gives.
@@ -280,6 +293,13 @@ fn positive_seconds(v: &str) -> Result<f64, BadValue> {
         .ok()
         .filter(|s| s.is_finite() && *s > 0.0)
         .ok_or_else(|| bad("seconds greater than 0", v))
+}
+
+fn positive_scale(v: &str) -> Result<f64, BadValue> {
+    v.parse::<f64>()
+        .ok()
+        .filter(|s| s.is_finite() && *s >= 0.01 && *s <= 100.0)
+        .ok_or_else(|| bad("a scale from 0.01 to 100", v))
 }
 
 /// Parses the command line, runs the command and turns its result into an exit code.

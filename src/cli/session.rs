@@ -9,7 +9,10 @@ use vesalius::sim::Pacing;
 use vesalius::trace::{KeyTrace, Recording, Tail};
 
 /// The scenario a run uses: the file given, or the procedure's built-in one.
-fn scenario_text(procedure: &str, scenario: Option<&Path>) -> Result<(String, String), CliError> {
+pub(super) fn scenario_text(
+    procedure: &str,
+    scenario: Option<&Path>,
+) -> Result<(String, String), CliError> {
     Ok(match scenario {
         Some(f) => (
             f.display().to_string(),
@@ -37,7 +40,7 @@ fn load_trace(path: &Path, procedure: &str, max_s: f64) -> Result<KeyTrace, CliE
 }
 
 /// After a session: a signal that ended it becomes the exit code.
-fn interrupted() -> Result<(), CliError> {
+pub(super) fn interrupted() -> Result<(), CliError> {
     match interrupt::interrupted() {
         Some(signal) => Err(CliError::Interrupted {
             signal,
@@ -48,7 +51,7 @@ fn interrupted() -> Result<(), CliError> {
 }
 
 /// Prints the outcome and writes the output set.
-fn finish(outcome: &session::Outcome, out: Option<&Path>) -> Result<(), CliError> {
+pub(super) fn finish(outcome: &session::Outcome, out: Option<&Path>) -> Result<(), CliError> {
     if let Some(dir) = out {
         session::write_outputs(outcome, dir)?;
     }
@@ -73,6 +76,9 @@ fn finish(outcome: &session::Outcome, out: Option<&Path>) -> Result<(), CliError
 
 /// `run`: picks the window, headless, XR or simulated-XR path.
 pub fn run(a: RunArgs) -> Result<(), CliError> {
+    if !a.haptics.is_empty() {
+        return super::haptics::run_with_devices(&a);
+    }
     if a.xr || a.xr_sim.is_some() {
         return match &a.xr_sim {
             Some(trace) => run_xr_sim(&a, trace),

@@ -15,6 +15,8 @@
 //!   device's scheduler) and its timing figures.
 //! - [`stand`]: the servo loop against a procedure stepping on its own thread (`vesalius
 //!   haptics`).
+//! - [`clutch`]: a stylus bound to one hand's instrument, with a clutch to re-centre it.
+//! - [`bound`]: a recorded session driven by one or two devices (`vesalius run --haptics`).
 //! - [`vendor`]: [`open_device`], where a device named on the command line is opened, and the
 //!   adapters of the vendor drivers: [`HdStylus`] (OpenHaptics HD, push) and [`DhdStylus`]
 //!   (Force Dimension DHD, pull).
@@ -23,6 +25,8 @@
 //! and z toward the user, as the field has; a [`Workspace`] scales and offsets one into the
 //! other.
 
+pub mod bound;
+pub mod clutch;
 pub mod device;
 pub mod render;
 pub mod safety;
@@ -31,6 +35,8 @@ pub mod simulated;
 pub mod stand;
 pub mod vendor;
 
+pub use bound::{BoundOptions, BoundRun, DeviceRun, bound_hands, run_bound};
+pub use clutch::{Binding, bound_frame, hand_workspace};
 pub use device::{
     DeviceKind, DeviceLimits, DeviceState, Drive, HapticDevice, HapticsError, PullDevice,
     PushDevice, PushReply, ServoCallback,

@@ -10,7 +10,7 @@
 //! the local model, passes the force through [`Safety`] and stamps the events with the newest
 //! simulation step. The servo thread (and a push device's scheduler) calls it each tick.
 
-use super::device::{DeviceLimits, DeviceState};
+use super::device::{DeviceKind, DeviceLimits, DeviceState};
 use super::safety::{Safety, SafetyCounters, SafetyOutput, SafetyParams, TickInput};
 use crate::sim::{Hand, HapticFrame, SimEvent, ToolHaptics};
 use glam::{DVec3, Vec3};
@@ -82,6 +82,8 @@ pub struct ServoCore {
     dropped_events: u64,
     max_force_n: f64,
     last: Option<SafetyOutput>,
+    /// The device whose clutch, while held, makes the wanted force zero (none: no clutch).
+    clutch: Option<DeviceKind>,
 }
 
 impl ServoCore {
@@ -103,7 +105,15 @@ impl ServoCore {
             dropped_events: 0,
             max_force_n: 0.0,
             last: None,
+            clutch: None,
         }
+    }
+
+    /// The same servo, wanting no force while `kind`'s clutch is held (see
+    /// [`super::clutch`]): the instrument is decoupled from the hand.
+    pub fn with_clutch(mut self, kind: DeviceKind) -> ServoCore {
+        self.clutch = Some(kind);
+        self
     }
 
     /// One tick at `now_s` with the stylus' `state` and the newest `frame`: the force to write.
@@ -122,7 +132,9 @@ impl ServoCore {
             self.anchor_m = Some(position);
         }
         let tool = frame.tools[self.hand.index()];
-        let stiffness = if have_frame && tool.in_contact {
+        let coupled = !self.clutch.is_some_and(|k| k.clutched(state.buttons));
+        let render = have_frame && coupled;
+        let stiffness = if render && tool.in_contact {
             f64::from(tool.stiffness_n_per_m) * self.scale
         } else {
             0.0
@@ -136,7 +148,7 @@ impl ServoCore {
         };
         let anchor = self.anchor_m.unwrap_or(position);
         let out = self.safety.tick(&input, |k| {
-            if have_frame {
+            if render {
                 local_force(&tool, k, position - anchor)
             } else {
                 DVec3::ZERO
@@ -291,6 +303,23 @@ mod tests {
         }
         let f = half.tick(t, &at(-0.001), &frame);
         assert!((f.y - (0.5 + 0.15)).abs() < 1e-6, "{f:?}");
+        // A held clutch decouples the hand: no force, however deep; let go, the force is back.
+        let mut clutched =
+            ServoCore::new(limits, Hand::Right, 1.0, params).with_clutch(super::DeviceKind::Falcon);
+        let press = |buttons| DeviceState {
+            buttons,
+            ..at(-0.001)
+        };
+        let mut t = 0.0;
+        for _ in 0..6 {
+            clutched.tick(t, &at(0.0), &frame);
+            t += 0.001;
+        }
+        let held = crate::haptics::clutch::CLUTCH_BUTTON;
+        assert_eq!(clutched.tick(t, &press(held), &frame), DVec3::ZERO);
+        t += 0.001;
+        let f = clutched.tick(t, &press(0), &frame);
+        assert!((f.y - 0.8).abs() < 1e-6, "{f:?}");
     }
 
     #[test]

@@ -74,6 +74,9 @@ pub struct ServoConfig {
     pub spin_s: f64,
     /// How long it runs, s (it also stops when asked).
     pub duration_s: f64,
+    /// Whether the device's clutch decouples it (no force while held; see
+    /// [`super::clutch`]).
+    pub clutch: bool,
 }
 
 impl Default for ServoConfig {
@@ -85,6 +88,7 @@ impl Default for ServoConfig {
             period_s: 0.001,
             spin_s: 0.0002,
             duration_s: 3.0,
+            clutch: false,
         }
     }
 }
@@ -229,12 +233,15 @@ pub fn run_servo(
     links: &ServoLinks,
     config: &ServoConfig,
 ) -> Result<ServoReport, HapticsError> {
-    let core = ServoCore::new(
+    let mut core = ServoCore::new(
         device.limits(),
         config.hand,
         config.workspace_scale,
         config.safety,
     );
+    if config.clutch {
+        core = core.with_clutch(device.kind());
+    }
     let name = device.name().to_string();
     match device.drive() {
         Drive::Pull(d) => run_pull(d, core, links, config),

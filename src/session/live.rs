@@ -292,6 +292,14 @@ impl Live {
         self.events.push(SimEvent { step, kind });
     }
 
+    /// Adds events from outside the simulation that carry their own steps (a servo loop's
+    /// clamps and stalls), in step order among the session's own (stable: at a tie the
+    /// session's come first).
+    pub fn merge_events(&mut self, more: Vec<SimEvent>) {
+        let mine = std::mem::take(&mut self.events);
+        self.events = merge_by_step(mine, more);
+    }
+
     pub fn snapshot(&mut self) -> Snapshot {
         self.proc_.snapshot(self.clock.step())
     }
@@ -389,5 +397,44 @@ impl Live {
             wall_s,
             captured,
         })
+    }
+}
+
+/// `mine` (in step order) with `more` merged in by step; at a tie, `mine` first.
+fn merge_by_step(mine: Vec<SimEvent>, mut more: Vec<SimEvent>) -> Vec<SimEvent> {
+    more.sort_by_key(|e| e.step);
+    let mut merged = Vec::with_capacity(mine.len() + more.len());
+    let mut theirs = more.into_iter().peekable();
+    for e in mine {
+        while let Some(t) = theirs.next_if(|t| t.step < e.step) {
+            merged.push(t);
+        }
+        merged.push(e);
+    }
+    merged.extend(theirs);
+    merged
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::EventKind;
+
+    #[test]
+    fn outside_events_merge_in_step_order_after_the_sessions_own() {
+        let e = |step, what: &str| SimEvent {
+            step,
+            kind: EventKind::TaskStep { name: what.into() },
+        };
+        let mine = vec![e(1, "a"), e(3, "b"), e(3, "c"), e(7, "d")];
+        let more = vec![e(9, "z"), e(3, "y"), e(0, "x")];
+        let names: Vec<String> = merge_by_step(mine, more)
+            .into_iter()
+            .map(|s| match s.kind {
+                EventKind::TaskStep { name } => name,
+                _ => String::new(),
+            })
+            .collect();
+        assert_eq!(names, ["x", "a", "b", "c", "y", "d", "z"]);
     }
 }

@@ -35,6 +35,8 @@ pub mod ended {
     pub const CLOSED: &str = "closed";
     /// The XR runtime ended the session, or its duration ran out.
     pub const XR_EXIT: &str = "xr_exit";
+    /// The session's set length (`run --haptics --seconds`) ran out.
+    pub const TIME_UP: &str = "time_up";
     /// A replay of a recording that stops short (its session was killed or crashed).
     pub const TRUNCATED_RECORDING: &str = "truncated_recording";
 }

@@ -1,0 +1,147 @@
+//! `vesalius run <procedure> --haptics D[,D]`: sessions driven by force-feedback devices.
+//! The simulated stylus presses the procedure's tissue; the session is recorded, ends after
+//! its `--seconds`, and replays to the same state. Two devices drive both hands. A Phantom
+//! (here the fake libHD the build makes) runs the same session through the real FFI path.
+
+mod common;
+use common::{bin, report, text, tmp};
+
+fn run(args: &[&str]) -> std::process::Output {
+    bin().args(args).output().expect("runs")
+}
+
+#[test]
+fn one_simulated_stylus_presses_the_block_and_the_session_replays() {
+    let d = tmp("haptics-session", "one");
+    let out = d.join("run");
+    let o = run(&[
+        "run",
+        "sandbox",
+        "--haptics",
+        "sim",
+        "--seconds",
+        "2",
+        "--out",
+        out.to_str().expect("utf-8"),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout.contains("simulated stylus on the right hand"),
+        "{stdout}"
+    );
+    let r = report(&out);
+    assert_eq!(r["ended"], "time_up", "{r}");
+    let dt = r["dt_s"].as_f64().expect("dt");
+    let t = r["simulated_s"].as_f64().expect("simulated_s");
+    assert!((2.0..2.0 + 2.0 * dt).contains(&t), "{t} s");
+    // The stylus came down 26 mm from 15 mm above the block: the probe touched and pushed.
+    assert!(r["events"]["contact"].as_u64().unwrap_or(0) >= 1, "{r}");
+    let f = r["metrics"]["max_probe_force_n"].as_f64().unwrap_or(0.0);
+    let depth = r["metrics"]["max_probe_depth_m"].as_f64().unwrap_or(0.0);
+    assert!(f > 0.05 && depth > 0.005, "probe {f} N at {depth} m: {r}");
+    // The recording replays to the same state.
+    let again = d.join("replay");
+    let o = run(&[
+        "replay",
+        out.join("input.vtrace").to_str().expect("utf-8"),
+        "--out",
+        again.to_str().expect("utf-8"),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let back = report(&again);
+    assert_eq!(back["state_hash"], r["state_hash"]);
+    assert_eq!(back["steps"], r["steps"]);
+}
+
+#[test]
+fn two_styluses_drive_both_hands() {
+    let d = tmp("haptics-session", "two");
+    let o = run(&[
+        "run",
+        "sandbox",
+        "--haptics",
+        "sim,sim",
+        "--seconds",
+        "1.2",
+        "--out",
+        d.to_str().expect("utf-8"),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("on the left hand") && stdout.contains("on the right hand"));
+    let r = report(&d);
+    // Each hand's stylus moved its instrument down into its side of the block: both touched
+    // and pushed back.
+    for hand in ["left", "right"] {
+        let path = r["metrics"][format!("path_length_{hand}_m")]
+            .as_f64()
+            .unwrap_or(0.0);
+        assert!(path > 0.02, "{hand}: {path} m: {r}");
+    }
+    let events = std::fs::read_to_string(d.join("events.jsonl")).expect("events.jsonl");
+    for hand in ["left", "right"] {
+        let touched = events.lines().any(|l| {
+            let e: serde_json::Value = serde_json::from_str(l).expect("JSON");
+            e["kind"] == "contact" && e["tool"] == hand
+        });
+        assert!(touched, "no contact by the {hand} instrument: {events}");
+    }
+    let grasper = r["metrics"]["max_grasper_force_n"].as_f64().unwrap_or(0.0);
+    let probe = r["metrics"]["max_probe_force_n"].as_f64().unwrap_or(0.0);
+    assert!(grasper > 0.0 && probe > 0.05, "{grasper} N, {probe} N: {r}");
+}
+
+#[test]
+fn a_phantom_drives_a_session_through_its_library() {
+    let d = tmp("haptics-session", "phantom");
+    let o = bin()
+        .args(["run", "sandbox", "--haptics", "phantom", "--seconds", "1"])
+        .arg("--out")
+        .arg(&*d)
+        .env("LD_LIBRARY_PATH", xr_bindings::haptics::fake_library_dir())
+        .env_remove("VESALIUS_LIBHD")
+        // The stylus 16 mm below the device's origin, which is 15 mm above the block's top.
+        .env("FAKE_HD_POSITION_MM", "0,-16,0")
+        .output()
+        .expect("runs");
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let r = report(&d);
+    assert_eq!(r["ended"], "time_up", "{r}");
+    // The probe's point is held 1 mm under the top: its ball tip is that plus its radius deep.
+    let scenario: toml::Table = vesalius::scenario::builtin("sandbox")
+        .expect("builtin")
+        .parse()
+        .expect("TOML");
+    let radius = scenario["tools"]["probe_tip_radius_m"]
+        .as_float()
+        .expect("probe radius");
+    let depth = r["metrics"]["max_probe_depth_m"].as_f64().unwrap_or(0.0);
+    assert!(
+        (depth - (0.001 + radius)).abs() < 2e-4,
+        "probe {depth} m deep: {r}"
+    );
+}
+
+#[test]
+fn bad_device_lists_are_usage_errors() {
+    for args in [
+        &["run", "sandbox", "--haptics", "sim,sim,sim"][..],
+        &["run", "sandbox", "--haptics", "omni"],
+        &["run", "sandbox", "--haptics", "phantom,phantom"],
+        &[
+            "run",
+            "sandbox",
+            "--haptics",
+            "sim",
+            "--workspace-scale",
+            "0",
+        ],
+        &["run", "sandbox", "--haptics", "sim", "--headless"],
+        &["run", "sandbox", "--workspace-scale", "2"],
+    ] {
+        let o = run(args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", text(&o));
+        assert!(!text(&o).contains("panicked"), "{args:?}");
+    }
+}
