@@ -148,7 +148,7 @@ impl FrameFeel {
     }
 
     /// Takes one event: cuts go to the hands that hold a laser, a grasp to the hand it names
-    /// (the world names tools by hand; an instrument's name is taken too), a tear to the hands in contact (decided at the frame's end).
+    /// (the world names tools by hand), a tear to the hands in contact (decided at the frame's end).
     pub fn note(&mut self, event: &EventKind, tools: &[ToolInfo; 2]) {
         match event {
             EventKind::Cut { faces, .. } if *faces > 0 => {
@@ -160,7 +160,7 @@ impl FrameFeel {
             }
             EventKind::Grasp { tool, .. } => {
                 for (k, t) in tools.iter().enumerate() {
-                    if t.hand.name() == tool.as_str() || t.name == tool.as_str() {
+                    if t.hand.name() == tool.as_str() {
                         self.add(k, Pulse::Grasp);
                     }
                 }
@@ -272,7 +272,7 @@ mod tests {
 
     fn cut_event(faces: u32) -> EventKind {
         EventKind::Cut {
-            model: "kidney".into(),
+            model: "tissue".into(),
             faces,
             length_m: 0.001,
         }
@@ -341,7 +341,7 @@ mod tests {
         g.note(
             &EventKind::Grasp {
                 tool: Hand::Left.name().into(),
-                model: "kidney".into(),
+                model: "tissue".into(),
                 vertices: 12,
             },
             &t,
@@ -364,8 +364,8 @@ mod tests {
         let mut tear = press;
         tear.note(
             &EventKind::Rupture {
-                what: "renal artery".into(),
-                models: ["kidney".into(), "artery".into()],
+                what: "attachment".into(),
+                models: ["tissue".into(), "vessel".into()],
                 force_n: 4.0,
             },
             &t,
