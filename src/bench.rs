@@ -79,12 +79,15 @@ fn pass(
     let steps = (seconds / dt as f64).ceil() as u64;
     let mut events = Vec::new();
     let t0 = Instant::now();
-    while clock.step() < steps {
-        let f = trace.sample(clock.time_s());
-        p.step(&f, clock.step(), &mut events);
-        events.clear();
-        clock.tick();
-    }
+    // On a worker of the pool, as a session steps (see `crate::session::on_pool`).
+    crate::session::on_pool(|| {
+        while clock.step() < steps {
+            let f = trace.sample(clock.time_s());
+            p.step(&f, clock.step(), &mut events);
+            events.clear();
+            clock.tick();
+        }
+    });
     let wall = t0.elapsed().as_secs_f64();
     let threads = rayon::current_num_threads();
     let line = |model: String, secs: f64, sizes: [usize; 3], awake_fraction: f64| {

@@ -85,9 +85,9 @@ pub fn dihedral(x: &[Vec3], c: &Bend) -> f32 {
     }
 }
 
+/// atan2 of sine and cosine, both scaled by |n1| |n2| |e| (atan2 needs only their ratio).
 fn signed_angle(n1: Vec3, n2: Vec3, e: Vec3) -> f32 {
-    let (u1, u2) = (n1.normalize(), n2.normalize());
-    u1.cross(u2).dot(e.normalize()).atan2(u1.dot(u2))
+    n1.cross(n2).dot(e).atan2(n1.dot(n2) * e.length())
 }
 
 /// Projects one bending constraint; returns the Lagrange multiplier increment. The gradients

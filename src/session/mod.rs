@@ -187,6 +187,16 @@ pub fn run_capturing(
     run_with(scenario_text, scenario_file, input, &opts)
 }
 
+/// Runs `f` on a worker of rayon's pool (at once when already on one). A loop that steps a
+/// world from there starts each step's parallel work inside the pool; from any other thread
+/// every step is injected into the pool and waited for, a wake-up and a sleep per step.
+pub fn on_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
+    if rayon::current_thread_index().is_some() {
+        return f();
+    }
+    rayon::join(f, || ()).0
+}
+
 /// Runs a session to the end of its input, or until SIGINT/SIGTERM (see [`interrupt`]).
 pub fn run_with(
     scenario_text: &str,
@@ -218,41 +228,45 @@ pub fn run_with(
     let capture_at: Vec<u64> = (1..=n)
         .map(|k| (k * total_steps / n.max(1)).saturating_sub(1))
         .collect();
-    let mut captured = Vec::with_capacity(capture_at.len());
-    // The next recorded tuning to make (they are in step order).
-    let mut next_tuning = 0;
-    while live.step_count() < total_steps {
-        if interrupt::interrupted().is_some() {
-            live.set_ended(ended::INTERRUPTED);
-            break;
-        }
-        let step = live.step_count();
-        let frame = match &input {
-            Input::Keys(k) => k.sample(live.time_s()),
-            Input::Recorded(r) => {
-                while let Some(t) = r.tunings.get(next_tuning).filter(|t| t.step == step) {
-                    live.tune_recorded(t).map_err(|m| {
-                        SessionError::Input(InputError::new(
-                            scenario_file,
-                            "tunings",
-                            m.to_string(),
-                        ))
-                    })?;
-                    next_tuning += 1;
-                }
-                r.frames[step as usize]
+    let stepped = on_pool(|| -> Result<_, SessionError> {
+        let mut captured = Vec::with_capacity(capture_at.len());
+        // The next recorded tuning to make (they are in step order).
+        let mut next_tuning = 0;
+        while live.step_count() < total_steps {
+            if interrupt::interrupted().is_some() {
+                live.set_ended(ended::INTERRUPTED);
+                break;
             }
-        };
-        live.step(frame)?;
-        if capture_at.binary_search(&step).is_ok() {
-            captured.push(live.snapshot());
+            let step = live.step_count();
+            let frame = match &input {
+                Input::Keys(k) => k.sample(live.time_s()),
+                Input::Recorded(r) => {
+                    while let Some(t) = r.tunings.get(next_tuning).filter(|t| t.step == step) {
+                        live.tune_recorded(t).map_err(|m| {
+                            SessionError::Input(InputError::new(
+                                scenario_file,
+                                "tunings",
+                                m.to_string(),
+                            ))
+                        })?;
+                        next_tuning += 1;
+                    }
+                    r.frames[step as usize]
+                }
+            };
+            live.step(frame)?;
+            if capture_at.binary_search(&step).is_ok() {
+                captured.push(live.snapshot());
+            }
+            if let Some(bus) = opts.bus
+                && step.is_multiple_of(publish_every)
+            {
+                bus.publish(live.snapshot());
+            }
         }
-        if let Some(bus) = opts.bus
-            && step.is_multiple_of(publish_every)
-        {
-            bus.publish(live.snapshot());
-        }
-    }
+        Ok(captured)
+    });
+    let captured = stepped?;
     if let Input::Recorded(r) = &input
         && live.ended() == ended::END_OF_INPUT
     {

@@ -13,7 +13,7 @@ use glam::{DVec3, Vec3A};
 use rayon::prelude::*;
 
 /// Rows per chunk: the unit of parallel work and of the ordered reductions.
-const CHUNK: usize = 1024;
+const CHUNK: usize = 512;
 /// Rows per block of a chunk: a dot product is summed in f32 within a block (short enough to
 /// lose nothing that matters), then block by block in f64, always in the same order.
 const BLOCK: usize = 32;
@@ -48,6 +48,17 @@ pub(super) struct CgSystem {
     ap: Vec<Vec3A>,
 }
 
+/// One run of rows of a shaped system (see [`CgSystem::shape`]), filled by one task: row `k`
+/// of the run is `diag[k]`, `b[k]`, the guess `x[k]`, and its couplings, which fill `col` and
+/// `w` in row order.
+pub(super) struct RowsMut<'a> {
+    pub diag: &'a mut [f32],
+    pub b: &'a mut [Vec3A],
+    pub x: &'a mut [Vec3A],
+    pub col: &'a mut [u32],
+    pub w: &'a mut [f32],
+}
+
 impl CgSystem {
     /// Empties the system (the caller then pushes rows in order).
     pub fn clear(&mut self) {
@@ -61,11 +72,50 @@ impl CgSystem {
     }
 
     /// Closes the row whose couplings were pushed since the last call.
+    #[cfg(test)]
     pub fn end_row(&mut self, diag: f32, b: Vec3A, guess: Vec3A) {
         self.diag.push(diag);
         self.b.push(b);
         self.x.push(guess);
         self.row_start.push(self.col.len() as u32);
+    }
+
+    /// Sizes the system for rows with `lens` couplings each (in order).
+    pub fn shape(&mut self, lens: impl Iterator<Item = u32>) {
+        self.clear();
+        let mut end = 0u32;
+        for n in lens {
+            end += n;
+            self.row_start.push(end);
+        }
+        let m = self.row_start.len() - 1;
+        self.diag.resize(m, 0.0);
+        self.b.resize(m, Vec3A::ZERO);
+        self.x.resize(m, Vec3A::ZERO);
+        self.col.resize(end as usize, 0);
+        self.w.resize(end as usize, 0.0);
+    }
+
+    /// The shaped system cut into runs of `rows` rows, each to be filled by one task.
+    pub fn runs_mut(&mut self, rows: usize) -> Vec<RowsMut<'_>> {
+        let m = self.len();
+        let cuts: Vec<u32> = (rows..m)
+            .step_by(rows.max(1))
+            .map(|k| self.row_start[k])
+            .collect();
+        let row_cuts: Vec<u32> = (rows..m).step_by(rows.max(1)).map(|k| k as u32).collect();
+        let diag = super::split_at_offsets(&mut self.diag, &row_cuts);
+        let b = super::split_at_offsets(&mut self.b, &row_cuts);
+        let x = super::split_at_offsets(&mut self.x, &row_cuts);
+        let col = super::split_at_offsets(&mut self.col, &cuts);
+        let w = super::split_at_offsets(&mut self.w, &cuts);
+        diag.into_iter()
+            .zip(b)
+            .zip(x)
+            .zip(col)
+            .zip(w)
+            .map(|((((diag, b), x), col), w)| RowsMut { diag, b, x, col, w })
+            .collect()
     }
 
     pub fn len(&self) -> usize {
@@ -90,8 +140,15 @@ impl CgSystem {
     }
 
     /// Solves until every component's residual norm is at most `tolerance` times its
-    /// right-hand side's, or `max_iterations` have run. Returns the iterations taken.
-    pub fn solve(&mut self, tolerance: f32, max_iterations: usize) -> usize {
+    /// right-hand side's or its root mean square over the rows is at most `floor`, or
+    /// `max_iterations` have run. Returns the iterations taken.
+    ///
+    /// The iteration is preconditioned CG rearranged to take two passes over the rows instead
+    /// of three: with z = D^-1 r, the new direction's product A p' = A z + beta A p is formed
+    /// in the same pass as p' = z + beta p, so the product reads z (known once the residual
+    /// is updated) rather than p' (known only after it). In exact arithmetic the iterates are
+    /// those of the textbook method.
+    pub fn solve(&mut self, tolerance: f32, floor: f32, max_iterations: usize) -> usize {
         let m = self.len();
         if m == 0 {
             return 0;
@@ -107,21 +164,17 @@ impl CgSystem {
             col: &self.col,
             w: &self.w,
         };
-        // r = b - A x; p = z = D^-1 r.
+        // r = b - A x.
         mat.apply_dot(&self.x, &mut self.ap);
         let (b, ap, inv_diag) = (&self.b, &self.ap, &self.inv_diag);
         let (rr, rz) = reduce(
-            self.r
-                .par_chunks_mut(CHUNK)
-                .zip(self.p.par_chunks_mut(CHUNK))
-                .with_min_len(min_chunks(m)),
-            |c, (r, p)| {
+            self.r.par_chunks_mut(CHUNK).with_min_len(min_chunks(m)),
+            |c, r| {
                 let base = c * CHUNK;
                 blocked(r.len(), |k| {
                     let i = base + k;
                     r[k] = b[i] - ap[i];
-                    p[k] = r[k] * inv_diag[i];
-                    (r[k] * r[k], r[k] * p[k])
+                    (r[k] * r[k], r[k] * (r[k] * inv_diag[i]))
                 })
             },
         );
@@ -130,11 +183,17 @@ impl CgSystem {
             |_, b| blocked(b.len(), |k| (b[k] * b[k], Vec3A::ZERO)),
         )
         .0;
-        let goal = bb * f64::from(tolerance * tolerance);
+        // Converged once every component is below the relative goal or the floor's RMS.
+        let floor = m as f64 * f64::from(floor) * f64::from(floor);
+        let goal = (bb * f64::from(tolerance * tolerance)).max(DVec3::splat(floor));
         let (mut rr, mut rz) = (rr, rz);
+        // p = z, A p = A z: the first direction pass with beta = 0 (p and A p start at zero).
+        self.p.fill(Vec3A::ZERO);
+        self.ap.fill(Vec3A::ZERO);
+        let mut beta = Vec3A::ZERO;
         let mut iterations = 0;
         while iterations < max_iterations && !(rr.cmple(goal).all()) {
-            let pap = mat.apply_dot(&self.p, &mut self.ap);
+            let pap = mat.next_direction(&self.r, &self.inv_diag, beta, &mut self.p, &mut self.ap);
             // A component whose curvature is zero has converged: it takes no step.
             let alpha = Vec3A::from(ratio(rz, pap).as_vec3());
             let (ap, inv_diag) = (&self.ap, &self.inv_diag);
@@ -155,19 +214,7 @@ impl CgSystem {
                     })
                 },
             );
-            let beta = Vec3A::from(ratio(rz_new, rz).as_vec3());
-            let (r, inv_diag) = (&self.r, &self.inv_diag);
-            self.p
-                .par_chunks_mut(CHUNK)
-                .with_min_len(min_chunks(m))
-                .enumerate()
-                .for_each(|(c, p)| {
-                    let base = c * CHUNK;
-                    let (r, inv_diag) = (&r[base..base + p.len()], &inv_diag[base..]);
-                    for (k, p) in p.iter_mut().enumerate() {
-                        *p = r[k] * inv_diag[k] + beta * *p;
-                    }
-                });
+            beta = Vec3A::from(ratio(rz_new, rz).as_vec3());
             rr = rr_new;
             rz = rz_new;
             iterations += 1;
@@ -243,6 +290,39 @@ impl Matrix<'_> {
         )
         .0
     }
+
+    /// The next search direction and its product in one pass: with z = D^-1 r,
+    /// p <- z + beta p and A p <- A z + beta A p. Returns p . A p per component.
+    fn next_direction(
+        &self,
+        r: &[Vec3A],
+        inv_diag: &[f32],
+        beta: Vec3A,
+        p: &mut [Vec3A],
+        ap: &mut [Vec3A],
+    ) -> DVec3 {
+        reduce(
+            p.par_chunks_mut(CHUNK)
+                .zip(ap.par_chunks_mut(CHUNK))
+                .with_min_len(min_chunks(r.len())),
+            |c, (p, ap)| {
+                let base = c * CHUNK;
+                blocked(p.len(), |k| {
+                    let i = base + k;
+                    let z = r[i] * inv_diag[i];
+                    let mut az = z * self.diag[i];
+                    let (s, e) = (self.row_start[i] as usize, self.row_start[i + 1] as usize);
+                    for (&j, &w) in self.col[s..e].iter().zip(&self.w[s..e]) {
+                        az -= r[j as usize] * inv_diag[j as usize] * w;
+                    }
+                    p[k] = z + beta * p[k];
+                    ap[k] = az + beta * ap[k];
+                    (p[k] * ap[k], Vec3A::ZERO)
+                })
+            },
+        )
+        .0
+    }
 }
 
 #[cfg(test)]
@@ -296,7 +376,7 @@ mod tests {
     fn matches_a_dense_solve_across_chunks() {
         let m = 2 * CHUNK + 37;
         let (mut s, dense) = chain(m);
-        let it = s.solve(1e-6, 10_000);
+        let it = s.solve(1e-6, 0.0, 10_000);
         assert!(it > 0 && it < 10_000, "{it} iterations");
         for axis in 0..3 {
             let b: Vec<f64> = s.b.iter().map(|v| v[axis] as f64).collect();
@@ -321,7 +401,7 @@ mod tests {
                 .expect("pool");
             pool.install(|| {
                 let (mut s, _) = chain(PARALLEL_ROWS + 3 * CHUNK + 5);
-                s.solve(1e-5, 10_000);
+                s.solve(1e-5, 0.0, 10_000);
                 s.x.iter()
                     .flat_map(|v| v.to_array())
                     .map(f32::to_bits)
@@ -335,7 +415,7 @@ mod tests {
     fn a_zero_right_hand_side_takes_no_step() {
         let (mut s, _) = chain(10);
         s.b.iter_mut().for_each(|b| *b = Vec3A::ZERO);
-        assert_eq!(s.solve(1e-4, 100), 0);
+        assert_eq!(s.solve(1e-4, 0.0, 100), 0);
         assert!(s.x.iter().all(|v| *v == Vec3A::ZERO));
     }
 }

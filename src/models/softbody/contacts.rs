@@ -53,10 +53,7 @@ impl SoftBody {
                         for (i, dir, w) in share {
                             self.wake(i);
                             let f = dir * (pressed * w / sum);
-                            if self.force[i] == Vec3::ZERO {
-                                self.touched.push(i as u32);
-                            }
-                            self.force[i] += f;
+                            self.ext_force.push((i as u32, f));
                             total += f;
                         }
                     }

@@ -33,6 +33,22 @@ const NO_GROUP: u32 = u32::MAX;
 const WAKE_DISTANCE_M: f32 = 1e-5;
 /// BVH leaves are enlarged by this margin so that small motions need no refit, metres.
 const BVH_MARGIN_M: f32 = 1e-3;
+/// The fewest normals one parallel task computes.
+const NORMALS_PER_TASK: usize = 1024;
+
+/// `v` cut at the ascending offsets `cuts` (each at most `v.len()`).
+fn split_at_offsets<'a, T>(mut v: &'a mut [T], cuts: &[u32]) -> Vec<&'a mut [T]> {
+    let mut out = Vec::with_capacity(cuts.len() + 1);
+    let mut at = 0;
+    for &c in cuts {
+        let (head, tail) = v.split_at_mut(c as usize - at);
+        out.push(head);
+        v = tail;
+        at = c as usize;
+    }
+    out.push(v);
+    out
+}
 
 mod cg;
 mod constraints;
@@ -210,7 +226,8 @@ pub struct SoftBody {
     // Scratch, reused every step.
     stamp: Vec<u32>,
     stamp_now: u32,
-    force: Vec<Vec3>,
+    /// The external forces on points this step, (point, force) in the order applied.
+    ext_force: Vec<(u32, Vec3)>,
     touched: Vec<u32>,
     /// The points the instrument tips pushed this step and how far (each point once).
     pushed: Vec<(u32, Vec3)>,
@@ -220,6 +237,18 @@ pub struct SoftBody {
     lambda: Vec<f32>,
     /// One bit per constraint: listed this step (cleared again once the list is made).
     listed: Vec<u64>,
+    /// This step's blocks: block b holds the points `block_points[b]..block_points[b + 1]`,
+    /// and the listed constraints `constraints_now[block_start[b]..block_start[b + 1]]` touch
+    /// its points only; the last run of the list crosses blocks.
+    block_points: [u32; constraints::BLOCKS + 1],
+    block_start: [u32; constraints::BLOCKS + 2],
+    /// Scratch for sorting the list into blocks, and the dead constraints seen listing.
+    block_scratch: Vec<u32>,
+    dead_seen: Vec<u32>,
+    /// Scratch: the normals and areas being refreshed.
+    normal_scratch: Vec<(Vec3, f32)>,
+    /// Points whose shear links a cut changed (refreshed with the topology).
+    relink: Vec<u32>,
     /// Per region: the running sum of volume terms.
     volume: Vec<f64>,
     steps_since_resum: u32,
@@ -315,7 +344,7 @@ impl SoftBody {
             checkpoint: x.clone(),
             stamp: vec![0; n],
             stamp_now: 0,
-            force: vec![Vec3::ZERO; n],
+            ext_force: Vec::new(),
             touched: Vec::new(),
             pushed: Vec::new(),
             constraints_now: Vec::new(),
@@ -323,6 +352,12 @@ impl SoftBody {
             before: Vec::new(),
             lambda: Vec::new(),
             listed: Vec::new(),
+            block_points: [0; constraints::BLOCKS + 1],
+            block_start: [0; constraints::BLOCKS + 2],
+            block_scratch: Vec::new(),
+            dead_seen: Vec::new(),
+            relink: Vec::new(),
+            normal_scratch: Vec::new(),
             volume: Vec::new(),
             steps_since_resum: 0,
             contacting: [false; 2],
@@ -402,13 +437,17 @@ impl SoftBody {
         &self.component
     }
 
+    /// Rebuilds the render runs after a cut, from each point's normal at rest given which
+    /// neighbours live (computed in parallel into a buffer that lives only this long).
     fn rebuild_render_runs(&mut self) {
-        let rest = &self.mesh.rest;
-        let normals: Vec<Vec3> = (0..rest.len())
-            .map(|i| self.mesh.normal_area(rest, &self.alive, i).0)
+        use rayon::prelude::*;
+        let (mesh, alive) = (&self.mesh, &self.alive);
+        let normals: Vec<Vec3> = (0..mesh.rest.len())
+            .into_par_iter()
+            .with_min_len(NORMALS_PER_TASK)
+            .map(|i| mesh.normal_area(&mesh.rest, alive, i).0)
             .collect();
-        let alive = self.alive.clone();
-        self.mesh.rebuild_render(&alive, &normals);
+        self.mesh.rebuild_render(&self.alive, &normals);
     }
 
     /// Brings connected parts and anchoring up to date after cuts or torn ties.
@@ -529,6 +568,27 @@ impl SoftBody {
 
     fn refresh_normal(&mut self, i: usize) {
         let (n, a) = self.mesh.normal_area(&self.x, &self.alive, i);
+        self.set_normal(i, n, a);
+    }
+
+    /// Refreshes the normals and areas of the points `list`: computed in parallel, stored
+    /// (and the volumes summed) in the list's order, so the bytes do not depend on threads.
+    fn refresh_normals(&mut self, list: &[u32]) {
+        use rayon::prelude::*;
+        let mut found = std::mem::take(&mut self.normal_scratch);
+        let (mesh, x, alive) = (&self.mesh, &self.x, &self.alive);
+        list.par_iter()
+            .with_min_len(NORMALS_PER_TASK)
+            .map(|&i| mesh.normal_area(x, alive, i as usize))
+            .collect_into_vec(&mut found);
+        for (&i, &(n, a)) in list.iter().zip(&found) {
+            self.set_normal(i as usize, n, a);
+        }
+        self.normal_scratch = found;
+    }
+
+    /// Stores point `i`'s normal and area and brings its part's volume up to date.
+    fn set_normal(&mut self, i: usize, n: Vec3, a: f32) {
         self.normal[i] = n;
         self.area[i] = a;
         let term = if self.alive[i] {

@@ -35,8 +35,8 @@ impl SoftBody {
             ("bvh", self.bvh.heap_bytes()),
             ("checkpoint", b(&self.checkpoint)),
             (
-                "force+pushed+before",
-                b(&self.force) + b(&self.pushed) + b(&self.before),
+                "ext_force+pushed+before",
+                b(&self.ext_force) + b(&self.pushed) + b(&self.before),
             ),
             (
                 "mass+rest_area+slot+pinned",
@@ -50,7 +50,14 @@ impl SoftBody {
                 "implicit solve",
                 b(&self.unknowns) + self.cg.heap_bytes() + b(&self.constraint_lambda),
             ),
-            ("constraints_now", b(&self.constraints_now)),
+            (
+                "constraints_now+blocks",
+                b(&self.constraints_now) + b(&self.block_scratch) + b(&self.dead_seen),
+            ),
+            (
+                "normals+relink scratch",
+                b(&self.normal_scratch) + b(&self.relink),
+            ),
             ("lambda+listed", b(&self.lambda) + b(&self.listed)),
             (
                 "lists",
@@ -113,9 +120,7 @@ impl TissueModel for SoftBody {
             }
         }
         let moved = std::mem::take(&mut self.moved);
-        for &i in &moved {
-            self.refresh_normal(i as usize);
-        }
+        self.refresh_normals(&moved);
         let volumes = self.region_volumes();
         self.pressure_now = volumes
             .iter()
@@ -131,11 +136,9 @@ impl TissueModel for SoftBody {
                 self.v[i] = Vec3::ZERO;
             }
         }
+        self.merge_ext_forces();
         self.solve_implicit(dt);
-        for &i in &self.touched {
-            self.force[i as usize] = Vec3::ZERO;
-        }
-        self.touched.clear();
+        self.ext_force.clear();
         // Constraints (Algorithm 2) with the pinned points fixed, then the tips again for
         // points the constraints carried into them.
         for &(i, _) in &self.pins {
@@ -238,6 +241,8 @@ impl TissueModel for SoftBody {
                 continue;
             }
             removed += 1;
+            self.relink.push(f);
+            self.relink.extend(self.mesh.neighbors[i]);
             self.alive[i] = false;
             self.inv_mass[i] = 0.0;
             self.pinned[i] = 0;
@@ -306,10 +311,7 @@ impl TissueModel for SoftBody {
                 continue;
             }
             self.wake(i);
-            if self.force[i] == Vec3::ZERO {
-                self.touched.push(i as u32);
-            }
-            self.force[i] += f;
+            self.ext_force.push((i as u32, f));
         }
     }
 

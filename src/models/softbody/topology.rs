@@ -55,7 +55,7 @@ impl SoftBody {
         }
         self.regroup_free_parts();
         self.regroup_pressure();
-        self.rebuild_links();
+        self.refresh_links();
         self.topology_dirty = false;
     }
 
