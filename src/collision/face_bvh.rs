@@ -9,6 +9,10 @@ use glam::Vec3;
 use parry3d::bounding_volume::{Aabb, BoundingVolume};
 use parry3d::partitioning::{Bvh, BvhBuildStrategy, BvhLeafUpdateStatus};
 use parry3d::query::Ray;
+use rayon::prelude::*;
+
+/// The fewest patches whose boxes one parallel task computes.
+const PATCHES_PER_TASK: usize = 256;
 
 /// Most faces per leaf.
 pub const PATCH_FACES: usize = 4;
@@ -29,6 +33,8 @@ pub struct FaceBvh {
     /// Leaves grown past their margin at the last refit, and this refresh.
     changed: Vec<u32>,
     growing: Vec<u32>,
+    /// Scratch: the dirty patches' new boxes.
+    boxes: Vec<Aabb>,
     /// A leaf was removed: the next refit walks the whole tree.
     full_refit: bool,
 }
@@ -99,6 +105,7 @@ impl FaceBvh {
             dirty: Vec::new(),
             changed: Vec::new(),
             growing: Vec::new(),
+            boxes: Vec::new(),
             full_refit: false,
         };
         let leaves: Vec<Aabb> = (0..patches)
@@ -136,22 +143,30 @@ impl FaceBvh {
     /// padded by `margin_m` and its ancestors refitted only when it outgrows that padding:
     /// only the paths from grown leaves to the root, unless a leaf was removed since the last
     /// refresh (then the whole tree, in place).
-    pub fn refresh(&mut self, aabb: impl Fn(usize) -> Option<Aabb>, margin_m: f32) {
+    pub fn refresh(&mut self, aabb: impl Fn(usize) -> Option<Aabb> + Sync, margin_m: f32) {
         self.stamp_now = self.stamp_now.wrapping_add(1);
         let mut growing = std::mem::take(&mut self.growing);
         growing.clear();
         let dirty = std::mem::take(&mut self.dirty);
-        for &p in &dirty {
+        // The patches' boxes in parallel (read-only), then the tree in order.
+        let mut boxes = std::mem::take(&mut self.boxes);
+        let this = &*self;
+        dirty
+            .par_iter()
+            .with_min_len(PATCHES_PER_TASK)
+            .map(|&p| this.patch_aabb(p as usize, &aabb))
+            .collect_into_vec(&mut boxes);
+        for (&p, &b) in dirty.iter().zip(&boxes) {
             if self.live[p as usize] == 0 {
                 continue;
             }
-            let b = self.patch_aabb(p as usize, &aabb);
             if let Some(s) = self.bvh.update_partially_if_present(b, p, margin_m)
                 && s != BvhLeafUpdateStatus::Unchanged
             {
                 growing.push(p);
             }
         }
+        self.boxes = boxes;
         self.dirty = dirty;
         self.dirty.clear();
         if self.full_refit {
@@ -227,6 +242,7 @@ impl FaceBvh {
                 + self.dirty.capacity()
                 + self.changed.capacity()
                 + self.growing.capacity())
+            + self.boxes.capacity() * std::mem::size_of::<Aabb>()
             + self.live.capacity()
     }
 

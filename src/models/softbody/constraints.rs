@@ -12,10 +12,14 @@ use rayon::prelude::*;
 
 /// Blocks a sweep is cut into.
 pub(super) const BLOCKS: usize = 4;
+/// Marks a listed constraint (beside its block) as acting on a point a tool holds.
+const HELD: u32 = 1 << 31;
 
 impl SoftBody {
     /// Lists the live constraints around the awake points, sorted (stably) into blocks of
     /// point indices cut at quantiles of the awake points, those that cross blocks last.
+    /// Also lists, while each constraint's points are at hand, the sleeping points the
+    /// projection may move (the fringe) and the constraints on points a tool holds.
     pub(super) fn collect_constraints(&mut self) {
         let n = self.x.len() as u32;
         let active = &self.active;
@@ -27,11 +31,15 @@ impl SoftBody {
         }
         // Block of a point: how many inner bounds are at or below it.
         let block_of = |q: u32| bounds[1..BLOCKS].iter().filter(|&&e| e <= q).count();
+        let any_held = !self.pins.is_empty() || !self.held.is_empty();
+        let stamp = self.next_stamp();
         // Walk the awake points in index order (the active list is sorted) and list each live
         // constraint once, with its block: a fixed order whatever the order points woke in.
         let mut listed = std::mem::take(&mut self.block_scratch);
         listed.clear();
         let mut dead = std::mem::take(&mut self.dead_seen);
+        let mut fringe = std::mem::take(&mut self.fringe);
+        fringe.clear();
         let mut start = [0u32; BLOCKS + 2];
         for &i in &self.active {
             let (s, e) = (
@@ -53,17 +61,25 @@ impl SoftBody {
                 };
                 if !live {
                     dead.push(id);
-                } else {
-                    let (lo, hi) = self
-                        .constraint_points(id)
-                        .iter()
-                        .fold((u32::MAX, 0), |(lo, hi), &q| (lo.min(q), hi.max(q)));
-                    let (a, b) = (block_of(lo), block_of(hi));
-                    let block = if a == b { a } else { BLOCKS };
-                    start[block + 1] += 1;
-                    listed.push(id);
-                    listed.push(block as u32);
+                    continue;
                 }
+                let points = self.constraint_points(id);
+                let (mut lo, mut hi, mut held) = (u32::MAX, 0, false);
+                for &q in &points {
+                    lo = lo.min(q);
+                    hi = hi.max(q);
+                    let qi = q as usize;
+                    held |= any_held && (self.pinned[qi] != 0 || self.kinematic[qi]);
+                    if !self.awake[qi] && self.alive[qi] && self.stamp[qi] != stamp {
+                        self.stamp[qi] = stamp;
+                        fringe.push(q);
+                    }
+                }
+                let (a, b) = (block_of(lo), block_of(hi));
+                let block = if a == b { a } else { BLOCKS };
+                start[block + 1] += 1;
+                listed.push(id);
+                listed.push(block as u32 | if held { HELD } else { 0 });
             }
         }
         for id in listed
@@ -74,15 +90,20 @@ impl SoftBody {
             self.listed[id as usize / 64] = 0;
         }
         self.dead_seen = dead;
+        self.fringe = fringe;
         for b in 0..=BLOCKS {
             start[b + 1] += start[b];
         }
         let mut fill = start;
         self.constraints_now.clear();
         self.constraints_now.resize(listed.len() / 2, 0);
+        self.held_slots.clear();
         for pair in listed.chunks_exact(2) {
-            let slot = &mut fill[pair[1] as usize];
+            let slot = &mut fill[(pair[1] & !HELD) as usize];
             self.constraints_now[*slot as usize] = pair[0];
+            if pair[1] & HELD != 0 {
+                self.held_slots.push((pair[0], *slot));
+            }
             *slot += 1;
         }
         self.block_scratch = listed;
@@ -156,29 +177,23 @@ impl SoftBody {
         // Keep the multipliers of the constraints on points a tool holds (pinned by a tip or
         // grasped): lambda / dt^2 is the force the constraint exerted on them this step, part
         // of what the tool feels. Sorted by constraint for lookup.
-        // Sleeping points the constraints moved are woken when moved noticeably, else put
-        // back (one pass does both).
         self.constraint_lambda.clear();
-        let any_held = !self.pins.is_empty() || !self.held.is_empty();
-        let stamp = self.next_stamp();
-        for (li, &id) in list.iter().enumerate() {
-            let points = self.constraint_points(id);
-            let held = |&q: &u32| self.pinned[q as usize] != 0 || self.kinematic[q as usize];
-            if any_held && !matches!(self.kind(id), Constraint::Tie(_)) && points.iter().any(held) {
-                self.constraint_lambda.push((id, self.lambda[li]));
-            }
-            for q in points {
-                let q = q as usize;
-                if !self.awake[q] && self.stamp[q] != stamp && self.alive[q] {
-                    self.stamp[q] = stamp;
-                    if (self.x[q] - self.sleep_at[q]).length() > WAKE_DISTANCE_M {
-                        self.wake(q);
-                    } else {
-                        self.x[q] = self.sleep_at[q];
-                    }
-                }
+        for &(id, slot) in &self.held_slots {
+            self.constraint_lambda
+                .push((id, self.lambda[slot as usize]));
+        }
+        // Sleeping points the constraints moved are woken when moved noticeably, else put
+        // back.
+        let fringe = std::mem::take(&mut self.fringe);
+        for &q in &fringe {
+            let q = q as usize;
+            if (self.x[q] - self.sleep_at[q]).length() > WAKE_DISTANCE_M {
+                self.wake(q);
+            } else {
+                self.x[q] = self.sleep_at[q];
             }
         }
+        self.fringe = fringe;
         self.constraint_lambda.sort_unstable_by_key(|&(id, _)| id);
         self.last_dt_s = dt;
         self.constraints_now = list;

@@ -316,38 +316,47 @@ impl SoftBody {
 
     /// Wakes the sleeping neighbours of awake points that their links now load by more than
     /// twice the force a point may sleep under.
+    /// Wakes the sleeping points that their awake neighbours or the gas pressure load
+    /// noticeably. The tests only read, so they run in parallel; the waking is in order.
     pub(super) fn wake_loaded_neighbours(&mut self) {
-        let mut wake = Vec::new();
-        for &i in &self.active {
-            for l in self.links_of(i as usize) {
-                let j = l.to as usize;
-                if self.awake[j] || !self.alive[j] {
-                    continue;
-                }
-                if self.link_force(j).length() > 2.0 * SLEEP_FORCE_N {
-                    wake.push(j);
-                }
-            }
-        }
+        use rayon::prelude::*;
+        let this = &*self;
+        let asleep = |j: usize| !this.awake[j] && this.alive[j];
+        let mut wake: Vec<u32> = this
+            .active
+            .par_chunks(POINTS_PER_TASK)
+            .flat_map_iter(|chunk| {
+                chunk.iter().flat_map(move |&i| {
+                    this.links_of(i as usize).map(|l| l.to).filter(move |&j| {
+                        let j = j as usize;
+                        asleep(j) && this.link_force(j).length() > 2.0 * SLEEP_FORCE_N
+                    })
+                })
+            })
+            .collect();
         // The gas pressure pushes on sleeping points too: wake those it loads noticeably. (A
         // pressure that could not load even a point stretched to four times the largest rest
         // area past that skips the scan of every point.)
-        let reach = 4.0 * self.max_rest_area;
+        let reach = 4.0 * this.max_rest_area;
         let loud = |p: &f32| p.abs() * reach > 2.0 * SLEEP_FORCE_N;
-        if self.pressure_now.iter().any(loud) {
-            for j in 0..self.x.len() {
-                if self.awake[j] || !self.alive[j] {
-                    continue;
-                }
-                if let Some(&pg) = self.pressure_now.get(self.pressure_group[j] as usize)
-                    && pg.abs() * self.area[j] > 2.0 * SLEEP_FORCE_N
-                {
-                    wake.push(j);
-                }
-            }
+        if this.pressure_now.iter().any(loud) {
+            let loaded = |j: &u32| {
+                let j = *j as usize;
+                asleep(j)
+                    && this
+                        .pressure_now
+                        .get(this.pressure_group[j] as usize)
+                        .is_some_and(|pg| pg.abs() * this.area[j] > 2.0 * SLEEP_FORCE_N)
+            };
+            let pressed: Vec<u32> = (0..this.x.len() as u32)
+                .into_par_iter()
+                .with_min_len(POINTS_PER_TASK)
+                .filter(loaded)
+                .collect();
+            wake.extend(pressed);
         }
         for j in wake {
-            self.wake(j);
+            self.wake(j as usize);
         }
     }
 }

@@ -33,8 +33,8 @@ const NO_GROUP: u32 = u32::MAX;
 const WAKE_DISTANCE_M: f32 = 1e-5;
 /// BVH leaves are enlarged by this margin so that small motions need no refit, metres.
 const BVH_MARGIN_M: f32 = 1e-3;
-/// The fewest normals one parallel task computes.
-const NORMALS_PER_TASK: usize = 1024;
+/// The fewest points one parallel task takes (normals, rest and load tests).
+const POINTS_PER_TASK: usize = 1024;
 
 /// `v` cut at the ascending offsets `cuts` (each at most `v.len()`).
 fn split_at_offsets<'a, T>(mut v: &'a mut [T], cuts: &[u32]) -> Vec<&'a mut [T]> {
@@ -245,6 +245,12 @@ pub struct SoftBody {
     /// Scratch for sorting the list into blocks, and the dead constraints seen listing.
     block_scratch: Vec<u32>,
     dead_seen: Vec<u32>,
+    /// The sleeping points this step's constraints touch (each once).
+    fringe: Vec<u32>,
+    /// Per awake point: at rest this step (the sleep test's scratch).
+    at_rest: Vec<bool>,
+    /// This step's constraints on held points: (constraint, its place in the list).
+    held_slots: Vec<(u32, u32)>,
     /// Scratch: the normals and areas being refreshed.
     normal_scratch: Vec<(Vec3, f32)>,
     /// Points whose shear links a cut changed (refreshed with the topology).
@@ -356,6 +362,9 @@ impl SoftBody {
             block_start: [0; constraints::BLOCKS + 2],
             block_scratch: Vec::new(),
             dead_seen: Vec::new(),
+            fringe: Vec::new(),
+            at_rest: Vec::new(),
+            held_slots: Vec::new(),
             relink: Vec::new(),
             normal_scratch: Vec::new(),
             volume: Vec::new(),
@@ -444,7 +453,7 @@ impl SoftBody {
         let (mesh, alive) = (&self.mesh, &self.alive);
         let normals: Vec<Vec3> = (0..mesh.rest.len())
             .into_par_iter()
-            .with_min_len(NORMALS_PER_TASK)
+            .with_min_len(POINTS_PER_TASK)
             .map(|i| mesh.normal_area(&mesh.rest, alive, i).0)
             .collect();
         self.mesh.rebuild_render(&self.alive, &normals);
@@ -578,7 +587,7 @@ impl SoftBody {
         let mut found = std::mem::take(&mut self.normal_scratch);
         let (mesh, x, alive) = (&self.mesh, &self.x, &self.alive);
         list.par_iter()
-            .with_min_len(NORMALS_PER_TASK)
+            .with_min_len(POINTS_PER_TASK)
             .map(|&i| mesh.normal_area(x, alive, i as usize))
             .collect_into_vec(&mut found);
         for (&i, &(n, a)) in list.iter().zip(&found) {

@@ -52,7 +52,11 @@ impl SoftBody {
             ),
             (
                 "constraints_now+blocks",
-                b(&self.constraints_now) + b(&self.block_scratch) + b(&self.dead_seen),
+                b(&self.constraints_now)
+                    + b(&self.block_scratch)
+                    + b(&self.dead_seen)
+                    + b(&self.fringe)
+                    + b(&self.held_slots),
             ),
             (
                 "normals+relink scratch",
@@ -64,6 +68,53 @@ impl SoftBody {
                 b(&self.active) + b(&self.touched) + b(&self.moved) + b(&self.bvh_pending),
             ),
         ]
+    }
+}
+
+impl SoftBody {
+    /// Sleep bookkeeping: a point slower than the sleep speed (relative to where its goal
+    /// carries it) and holding almost no load for SLEEP_TIME_S sleeps. Whether each awake
+    /// point is at rest is read-only work, done in parallel; the bookkeeping is in order.
+    fn settle(&mut self, dt: f32) {
+        use rayon::prelude::*;
+        let v_sleep = self.params.sleep_speed_m_per_s;
+        let sleep_steps = (SLEEP_TIME_S / dt).ceil().clamp(1.0, f32::from(u16::MAX)) as u16;
+        let mut at_rest = std::mem::take(&mut self.at_rest);
+        let this = &*self;
+        this.active
+            .par_iter()
+            .with_min_len(POINTS_PER_TASK)
+            .map(|&i| {
+                let i = i as usize;
+                let unloaded = !this.anchored[i]
+                    || (this.x[i] - this.mesh.rest[i]).length() * this.total_k(i) < SLEEP_FORCE_N;
+                let slow = (this.v[i] - this.goal_velocity(i, dt)).length() < v_sleep;
+                !this.kinematic[i] && slow && unloaded
+            })
+            .collect_into_vec(&mut at_rest);
+        let mut kept = 0;
+        for k in 0..self.active.len() {
+            let i = self.active[k] as usize;
+            self.still[i] = if at_rest[k] {
+                self.still[i].saturating_add(1)
+            } else {
+                0
+            };
+            if (self.still[i] >= sleep_steps && !self.stay_awake) || !self.alive[i] {
+                self.awake[i] = false;
+                self.v[i] = Vec3::ZERO;
+                if self.anchored[i] {
+                    self.x[i] = self.mesh.rest[i];
+                }
+                self.sleep_at[i] = self.x[i];
+                self.still[i] = 0;
+                continue;
+            }
+            self.active[kept] = i as u32;
+            kept += 1;
+        }
+        self.active.truncate(kept);
+        self.at_rest = at_rest;
     }
 }
 
@@ -181,34 +232,7 @@ impl TissueModel for SoftBody {
             self.pinned[i as usize] = 0;
         }
         self.wake_loaded_neighbours();
-        // Sleep bookkeeping: a point slower than the sleep speed (relative to where its goal
-        // carries it) and holding almost no load for SLEEP_TIME_S sleeps.
-        let v_sleep = p.sleep_speed_m_per_s;
-        let sleep_steps = (SLEEP_TIME_S / dt).ceil().clamp(1.0, f32::from(u16::MAX)) as u16;
-        let mut k = 0;
-        while k < self.active.len() {
-            let i = self.active[k] as usize;
-            let resting = !self.anchored[i]
-                || (self.x[i] - self.mesh.rest[i]).length() * self.total_k(i) < SLEEP_FORCE_N;
-            let slow = (self.v[i] - self.goal_velocity(i, dt)).length() < v_sleep;
-            if !self.kinematic[i] && slow && resting {
-                self.still[i] = self.still[i].saturating_add(1);
-            } else {
-                self.still[i] = 0;
-            }
-            if (self.still[i] >= sleep_steps && !self.stay_awake) || !self.alive[i] {
-                self.awake[i] = false;
-                self.v[i] = Vec3::ZERO;
-                if self.anchored[i] {
-                    self.x[i] = self.mesh.rest[i];
-                }
-                self.sleep_at[i] = self.x[i];
-                self.still[i] = 0;
-                self.active.swap_remove(k);
-                continue;
-            }
-            k += 1;
-        }
+        self.settle(dt);
         // Refit the BVH where anything moved.
         let stamp3 = self.next_stamp();
         let mut leaves = std::mem::take(&mut self.touched);
