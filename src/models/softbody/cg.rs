@@ -41,6 +41,8 @@ pub(super) struct CgSystem {
     pub w: Vec<f32>,
     /// The solution; holds the starting guess on entry.
     pub x: Vec<Vec3A>,
+    /// Scratch for the callers' count of couplings per row (see [`CgSystem::shape`]).
+    pub counts: Vec<u32>,
     /// 1 / diag: the Jacobi preconditioner, multiplied rather than divided.
     inv_diag: Vec<f32>,
     r: Vec<Vec3A>,
@@ -80,11 +82,11 @@ impl CgSystem {
         self.row_start.push(self.col.len() as u32);
     }
 
-    /// Sizes the system for rows with `lens` couplings each (in order).
-    pub fn shape(&mut self, lens: impl Iterator<Item = u32>) {
+    /// Sizes the system for rows with `lens[k]` couplings each.
+    pub fn shape(&mut self, lens: &[u32]) {
         self.clear();
         let mut end = 0u32;
-        for n in lens {
+        for &n in lens {
             end += n;
             self.row_start.push(end);
         }
@@ -133,6 +135,7 @@ impl CgSystem {
             + b(&self.col)
             + b(&self.w)
             + b(&self.x)
+            + b(&self.counts)
             + b(&self.inv_diag)
             + b(&self.r)
             + b(&self.p)

@@ -15,11 +15,23 @@ pub(super) const BLOCKS: usize = 4;
 /// Marks a listed constraint (beside its block) as acting on a point a tool holds.
 const HELD: u32 = 1 << 31;
 
+/// What one run of awake points lists: (constraint, block | HELD) and the sleeping points
+/// those constraints touch (with repeats).
+#[derive(Default)]
+struct Listing {
+    ids: Vec<(u32, u32)>,
+    fringe: Vec<u32>,
+}
+
 impl SoftBody {
     /// Lists the live constraints around the awake points, sorted (stably) into blocks of
     /// point indices cut at quantiles of the awake points, those that cross blocks last.
     /// Also lists, while each constraint's points are at hand, the sleeping points the
     /// projection may move (the fringe) and the constraints on points a tool holds.
+    ///
+    /// A constraint is listed by the lowest-numbered of its awake points, so each once and in
+    /// the order of the awake points (sorted): runs of awake points are scanned in parallel
+    /// and their lists joined in order, the same bytes on one thread or many.
     pub(super) fn collect_constraints(&mut self) {
         let n = self.x.len() as u32;
         let active = &self.active;
@@ -30,83 +42,82 @@ impl SoftBody {
             bounds[b] = q.max(bounds[b - 1]);
         }
         // Block of a point: how many inner bounds are at or below it.
-        let block_of = |q: u32| bounds[1..BLOCKS].iter().filter(|&&e| e <= q).count();
+        let block_of = |q: u32| bounds[1..BLOCKS].iter().filter(|&&e| e <= q).count() as u32;
         let any_held = !self.pins.is_empty() || !self.held.is_empty();
-        let stamp = self.next_stamp();
-        // Walk the awake points in index order (the active list is sorted) and list each live
-        // constraint once, with its block: a fixed order whatever the order points woke in.
-        let mut listed = std::mem::take(&mut self.block_scratch);
-        listed.clear();
-        let mut dead = std::mem::take(&mut self.dead_seen);
-        let mut fringe = std::mem::take(&mut self.fringe);
-        fringe.clear();
-        let mut start = [0u32; BLOCKS + 2];
-        for &i in &self.active {
-            let (s, e) = (
-                self.adj_start[i as usize] as usize,
-                self.adj_start[i as usize + 1] as usize,
-            );
-            for &id in &self.adj[s..e] {
-                // Seen from another of its points already? (The bit is checked first: the
-                // constraint's own data is a cache miss away.)
-                let (word, bit) = (id as usize / 64, 1u64 << (id % 64));
-                if self.listed[word] & bit != 0 {
-                    continue;
-                }
-                self.listed[word] |= bit;
-                let live = match self.kind(id) {
-                    Constraint::Stretch(k) => self.stretch_alive[k as usize],
-                    Constraint::Bend(k) => self.bend_alive[k as usize],
-                    Constraint::Tie(_) => false,
-                };
-                if !live {
-                    dead.push(id);
-                    continue;
-                }
-                let points = self.constraint_points(id);
-                let (mut lo, mut hi, mut held) = (u32::MAX, 0, false);
-                for &q in &points {
-                    lo = lo.min(q);
-                    hi = hi.max(q);
-                    let qi = q as usize;
-                    held |= any_held && (self.pinned[qi] != 0 || self.kinematic[qi]);
-                    if !self.awake[qi] && self.alive[qi] && self.stamp[qi] != stamp {
-                        self.stamp[qi] = stamp;
-                        fringe.push(q);
+        let this = &*self;
+        let runs: Vec<Listing> = this
+            .active
+            .par_chunks(POINTS_PER_TASK)
+            .map(|run| {
+                let mut l = Listing::default();
+                for &i in run {
+                    let (s, e) = (
+                        this.adj_start[i as usize] as usize,
+                        this.adj_start[i as usize + 1] as usize,
+                    );
+                    for &id in &this.adj[s..e] {
+                        let live = match this.kind(id) {
+                            Constraint::Stretch(k) => this.stretch_alive[k as usize],
+                            Constraint::Bend(k) => this.bend_alive[k as usize],
+                            Constraint::Tie(_) => false,
+                        };
+                        let points = this.constraint_points(id);
+                        // Listed by a lower-numbered awake point?
+                        if !live || points.iter().any(|&q| q < i && this.awake[q as usize]) {
+                            continue;
+                        }
+                        let (mut lo, mut hi, mut held) = (u32::MAX, 0, false);
+                        for &q in &points {
+                            lo = lo.min(q);
+                            hi = hi.max(q);
+                            let qi = q as usize;
+                            held |= any_held && (this.pinned[qi] != 0 || this.kinematic[qi]);
+                            if !this.awake[qi] && this.alive[qi] {
+                                l.fringe.push(q);
+                            }
+                        }
+                        let (a, b) = (block_of(lo), block_of(hi));
+                        let block = if a == b { a } else { BLOCKS as u32 };
+                        l.ids.push((id, block | if held { HELD } else { 0 }));
                     }
                 }
-                let (a, b) = (block_of(lo), block_of(hi));
-                let block = if a == b { a } else { BLOCKS };
-                start[block + 1] += 1;
-                listed.push(id);
-                listed.push(block as u32 | if held { HELD } else { 0 });
-            }
+                l
+            })
+            .collect();
+        // Joined in order: each block's constraints counted, then placed (a stable counting
+        // sort); the fringe's points each once.
+        let mut start = [0u32; BLOCKS + 2];
+        for &(_, b) in runs.iter().flat_map(|l| &l.ids) {
+            start[(b & !HELD) as usize + 1] += 1;
         }
-        for id in listed
-            .chunks_exact(2)
-            .map(|pair| pair[0])
-            .chain(dead.drain(..))
-        {
-            self.listed[id as usize / 64] = 0;
-        }
-        self.dead_seen = dead;
-        self.fringe = fringe;
         for b in 0..=BLOCKS {
             start[b + 1] += start[b];
         }
         let mut fill = start;
-        self.constraints_now.clear();
-        self.constraints_now.resize(listed.len() / 2, 0);
+        let total = start[BLOCKS + 1] as usize;
+        let mut list = std::mem::take(&mut self.constraints_now);
+        list.clear();
+        list.resize(total, 0);
         self.held_slots.clear();
-        for pair in listed.chunks_exact(2) {
-            let slot = &mut fill[(pair[1] & !HELD) as usize];
-            self.constraints_now[*slot as usize] = pair[0];
-            if pair[1] & HELD != 0 {
-                self.held_slots.push((pair[0], *slot));
+        for &(id, b) in runs.iter().flat_map(|l| &l.ids) {
+            let slot = &mut fill[(b & !HELD) as usize];
+            list[*slot as usize] = id;
+            if b & HELD != 0 {
+                self.held_slots.push((id, *slot));
             }
             *slot += 1;
         }
-        self.block_scratch = listed;
+        self.constraints_now = list;
+        let stamp = self.next_stamp();
+        let mut fringe = std::mem::take(&mut self.fringe);
+        fringe.clear();
+        for &q in runs.iter().flat_map(|l| &l.fringe) {
+            if self.stamp[q as usize] != stamp {
+                self.stamp[q as usize] = stamp;
+                fringe.push(q);
+            }
+        }
+        self.fringe = fringe;
         self.block_points = bounds;
         self.block_start = start;
     }

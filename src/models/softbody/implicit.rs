@@ -413,12 +413,15 @@ impl SoftBody {
         // The system is shaped from each row's count of couplings, then runs of rows are
         // filled in parallel, each in place.
         let mut sys = std::mem::take(&mut self.cg);
-        sys.shape(
-            self.unknowns
-                .iter()
-                .map(|&i| self.couplings(i as usize).count() as u32),
-        );
         let this = &*self;
+        let mut counts = std::mem::take(&mut sys.counts);
+        this.unknowns
+            .par_iter()
+            .with_min_len(ROWS_PER_TASK)
+            .map(|&i| this.couplings(i as usize).count() as u32)
+            .collect_into_vec(&mut counts);
+        sys.shape(&counts);
+        sys.counts = counts;
         this.unknowns
             .par_chunks(ROWS_PER_TASK)
             .zip(sys.runs_mut(ROWS_PER_TASK))

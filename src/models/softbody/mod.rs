@@ -235,16 +235,11 @@ pub struct SoftBody {
     moved: Vec<u32>,
     before: Vec<Vec3>,
     lambda: Vec<f32>,
-    /// One bit per constraint: listed this step (cleared again once the list is made).
-    listed: Vec<u64>,
     /// This step's blocks: block b holds the points `block_points[b]..block_points[b + 1]`,
     /// and the listed constraints `constraints_now[block_start[b]..block_start[b + 1]]` touch
     /// its points only; the last run of the list crosses blocks.
     block_points: [u32; constraints::BLOCKS + 1],
     block_start: [u32; constraints::BLOCKS + 2],
-    /// Scratch for sorting the list into blocks, and the dead constraints seen listing.
-    block_scratch: Vec<u32>,
-    dead_seen: Vec<u32>,
     /// The sleeping points this step's constraints touch (each once).
     fringe: Vec<u32>,
     /// Per awake point: at rest this step (the sleep test's scratch).
@@ -357,11 +352,8 @@ impl SoftBody {
             moved: Vec::new(),
             before: Vec::new(),
             lambda: Vec::new(),
-            listed: Vec::new(),
             block_points: [0; constraints::BLOCKS + 1],
             block_start: [0; constraints::BLOCKS + 2],
-            block_scratch: Vec::new(),
-            dead_seen: Vec::new(),
             fringe: Vec::new(),
             at_rest: Vec::new(),
             held_slots: Vec::new(),
@@ -530,7 +522,6 @@ impl SoftBody {
         }
         self.adj_start = count;
         self.adj = adj;
-        self.listed = vec![0; all.len().div_ceil(64)];
     }
 
     /// What constraint id `id` is: stretch constraints first, then bends, then ties.

@@ -52,17 +52,13 @@ impl SoftBody {
             ),
             (
                 "constraints_now+blocks",
-                b(&self.constraints_now)
-                    + b(&self.block_scratch)
-                    + b(&self.dead_seen)
-                    + b(&self.fringe)
-                    + b(&self.held_slots),
+                b(&self.constraints_now) + b(&self.fringe) + b(&self.held_slots),
             ),
             (
                 "normals+relink scratch",
                 b(&self.normal_scratch) + b(&self.relink),
             ),
-            ("lambda+listed", b(&self.lambda) + b(&self.listed)),
+            ("lambda", b(&self.lambda)),
             (
                 "lists",
                 b(&self.active) + b(&self.touched) + b(&self.moved) + b(&self.bvh_pending),
