@@ -74,10 +74,7 @@ impl SimplexMesh {
             render: Vec::new(),
             corners: vec![[u32::MAX; 3]; mesh.triangles.len()],
         };
-        let alive = vec![true; s.faces.len()];
-        let mut normals = vec![Vec3::ZERO; s.rest.len()];
-        s.vertex_normals(&s.rest, &alive, &mut normals);
-        s.rebuild_render(&alive, &normals);
+        s.rebuild_render(&vec![true; s.faces.len()]);
         Ok(s)
     }
 
@@ -148,69 +145,110 @@ impl SimplexMesh {
     }
 
     /// Splits every fan into runs of live faces and records each run's rest offset.
-    pub fn rebuild_render(&mut self, alive: &[bool], rest_normals: &[Vec3]) {
-        self.render.clear();
+    pub fn rebuild_render(&mut self, alive: &[bool]) {
+        let all: Vec<u32> = (0..self.vertex_count() as u32).collect();
+        self.update_render(alive, &all);
+    }
+
+    /// Brings the render runs up to date after faces died: the vertices `changed` (sorted,
+    /// each once: those with a dead face in their fan, or a face whose rest normal changed)
+    /// are split into runs again; every other vertex keeps its runs, renumbered. The runs stay
+    /// in vertex order.
+    pub fn update_render(&mut self, alive: &[bool], changed: &[u32]) {
         // One run per vertex, plus one per extra run a cut makes (grown by an eighth at a time).
         let want = self.vertex_count();
-        if self.render.capacity() < want {
-            self.render.reserve_exact(want);
-        }
+        let old = std::mem::take(&mut self.render);
+        self.render.reserve_exact(old.capacity().max(want));
         for c in &mut self.corners {
             *c = [u32::MAX; 3];
         }
+        let mut at = 0;
+        let mut changed = changed.iter().copied().peekable();
         for v in 0..self.vertex_count() {
-            let n = self.fan(v).len();
-            let Some(dead_at) = (0..n).find(|&k| !alive[self.fan(v)[k] as usize]) else {
-                self.push_run(v as u32, 0, n, rest_normals);
-                continue;
-            };
-            // Walk once around, starting just after a dead face, collecting live runs.
-            let mut first = 0;
-            let mut count = 0;
-            for step in 1..=n {
-                let k = (dead_at + step) % n;
-                if alive[self.fan(v)[k] as usize] {
-                    if count == 0 {
-                        first = k;
-                    }
-                    count += 1;
-                } else if count > 0 {
-                    self.push_run(v as u32, first, count, rest_normals);
-                    count = 0;
-                }
+            let start = at;
+            while at < old.len() && old[at].source as usize == v {
+                at += 1;
             }
-            if count > 0 {
-                self.push_run(v as u32, first, count, rest_normals);
+            if changed.next_if_eq(&(v as u32)).is_some() {
+                self.split_fan(v, alive);
+            } else {
+                for &rv in &old[start..at] {
+                    self.push_run(rv);
+                }
             }
         }
     }
 
-    fn push_run(&mut self, v: u32, first: usize, count: usize, rest_normals: &[Vec3]) {
-        let id = self.render.len() as u32;
-        if self.render.len() == self.render.capacity() {
-            self.render.reserve_exact(self.render.capacity() / 8 + 16);
+    /// Splits vertex `v`'s fan into runs of live faces.
+    fn split_fan(&mut self, v: usize, alive: &[bool]) {
+        let n = self.fan(v).len();
+        let Some(dead_at) = (0..n).find(|&k| !alive[self.fan(v)[k] as usize]) else {
+            self.new_run(v as u32, 0, n, alive);
+            return;
+        };
+        // Walk once around, starting just after a dead face, collecting live runs.
+        let mut first = 0;
+        let mut count = 0;
+        for step in 1..=n {
+            let k = (dead_at + step) % n;
+            if alive[self.fan(v)[k] as usize] {
+                if count == 0 {
+                    first = k;
+                }
+                count += 1;
+            } else if count > 0 {
+                self.new_run(v as u32, first, count, alive);
+                count = 0;
+            }
         }
+        if count > 0 {
+            self.new_run(v as u32, first, count, alive);
+        }
+    }
+
+    /// A new run of `count` faces of `v`'s fan from `first`, with its rest offset measured
+    /// against the run's rest frame.
+    fn new_run(&mut self, v: u32, first: usize, count: usize, alive: &[bool]) {
         // Fan lengths are checked to fit u16 when the mesh is built.
-        self.render.push(RenderVertex {
+        let id = self.push_run(RenderVertex {
             source: v,
             first: first as u16,
             count: count as u16,
             height_m: 0.0,
             tangent_m: Vec3::ZERO,
         });
-        let (c, n) = run_frame(&self.rest, rest_normals, self.run(id as usize));
+        let rest = &self.rest;
+        let (mut c, mut n) = (Vec3::ZERO, Vec3::ZERO);
+        for f in self.run(id as usize) {
+            c += rest[f as usize];
+            n += self.normal_area(rest, alive, f as usize).0;
+        }
+        let (c, n) = (c / count.max(1) as f32, n.normalize_or_zero());
         let d = self.tri_rest[v as usize] - c;
         let height = d.dot(n);
-        for f in self.run(id as usize).collect::<Vec<_>>() {
-            let k = self.faces[f as usize]
-                .iter()
-                .position(|&x| x == v)
-                .unwrap_or(0);
-            self.corners[f as usize][k] = id;
-        }
         let rv = &mut self.render[id as usize];
         rv.height_m = height;
         rv.tangent_m = d - n * height;
+    }
+
+    /// Appends a run and points its faces' corners at it; returns its id.
+    fn push_run(&mut self, rv: RenderVertex) -> u32 {
+        let id = self.render.len() as u32;
+        if self.render.len() == self.render.capacity() {
+            self.render.reserve_exact(self.render.capacity() / 8 + 16);
+        }
+        self.render.push(rv);
+        let fan = &self.fan_faces[self.fan_start[rv.source as usize] as usize
+            ..self.fan_start[rv.source as usize + 1] as usize];
+        for j in 0..rv.count as usize {
+            let f = fan[(rv.first as usize + j) % fan.len()] as usize;
+            let k = self.faces[f]
+                .iter()
+                .position(|&x| x == rv.source)
+                .unwrap_or(0);
+            self.corners[f][k] = id;
+        }
+        id
     }
 
     /// Position of render vertex `r` given simplex positions and normals.
@@ -295,12 +333,52 @@ mod tests {
         let fan = s.fan(0).to_vec();
         alive[fan[0] as usize] = false;
         alive[fan[2] as usize] = false;
-        let normals: Vec<Vec3> = (0..s.len())
-            .map(|i| s.normal_area(&s.rest, &alive, i).0)
-            .collect();
-        s.rebuild_render(&alive, &normals);
+        s.rebuild_render(&alive);
         let runs_of_0 = s.render.iter().filter(|r| r.source == 0).count();
         assert_eq!(runs_of_0, 2);
         assert_eq!(s.render.len(), before + 1);
+    }
+
+    /// The runs of a mesh as plain values, to compare two builds.
+    fn runs(s: &SimplexMesh) -> Vec<(u32, u16, u16, u32, [u32; 3])> {
+        s.render
+            .iter()
+            .map(|r| {
+                let t = r.tangent_m.to_array().map(f32::to_bits);
+                (r.source, r.first, r.count, r.height_m.to_bits(), t)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn updating_the_runs_around_cuts_gives_what_a_full_rebuild_gives() {
+        let mut s = SimplexMesh::dual(&kidney(&KidneyShape::default(), 3)).expect("dual");
+        let mut alive = vec![true; s.len()];
+        // Three cuts: a strip of faces, then faces next to it, then a lone face elsewhere.
+        for cut in [
+            (0..40u32).collect::<Vec<_>>(),
+            (40..60).chain([900, 901]).collect(),
+            vec![640],
+        ] {
+            for &f in &cut {
+                alive[f as usize] = false;
+            }
+            let mut changed: Vec<u32> = cut
+                .iter()
+                .flat_map(|&f| std::iter::once(f).chain(s.neighbors[f as usize]))
+                .flat_map(|f| s.faces[f as usize])
+                .collect();
+            changed.sort_unstable();
+            changed.dedup();
+            assert!(changed.len() < s.vertex_count() / 4, "the update is local");
+            s.update_render(&alive, &changed);
+            let mut full = s.clone();
+            full.rebuild_render(&alive);
+            assert_eq!(runs(&s), runs(&full));
+            assert_eq!(s.corners, full.corners);
+        }
+        // The cuts split fans: more runs than vertices now, and dead faces have no corners.
+        assert!(s.render.len() > s.vertex_count() - 60);
+        assert!(s.corners[0] == [u32::MAX; 3] && s.corners[640] == [u32::MAX; 3]);
     }
 }

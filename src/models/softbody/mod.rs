@@ -438,17 +438,18 @@ impl SoftBody {
         &self.component
     }
 
-    /// Rebuilds the render runs after a cut, from each point's normal at rest given which
-    /// neighbours live (computed in parallel into a buffer that lives only this long).
-    fn rebuild_render_runs(&mut self) {
-        use rayon::prelude::*;
-        let (mesh, alive) = (&self.mesh, &self.alive);
-        let normals: Vec<Vec3> = (0..mesh.rest.len())
-            .into_par_iter()
-            .with_min_len(POINTS_PER_TASK)
-            .map(|i| mesh.normal_area(&mesh.rest, alive, i).0)
+    /// Brings the render runs up to date after the faces `removed` were cut: the runs around
+    /// them, and around their neighbours (whose normals at rest changed), are made again.
+    fn rebuild_render_runs(&mut self, removed: &[u32]) {
+        let mesh = &self.mesh;
+        let mut changed: Vec<u32> = removed
+            .iter()
+            .flat_map(|&f| std::iter::once(f).chain(mesh.neighbors[f as usize]))
+            .flat_map(|f| mesh.faces[f as usize])
             .collect();
-        self.mesh.rebuild_render(&self.alive, &normals);
+        changed.sort_unstable();
+        changed.dedup();
+        self.mesh.update_render(&self.alive, &changed);
     }
 
     /// Brings connected parts and anchoring up to date after cuts or torn ties.

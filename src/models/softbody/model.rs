@@ -254,13 +254,13 @@ impl TissueModel for SoftBody {
 
     fn cut(&mut self, stroke: &CutStroke, out: &mut ModelOutput) {
         let mut severed = 0u32;
-        let mut removed = 0u32;
+        let mut removed = Vec::new();
         for &f in &stroke.faces {
             let i = f as usize;
             if i >= self.alive.len() || !self.alive[i] {
                 continue;
             }
-            removed += 1;
+            removed.push(f);
             self.relink.push(f);
             self.relink.extend(self.mesh.neighbors[i]);
             self.alive[i] = false;
@@ -288,11 +288,11 @@ impl TissueModel for SoftBody {
                 self.wake(n as usize);
             }
         }
-        if removed > 0 {
+        if !removed.is_empty() {
             self.topology_dirty = true;
             // Ray casts read the render triangles, so they change with the cut itself, never
             // with whoever happens to take a snapshot.
-            self.rebuild_render_runs();
+            self.rebuild_render_runs(&removed);
         }
         if severed > 0 {
             out.events.push(EventKind::TiesSevered {

@@ -2,6 +2,7 @@
 //! fitted motion), and the pressure groups each closed piece keeps.
 
 use super::*;
+use rayon::prelude::*;
 
 impl SoftBody {
     /// Recomputes connected parts over live springs and ties; the largest part of the anchor
@@ -215,19 +216,29 @@ impl SoftBody {
                 .iter()
                 .all(|&q| self.alive[q as usize]);
         }
+        for g in &mut group {
+            if *g != NO_GROUP && !(closed[*g as usize] || anchored[*g as usize]) {
+                *g = NO_GROUP;
+            }
+        }
+        // Each point's term of its group's rest volume (in parallel), summed in point order.
+        let (mesh, alive) = (&self.mesh, &self.alive);
+        let terms: Vec<f32> = (0..n)
+            .into_par_iter()
+            .with_min_len(POINTS_PER_TASK)
+            .map(|i| {
+                if group[i] == NO_GROUP {
+                    return 0.0;
+                }
+                let (nn, a) = mesh.normal_area(&mesh.rest, alive, i);
+                mesh.rest[i].dot(nn) * a / 3.0
+            })
+            .collect();
         let mut rest_volume = vec![0.0f32; closed.len()];
-        let rest = &self.mesh.rest;
-        for i in 0..n {
-            let g = group[i];
-            if g == NO_GROUP {
-                continue;
+        for (g, t) in group.iter().zip(terms) {
+            if *g != NO_GROUP {
+                rest_volume[*g as usize] += t;
             }
-            if !(closed[g as usize] || anchored[g as usize]) {
-                group[i] = NO_GROUP;
-                continue;
-            }
-            let (nn, a) = self.mesh.normal_area(rest, &self.alive, i);
-            rest_volume[g as usize] += rest[i].dot(nn) * a / 3.0;
         }
         self.pressure_group = group;
         self.rest_volume = rest_volume;
