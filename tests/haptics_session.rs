@@ -1,7 +1,8 @@
 //! `vesalius run <procedure> --haptics D[,D]`: sessions driven by force-feedback devices.
 //! The simulated stylus presses the procedure's tissue; the session is recorded, ends after
 //! its `--seconds`, and replays to the same state. Two devices drive both hands. A Phantom
-//! (here the fake libHD the build makes) runs the same session through the real FFI path.
+//! (here the fake libHD the build makes) runs the same session through the real FFI path, and
+//! two Phantoms share HD's one scheduler.
 
 mod common;
 use common::{bin, report, text, tmp};
@@ -123,12 +124,71 @@ fn a_phantom_drives_a_session_through_its_library() {
     );
 }
 
+/// The tools that touched tissue, from a session's events.
+fn touching_tools(dir: &std::path::Path) -> Vec<String> {
+    let events = std::fs::read_to_string(dir.join("events.jsonl")).expect("events.jsonl");
+    let mut tools: Vec<String> = events
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .filter(|e| e["kind"] == "contact")
+        .filter_map(|e| e["tool"].as_str().map(str::to_string))
+        .collect();
+    tools.sort();
+    tools.dedup();
+    tools
+}
+
+#[test]
+fn two_phantoms_share_hds_scheduler_each_driving_its_own_hand() {
+    let d = tmp("haptics-session", "two-phantoms");
+    let o = bin()
+        .args(["run", "sandbox", "--haptics", "phantom,phantom"])
+        .args(["--hd-names", "Left Device,Right Device", "--seconds", "1"])
+        .arg("--out")
+        .arg(&*d)
+        .env("LD_LIBRARY_PATH", xr_bindings::haptics::fake_library_dir())
+        .env_remove("VESALIUS_LIBHD")
+        // The first (left hand) held 10 mm above its origin, clear of the block; the second
+        // (right hand) 16 mm below its origin, 1 mm into the block.
+        .env("FAKE_HD_POSITION_MM_0", "0,10,0")
+        .env("FAKE_HD_POSITION_MM_1", "0,-16,0")
+        .output()
+        .expect("runs");
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    for name in [
+        "'Left Device' on the left hand",
+        "'Right Device' on the right hand",
+    ] {
+        assert!(stdout.contains(name), "{name}: {stdout}");
+    }
+    let r = report(&d);
+    assert_eq!(r["ended"], "time_up", "{r}");
+    assert_eq!(touching_tools(&d), ["right"], "{r}");
+    let probe = r["metrics"]["max_probe_force_n"].as_f64().unwrap_or(0.0);
+    let grasper = r["metrics"]["max_grasper_force_n"].as_f64().unwrap_or(-1.0);
+    assert!(
+        probe > 0.01 && grasper == 0.0,
+        "{probe} N, {grasper} N: {r}"
+    );
+}
+
 #[test]
 fn bad_device_lists_are_usage_errors() {
     for args in [
         &["run", "sandbox", "--haptics", "sim,sim,sim"][..],
         &["run", "sandbox", "--haptics", "omni"],
         &["run", "sandbox", "--haptics", "phantom,phantom"],
+        &[
+            "run",
+            "sandbox",
+            "--haptics",
+            "phantom,phantom",
+            "--hd-names",
+            "Left",
+        ],
+        &["run", "sandbox", "--haptics", "sim", "--hd-names", "Left"],
+        &["haptics", "--device", "sim", "--hd-name", "Left"],
         &[
             "run",
             "sandbox",

@@ -31,13 +31,19 @@ impl From<DeviceArg> for DeviceChoice {
 /// line or one JSON object.
 pub fn haptics(
     device: DeviceArg,
+    hd_name: Option<&str>,
     procedure: &str,
     seconds: f64,
     json: bool,
 ) -> Result<(), CliError> {
     let info = vesalius::procedures::find(procedure)
         .ok_or_else(|| CliError::Usage(format!("unknown procedure '{procedure}'")))?;
-    let mut dev = open_device(device.into())?;
+    if hd_name.is_some() && device != DeviceArg::Phantom {
+        return Err(CliError::Usage(
+            "--hd-name names a Phantom: it goes with --device phantom".into(),
+        ));
+    }
+    let mut dev = open_device(device.into(), hd_name)?;
     let r = run_stand(dev.as_mut(), &StandOptions::new(info, seconds))?;
     let s = &r.servo;
     let figures: [(&str, serde_json::Value); 13] = [
@@ -87,26 +93,14 @@ pub fn run_with_devices(a: &RunArgs) -> Result<(), CliError> {
             a.haptics.len()
         )));
     }
-    if a.haptics
-        .iter()
-        .filter(|d| **d == DeviceArg::Phantom)
-        .count()
-        > 1
-    {
-        return Err(CliError::Usage(
-            "--haptics phantom,phantom: two OpenHaptics devices share HD's one scheduler, \
-             which this version drives for one device only; use one Phantom, or a Phantom \
-             and a Falcon"
-                .into(),
-        ));
-    }
+    let names = hd_names(&a.haptics, &a.hd_names)?;
     let (file, text) = super::session::scenario_text(&a.procedure, a.scenario.as_deref())?;
     if let Some(dir) = &a.out {
         vesalius::session::prepare(dir)?;
     }
     let mut devices = Vec::new();
-    for d in &a.haptics {
-        devices.push(open_device((*d).into())?);
+    for (d, name) in a.haptics.iter().zip(&names) {
+        devices.push(open_device((*d).into(), name.as_deref())?);
     }
     let opts = BoundOptions {
         scenario_text: &text,
@@ -134,4 +128,63 @@ pub fn run_with_devices(a: &RunArgs) -> Result<(), CliError> {
         );
     }
     super::session::interrupted()
+}
+
+/// The HD device name for each device of `devices` (`None` but for Phantoms): `names` in the
+/// order the Phantoms are listed. One Phantom may go unnamed (HD's default device); two must
+/// be named, since HD opens its default device once.
+fn hd_names(devices: &[DeviceArg], names: &[String]) -> Result<Vec<Option<String>>, CliError> {
+    let phantoms = devices.iter().filter(|d| **d == DeviceArg::Phantom).count();
+    if !names.is_empty() && names.len() != phantoms {
+        return Err(CliError::Usage(format!(
+            "--hd-names: {} name(s) for {phantoms} Phantom(s); give one per Phantom, in order",
+            names.len()
+        )));
+    }
+    if phantoms > 1 && names.is_empty() {
+        return Err(CliError::Usage(
+            "--haptics with two Phantoms: name them as Touch Setup shows them, e.g. \
+             --hd-names \"Left Device,Right Device\" (HD opens its default device once)"
+                .into(),
+        ));
+    }
+    let mut given = names.iter();
+    Ok(devices
+        .iter()
+        .map(|d| match d {
+            DeviceArg::Phantom => given.next().cloned(),
+            _ => None,
+        })
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn phantoms_take_their_names_in_order_and_two_need_names() {
+        use DeviceArg::{Falcon, Phantom, Sim};
+        let names = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        assert_eq!(
+            hd_names(&[Phantom, Phantom], &names(&["L", "R"])).ok(),
+            Some(vec![Some("L".into()), Some("R".into())])
+        );
+        assert_eq!(
+            hd_names(&[Falcon, Phantom], &names(&["R"])).ok(),
+            Some(vec![None, Some("R".into())])
+        );
+        assert_eq!(hd_names(&[Phantom], &[]).ok(), Some(vec![None]));
+        assert_eq!(hd_names(&[Sim, Sim], &[]).ok(), Some(vec![None, None]));
+        for (devices, given) in [
+            (&[Phantom, Phantom][..], &[][..]),
+            (&[Phantom, Phantom], &["L"][..]),
+            (&[Sim], &["L"][..]),
+        ] {
+            assert!(matches!(
+                hd_names(devices, &names(given)),
+                Err(CliError::Usage(_))
+            ));
+        }
+    }
 }

@@ -101,6 +101,10 @@ enum Command {
         /// The device: the simulated stylus, or a Phantom / Falcon.
         #[arg(long, value_enum)]
         device: haptics::DeviceArg,
+        /// With --device phantom: its name as Touch Setup shows it (default: HD's default
+        /// device).
+        #[arg(long, value_name = "NAME")]
+        hd_name: Option<String>,
         /// The procedure the stylus works in.
         #[arg(long, value_parser = procedures(), default_value = "sandbox")]
         procedure: String,
@@ -181,10 +185,19 @@ struct RunArgs {
     #[arg(long, value_name = "S", value_parser = positive_seconds, default_value_t = vesalius::session::DEFAULT_MAX_SESSION_S)]
     max_session: f64,
     /// Force-feedback devices driving the instruments, one or two of sim, phantom, falcon
-    /// (`phantom,phantom`: left and right hand). No window; ends after --seconds or Ctrl-C.
+    /// (two: left and right hand). No window; ends after --seconds or Ctrl-C.
     #[arg(long, value_name = "DEVICES", value_enum, value_delimiter = ',',
           conflicts_with_all = ["headless", "trace", "xr", "xr_sim", "screenshot"])]
     haptics: Vec<haptics::DeviceArg>,
+    /// With --haptics: the Phantoms' device names as Touch Setup shows them, in the order the
+    /// Phantoms are listed (default: HD's default device; two Phantoms need both names).
+    #[arg(
+        long,
+        value_name = "NAMES",
+        value_delimiter = ',',
+        requires = "haptics"
+    )]
+    hd_names: Vec<String>,
     /// With --haptics: field metres per device metre (below 1: finer motion, softer feel).
     #[arg(long, value_name = "S", requires = "haptics", default_value_t = 1.0,
           value_parser = positive_scale)]
@@ -405,10 +418,11 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
         } => tools::verify(json, known_failures),
         Command::Haptics {
             device,
+            hd_name,
             procedure,
             seconds,
             json,
-        } => haptics::haptics(device, &procedure, seconds, json),
+        } => haptics::haptics(device, hd_name.as_deref(), &procedure, seconds, json),
         Command::XrSim(XrSimCommand::Manifest { out }) => {
             let path = tools::xr_sim_manifest(out)?;
             say!("{}", path.display());

@@ -103,36 +103,40 @@ pub fn run_bound(
         })
         .collect();
     let names: Vec<String> = devices.iter().map(|d| d.name().to_string()).collect();
+    let pool = super::stand::sim_pool(devices.len())?;
     let (servos, sim) = std::thread::scope(|s| {
         let sim_links = &links;
         let bindings = &mut bindings;
         let stop = &stop;
+        let pool = &pool;
         let sim = std::thread::Builder::new()
             .name("vesalius-sim".into())
             .spawn_scoped(s, move || -> Result<Live, SessionError> {
-                let result = loop {
-                    if stop.load(Ordering::Relaxed) {
-                        break Ok(());
-                    }
-                    if interrupt::interrupted().is_some() {
-                        live.set_ended(ended::INTERRUPTED);
-                        break Ok(());
-                    }
-                    if live.time_s() >= opts.seconds {
-                        live.set_ended(ended::TIME_UP);
-                        break Ok(());
-                    }
-                    for (b, l) in bindings.iter_mut().zip(sim_links) {
-                        // Until the servo's first tick the stylus is at the device's origin.
-                        b.update(&l.stylus.latest().unwrap_or_default());
-                    }
-                    if let Err(e) = live.step(bound_frame(info, bindings)) {
-                        break Err(e);
-                    }
-                };
-                // Whatever ended the simulation ends the servo loops.
-                stop.store(true, Ordering::Relaxed);
-                result.map(|()| live)
+                pool.install(|| {
+                    let result = loop {
+                        if stop.load(Ordering::Relaxed) {
+                            break Ok(());
+                        }
+                        if interrupt::interrupted().is_some() {
+                            live.set_ended(ended::INTERRUPTED);
+                            break Ok(());
+                        }
+                        if live.time_s() >= opts.seconds {
+                            live.set_ended(ended::TIME_UP);
+                            break Ok(());
+                        }
+                        for (b, l) in bindings.iter_mut().zip(sim_links) {
+                            // Until the servo's first tick the stylus is at the device's origin.
+                            b.update(&l.stylus.latest().unwrap_or_default());
+                        }
+                        if let Err(e) = live.step(bound_frame(info, bindings)) {
+                            break Err(e);
+                        }
+                    };
+                    // Whatever ended the simulation ends the servo loops.
+                    stop.store(true, Ordering::Relaxed);
+                    result.map(|()| live)
+                })
             });
         let servos: Vec<_> = devices
             .iter_mut()

@@ -63,6 +63,22 @@ pub struct StandReport {
     pub sim_s: f64,
 }
 
+/// A thread pool for a simulation that shares the machine with `servos` servo loops: the
+/// cores left once each servo has one (at least one thread), never more than the global
+/// pool has (`--threads`). A servo that has to share its core with the simulation's workers
+/// misses deadlines; the simulation's results do not depend on its pool's size.
+pub fn sim_pool(servos: usize) -> Result<rayon::ThreadPool, HapticsError> {
+    let cores = std::thread::available_parallelism().map_or(1, usize::from);
+    let threads = cores
+        .saturating_sub(servos)
+        .clamp(1, rayon::current_num_threads().max(1));
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .thread_name(|k| format!("vesalius-sim-{k}"))
+        .build()
+        .map_err(|e| HapticsError::Thread(format!("cannot start the simulation's threads: {e}")))
+}
+
 /// The hand a single device drives: the procedure's probe, else the right.
 pub fn device_hand(info: &ProcedureInfo) -> Hand {
     info.tools
@@ -115,33 +131,37 @@ pub fn run_stand(
         ..ServoConfig::default()
     };
     let workspace = opts.workspace;
+    let pool = sim_pool(1)?;
     let (servo, sim) = std::thread::scope(|s| {
         let sim_links = links.clone();
+        let pool = &pool;
         let sim = std::thread::Builder::new()
             .name("vesalius-sim".into())
             .spawn_scoped(s, move || -> Result<(u64, f64), SessionError> {
-                let stop = &sim_links.stop;
-                // Until the servo's first tick the stylus is at the device's origin.
-                let mut last = DeviceState::default();
-                let result = loop {
-                    if stop.load(Ordering::Relaxed) {
-                        break Ok(());
-                    }
-                    if interrupt::interrupted().is_some() {
-                        break Ok(());
-                    }
-                    if let Some(s) = sim_links.stylus.latest()
-                        && s.position_m.is_finite()
-                    {
-                        last = s;
-                    }
-                    if let Err(e) = live.step(input_frame(info, hand, &workspace, &last)) {
-                        break Err(e);
-                    }
-                };
-                // Whatever ended the simulation ends the servo loop.
-                stop.store(true, Ordering::Relaxed);
-                result.map(|()| (live.step_count(), live.time_s()))
+                pool.install(|| {
+                    let stop = &sim_links.stop;
+                    // Until the servo's first tick the stylus is at the device's origin.
+                    let mut last = DeviceState::default();
+                    let result = loop {
+                        if stop.load(Ordering::Relaxed) {
+                            break Ok(());
+                        }
+                        if interrupt::interrupted().is_some() {
+                            break Ok(());
+                        }
+                        if let Some(s) = sim_links.stylus.latest()
+                            && s.position_m.is_finite()
+                        {
+                            last = s;
+                        }
+                        if let Err(e) = live.step(input_frame(info, hand, &workspace, &last)) {
+                            break Err(e);
+                        }
+                    };
+                    // Whatever ended the simulation ends the servo loop.
+                    stop.store(true, Ordering::Relaxed);
+                    result.map(|()| (live.step_count(), live.time_s()))
+                })
             });
         let servo = std::thread::Builder::new()
             .name("vesalius-servo".into())

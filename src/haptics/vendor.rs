@@ -40,8 +40,12 @@ impl DeviceChoice {
     }
 }
 
-/// Opens the device `choice` names.
-pub fn open_device(choice: DeviceChoice) -> Result<Box<dyn HapticDevice>, HapticsError> {
+/// Opens the device `choice` names; a Phantom by its HD device name (`None`: HD's default
+/// device).
+pub fn open_device(
+    choice: DeviceChoice,
+    hd_name: Option<&str>,
+) -> Result<Box<dyn HapticDevice>, HapticsError> {
     let flag = choice.flag();
     let vendor_error = |source| HapticsError::Vendor { flag, source };
     Ok(match choice {
@@ -49,7 +53,7 @@ pub fn open_device(choice: DeviceChoice) -> Result<Box<dyn HapticDevice>, Haptic
             Script::press(),
             StylusParams::default(),
         )),
-        DeviceChoice::Phantom => Box::new(HdStylus::open(None).map_err(vendor_error)?),
+        DeviceChoice::Phantom => Box::new(HdStylus::open(hd_name).map_err(vendor_error)?),
         DeviceChoice::Falcon => Box::new(DhdStylus::open().map_err(vendor_error)?),
     })
 }
@@ -317,7 +321,7 @@ mod tests {
 
     #[test]
     fn the_simulated_stylus_has_the_omni_limits() {
-        let sim = open_device(DeviceChoice::Sim).map(|d| d.limits().max_force_n);
+        let sim = open_device(DeviceChoice::Sim, None).map(|d| d.limits().max_force_n);
         assert_eq!(sim.ok(), Some(3.3));
     }
 

@@ -354,12 +354,6 @@ fn hd_servo_protocol_frames_stop_and_unschedule() {
         dev.start(|_| HdCommand::Stop),
         Err(HapticsError::ServoRunning)
     ));
-    let mut other = HdDevice::open_from(&hd_path(), None).expect("a second device opens");
-    assert!(matches!(
-        other.start(|_| HdCommand::Stop),
-        Err(HapticsError::SchedulerBusy)
-    ));
-    drop(other);
     let status = dev.stop().expect("stops");
     assert_eq!(fake.calls("hdUnschedule"), 1);
     assert_eq!(fake.get_int("active_callbacks"), 0);
@@ -403,6 +397,108 @@ fn hd_servo_protocol_frames_stop_and_unschedule() {
     );
     assert_eq!(fake.get_long("protocol_errors"), 0);
     assert_eq!(fake.calls("hdSetSchedulerRate"), 4);
+}
+
+impl Fake {
+    fn set_device_position_mm(&self, hhd: u32, v: [f64; 3]) {
+        // SAFETY: `void fake_hd_set_device_position_mm(unsigned int, double, double, double)`.
+        unsafe {
+            self.sym::<unsafe extern "C" fn(c_uint, f64, f64, f64)>("set_device_position_mm")(
+                hhd, v[0], v[1], v[2],
+            )
+        }
+    }
+
+    fn device_last_force(&self, hhd: u32) -> [f64; 3] {
+        let mut f = [0.0f64; 3];
+        // SAFETY: `void fake_hd_device_last_force(unsigned int, double* out)`, which writes 3
+        // doubles.
+        unsafe {
+            self.sym::<unsafe extern "C" fn(c_uint, *mut f64)>("device_last_force")(
+                hhd,
+                f.as_mut_ptr(),
+            )
+        };
+        f
+    }
+}
+
+/// A servo callback that pulls its stylus back to the device's origin with a 100 N/m spring
+/// and keeps the last position it was given.
+fn spring_to_origin(
+    seen: Arc<Mutex<[f64; 3]>>,
+) -> impl FnMut(&HdState) -> HdCommand + Send + 'static {
+    move |s| {
+        *seen.lock().unwrap_or_else(PoisonError::into_inner) = s.position_m;
+        HdCommand::Continue {
+            force_n: s.position_m.map(|x| -100.0 * x),
+        }
+    }
+}
+
+#[test]
+fn hd_two_devices_share_the_one_scheduler_each_with_its_own_state() {
+    let _g = lock();
+    let fake = fake_hd();
+    fake.reset();
+    let mut left = HdDevice::open_from(&hd_path(), Some("Left")).expect("the first opens");
+    let mut right = HdDevice::open_from(&hd_path(), Some("Right")).expect("the second opens");
+    assert_eq!((left.handle(), right.handle()), (0, 1));
+    fake.set_device_position_mm(0, [10.0, 0.0, 0.0]);
+    fake.set_device_position_mm(1, [0.0, -20.0, 0.0]);
+    let seen = [
+        Arc::new(Mutex::new([0.0; 3])),
+        Arc::new(Mutex::new([0.0; 3])),
+    ];
+    left.start(spring_to_origin(Arc::clone(&seen[0])))
+        .expect("the first servo starts");
+    right
+        .start(spring_to_origin(Arc::clone(&seen[1])))
+        .expect("the second servo starts beside it");
+    wait_for("both servos to tick", || {
+        left.servo_status().ticks >= 20 && right.servo_status().ticks >= 20
+    });
+    assert_eq!(fake.calls("hdStartScheduler"), 1, "one scheduler for both");
+    assert_eq!(fake.get_int("active_callbacks"), 2);
+    // Each callback saw its own stylus (mm -> m) and each device got its own force.
+    let position = |k: usize| *seen[k].lock().unwrap_or_else(PoisonError::into_inner);
+    assert!(approx(position(0), [0.01, 0.0, 0.0]), "{:?}", position(0));
+    assert!(approx(position(1), [0.0, -0.02, 0.0]), "{:?}", position(1));
+    assert!(approx(fake.device_last_force(0), [-1.0, 0.0, 0.0]));
+    assert!(approx(fake.device_last_force(1), [0.0, 2.0, 0.0]));
+
+    // Stopping one leaves the other running on the scheduler, and renders zero on the first.
+    let status = left.stop().expect("the first stops");
+    assert!(!status.running);
+    assert_eq!(fake.get_int("scheduler_running"), 1);
+    assert_eq!(fake.calls("hdStopScheduler"), 0);
+    assert_eq!(fake.get_int("active_callbacks"), 1);
+    assert_eq!(fake.device_last_force(0), [0.0; 3]);
+    let (left_ticks, right_ticks) = (status.ticks, right.servo_status().ticks);
+    wait_for("the second to tick on", || {
+        right.servo_status().ticks >= right_ticks + 20
+    });
+    assert_eq!(
+        left.servo_status().ticks,
+        left_ticks,
+        "the first is not called"
+    );
+    assert!(approx(fake.device_last_force(1), [0.0, 2.0, 0.0]));
+
+    // The last one stops the scheduler; either may be started again.
+    right.stop().expect("the second stops");
+    assert_eq!(fake.calls("hdStopScheduler"), 1);
+    assert_eq!(fake.get_int("scheduler_running"), 0);
+    assert_eq!(fake.get_int("active_callbacks"), 0);
+    left.start(stop_after(3, [0.0; 3])).expect("starts again");
+    wait_for("the callback to finish", || !left.servo_status().running);
+    left.stop().expect("stops");
+    assert_eq!(fake.calls("hdStartScheduler"), 2);
+    assert_eq!(fake.get_int("scheduler_running"), 0);
+    assert_eq!(fake.get_long("protocol_errors"), 0);
+    left.close().expect("closes");
+    right.close().expect("closes");
+    assert_eq!(fake.get_int("open_devices"), 0);
 }
 
 #[test]

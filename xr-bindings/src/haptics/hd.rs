@@ -1,7 +1,9 @@
 //! 3D Systems OpenHaptics HD API (`libHD.so`): Phantom Omni, Touch, Touch X, Premium.
 //!
 //! [`HdDevice::open`] initialises a device; [`HdDevice::start`] runs a Rust closure as the
-//! device's servo loop, an asynchronous callback of the HD scheduler at 1 kHz. A trampoline
+//! device's servo loop, an asynchronous callback of the HD scheduler at 1 kHz. The scheduler is
+//! one per process: every device's callback runs on it, one after another each tick (the
+//! papers' two Phantoms); it starts with the first servo and stops with the last. A trampoline
 //! brackets each call with `hdBeginFrame`/`hdEndFrame`, reads the device state in SI units,
 //! writes the returned force (clamped to the device's nominal maximum), and collects the errors
 //! HD reports, so the closure never touches C.
@@ -10,8 +12,9 @@ use std::ffi::{CString, c_char, c_int, c_uint, c_ulong, c_ushort, c_void};
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::Path;
 use std::ptr::NonNull;
-use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
 use super::{HapticsError, LibrarySpec, Loaded, c_text, load_library, symbol};
 
@@ -270,6 +273,8 @@ pub struct ServoStatus {
 /// What the servo thread and the device's owner share.
 struct ServoShared {
     running: AtomicBool,
+    /// The owner asks the callback to end at its next tick (with zero force).
+    stop_asked: AtomicBool,
     ticks: AtomicU64,
     /// `HdErrorInfo::pack` of the first error, 0 for none.
     first_error: AtomicU64,
@@ -336,6 +341,17 @@ fn servo_tick(ctx: &mut ServoCtx) -> HdCallbackCode {
         ctx.shared.record_error(e);
     }
     let tick = ctx.shared.ticks.fetch_add(1, Ordering::AcqRel) + 1;
+    if ctx.shared.stop_asked.load(Ordering::Acquire) {
+        // SAFETY: HD_CURRENT_FORCE reads 3 doubles, inside the frame begun above.
+        unsafe {
+            (api.set_doublev)(HD_CURRENT_FORCE, [0.0f64; 3].as_ptr());
+            (api.end_frame)(ctx.hhd);
+        }
+        let _ = api.drain_errors();
+        // The last touch of `ctx`: the owner may free it once it reads `running` false.
+        ctx.shared.running.store(false, Ordering::Release);
+        return HD_CALLBACK_DONE;
+    }
     let state = HdState {
         position_m: [0, 1, 2].map(|i| position_mm[i] * M_PER_MM),
         velocity_m_per_s: [0, 1, 2].map(|i| velocity_mm_s[i] * M_PER_MM),
@@ -384,8 +400,20 @@ fn limit_force(force_n: [f64; 3], max_n: f64) -> [f64; 3] {
     }
 }
 
-/// The HD scheduler is one per process: at most one servo runs at a time.
-static SCHEDULER_TAKEN: AtomicBool = AtomicBool::new(false);
+/// The HD scheduler is one per process: how many servos are scheduled on it. Held while a
+/// servo is added or removed, so the scheduler starts with the first and stops with the last.
+static SCHEDULER_USERS: Mutex<usize> = Mutex::new(0);
+
+/// How long [`HdDevice::stop`] waits for a callback asked to end while other servos keep the
+/// scheduler running (a few hundred ticks), before it unschedules it.
+const STOP_WAIT: Duration = Duration::from_millis(250);
+
+fn scheduler_users() -> std::sync::MutexGuard<'static, usize> {
+    // A panic while holding the count leaves it right (it is changed last): go on.
+    SCHEDULER_USERS
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+}
 
 /// A running servo: the context handed to HD and what the owner reads.
 struct Servo {
@@ -529,23 +557,17 @@ impl HdDevice {
             if servo.shared.running.load(Ordering::Acquire) {
                 return Err(HapticsError::ServoRunning);
             }
-            // The previous callback returned Stop: release its scheduler and context.
+            // The previous callback returned Stop: release its context.
             self.stop()?;
         }
-        if SCHEDULER_TAKEN
-            .compare_exchange(false, true, Ordering::AcqRel, Ordering::Acquire)
-            .is_err()
-        {
-            return Err(HapticsError::SchedulerBusy);
-        }
-        let result = self.schedule(Box::new(callback));
-        if result.is_err() {
-            SCHEDULER_TAKEN.store(false, Ordering::Release);
-        }
-        result
+        let mut users = scheduler_users();
+        self.schedule(Box::new(callback), *users == 0)?;
+        *users += 1;
+        Ok(())
     }
 
-    fn schedule(&mut self, callback: ServoCallback) -> Result<(), HapticsError> {
+    /// Schedules the callback, and starts the scheduler when `first`.
+    fn schedule(&mut self, callback: ServoCallback, first: bool) -> Result<(), HapticsError> {
         let api = self.api;
         self.make_current();
         let _ = api.drain_errors();
@@ -554,6 +576,7 @@ impl HdDevice {
         api.check("hdSetSchedulerRate")?;
         let shared = Arc::new(ServoShared {
             running: AtomicBool::new(true),
+            stop_asked: AtomicBool::new(false),
             ticks: AtomicU64::new(0),
             first_error: AtomicU64::new(0),
             panicked: AtomicBool::new(false),
@@ -580,6 +603,15 @@ impl HdDevice {
             // SAFETY: HD refused the callback, so nothing refers to `ctx`.
             drop(unsafe { Box::from_raw(ctx.as_ptr()) });
             return Err(e);
+        }
+        if !first {
+            // The scheduler runs (another device's servo started it).
+            self.servo = Some(Servo {
+                ctx,
+                handle,
+                shared,
+            });
+            return Ok(());
         }
         // SAFETY: a plain HD call.
         unsafe { (api.start_scheduler)() };
@@ -628,26 +660,42 @@ impl HdDevice {
         Ok(())
     }
 
-    /// Stops the servo: stops the HD scheduler (which waits for the running callback), then
-    /// unschedules the callback if it had not returned Stop, and frees it. Returns the final
-    /// status. Does nothing when no servo runs.
+    /// Stops the servo and frees its callback; returns the final status. The last servo on
+    /// the scheduler stops it (which waits for the running callback) and then unschedules its
+    /// callback if that had not returned Stop. A servo beside others asks its callback to end
+    /// at the next tick (with zero force) and waits for that, so the others never miss a tick;
+    /// should the scheduler not come round within [`STOP_WAIT`], it unschedules the callback.
+    /// Does nothing when no servo runs.
     pub fn stop(&mut self) -> Result<ServoStatus, HapticsError> {
         let Some(servo) = self.servo.take() else {
             return Ok(self.last_status);
         };
         let api = self.api;
-        // SAFETY: a plain HD call; it returns once the scheduler thread is stopped.
-        unsafe { (api.stop_scheduler)() };
+        let mut users = scheduler_users();
+        let last = *users <= 1;
+        if last {
+            // SAFETY: a plain HD call; it returns once the scheduler thread is stopped.
+            unsafe { (api.stop_scheduler)() };
+        } else {
+            servo.shared.stop_asked.store(true, Ordering::Release);
+            let asked = Instant::now();
+            while servo.shared.running.load(Ordering::Acquire) && asked.elapsed() < STOP_WAIT {
+                std::thread::sleep(Duration::from_micros(200));
+            }
+        }
         let status = servo.shared.status();
         if status.running {
             // SAFETY: the handle hdScheduleAsynchronous returned, for a callback that has not
-            // finished (HD forgets the handle of one that returned DONE).
+            // finished (HD forgets the handle of one that returned DONE); hdUnschedule returns
+            // once the callback is not running and never will again.
             unsafe { (api.unschedule)(servo.handle) };
         }
-        // SAFETY: `ctx` came from `Box::leak` in `schedule`; the scheduler is stopped and the
-        // callback unscheduled or finished, so nothing refers to it any more.
+        // SAFETY: `ctx` came from `Box::leak` in `schedule`; the callback finished (its last
+        // touch of the context was to say so) or is unscheduled, or the scheduler is stopped,
+        // so nothing refers to it any more.
         drop(unsafe { Box::from_raw(servo.ctx.as_ptr()) });
-        SCHEDULER_TAKEN.store(false, Ordering::Release);
+        *users = users.saturating_sub(1);
+        drop(users);
         self.last_status = ServoStatus {
             running: false,
             ..status

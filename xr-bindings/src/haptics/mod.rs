@@ -121,9 +121,6 @@ pub enum HapticsError {
     /// The servo already runs on this device.
     #[error("the servo already runs on this device: stop it before starting another")]
     ServoRunning,
-    /// Another device's servo holds the HD scheduler, which is one per process.
-    #[error("another HD device's servo runs: the HD scheduler is one per process, stop it first")]
-    SchedulerBusy,
     /// A device name with a NUL byte cannot be passed to C.
     #[error("the device name {name:?} contains a NUL byte")]
     InvalidDeviceName {

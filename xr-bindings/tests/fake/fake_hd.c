@@ -14,6 +14,9 @@
  *   fault (HD_DEVICE_FAULT) is raised in the hdEndFrame that ends frame number N.
  * - The fake is strict about the frame protocol: hdBeginFrame inside a frame, hdEndFrame outside
  *   one, and setting HD_CURRENT_FORCE outside a frame queue an error and count as protocol errors.
+ * - The current device (hdMakeCurrentDevice, hdBeginFrame) is per thread.
+ * - Each device (up to four) has its own stylus position, velocity and buttons and its own last
+ *   committed force; the force log holds every frame's force, of whichever device.
  * - Force output starts disabled (the real device starts with it enabled) so a test can see
  *   hdEnable(HD_FORCE_OUTPUT) arrive.
  * - hdScheduleSynchronous runs the callback on the scheduler thread (once per tick until it
@@ -25,7 +28,8 @@
  *   FAKE_HD_FAIL_INIT=1|<code>      hdInitDevice fails (1 = HD_COMM_ERROR, or the HD error code)
  *   FAKE_HD_FAIL_START=1            hdStartScheduler fails with HD_TIMER_ERROR
  *   FAKE_HD_FAULT_AFTER_TICKS=N     HD_DEVICE_FAULT is raised at the end of frame N
- *   FAKE_HD_POSITION_MM=x,y,z       the stylus position in millimetres
+ *   FAKE_HD_POSITION_MM=x,y,z       every stylus' position in millimetres
+ *   FAKE_HD_POSITION_MM_<h>=x,y,z   the position of device h (0-3: the order of hdInitDevice)
  */
 #define _GNU_SOURCE
 #include <errno.h>
@@ -128,11 +132,11 @@ struct state {
     int fail_start;
     long fault_after_frames;
     int fault_raised;
-    double position_mm[3];
-    double velocity_mm_s[3];
-    int buttons;
+    double position_mm[MAX_DEVICES][3];
+    double velocity_mm_s[MAX_DEVICES][3];
+    int buttons[MAX_DEVICES];
+    double device_force[MAX_DEVICES][3];
     int device_open[MAX_DEVICES];
-    HHD current;
     int init_name_given;
     char init_name[128];
     unsigned long rate_hz;
@@ -161,6 +165,9 @@ static pthread_cond_t sync_cond = PTHREAD_COND_INITIALIZER;
 static struct state st;
 static double force_log[FORCE_LOG_MAX][3];
 
+/* Like HD's: the current device is the calling thread's (the scheduler thread makes each
+ * callback's device current in turn while owners call from theirs). */
+static __thread HHD current = HD_INVALID_HANDLE;
 static __thread HDErrorInfo error_queue[ERROR_QUEUE_MAX];
 static __thread int error_len;
 
@@ -180,7 +187,7 @@ static void push_error(HDErrorCode code, int internal, HHD hhd) {
 /* Called with `lock` held. */
 static void protocol_error(HDErrorCode code) {
     st.protocol_errors++;
-    push_error(code, 0, st.current);
+    push_error(code, 0, current);
 }
 
 static long env_long(const char *name, long fallback) {
@@ -194,21 +201,31 @@ static long env_long(const char *name, long fallback) {
 /* Called with `lock` held. */
 static void load_defaults(void) {
     memset(&st, 0, sizeof st);
-    st.current = HD_INVALID_HANDLE;
     st.rate_hz = 1000;
     long fail = env_long("FAKE_HD_FAIL_INIT", 0);
     st.fail_init_code = fail == 1 ? HD_COMM_ERROR : (unsigned int)fail;
     st.fail_start = env_long("FAKE_HD_FAIL_START", 0) != 0;
     st.fault_after_frames = env_long("FAKE_HD_FAULT_AFTER_TICKS", 0);
-    const char *p = getenv("FAKE_HD_POSITION_MM");
-    if (p != NULL) {
+    for (int h = 0; h < MAX_DEVICES; h++) {
+        char name[32];
+        snprintf(name, sizeof name, "FAKE_HD_POSITION_MM_%d", h);
+        const char *p = getenv(name);
+        if (p == NULL) {
+            p = getenv("FAKE_HD_POSITION_MM");
+        }
         double x, y, z;
-        if (sscanf(p, "%lf,%lf,%lf", &x, &y, &z) == 3) {
-            st.position_mm[0] = x;
-            st.position_mm[1] = y;
-            st.position_mm[2] = z;
+        if (p != NULL && sscanf(p, "%lf,%lf,%lf", &x, &y, &z) == 3) {
+            st.position_mm[h][0] = x;
+            st.position_mm[h][1] = y;
+            st.position_mm[h][2] = z;
         }
     }
+}
+
+/* The device calls address: the current one, or device 0 when none is. Called with `lock`
+ * held. */
+static HHD addressed(void) {
+    return current < MAX_DEVICES ? current : 0;
 }
 
 __attribute__((constructor)) static void fake_hd_load(void) {
@@ -235,7 +252,7 @@ EXPORT HHD hdInitDevice(const char *name) {
     for (HHD h = 0; h < MAX_DEVICES; h++) {
         if (!st.device_open[h]) {
             st.device_open[h] = 1;
-            st.current = h;
+            current = h;
             pthread_mutex_unlock(&lock);
             return h;
         }
@@ -260,7 +277,7 @@ EXPORT void hdMakeCurrentDevice(HHD hhd) {
     pthread_mutex_lock(&lock);
     st.calls[CALL_hdMakeCurrentDevice]++;
     if (device_valid(hhd)) {
-        st.current = hhd;
+        current = hhd;
     } else {
         push_error(HD_BAD_HANDLE, 0, hhd);
     }
@@ -308,7 +325,7 @@ static void set_capability(int call, HDenum cap, int on) {
     if (cap >= HD_FORCE_OUTPUT && cap < HD_FORCE_OUTPUT + HD_CAPABILITY_COUNT) {
         st.capabilities[cap - HD_FORCE_OUTPUT] = on;
     } else {
-        push_error(HD_INVALID_ENUM, 0, st.current);
+        push_error(HD_INVALID_ENUM, 0, current);
     }
     pthread_mutex_unlock(&lock);
 }
@@ -320,19 +337,20 @@ EXPORT void hdGetDoublev(HDenum pname, HDdouble *out) {
     pthread_mutex_lock(&lock);
     st.calls[CALL_hdGetDoublev]++;
     if (out == NULL) {
-        push_error(HD_INVALID_VALUE, 0, st.current);
+        push_error(HD_INVALID_VALUE, 0, current);
     } else if (pname == HD_CURRENT_POSITION) {
-        memcpy(out, st.position_mm, sizeof st.position_mm);
+        memcpy(out, st.position_mm[addressed()], 3 * sizeof *out);
     } else if (pname == HD_CURRENT_VELOCITY) {
-        memcpy(out, st.velocity_mm_s, sizeof st.velocity_mm_s);
+        memcpy(out, st.velocity_mm_s[addressed()], 3 * sizeof *out);
     } else if (pname == HD_CURRENT_TRANSFORM) {
         memset(out, 0, 16 * sizeof *out);
         out[0] = out[5] = out[10] = out[15] = 1.0;
-        out[12] = st.position_mm[0];
-        out[13] = st.position_mm[1];
-        out[14] = st.position_mm[2];
+        out[12] = st.position_mm[addressed()][0];
+        out[13] = st.position_mm[addressed()][1];
+        out[14] = st.position_mm[addressed()][2];
     } else if (pname == HD_CURRENT_FORCE) {
-        memcpy(out, st.in_frame ? st.frame_force : st.last_force, sizeof st.last_force);
+        memcpy(out, st.in_frame ? st.frame_force : st.device_force[addressed()],
+               3 * sizeof *out);
     } else if (pname == HD_NOMINAL_MAX_FORCE) {
         out[0] = 3.3;
     } else if (pname == HD_NOMINAL_MAX_CONTINUOUS_FORCE) {
@@ -342,7 +360,7 @@ EXPORT void hdGetDoublev(HDenum pname, HDdouble *out) {
     } else if (pname == HD_NOMINAL_MAX_DAMPING) {
         out[0] = 0.002;
     } else {
-        push_error(HD_INVALID_ENUM, 0, st.current);
+        push_error(HD_INVALID_ENUM, 0, current);
     }
     pthread_mutex_unlock(&lock);
 }
@@ -351,11 +369,11 @@ EXPORT void hdGetIntegerv(HDenum pname, int *out) {
     pthread_mutex_lock(&lock);
     st.calls[CALL_hdGetIntegerv]++;
     if (out == NULL) {
-        push_error(HD_INVALID_VALUE, 0, st.current);
+        push_error(HD_INVALID_VALUE, 0, current);
     } else if (pname == HD_CURRENT_BUTTONS) {
-        out[0] = st.buttons;
+        out[0] = st.buttons[addressed()];
     } else {
-        push_error(HD_INVALID_ENUM, 0, st.current);
+        push_error(HD_INVALID_ENUM, 0, current);
     }
     pthread_mutex_unlock(&lock);
 }
@@ -364,9 +382,9 @@ EXPORT void hdSetDoublev(HDenum pname, const HDdouble *value) {
     pthread_mutex_lock(&lock);
     st.calls[CALL_hdSetDoublev]++;
     if (value == NULL) {
-        push_error(HD_INVALID_VALUE, 0, st.current);
+        push_error(HD_INVALID_VALUE, 0, current);
     } else if (pname != HD_CURRENT_FORCE) {
-        push_error(HD_INVALID_ENUM, 0, st.current);
+        push_error(HD_INVALID_ENUM, 0, current);
     } else if (!st.in_frame) {
         protocol_error(HD_INVALID_OPERATION);
     } else {
@@ -384,7 +402,7 @@ EXPORT void hdBeginFrame(HHD hhd) {
         protocol_error(HD_ILLEGAL_BEGIN);
     } else {
         st.in_frame = 1;
-        st.current = hhd;
+        current = hhd;
         /* Like the device: a frame that sets no force commands none. */
         memset(st.frame_force, 0, sizeof st.frame_force);
     }
@@ -402,6 +420,7 @@ EXPORT void hdEndFrame(HHD hhd) {
         st.in_frame = 0;
         st.frames_ended++;
         memcpy(st.last_force, st.frame_force, sizeof st.last_force);
+        memcpy(st.device_force[hhd], st.frame_force, sizeof st.frame_force);
         if (st.force_log_len < FORCE_LOG_MAX) {
             memcpy(force_log[st.force_log_len], st.frame_force, sizeof st.frame_force);
             st.force_log_len++;
@@ -420,7 +439,7 @@ EXPORT HDSchedulerHandle hdScheduleAsynchronous(HDSchedulerCallback fn, void *da
     pthread_mutex_lock(&lock);
     st.calls[CALL_hdScheduleAsynchronous]++;
     if (fn == NULL) {
-        push_error(HD_INVALID_VALUE, 0, st.current);
+        push_error(HD_INVALID_VALUE, 0, current);
         pthread_mutex_unlock(&lock);
         return 0;
     }
@@ -432,7 +451,7 @@ EXPORT HDSchedulerHandle hdScheduleAsynchronous(HDSchedulerCallback fn, void *da
             return (HDSchedulerHandle)(i + 1);
         }
     }
-    push_error(HD_SCHEDULER_FULL, 0, st.current);
+    push_error(HD_SCHEDULER_FULL, 0, current);
     pthread_mutex_unlock(&lock);
     return 0;
 }
@@ -451,7 +470,7 @@ EXPORT void hdUnschedule(HDSchedulerHandle handle) {
     }
     pthread_mutex_lock(&lock);
     if (handle == 0 || handle > MAX_CALLBACKS || !st.callbacks[handle - 1].active) {
-        push_error(HD_INVALID_VALUE, 0, st.current);
+        push_error(HD_INVALID_VALUE, 0, current);
     } else {
         st.callbacks[handle - 1].active = 0;
     }
@@ -542,7 +561,7 @@ EXPORT void hdScheduleSynchronous(HDSchedulerCallback fn, void *data, unsigned s
     pthread_mutex_lock(&lock);
     st.calls[CALL_hdScheduleSynchronous]++;
     if (fn == NULL) {
-        push_error(HD_INVALID_VALUE, 0, st.current);
+        push_error(HD_INVALID_VALUE, 0, current);
         pthread_mutex_unlock(&lock);
         return;
     }
@@ -571,13 +590,13 @@ EXPORT void hdStartScheduler(void) {
     pthread_mutex_lock(&lock);
     st.calls[CALL_hdStartScheduler]++;
     if (st.fail_start) {
-        push_error(HD_TIMER_ERROR, -3, st.current);
+        push_error(HD_TIMER_ERROR, -3, current);
     } else if (!st.scheduler_running) {
         st.stop_requested = 0;
         if (pthread_create(&st.thread, NULL, scheduler_main, NULL) == 0) {
             st.scheduler_running = 1;
         } else {
-            push_error(HD_TIMER_ERROR, errno, st.current);
+            push_error(HD_TIMER_ERROR, errno, current);
         }
     }
     pthread_mutex_unlock(&lock);
@@ -615,7 +634,7 @@ EXPORT void hdSetSchedulerRate(unsigned long hz) {
     pthread_mutex_lock(&lock);
     st.calls[CALL_hdSetSchedulerRate]++;
     if (hz == 0 || hz > 10000) {
-        push_error(HD_INVALID_VALUE, 0, st.current);
+        push_error(HD_INVALID_VALUE, 0, current);
     } else {
         st.rate_hz = hz;
     }
@@ -654,25 +673,43 @@ EXPORT void fake_hd_set_fault_after_ticks(int frames) {
     pthread_mutex_unlock(&lock);
 }
 
+/* Sets every device's stylus position. */
 EXPORT void fake_hd_set_position_mm(double x, double y, double z) {
     pthread_mutex_lock(&lock);
-    st.position_mm[0] = x;
-    st.position_mm[1] = y;
-    st.position_mm[2] = z;
+    for (int h = 0; h < MAX_DEVICES; h++) {
+        st.position_mm[h][0] = x;
+        st.position_mm[h][1] = y;
+        st.position_mm[h][2] = z;
+    }
+    pthread_mutex_unlock(&lock);
+}
+
+/* Sets one device's stylus position (ignored for a handle out of range). */
+EXPORT void fake_hd_set_device_position_mm(unsigned int hhd, double x, double y, double z) {
+    pthread_mutex_lock(&lock);
+    if (hhd < MAX_DEVICES) {
+        st.position_mm[hhd][0] = x;
+        st.position_mm[hhd][1] = y;
+        st.position_mm[hhd][2] = z;
+    }
     pthread_mutex_unlock(&lock);
 }
 
 EXPORT void fake_hd_set_velocity_mm_s(double x, double y, double z) {
     pthread_mutex_lock(&lock);
-    st.velocity_mm_s[0] = x;
-    st.velocity_mm_s[1] = y;
-    st.velocity_mm_s[2] = z;
+    for (int h = 0; h < MAX_DEVICES; h++) {
+        st.velocity_mm_s[h][0] = x;
+        st.velocity_mm_s[h][1] = y;
+        st.velocity_mm_s[h][2] = z;
+    }
     pthread_mutex_unlock(&lock);
 }
 
 EXPORT void fake_hd_set_buttons(int buttons) {
     pthread_mutex_lock(&lock);
-    st.buttons = buttons;
+    for (int h = 0; h < MAX_DEVICES; h++) {
+        st.buttons[h] = buttons;
+    }
     pthread_mutex_unlock(&lock);
 }
 
@@ -685,6 +722,18 @@ EXPORT long fake_hd_ticks(void) {
 EXPORT void fake_hd_last_force(double *out) {
     pthread_mutex_lock(&lock);
     memcpy(out, st.last_force, sizeof st.last_force);
+    pthread_mutex_unlock(&lock);
+}
+
+/* The force (N) the last frame of device `hhd` committed, into out[0..3] (zeros for a handle
+ * out of range). */
+EXPORT void fake_hd_device_last_force(unsigned int hhd, double *out) {
+    pthread_mutex_lock(&lock);
+    if (hhd < MAX_DEVICES) {
+        memcpy(out, st.device_force[hhd], sizeof st.device_force[hhd]);
+    } else {
+        memset(out, 0, 3 * sizeof *out);
+    }
     pthread_mutex_unlock(&lock);
 }
 
