@@ -174,6 +174,38 @@ fn two_phantoms_share_hds_scheduler_each_driving_its_own_hand() {
 }
 
 #[test]
+fn forces_held_off_at_start_up_are_explained_once() {
+    let d = tmp("haptics-session", "held-off");
+    let o = bin()
+        .args(["run", "sandbox", "--haptics", "phantom", "--seconds", "1.5"])
+        .arg("--out")
+        .arg(&*d)
+        .env("LD_LIBRARY_PATH", xr_bindings::haptics::fake_library_dir())
+        .env_remove("VESALIUS_LIBHD")
+        // A stylus that never holds still (5 cm/s): the start-up ramp never begins.
+        .env("FAKE_HD_VELOCITY_MM_S", "50,0,0")
+        .output()
+        .expect("runs");
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(
+        stderr
+            .matches("forces stay off until the stylus is held still")
+            .count(),
+        1,
+        "{stderr}"
+    );
+    let events = std::fs::read_to_string(d.join("events.jsonl")).expect("events.jsonl");
+    let phases: Vec<String> = events
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .filter(|e| e["kind"] == "haptic_ramp")
+        .filter_map(|e| e["phase"].as_str().map(str::to_string))
+        .collect();
+    assert_eq!(phases, ["held_off"], "{events}");
+}
+
+#[test]
 fn bad_device_lists_are_usage_errors() {
     for args in [
         &["run", "sandbox", "--haptics", "sim,sim,sim"][..],

@@ -9,7 +9,7 @@
 use super::clutch::{Binding, bound_frame, hand_workspace};
 use super::device::{HapticDevice, HapticsError};
 use super::safety::SafetyParams;
-use super::servo::{ServoConfig, ServoLinks, ServoReport, StylusSlot, run_servo};
+use super::servo::{ServoConfig, ServoLinks, ServoReport, held_off_notice, run_servo};
 use super::stand::device_hand;
 use crate::session::{Live, Outcome, SessionError, ended, interrupt};
 use crate::sim::{Hand, Pacing};
@@ -83,11 +83,7 @@ pub fn run_bound(
     let stop = Arc::new(AtomicBool::new(false));
     let links: Vec<ServoLinks> = devices
         .iter()
-        .map(|_| ServoLinks {
-            frames: live.haptics(),
-            stylus: Arc::new(StylusSlot::new()),
-            stop: stop.clone(),
-        })
+        .map(|_| ServoLinks::new(live.haptics(), stop.clone()))
         .collect();
     let configs: Vec<ServoConfig> = hands
         .iter()
@@ -103,6 +99,11 @@ pub fn run_bound(
         })
         .collect();
     let names: Vec<String> = devices.iter().map(|d| d.name().to_string()).collect();
+    let notices: Vec<String> = names
+        .iter()
+        .zip(&hands)
+        .map(|(n, &h)| held_off_notice(n, h))
+        .collect();
     let pool = super::stand::sim_pool(devices.len())?;
     let (servos, sim) = std::thread::scope(|s| {
         let sim_links = &links;
@@ -113,7 +114,14 @@ pub fn run_bound(
             .name("vesalius-sim".into())
             .spawn_scoped(s, move || -> Result<Live, SessionError> {
                 pool.install(|| {
+                    let mut said = vec![false; sim_links.len()];
                     let result = loop {
+                        for ((l, said), notice) in sim_links.iter().zip(&mut said).zip(&notices) {
+                            if !*said && l.held_off.load(Ordering::Relaxed) {
+                                *said = true;
+                                eprintln!("{notice}");
+                            }
+                        }
                         if stop.load(Ordering::Relaxed) {
                             break Ok(());
                         }

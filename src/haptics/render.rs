@@ -176,6 +176,11 @@ impl ServoCore {
         self.hand
     }
 
+    /// Forces are still off at start-up (see [`Safety::held_off`]).
+    pub fn held_off(&self) -> bool {
+        self.safety.held_off()
+    }
+
     pub fn limits(&self) -> DeviceLimits {
         self.safety.limits()
     }

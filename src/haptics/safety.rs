@@ -34,6 +34,10 @@ pub struct SafetyParams {
     pub small_force_n: f64,
     /// The start-up ramp's length, gain 0 to 1, s. Default 2.
     pub ramp_up_s: f64,
+    /// Forces still held off this long after the first tick (the stylus kept moving, or held
+    /// in the tissue) raise one `held_off` ramp event, so the user can be told why, s.
+    /// Default 1.
+    pub held_off_note_s: f64,
     /// No new frame for this long is a stall, s. Default 0.010.
     pub stall_after_s: f64,
     /// A stall seen this long or more after it began zeroes the force at once (otherwise it
@@ -55,6 +59,7 @@ impl Default for SafetyParams {
             still_hold_s: 0.1,
             small_force_n: 0.25,
             ramp_up_s: 2.0,
+            held_off_note_s: 1.0,
             stall_after_s: 0.010,
             stall_fade_s: 0.002,
             recover_s: 0.25,
@@ -110,9 +115,12 @@ pub struct SafetyOutput {
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Startup {
-    /// Gain 0 until the stylus is still (since when, if it is).
+    /// Gain 0 until the stylus is still (since when, if it is); waiting since `from_s` (the
+    /// first tick), and whether that was said (`held_off`).
     Waiting {
         still_since_s: Option<f64>,
+        from_s: Option<f64>,
+        noted: bool,
     },
     /// Gain rising since `from_s`.
     Ramping {
@@ -178,6 +186,8 @@ impl Safety {
             hand,
             startup: Startup::Waiting {
                 still_since_s: None,
+                from_s: None,
+                noted: false,
             },
             hold_gain: 0.0,
             last_tick_s: None,
@@ -287,7 +297,7 @@ impl Safety {
             // A bad tick ends every run of clamps.
             self.force_clamped_s = None;
             self.stiffness_clamped_s = None;
-            if let Startup::Waiting { still_since_s } = &mut self.startup {
+            if let Startup::Waiting { still_since_s, .. } = &mut self.startup {
                 *still_since_s = None;
             }
             return SafetyOutput {
@@ -406,18 +416,31 @@ impl Safety {
     fn start_up(&mut self, state: &DeviceState, force_n: f64, now: f64) {
         let p = self.params;
         match self.startup {
-            Startup::Waiting { still_since_s } => {
-                let still = state.velocity_m_per_s.length() < p.still_speed_m_per_s
-                    && force_n < p.small_force_n;
-                let since = still.then(|| still_since_s.unwrap_or(now));
+            Startup::Waiting {
+                still_since_s,
+                from_s,
+                mut noted,
+            } => {
+                let moving = state.velocity_m_per_s.length() >= p.still_speed_m_per_s;
+                let pressing = force_n >= p.small_force_n;
+                let since = (!moving && !pressing).then(|| still_since_s.unwrap_or(now));
+                let from_s = from_s.unwrap_or(now);
                 self.startup = match since {
                     Some(s) if now - s >= p.still_hold_s => {
                         self.ramp("start", 0.0);
                         Startup::Ramping { from_s: now }
                     }
-                    _ => Startup::Waiting {
-                        still_since_s: since,
-                    },
+                    _ => {
+                        if !noted && now - from_s >= p.held_off_note_s {
+                            noted = true;
+                            self.ramp("held_off", 0.0);
+                        }
+                        Startup::Waiting {
+                            still_since_s: since,
+                            from_s: Some(from_s),
+                            noted,
+                        }
+                    }
                 };
             }
             Startup::Ramping { from_s } => {
@@ -428,6 +451,12 @@ impl Safety {
             }
             Startup::Running => {}
         }
+    }
+
+    /// Forces are still off at start-up, past [`SafetyParams::held_off_note_s`]: the
+    /// stylus keeps moving or is held in the tissue.
+    pub fn held_off(&self) -> bool {
+        matches!(self.startup, Startup::Waiting { noted: true, .. })
     }
 
     fn startup_gain(&self, now: f64) -> f64 {

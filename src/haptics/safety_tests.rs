@@ -67,6 +67,7 @@ struct Seen {
     non_finite: u64,
     ramp_start: u64,
     ramp_full: u64,
+    held_off: u64,
     recover: u64,
     recovered: u64,
 }
@@ -85,6 +86,7 @@ impl Seen {
                 EventKind::HapticRamp { phase, .. } => match phase.as_str() {
                     "start" => self.ramp_start += 1,
                     "full" => self.ramp_full += 1,
+                    "held_off" => self.held_off += 1,
                     "recover" => self.recover += 1,
                     _ => self.recovered += 1,
                 },
@@ -377,6 +379,9 @@ fn the_start_up_ramp_waits_for_a_still_stylus_and_a_small_force_then_takes_two_s
     }
     seen.count(&mut s);
     assert_eq!(seen.ramp_start, 0);
+    // Held off for 2 s: said once, a second after the first tick.
+    assert_eq!(seen.held_off, 1);
+    assert!(s.held_off());
     // Still with a small force from `t0`: after still_hold_s the gain rises over 2 s.
     let t0 = t;
     let (mut started, mut full) = (None, None);
@@ -397,6 +402,8 @@ fn the_start_up_ramp_waits_for_a_still_stylus_and_a_small_force_then_takes_two_s
         t += 0.001;
     }
     let (started, full) = (started.expect("ramp starts"), full.expect("ramp ends"));
+    assert!(!s.held_off(), "forces are on");
+    assert_eq!(seen.held_off, 1);
     assert!((started - p.still_hold_s).abs() < 1.5e-3, "{started}");
     assert!((full - started - p.ramp_up_s).abs() < 1.5e-3, "{full}");
     // Once running, moving the stylus changes nothing.

@@ -102,6 +102,21 @@ pub struct ServoLinks {
     pub stylus: Arc<StylusSlot>,
     /// Set to end the loop early.
     pub stop: Arc<AtomicBool>,
+    /// Set by the loop while forces are held off at start-up past the safety's notice time
+    /// (the stylus keeps moving or is held in the tissue), so the owner can say why.
+    pub held_off: Arc<AtomicBool>,
+}
+
+impl ServoLinks {
+    /// Links to the simulation's haptic frames, with a new stylus slot and flags.
+    pub fn new(frames: Arc<HapticSlot>, stop: Arc<AtomicBool>) -> ServoLinks {
+        ServoLinks {
+            frames,
+            stylus: Arc::new(StylusSlot::new()),
+            stop,
+            held_off: Arc::new(AtomicBool::new(false)),
+        }
+    }
 }
 
 /// How a servo run went: the `haptics` command's figures.
@@ -214,6 +229,16 @@ impl PeriodLog {
     }
 }
 
+/// The line said once for a device whose forces are held off at start-up (see
+/// [`ServoLinks::held_off`]).
+pub fn held_off_notice(device: &str, hand: Hand) -> String {
+    format!(
+        "{device} on the {} hand: forces stay off until the stylus is held still, out of the \
+         tissue, for a moment (then they ramp up over 2 s)",
+        hand.name()
+    )
+}
+
 /// Waits until `deadline`: sleeps until `spin` before it, then spins.
 fn wait_until(deadline: Instant, spin: Duration) {
     let now = Instant::now();
@@ -274,6 +299,7 @@ fn run_pull(
         links.stylus.publish(&state);
         let frame = links.frames.latest();
         let force = core.tick(log.since_start(now), &state, &frame);
+        links.held_off.store(core.held_off(), Ordering::Relaxed);
         if let Err(e) = device.write_force(force) {
             break Err(e);
         }
@@ -321,6 +347,7 @@ fn run_push(
         links.stylus.publish(state);
         let frame = links.frames.latest();
         let force = core.tick(log.since_start(now), state, &frame);
+        links.held_off.store(core.held_off(), Ordering::Relaxed);
         done = links.stop.load(Ordering::Relaxed) || log.since_start(now) >= duration_s;
         if done {
             let report = std::mem::replace(&mut log, PeriodLog::new(1.0, 0.0));
@@ -348,11 +375,10 @@ mod tests {
     use glam::Vec3;
 
     fn links() -> ServoLinks {
-        ServoLinks {
-            frames: Arc::new(HapticSlot::new()),
-            stylus: Arc::new(StylusSlot::new()),
-            stop: Arc::new(AtomicBool::new(false)),
-        }
+        ServoLinks::new(
+            Arc::new(HapticSlot::new()),
+            Arc::new(AtomicBool::new(false)),
+        )
     }
 
     #[test]

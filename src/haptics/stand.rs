@@ -6,7 +6,7 @@
 use super::device::{DeviceState, HapticDevice, HapticsError};
 use super::render::Workspace;
 use super::safety::SafetyParams;
-use super::servo::{ServoConfig, ServoLinks, ServoReport, StylusSlot, run_servo};
+use super::servo::{ServoConfig, ServoLinks, ServoReport, held_off_notice, run_servo};
 use crate::procedures::{ProcedureInfo, ToolKind};
 use crate::session::{Live, SessionError, interrupt};
 use crate::sim::{Hand, InputFrame, Pacing, Pose};
@@ -118,11 +118,8 @@ pub fn run_stand(
     let file = format!("builtin {} scenario", info.name);
     let mut live = Live::new(info.scenario, &file, Pacing::RealTime).map_err(Box::new)?;
     let hand = device_hand(info);
-    let links = ServoLinks {
-        frames: live.haptics(),
-        stylus: Arc::new(StylusSlot::new()),
-        stop: Arc::new(AtomicBool::new(false)),
-    };
+    let links = ServoLinks::new(live.haptics(), Arc::new(AtomicBool::new(false)));
+    let notice = held_off_notice(device.name(), hand);
     let config = ServoConfig {
         hand,
         workspace_scale: opts.workspace.scale,
@@ -142,7 +139,12 @@ pub fn run_stand(
                     let stop = &sim_links.stop;
                     // Until the servo's first tick the stylus is at the device's origin.
                     let mut last = DeviceState::default();
+                    let mut said = false;
                     let result = loop {
+                        if !said && sim_links.held_off.load(Ordering::Relaxed) {
+                            said = true;
+                            eprintln!("{notice}");
+                        }
                         if stop.load(Ordering::Relaxed) {
                             break Ok(());
                         }

@@ -30,6 +30,7 @@
  *   FAKE_HD_FAULT_AFTER_TICKS=N     HD_DEVICE_FAULT is raised at the end of frame N
  *   FAKE_HD_POSITION_MM=x,y,z       every stylus' position in millimetres
  *   FAKE_HD_POSITION_MM_<h>=x,y,z   the position of device h (0-3: the order of hdInitDevice)
+ *   FAKE_HD_VELOCITY_MM_S=x,y,z     every stylus' velocity in mm/s (the position stays put)
  */
 #define _GNU_SOURCE
 #include <errno.h>
@@ -218,6 +219,12 @@ static void load_defaults(void) {
             st.position_mm[h][0] = x;
             st.position_mm[h][1] = y;
             st.position_mm[h][2] = z;
+        }
+        const char *v = getenv("FAKE_HD_VELOCITY_MM_S");
+        if (v != NULL && sscanf(v, "%lf,%lf,%lf", &x, &y, &z) == 3) {
+            st.velocity_mm_s[h][0] = x;
+            st.velocity_mm_s[h][1] = y;
+            st.velocity_mm_s[h][2] = z;
         }
     }
 }
