@@ -47,8 +47,13 @@ fn jsonl(path: &Path) -> Vec<Value> {
 }
 
 /// Runs the procedure under the simulated runtime playing `trace`, with `inject` appended to
-/// its settings, for `duration_s` of simulated time.
+/// its settings, for `duration_s` of simulated time, frame for frame (lockstep).
 fn run_xr(dir: &Path, trace: &str, inject: &str, duration_s: f64) -> Run {
+    run_xr_coupled(dir, trace, inject, duration_s, "lockstep")
+}
+
+/// [`run_xr`] with the frame loop coupled to the simulation `coupling`'s way.
+fn run_xr_coupled(dir: &Path, trace: &str, inject: &str, duration_s: f64, coupling: &str) -> Run {
     std::fs::write(dir.join("trace.toml"), trace).expect("trace written");
     let sim = dir.join("xr-sim");
     let settings = format!(
@@ -72,6 +77,8 @@ fn run_xr(dir: &Path, trace: &str, inject: &str, duration_s: f64) -> Run {
             "--no-window",
             "--eye-size",
             EYE,
+            "--xr-coupling",
+            coupling,
             "--out",
         ])
         .arg(&out)
@@ -134,15 +141,20 @@ fn grasper_haptics() -> HapticProfile {
     HapticProfile::for_tool(vesalius::procedures::nephrectomy::INFO.tool(Hand::Left))
 }
 
-#[test]
-fn the_grasper_vibrates_exactly_while_it_presses_the_kidney_and_harder_when_deeper() {
-    let scenario = Scenario::parse("builtin", builtin("nephrectomy").expect("builtin"))
-        .expect("builtin scenario");
-    let dt = f64::from(scenario.dt_s);
+/// The grasper's press into the kidney: along the outward normal `d` of the lower pole's
+/// lateral face, where the kidney's surface point furthest along `d` is, far from the tumour
+/// and the hilum. The tip first touches tissue when it is one tip radius `r` above that point.
+struct Press {
+    r: f64,
+    near: f64,
+    deep: f64,
+    times: [f64; 6],
+    heights: [f64; 6],
+    trace: String,
+}
+
+fn press(scenario: &Scenario) -> Press {
     let r = f64::from(scenario.tools.grasper_tip_radius_m);
-    // The press: along the outward normal of the lower pole's lateral face, where the kidney's
-    // surface point furthest along `d` is (its normal there is `d`), far from the tumour and
-    // the hilum. The tip first touches tissue when it is one tip radius above that point.
     let rest = Nephrectomy::new(scenario.clone()).expect("anatomy");
     let kidney = &rest.kidney();
     let d = Vec3::new(0.45, -0.85, 0.3).normalize();
@@ -167,6 +179,32 @@ fn the_grasper_vibrates_exactly_while_it_presses_the_kidney_and_harder_when_deep
         trace += &key("left", *t, tip(h), aim(h));
     }
     trace += &idle_laser(4.0);
+    Press {
+        r,
+        near,
+        deep,
+        times,
+        heights,
+        trace,
+    }
+}
+
+fn builtin_scenario() -> Scenario {
+    Scenario::parse("builtin", builtin("nephrectomy").expect("builtin")).expect("builtin scenario")
+}
+
+#[test]
+fn the_grasper_vibrates_exactly_while_it_presses_the_kidney_and_harder_when_deeper() {
+    let scenario = builtin_scenario();
+    let dt = f64::from(scenario.dt_s);
+    let Press {
+        r,
+        near,
+        deep,
+        times,
+        heights,
+        trace,
+    } = press(&scenario);
     let height_at = |t: f64| {
         let k = times.partition_point(|&x| x <= t).clamp(1, times.len() - 1);
         let s = ((t - times[k - 1]) / (times[k] - times[k - 1])).clamp(0.0, 1.0);
@@ -300,6 +338,31 @@ fn the_grasper_vibrates_exactly_while_it_presses_the_kidney_and_harder_when_deep
         "{} grasper pulses from {first:.3} s (contact at {touch:.3} s); mean amplitude by depth third {thirds:?}",
         pulses.len()
     );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn paced_frames_record_the_same_session_as_lockstep_and_still_vibrate() {
+    let trace = press(&builtin_scenario()).trace;
+    let dir = temp_dir("paced");
+    let (a, b) = (dir.join("paced"), dir.join("lockstep"));
+    for d in [&a, &b] {
+        std::fs::create_dir_all(d).expect("temp dir");
+    }
+    let paced = run_xr_coupled(&a, &trace, "", 4.0, "paced");
+    let lockstep = run_xr(&b, &trace, "", 4.0);
+    // The steps depend only on the frames' display times and readings, which the simulated
+    // runtime makes the same: the same input, the same session.
+    assert_eq!(paced.recording.frames, lockstep.recording.frames);
+    assert_eq!(paced.report["state_hash"], lockstep.report["state_hash"]);
+    assert_eq!(paced.report["steps"], lockstep.report["steps"]);
+    // The frame loop did not wait for the steps, and the grasper's press was still felt.
+    let pulses = paced
+        .haptics
+        .iter()
+        .filter(|l| l["hand"] == "left" && l.get("amplitude").is_some())
+        .count();
+    assert!(pulses >= 10, "{pulses} grasper pulses");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -131,6 +131,22 @@ enum XrSimCommand {
     },
 }
 
+/// `--xr-coupling`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum CouplingArg {
+    Paced,
+    Lockstep,
+}
+
+impl From<CouplingArg> for vesalius::xr::Coupling {
+    fn from(c: CouplingArg) -> Self {
+        match c {
+            CouplingArg::Paced => vesalius::xr::Coupling::Paced,
+            CouplingArg::Lockstep => vesalius::xr::Coupling::Lockstep,
+        }
+    }
+}
+
 #[derive(Debug, Args)]
 struct RunArgs {
     /// The procedure.
@@ -168,6 +184,11 @@ struct RunArgs {
     /// --xr-sim trace's length).
     #[arg(long, value_name = "S", value_parser = positive_seconds, allow_negative_numbers = true)]
     xr_duration: Option<f64>,
+    /// Under XR: whether frames wait for the simulation. `paced` (the default with --xr):
+    /// never, each frame shows the newest state; `lockstep` (the default with --xr-sim, whose
+    /// runtime's clock runs as fast as frames are made): each frame shows its own time.
+    #[arg(long, value_enum, value_name = "HOW")]
+    xr_coupling: Option<CouplingArg>,
     /// Under XR: the headset only, no desktop mirror.
     #[arg(long)]
     no_window: bool,

@@ -95,6 +95,11 @@ pub fn run(a: RunArgs) -> Result<(), CliError> {
             "--xr-duration: only with --xr or --xr-sim".into(),
         ));
     }
+    if a.xr_coupling.is_some() {
+        return Err(CliError::Usage(
+            "--xr-coupling: only with --xr or --xr-sim".into(),
+        ));
+    }
     if !a.headless {
         return run_window(&a, None);
     }
@@ -250,6 +255,9 @@ fn run_xr(a: &RunArgs) -> Result<(), CliError> {
     let opts = vesalius::xr::XrOptions {
         duration_s: a.xr_duration,
         eye_size: a.eye_size,
+        coupling: a
+            .xr_coupling
+            .map_or(vesalius::xr::Coupling::Paced, Into::into),
     };
     // The supervisor's mirror opens beside the headset wherever there is a display.
     if !a.no_window && display_available() {
@@ -333,6 +341,13 @@ fn run_xr_sim(a: &RunArgs, trace: &Path) -> Result<(), CliError> {
         .arg(out)
         .args(["--xr-duration", &format!("{duration}")])
         .args(["--max-session", &format!("{}", a.max_session)])
+        .args([
+            "--xr-coupling",
+            match a.xr_coupling.unwrap_or(super::CouplingArg::Lockstep) {
+                super::CouplingArg::Paced => "paced",
+                super::CouplingArg::Lockstep => "lockstep",
+            },
+        ])
         .env("XR_RUNTIME_JSON", &manifest)
         .env(vesalius_sim_runtime::CONFIG_ENV, &config);
     if let Some(f) = &a.scenario {

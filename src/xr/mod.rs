@@ -1,9 +1,11 @@
 //! The trainee in the headset: an OpenXR session (any runtime: SteamVR, Monado, or the
 //! simulated one) drives the simulation. Each frame the app waits for the runtime's display
-//! time, reads both controllers, steps the simulation up to that time (the controller poses
-//! interpolated between frames, so the instruments move at the simulation's rate), vibrates
-//! the controllers with the contact force and with pulses for grasps, cuts and tears (see
-//! [`vibration`]), and draws both eyes into the swapchain in one multiview pass.
+//! time, reads both controllers and hands the reading to the simulation's own thread, which
+//! steps up to that time (the controller poses interpolated between frames, so the
+//! instruments move at the simulation's rate; see [`stepper`]); it vibrates the controllers
+//! with the contact force and with pulses for grasps, cuts and tears (see [`vibration`]), and
+//! draws both eyes of the newest state into the swapchain in one multiview pass. The frame
+//! loop does not wait for the simulation unless asked to ([`Coupling::Lockstep`]).
 //!
 //! Each controller holds the instrument its procedure gives that hand: the aim-pose ray is the
 //! instrument's axis, the trigger its trigger (a laser cuts), the grip its jaws, the trackpad
@@ -13,14 +15,17 @@
 
 use crate::profiler::FrameCounters;
 use crate::render::{EyeView, Fov, Gpu, RenderError, RenderTarget, Renderer};
-use crate::session::{Live, Outcome, SessionError};
-use crate::sim::{Buttons, EventKind, Hand, HandInput, InputFrame, Pacing, Pose};
+use crate::session::{Live, Outcome, SessionError, Status};
+use crate::sim::{Buttons, EventKind, Hand, HandInput, Pacing, Pose, Snapshot};
 use glam::{Quat, Vec3};
+use std::sync::Arc;
 use xr_bindings::app::{EYE_FORMAT, HandReading, XrApp, XrError, XrSession};
 use xr_bindings::openxr as xr;
 use xr_bindings::{Command, SessionMachine};
 
+pub mod stepper;
 pub mod vibration;
+pub use stepper::{Coupling, Stepper};
 pub use vibration::{
     AMPLITUDE_FLOOR, Buzz, FORCE_FLOOR_N, FrameFeel, HapticProfile, Order, Pulse, Vibrator,
 };
@@ -45,6 +50,8 @@ pub struct XrOptions {
     pub duration_s: Option<f64>,
     /// Per-eye image size; none: the runtime's recommendation.
     pub eye_size: Option<(u32, u32)>,
+    /// Whether frames wait for the simulation (see [`Coupling`]).
+    pub coupling: Coupling,
 }
 
 /// Why a run in the headset stopped with an error.
@@ -165,7 +172,9 @@ pub struct XrLoop {
     pub gpu: Gpu,
     renderer: Renderer,
     eye: (u32, u32),
-    live: Live,
+    sim: Stepper,
+    /// How the session will say it ended (unless the simulation ended it first).
+    ending: &'static str,
     opts: XrOptions,
     dt: f64,
     machine: SessionMachine,
@@ -179,7 +188,6 @@ pub struct XrLoop {
     sessions: u32,
     /// Display time (ns) that corresponds to simulated time 0 in the current session.
     origin: Option<i64>,
-    last_t_s: f64,
     exit_asked: bool,
     buf: xr::EventDataBuffer,
     /// The desktop mirror's copy of one eye, if a window wants it.
@@ -209,12 +217,14 @@ impl XrLoop {
         }
         let dt = f64::from(live.dt_s());
         let vibrator = Vibrator::new(&live.info().tools);
+        let sim = Stepper::start(live)?;
         Ok(XrLoop {
             app,
             gpu,
             renderer,
             eye,
-            live,
+            sim,
+            ending: crate::session::ended::XR_EXIT,
             opts,
             dt,
             machine: SessionMachine::new(),
@@ -225,7 +235,6 @@ impl XrLoop {
             frames: 0,
             sessions: 0,
             origin: None,
-            last_t_s: 0.0,
             exit_asked: false,
             buf: xr::EventDataBuffer::new(),
             mirror: None,
@@ -246,25 +255,39 @@ impl XrLoop {
         &self.app.runtime_name
     }
 
-    /// The simulation, for the panels (status) and a third-person view (snapshot).
-    pub fn live(&mut self) -> &mut Live {
-        &mut self.live
+    /// The simulation's newest status, for the panels.
+    pub fn status(&self) -> Arc<Status> {
+        self.sim.status()
+    }
+
+    /// The simulation's newest state, for a third-person view.
+    pub fn snapshot(&self) -> Arc<Snapshot> {
+        self.sim.snapshot()
+    }
+
+    /// Where the simulation stands (as of the last frame it reported done), s.
+    pub fn time_s(&self) -> f64 {
+        self.sim.time_s()
+    }
+
+    /// The session is to end as interrupted (SIGINT or SIGTERM) at [`XrLoop::finish`].
+    pub fn interrupted(&mut self) {
+        self.ending = crate::session::ended::INTERRUPTED;
     }
 
     /// Polls the runtime's events, then waits for, simulates, draws and submits one frame
     /// when the session runs.
     pub fn tick(&mut self) -> Result<Tick, XrRunError> {
         if crate::session::interrupt::interrupted().is_some() {
-            self.live.set_ended(crate::session::ended::INTERRUPTED);
+            self.interrupted();
             return Ok(Tick::Exit);
         }
-        self.live.flush_if_due()?;
         if self.session.is_none() {
             let s = self.app.session(&self.gpu.device, self.eye)?;
             self.session = Some(s);
             self.sessions += 1;
             if self.sessions > 1 {
-                self.live.note(EventKind::SessionRestarted);
+                self.sim.note(EventKind::SessionRestarted)?;
                 self.machine.recreated();
                 self.origin = None;
                 self.exit_asked = false;
@@ -289,7 +312,7 @@ impl XrLoop {
                 }
                 Some(Command::Exit) => return Ok(Tick::Exit),
                 Some(Command::Recreate) => {
-                    self.live.note(EventKind::SessionLost);
+                    self.sim.note(EventKind::SessionLost)?;
                     self.vibrator.reset();
                     self.session = None;
                     // Wait for the headset to come back (a real runtime: minutes at most).
@@ -300,7 +323,6 @@ impl XrLoop {
                             return Err(XrRunError::HeadsetGone);
                         }
                         std::thread::sleep(std::time::Duration::from_millis(100));
-                        self.live.flush_if_due()?;
                     }
                     return Ok(Tick::Idle);
                 }
@@ -316,18 +338,25 @@ impl XrLoop {
 
     fn frame(&mut self) -> Result<Tick, XrRunError> {
         let dt = self.dt;
+        let lockstep = self.opts.coupling == Coupling::Lockstep;
         let Some((xs, waiter, stream)) = self.session.as_mut() else {
             return Ok(Tick::Idle);
         };
         let fs = call("xrWaitFrame", waiter.wait())?;
         call("xrBeginFrame", stream.begin())?;
         let t = fs.predicted_display_time;
-        let live = &mut self.live;
-        let tools = live.info().tools;
-        let haptics = live.haptics();
-        let o = *self
-            .origin
-            .get_or_insert(t.as_nanos() - (live.time_s() * 1e9).round() as i64);
+        let sim = &mut self.sim;
+        let o = match self.origin {
+            Some(o) => o,
+            None => {
+                // A session's first frame: simulated time carries on from where the
+                // simulation is, so wait for it to get there.
+                sim.collect(true)?;
+                *self
+                    .origin
+                    .insert(t.as_nanos() - (sim.time_s() * 1e9).round() as i64)
+            }
+        };
         let mut target_s = (t.as_nanos() - o) as f64 / 1e9;
         if let Some(d) = self.opts.duration_s {
             target_s = target_s.min(d);
@@ -338,7 +367,6 @@ impl XrLoop {
         } else {
             [HandReading::default(); 2]
         };
-        let before = self.held;
         let mut now = self.held;
         for h in Hand::BOTH {
             let k = h.index();
@@ -348,11 +376,11 @@ impl XrLoop {
                 // A change is an event; the first reading is not.
                 if self.tracked[k].is_some_and(|was| was != is_tracked) {
                     let hand = h.name().to_string();
-                    live.note(if is_tracked {
+                    sim.note(if is_tracked {
                         EventKind::ControllerRegained { hand }
                     } else {
                         EventKind::ControllerLost { hand }
-                    });
+                    })?;
                 }
                 self.tracked[k] = Some(is_tracked);
             }
@@ -367,33 +395,15 @@ impl XrLoop {
                 };
             }
         }
-        // Step the simulation up to the display time, inputs interpolated.
-        let mut feel = FrameFeel::default();
-        let span = (target_s - self.last_t_s).max(1e-9);
-        while live.time_s() + dt * 0.5 <= target_s {
-            let s = ((live.time_s() - self.last_t_s) / span).clamp(0.0, 1.0) as f32;
-            let frame = InputFrame {
-                hands: [
-                    between(&before[0], &now[0], s),
-                    between(&before[1], &now[1], s),
-                ],
-            };
-            for e in live.step(frame)? {
-                feel.note(&e.kind, &tools);
-            }
-            // Vibration reads the haptic channel, as a force-feedback loop would.
-            let felt = haptics.latest();
-            feel.touch([
-                felt.tools[0].force_n.length(),
-                felt.tools[1].force_n.length(),
-            ]);
-        }
-        self.last_t_s = live.time_s();
+        // The simulation steps up to the display time on its own thread, inputs interpolated.
+        sim.frame(target_s, now)?;
         self.held = now;
+        // What the hands felt in the steps done so far (lockstep: this frame's).
+        let feel = sim.collect(lockstep)?;
         // Contact buzz and event pulses; a stop when they end.
         if focused {
             let tracked = self.tracked.map(|t| t == Some(true));
-            let orders = self.vibrator.orders(self.last_t_s, &feel, tracked);
+            let orders = self.vibrator.orders(sim.time_s(), &feel, tracked);
             for (k, order) in orders.into_iter().enumerate() {
                 match order {
                     Order::Vibrate(b) => {
@@ -417,7 +427,7 @@ impl XrLoop {
                 return Err(XrRunError::TooFewViews);
             }
             let eyes = [eye_view(&views[0]), eye_view(&views[1])];
-            self.renderer.update(&live.snapshot());
+            self.renderer.update(&sim.snapshot());
             let multiview = self.gpu.multiview;
             let copy = self.mirror.as_ref().map(|m| (m, &self.gpu));
             self.counters = draw(xs, &mut self.renderer, self.eye, &eyes, multiview, copy)?;
@@ -430,10 +440,15 @@ impl XrLoop {
             )?;
         }
         self.gpu.check()?;
-        let done = self
-            .opts
-            .duration_s
-            .is_some_and(|d| live.time_s() + dt * 0.5 > d);
+        // Lockstep: done once the simulation is there; paced: once its last steps are asked
+        // for (it catches up before the session ends).
+        let done = self.opts.duration_s.is_some_and(|d| {
+            if lockstep {
+                sim.time_s() + dt * 0.5 > d
+            } else {
+                target_s >= d
+            }
+        });
         if done && !self.exit_asked && self.machine.focused() {
             call("xrRequestExitSession", xs.session.request_exit())?;
             self.exit_asked = true;
@@ -441,14 +456,12 @@ impl XrLoop {
         Ok(Tick::Frame { rendered })
     }
 
-    /// Ends the loop: the session's outcome and what ran it.
-    pub fn finish(mut self) -> Result<XrRun, XrRunError> {
+    /// Ends the loop: the simulation steps what it was sent, and the session's outcome.
+    pub fn finish(self) -> Result<XrRun, XrRunError> {
         let device = self.gpu.describe();
-        if self.live.ended() == crate::session::ended::END_OF_INPUT {
-            self.live.set_ended(crate::session::ended::XR_EXIT);
-        }
+        let live = self.sim.finish(self.ending)?;
         Ok(XrRun {
-            outcome: self.live.finish(Vec::new())?,
+            outcome: live.finish(Vec::new())?,
             runtime: self.app.runtime_name.clone(),
             frames: self.frames,
             sessions: self.sessions,

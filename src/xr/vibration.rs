@@ -173,6 +173,17 @@ impl FrameFeel {
     fn add(&mut self, k: usize, p: Pulse) {
         self.pulse[k] = Some(Pulse::stronger(self.pulse[k], p));
     }
+
+    /// Takes in what another stretch of steps felt: the greater peaks, the stronger pulses.
+    pub fn merge(&mut self, other: &FrameFeel) {
+        self.touch(other.peak_n);
+        for (k, p) in other.pulse.iter().enumerate() {
+            if let Some(p) = p {
+                self.add(k, *p);
+            }
+        }
+        self.tore |= other.tore;
+    }
 }
 
 /// What to do with one controller this frame.

@@ -22,9 +22,8 @@ impl App {
                 Some(sim.bus.latest())
             }
             (None, Some(x)) => {
-                self.dashboard
-                    .update(x.live().status(crate::ui::runner::LOOK_M));
-                (!mirrored).then(|| Arc::new(x.live().snapshot()))
+                self.dashboard.update((*x.status()).clone());
+                (!mirrored).then(|| x.snapshot())
             }
             _ => None,
         };

@@ -468,7 +468,7 @@ impl ApplicationHandler for App {
         // the window.
         if crate::session::interrupt::interrupted().is_some() && self.outcome.is_none() {
             if let Some(x) = self.xr.as_mut() {
-                x.live().set_ended(crate::session::ended::INTERRUPTED);
+                x.interrupted();
             }
             if let Err(e) = self.end_session() {
                 self.fail(el, e);
@@ -491,7 +491,7 @@ impl ApplicationHandler for App {
                     // 30 window frames a second of the headset's time (a simulated runtime's
                     // clock runs as fast as frames are made), and at least 10 of wall time
                     // while the session waits.
-                    let t = x.live().time_s();
+                    let t = x.time_s();
                     due = self.last_window_frame.is_none_or(|(s, wall)| {
                         t - s >= 1.0 / 30.0 || wall.elapsed().as_secs_f64() >= 0.1
                     });
@@ -500,7 +500,7 @@ impl ApplicationHandler for App {
             }
         }
         if due && let Some(v) = &self.view {
-            let t = self.xr.as_mut().map_or(0.0, |x| x.live().time_s());
+            let t = self.xr.as_mut().map_or(0.0, |x| x.time_s());
             self.last_window_frame = Some((t, Instant::now()));
             v.window.request_redraw();
         }

@@ -1,0 +1,268 @@
+//! The simulation's own thread under XR. The frame loop sends each frame's display time (in
+//! simulated seconds) and the hands' input at that time; this thread steps the session up to
+//! it, the input interpolated from the previous frame's, publishes a snapshot and a status,
+//! and sends back what the hands felt over those steps (for the controllers' vibration).
+//!
+//! Two couplings (see [`Coupling`]): **paced**, the frame loop never waits for the simulation
+//! (a real headset: the runtime paces frames at the panel's rate, the simulation keeps up on
+//! its own thread, and a frame shows the newest state there is); **lockstep**, the frame loop
+//! waits for each frame's steps before it vibrates and draws (the simulated runtime, whose
+//! clock runs as fast as frames are made: every frame then shows exactly its own time, so a
+//! run is the same frame for frame). The recorded input, and so the replayed session, is the
+//! same in both: the steps depend only on the frames' times and readings.
+
+use super::vibration::FrameFeel;
+use crate::session::{Live, SessionError, Status};
+use crate::sim::{EventKind, HandInput, InputFrame, Snapshot, SnapshotBus};
+use arc_swap::ArcSwap;
+use std::sync::Arc;
+use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, channel};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+/// How the frame loop and the simulation thread keep time with each other.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Coupling {
+    /// The frame loop never waits: it draws the newest state and vibrates with what the
+    /// simulation has reported so far.
+    #[default]
+    Paced,
+    /// The frame loop waits until the simulation has reached each frame's time.
+    Lockstep,
+}
+
+/// What the frame loop tells the simulation thread, in order.
+enum ToSim {
+    /// Step until `target_s` (simulated seconds); `hands` is the input by then.
+    Frame {
+        target_s: f64,
+        hands: [HandInput; 2],
+    },
+    /// An event of the frame loop's (a controller lost, the session lost), at the next step.
+    Note(EventKind),
+    /// The session ends this way once the frames already sent are stepped.
+    End(&'static str),
+}
+
+/// One frame's steps, done.
+#[derive(Debug, Clone, Copy)]
+pub struct FrameDone {
+    /// What the hands felt over the frame's steps.
+    pub feel: FrameFeel,
+    /// Where the simulation stands after them, s.
+    pub time_s: f64,
+}
+
+/// The simulation thread and what it publishes.
+pub struct Stepper {
+    to_sim: Sender<ToSim>,
+    done: Receiver<Result<FrameDone, ()>>,
+    bus: Arc<SnapshotBus>,
+    status: Arc<ArcSwap<Status>>,
+    handle: Option<JoinHandle<Result<Live, SessionError>>>,
+    /// Frames sent and not yet reported done.
+    pending: usize,
+    /// The simulation's time after the last frame reported done, s.
+    time_s: f64,
+    dt_s: f64,
+}
+
+/// How long the thread waits for a frame before it flushes the recording anyway.
+const IDLE_FLUSH: Duration = Duration::from_millis(200);
+
+impl Stepper {
+    /// Starts the thread with the session (built, its recording already streaming).
+    pub fn start(mut live: Live) -> Result<Stepper, SessionError> {
+        let bus = Arc::new(SnapshotBus::new());
+        bus.publish(live.snapshot());
+        let status = Arc::new(ArcSwap::from_pointee(
+            live.status(crate::ui::runner::LOOK_M),
+        ));
+        let (to_sim, inbox) = channel();
+        let (done_tx, done) = channel();
+        let (b, s) = (bus.clone(), status.clone());
+        let time_s = live.time_s();
+        let dt_s = f64::from(live.dt_s());
+        let handle = std::thread::Builder::new()
+            .name("vesalius-sim".into())
+            .spawn(move || -> Result<Live, SessionError> {
+                // Steps on a worker of the pool (see `crate::session::on_pool`).
+                crate::session::on_pool(move || {
+                    let r = serve(&mut live, &inbox, &done_tx, (&b, &s));
+                    if r.is_err() {
+                        // The frame loop may be waiting for this frame.
+                        let _ = done_tx.send(Err(()));
+                    }
+                    r.map(|()| live)
+                })
+            })
+            .map_err(|e| SessionError::Io {
+                path: "simulation thread".into(),
+                source: e,
+            })?;
+        Ok(Stepper {
+            to_sim,
+            done,
+            bus,
+            status,
+            handle: Some(handle),
+            pending: 0,
+            time_s,
+            dt_s,
+        })
+    }
+
+    /// Asks for the steps up to `target_s` with the hands at `hands` by then.
+    pub fn frame(&mut self, target_s: f64, hands: [HandInput; 2]) -> Result<(), SessionError> {
+        self.send(ToSim::Frame { target_s, hands })?;
+        self.pending += 1;
+        Ok(())
+    }
+
+    /// Notes an event at the simulation's next step.
+    pub fn note(&self, kind: EventKind) -> Result<(), SessionError> {
+        self.send(ToSim::Note(kind))
+    }
+
+    fn send(&self, m: ToSim) -> Result<(), SessionError> {
+        self.to_sim.send(m).map_err(|_| self.gone())
+    }
+
+    /// What the frames done since the last call felt, merged; with `wait`, after every frame
+    /// sent is done.
+    pub fn collect(&mut self, wait: bool) -> Result<FrameFeel, SessionError> {
+        let mut feel = FrameFeel::default();
+        while self.pending > 0 {
+            let next = if wait {
+                self.done.recv().map_err(|_| ())
+            } else {
+                match self.done.try_recv() {
+                    Ok(d) => Ok(d),
+                    Err(_) => break,
+                }
+            };
+            match next {
+                Ok(Ok(d)) => {
+                    feel.merge(&d.feel);
+                    self.time_s = d.time_s;
+                    self.pending -= 1;
+                }
+                // The thread stopped with an error; `finish` returns it.
+                Ok(Err(())) | Err(()) => return Err(self.gone()),
+            }
+        }
+        Ok(feel)
+    }
+
+    /// The simulation's time after the last frame collected, s.
+    pub fn time_s(&self) -> f64 {
+        self.time_s
+    }
+
+    pub fn dt_s(&self) -> f64 {
+        self.dt_s
+    }
+
+    /// The newest snapshot.
+    pub fn snapshot(&self) -> Arc<Snapshot> {
+        self.bus.latest()
+    }
+
+    /// The newest status, for the panels.
+    pub fn status(&self) -> Arc<Status> {
+        self.status.load_full()
+    }
+
+    fn gone(&self) -> SessionError {
+        SessionError::Io {
+            path: "simulation thread".into(),
+            source: std::io::Error::other("the simulation thread stopped"),
+        }
+    }
+
+    /// Ends the session as `how` once the frames sent are stepped, and returns it.
+    pub fn finish(mut self, how: &'static str) -> Result<Live, SessionError> {
+        let _ = self.to_sim.send(ToSim::End(how));
+        match self.handle.take().map(JoinHandle::join) {
+            Some(Ok(r)) => r,
+            _ => Err(SessionError::Io {
+                path: "simulation thread".into(),
+                source: std::io::Error::other("the simulation thread panicked"),
+            }),
+        }
+    }
+}
+
+impl Drop for Stepper {
+    fn drop(&mut self) {
+        let _ = self.to_sim.send(ToSim::End(crate::session::ended::CLOSED));
+        if let Some(h) = self.handle.take() {
+            let _ = h.join();
+        }
+    }
+}
+
+/// The thread's loop: each frame's steps, in the order they came.
+fn serve(
+    live: &mut Live,
+    inbox: &Receiver<ToSim>,
+    done: &Sender<Result<FrameDone, ()>>,
+    (bus, status): (&SnapshotBus, &ArcSwap<Status>),
+) -> Result<(), SessionError> {
+    let dt = f64::from(live.dt_s());
+    let tools = live.info().tools;
+    let haptics = live.haptics();
+    // The previous frame's input and the time its steps ended at.
+    let mut held = [HandInput::default(); 2];
+    let mut last_t_s = live.time_s();
+    loop {
+        let message = match inbox.recv_timeout(IDLE_FLUSH) {
+            Ok(m) => m,
+            Err(RecvTimeoutError::Timeout) => {
+                live.flush_if_due()?;
+                continue;
+            }
+            // The frame loop is gone without a word: the session ends as closed.
+            Err(RecvTimeoutError::Disconnected) => ToSim::End(crate::session::ended::CLOSED),
+        };
+        match message {
+            ToSim::Frame { target_s, hands } => {
+                let mut feel = FrameFeel::default();
+                let span = (target_s - last_t_s).max(1e-9);
+                while live.time_s() + dt * 0.5 <= target_s {
+                    let s = ((live.time_s() - last_t_s) / span).clamp(0.0, 1.0) as f32;
+                    let frame = InputFrame {
+                        hands: [
+                            super::between(&held[0], &hands[0], s),
+                            super::between(&held[1], &hands[1], s),
+                        ],
+                    };
+                    for e in live.step(frame)? {
+                        feel.note(&e.kind, &tools);
+                    }
+                    // Vibration reads the haptic channel, as a force-feedback loop would.
+                    let felt = haptics.latest();
+                    feel.touch([
+                        felt.tools[0].force_n.length(),
+                        felt.tools[1].force_n.length(),
+                    ]);
+                }
+                last_t_s = live.time_s();
+                held = hands;
+                bus.publish(live.snapshot());
+                status.store(Arc::new(live.status(crate::ui::runner::LOOK_M)));
+                let _ = done.send(Ok(FrameDone {
+                    feel,
+                    time_s: last_t_s,
+                }));
+            }
+            ToSim::Note(kind) => live.note(kind),
+            ToSim::End(how) => {
+                if live.ended() == crate::session::ended::END_OF_INPUT {
+                    live.set_ended(how);
+                }
+                return Ok(());
+            }
+        }
+    }
+}
