@@ -110,7 +110,7 @@ pub fn run_with_devices(a: &RunArgs) -> Result<(), CliError> {
         scale: a.workspace_scale,
         safety: SafetyParams::default(),
     };
-    let run = run_bound(&mut devices, &opts)?;
+    let run = run_bound(devices, &opts)?;
     super::session::finish(&run.outcome, a.out.as_deref())?;
     for d in &run.devices {
         let s = &d.servo;

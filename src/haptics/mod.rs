@@ -16,7 +16,10 @@
 //! - [`stand`]: the servo loop against a procedure stepping on its own thread (`vesalius
 //!   haptics`).
 //! - [`clutch`]: a stylus bound to one hand's instrument, with a clutch to re-centre it.
-//! - [`bound`]: a recorded session driven by one or two devices (`vesalius run --haptics`).
+//! - [`rig`]: one or two devices bound to a session's instruments, each with its servo
+//!   thread, and the input the simulation reads from them each step.
+//! - [`bound`]: a recorded session driven by one or two devices, without a window (`vesalius
+//!   run --haptics --no-window`).
 //! - [`vendor`]: [`open_device`], where a device named on the command line is opened, and the
 //!   adapters of the vendor drivers: [`HdStylus`] (OpenHaptics HD, push) and [`DhdStylus`]
 //!   (Force Dimension DHD, pull).
@@ -29,19 +32,21 @@ pub mod bound;
 pub mod clutch;
 pub mod device;
 pub mod render;
+pub mod rig;
 pub mod safety;
 pub mod servo;
 pub mod simulated;
 pub mod stand;
 pub mod vendor;
 
-pub use bound::{BoundOptions, BoundRun, DeviceRun, bound_hands, run_bound};
+pub use bound::{BoundOptions, BoundRun, run_bound};
 pub use clutch::{Binding, bound_frame, hand_workspace};
 pub use device::{
     DeviceKind, DeviceLimits, DeviceState, Drive, HapticDevice, HapticsError, PullDevice,
     PushDevice, PushReply, ServoCallback,
 };
 pub use render::{ServoCore, Workspace, local_force};
+pub use rig::{DeviceRun, Rig, RigInput, RigOptions, bound_hands};
 pub use safety::{Safety, SafetyCounters, SafetyOutput, SafetyParams, TickInput};
 pub use servo::{ServoConfig, ServoLinks, ServoReport, StylusSlot, run_servo};
 pub use simulated::{Keyframe, Script, ScriptError, SimulatedStylus, StylusParams};
