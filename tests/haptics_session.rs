@@ -18,6 +18,7 @@ fn one_simulated_stylus_presses_the_block_and_the_session_replays() {
     let o = run(&[
         "run",
         "sandbox",
+        "--no-window",
         "--haptics",
         "sim",
         "--seconds",
@@ -61,6 +62,7 @@ fn two_styluses_drive_both_hands() {
     let o = run(&[
         "run",
         "sandbox",
+        "--no-window",
         "--haptics",
         "sim,sim",
         "--seconds",
@@ -97,7 +99,8 @@ fn two_styluses_drive_both_hands() {
 fn a_phantom_drives_a_session_through_its_library() {
     let d = tmp("haptics-session", "phantom");
     let o = bin()
-        .args(["run", "sandbox", "--haptics", "phantom", "--seconds", "1"])
+        .args(["run", "sandbox", "--no-window", "--haptics", "phantom"])
+        .args(["--seconds", "1"])
         .arg("--out")
         .arg(&*d)
         .env("LD_LIBRARY_PATH", xr_bindings::haptics::fake_library_dir())
@@ -142,7 +145,13 @@ fn touching_tools(dir: &std::path::Path) -> Vec<String> {
 fn two_phantoms_share_hds_scheduler_each_driving_its_own_hand() {
     let d = tmp("haptics-session", "two-phantoms");
     let o = bin()
-        .args(["run", "sandbox", "--haptics", "phantom,phantom"])
+        .args([
+            "run",
+            "sandbox",
+            "--no-window",
+            "--haptics",
+            "phantom,phantom",
+        ])
         .args(["--hd-names", "Left Device,Right Device", "--seconds", "1"])
         .arg("--out")
         .arg(&*d)
@@ -177,7 +186,8 @@ fn two_phantoms_share_hds_scheduler_each_driving_its_own_hand() {
 fn forces_held_off_at_start_up_are_explained_once() {
     let d = tmp("haptics-session", "held-off");
     let o = bin()
-        .args(["run", "sandbox", "--haptics", "phantom", "--seconds", "1.5"])
+        .args(["run", "sandbox", "--no-window", "--haptics", "phantom"])
+        .args(["--seconds", "1.5"])
         .arg("--out")
         .arg(&*d)
         .env("LD_LIBRARY_PATH", xr_bindings::haptics::fake_library_dir())

@@ -2,9 +2,11 @@
 
 use super::{CliError, RunArgs};
 use vesalius::haptics::{
-    BoundOptions, DeviceChoice, SafetyParams, StandOptions, open_device, run_bound, run_stand,
+    BoundOptions, DeviceChoice, DeviceRun, RigOptions, SafetyParams, StandOptions, open_device,
+    run_bound, run_stand,
 };
 use vesalius::session::interrupt;
+use vesalius::ui::window::WindowDevices;
 
 /// A device on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -84,8 +86,9 @@ pub fn haptics(
     }
 }
 
-/// `run <procedure> --haptics D[,D]`: a recorded session driven by the devices, then its
-/// report and one line per device.
+/// `run <procedure> --haptics D[,D]`: a recorded session driven by the devices, in the desktop
+/// window where there is a display (and no `--no-window`), else without one; then its report
+/// and one line per device.
 pub fn run_with_devices(a: &RunArgs) -> Result<(), CliError> {
     if a.haptics.len() > 2 {
         return Err(CliError::Usage(format!(
@@ -94,6 +97,12 @@ pub fn run_with_devices(a: &RunArgs) -> Result<(), CliError> {
         )));
     }
     let names = hd_names(&a.haptics, &a.hd_names)?;
+    let windowed = !a.no_window && super::session::display_available();
+    if !windowed && a.screenshot.is_some() {
+        return Err(CliError::Usage(
+            "--screenshot needs a window: no DISPLAY (try xvfb-run), or drop --no-window".into(),
+        ));
+    }
     let (file, text) = super::session::scenario_text(&a.procedure, a.scenario.as_deref())?;
     if let Some(dir) = &a.out {
         vesalius::session::prepare(dir)?;
@@ -102,17 +111,41 @@ pub fn run_with_devices(a: &RunArgs) -> Result<(), CliError> {
     for (d, name) in a.haptics.iter().zip(&names) {
         devices.push(open_device((*d).into(), name.as_deref())?);
     }
+    if windowed {
+        let seconds = a.seconds;
+        let options = RigOptions {
+            scale: a.workspace_scale,
+            safety: SafetyParams::default(),
+            // The servo loops end with the window's session; a backstop for a day's use.
+            backstop_s: seconds.map_or(24.0 * 3600.0, |s| 4.0 * s + 10.0),
+        };
+        let window = WindowDevices {
+            devices,
+            options,
+            until_s: seconds,
+        };
+        return super::session::run_window(a, None, Some(window));
+    }
     let opts = BoundOptions {
         scenario_text: &text,
         scenario_file: &file,
         out: a.out.as_deref(),
-        seconds: a.seconds,
+        seconds: a.seconds.unwrap_or(DEFAULT_SECONDS),
         scale: a.workspace_scale,
         safety: SafetyParams::default(),
     };
     let run = run_bound(devices, &opts)?;
     super::session::finish(&run.outcome, a.out.as_deref())?;
-    for d in &run.devices {
+    say_devices(&run.devices)?;
+    super::session::interrupted()
+}
+
+/// How long a device-driven session without a window runs unless told, simulated seconds.
+const DEFAULT_SECONDS: f64 = 60.0;
+
+/// One line per device: rate, timing, peak force, clamps, stalls, clutch uses.
+pub fn say_devices(runs: &[DeviceRun]) -> Result<(), CliError> {
+    for d in runs {
         let s = &d.servo;
         say!(
             "{} on the {} hand: {:.1} Hz, period error p99 {:.3} ms, max force {:.2} N (limit {:.1} N), {} clamps, {} stalls, clutch let go {} times",
@@ -127,7 +160,7 @@ pub fn run_with_devices(a: &RunArgs) -> Result<(), CliError> {
             d.reanchors
         );
     }
-    super::session::interrupted()
+    Ok(())
 }
 
 /// The HD device name for each device of `devices` (`None` but for Phantoms): `names` in the

@@ -189,7 +189,7 @@ struct RunArgs {
     /// runtime's clock runs as fast as frames are made): each frame shows its own time.
     #[arg(long, value_enum, value_name = "HOW")]
     xr_coupling: Option<CouplingArg>,
-    /// Under XR: the headset only, no desktop mirror.
+    /// Under XR or with --haptics: no desktop window.
     #[arg(long)]
     no_window: bool,
     /// Save the whole window as PNG when the session ends (or at --screenshot-at), then close.
@@ -206,9 +206,11 @@ struct RunArgs {
     #[arg(long, value_name = "S", value_parser = positive_seconds, default_value_t = vesalius::session::DEFAULT_MAX_SESSION_S)]
     max_session: f64,
     /// Force-feedback devices driving the instruments, one or two of sim, phantom, falcon
-    /// (two: left and right hand). No window; ends after --seconds or Ctrl-C.
+    /// (two: left and right hand), in the desktop window where there is a display (else, or
+    /// with --no-window, without one); ends when the window closes, after --seconds, or at
+    /// Ctrl-C.
     #[arg(long, value_name = "DEVICES", value_enum, value_delimiter = ',',
-          conflicts_with_all = ["headless", "trace", "xr", "xr_sim", "screenshot"])]
+          conflicts_with_all = ["headless", "trace", "xr", "xr_sim"])]
     haptics: Vec<haptics::DeviceArg>,
     /// With --haptics: the Phantoms' device names as Touch Setup shows them, in the order the
     /// Phantoms are listed (default: HD's default device; two Phantoms need both names).
@@ -223,10 +225,11 @@ struct RunArgs {
     #[arg(long, value_name = "S", requires = "haptics", default_value_t = 1.0,
           value_parser = positive_scale)]
     workspace_scale: f64,
-    /// With --haptics: how long the session runs, simulated seconds.
-    #[arg(long, value_name = "S", requires = "haptics", default_value_t = 60.0,
+    /// With --haptics: how long the session runs, simulated seconds (default: until the
+    /// window closes; without a window, 60).
+    #[arg(long, value_name = "S", requires = "haptics",
           value_parser = positive_seconds, allow_negative_numbers = true)]
-    seconds: f64,
+    seconds: Option<f64>,
 }
 
 /// A command's failure, and the exit code it gives.

@@ -101,7 +101,7 @@ pub fn run(a: RunArgs) -> Result<(), CliError> {
         ));
     }
     if !a.headless {
-        return run_window(&a, None);
+        return run_window(&a, None, None);
     }
     let Some(trace) = &a.trace else {
         return Err(CliError::Usage("run --headless needs --trace FILE".into()));
@@ -162,7 +162,7 @@ fn render_frames(
 }
 
 /// Whether a window can open here (an X11 or Wayland display is named).
-fn display_available() -> bool {
+pub(super) fn display_available() -> bool {
     ["DISPLAY", "WAYLAND_DISPLAY"]
         .iter()
         .any(|v| std::env::var_os(v).is_some_and(|s| !s.is_empty()))
@@ -170,7 +170,11 @@ fn display_available() -> bool {
 
 /// `run <p>` without `--headless`: the desktop window, played by a trace or driven by the
 /// desktop controls; with `xr`, the mirror of a headset session.
-fn run_window(a: &RunArgs, xr: Option<vesalius::xr::XrOptions>) -> Result<(), CliError> {
+pub(super) fn run_window(
+    a: &RunArgs,
+    xr: Option<vesalius::xr::XrOptions>,
+    devices: Option<vesalius::ui::window::WindowDevices>,
+) -> Result<(), CliError> {
     let procedure = a.procedure.as_str();
     let (file, text) = scenario_text(procedure, a.scenario.as_deref())?;
     let trace = match &a.trace {
@@ -213,6 +217,7 @@ fn run_window(a: &RunArgs, xr: Option<vesalius::xr::XrOptions>) -> Result<(), Cl
         size: a.window_size,
         save_tuning_to,
         xr,
+        devices,
     })?;
     if let Some((runtime, frames, sessions, (w, h))) = &run.xr {
         say!(
@@ -235,6 +240,7 @@ fn run_window(a: &RunArgs, xr: Option<vesalius::xr::XrOptions>) -> Result<(), Cl
     }
     // The window wrote the session's files when it ended; report it here like the others.
     finish(&run.outcome, None)?;
+    super::haptics::say_devices(&run.devices)?;
     if let Some(dir) = &a.out {
         say!(
             "wrote {} (session {})",
@@ -261,7 +267,7 @@ fn run_xr(a: &RunArgs) -> Result<(), CliError> {
     };
     // The supervisor's mirror opens beside the headset wherever there is a display.
     if !a.no_window && display_available() {
-        return run_window(a, Some(opts));
+        return run_window(a, Some(opts), None);
     }
     if a.screenshot.is_some() {
         return Err(CliError::Usage(

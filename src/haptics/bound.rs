@@ -71,7 +71,7 @@ pub fn run_bound(
         }
     });
     // Whatever ended the simulation ends the servo loops.
-    let runs = rig.stop(&input);
+    let runs = rig.stop();
     stepped.map_err(Box::new)?;
     let mut runs = runs?;
     for r in &mut runs {

@@ -13,7 +13,7 @@ use super::stand::device_hand;
 use crate::procedures::ProcedureInfo;
 use crate::sim::{Hand, HapticSlot, InputFrame};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::thread::JoinHandle;
 
 /// How the devices are bound.
@@ -51,6 +51,8 @@ type ServoThread = JoinHandle<Result<ServoReport, HapticsError>>;
 pub struct Rig {
     stop: Arc<AtomicBool>,
     threads: Vec<(String, Hand, ServoThread)>,
+    /// Per device: times its clutch was let go (the simulation's side counts them).
+    reanchors: Vec<Arc<AtomicU32>>,
 }
 
 /// What the simulation reads each step.
@@ -60,6 +62,7 @@ pub struct RigInput {
     links: Vec<ServoLinks>,
     notices: Vec<(String, bool)>,
     stop: Arc<AtomicBool>,
+    reanchors: Vec<Arc<AtomicU32>>,
 }
 
 impl Rig {
@@ -80,9 +83,12 @@ impl Rig {
         let hands = bound_hands(info, devices.len());
         let two = devices.len() == 2;
         let stop = Arc::new(AtomicBool::new(false));
+        let reanchors: Vec<Arc<AtomicU32>> =
+            hands.iter().map(|_| Arc::new(AtomicU32::new(0))).collect();
         let mut rig = Rig {
             stop: stop.clone(),
             threads: Vec::new(),
+            reanchors: reanchors.clone(),
         };
         let mut input = RigInput {
             info,
@@ -90,6 +96,7 @@ impl Rig {
             links: Vec::new(),
             notices: Vec::new(),
             stop: stop.clone(),
+            reanchors,
         };
         for (mut device, hand) in devices.into_iter().zip(hands) {
             let name = device.name().to_string();
@@ -137,12 +144,17 @@ impl Rig {
     }
 
     /// Stops the servo loops (each leaves its device at zero force) and returns how each
-    /// went, with `input`'s clutch counts; the first device error, if any.
-    pub fn stop(mut self, input: &RigInput) -> Result<Vec<DeviceRun>, HapticsError> {
+    /// went; the first device error, if any.
+    pub fn stop(mut self) -> Result<Vec<DeviceRun>, HapticsError> {
         self.stop.store(true, Ordering::Relaxed);
         let mut runs = Vec::new();
         let mut first_error = None;
-        for ((name, hand, thread), b) in self.threads.drain(..).zip(&input.bindings) {
+        let counts: Vec<u32> = self
+            .reanchors
+            .iter()
+            .map(|c| c.load(Ordering::Relaxed))
+            .collect();
+        for ((name, hand, thread), reanchors) in self.threads.drain(..).zip(counts) {
             let servo = thread
                 .join()
                 .unwrap_or_else(|_| Err(HapticsError::Thread("a servo thread panicked".into())));
@@ -151,7 +163,7 @@ impl Rig {
                     device: name,
                     hand,
                     servo,
-                    reanchors: b.reanchors,
+                    reanchors,
                 }),
                 Err(e) => {
                     first_error.get_or_insert(e);
@@ -179,13 +191,15 @@ impl RigInput {
     /// first tick, at its device's origin), the others parked. Says once, on stderr, why a
     /// device's forces stay off at start-up.
     pub fn frame(&mut self) -> InputFrame {
-        for ((b, l), (notice, said)) in self
+        for (((b, l), (notice, said)), count) in self
             .bindings
             .iter_mut()
             .zip(&self.links)
             .zip(&mut self.notices)
+            .zip(&self.reanchors)
         {
             b.update(&l.stylus.latest().unwrap_or_default());
+            count.store(b.reanchors, Ordering::Relaxed);
             if !*said && l.held_off.load(Ordering::Relaxed) {
                 *said = true;
                 eprintln!("{notice}");

@@ -1,9 +1,10 @@
 //! The simulation on its own thread for the window: it steps in real time, takes its input from
-//! a trace or from the desktop controls, and publishes snapshots for the renderer and a status
-//! for the panels, never waiting on the window.
+//! a trace, the desktop controls or force-feedback devices, and publishes snapshots for the
+//! renderer and a status for the panels, never waiting on the window.
 
+use crate::haptics::RigInput;
 use crate::session::{self, Live, Outcome, SETTLE_S, SessionError, Status, ended, interrupt};
-use crate::sim::{InputFrame, Pacing, SnapshotBus};
+use crate::sim::{InputFrame, Pacing, SimEvent, SnapshotBus};
 use crate::trace::KeyTrace;
 use arc_swap::ArcSwap;
 use std::path::Path;
@@ -18,6 +19,12 @@ pub enum Source {
     Trace(KeyTrace),
     /// The desktop controls, which the window updates; the session ends when asked.
     Live(Arc<ArcSwap<InputFrame>>),
+    /// Force-feedback devices (their servo loops run on threads of their own); the session
+    /// ends when asked, after `until_s` simulated seconds if given, or when a device faults.
+    Devices {
+        input: RigInput,
+        until_s: Option<f64>,
+    },
 }
 
 /// What the window asks of the simulation.
@@ -35,7 +42,7 @@ pub struct SimThread {
     pub status: Arc<ArcSwap<Status>>,
     stop: Arc<AtomicBool>,
     done: Arc<AtomicBool>,
-    handle: Option<JoinHandle<Result<Outcome, SessionError>>>,
+    handle: Option<JoinHandle<Result<Live, SessionError>>>,
 }
 
 /// Vulnerable structures are reported in the status within this distance, metres (the
@@ -52,11 +59,17 @@ impl SimThread {
         pacing: Pacing,
         out: Option<&Path>,
     ) -> Result<SimThread, SessionError> {
-        let mut live = Live::new(scenario_text, scenario_file, pacing)?;
-        if let Some(dir) = out {
-            session::prepare(dir)?;
-            live.stream_to(&dir.join(session::RECORDING))?;
-        }
+        let live = open_live(scenario_text, scenario_file, pacing, out)?;
+        SimThread::start_live(live, source, None)
+    }
+
+    /// Starts stepping a session already built, on `pool`'s threads when given (else on
+    /// the global pool's).
+    pub fn start_live(
+        mut live: Live,
+        mut source: Source,
+        pool: Option<rayon::ThreadPool>,
+    ) -> Result<SimThread, SessionError> {
         let bus = Arc::new(SnapshotBus::new());
         bus.publish(live.snapshot());
         let status = Arc::new(ArcSwap::from_pointee(live.status(LOOK_M)));
@@ -67,12 +80,17 @@ impl SimThread {
         let handle = std::thread::Builder::new()
             .name("simulation".into())
             .spawn(move || {
-                let stepped = play(&mut live, &source, &inbox, (&b, &st, &s));
-                b.publish(live.snapshot());
-                st.store(Arc::new(live.status(LOOK_M)));
-                d.store(true, Ordering::Release);
-                stepped?;
-                live.finish(Vec::new())
+                let work = move || {
+                    let stepped = play(&mut live, &mut source, &inbox, (&b, &st, &s));
+                    b.publish(live.snapshot());
+                    st.store(Arc::new(live.status(LOOK_M)));
+                    d.store(true, Ordering::Release);
+                    stepped.map(|()| live)
+                };
+                match pool {
+                    Some(p) => p.install(work),
+                    None => session::on_pool(work),
+                }
             })
             .map_err(|e| SessionError::Io {
                 path: "simulation thread".into(),
@@ -94,10 +112,20 @@ impl SimThread {
     }
 
     /// Stops the session (if it still runs) and returns its outcome.
-    pub fn finish(mut self) -> Result<Outcome, SessionError> {
+    pub fn finish(self) -> Result<Outcome, SessionError> {
+        self.finish_with(Vec::new())
+    }
+
+    /// Stops the session (if it still runs) and returns its outcome, with `events` from
+    /// elsewhere (the servo loops') merged into its stream by step.
+    pub fn finish_with(mut self, events: Vec<SimEvent>) -> Result<Outcome, SessionError> {
         self.stop.store(true, Ordering::Relaxed);
         match self.handle.take().map(JoinHandle::join) {
-            Some(Ok(r)) => r,
+            Some(Ok(r)) => {
+                let mut live = r?;
+                live.merge_events(events);
+                live.finish(Vec::new())
+            }
             _ => Err(SessionError::Io {
                 path: "simulation thread".into(),
                 source: std::io::Error::other("the simulation thread panicked"),
@@ -106,10 +134,26 @@ impl SimThread {
     }
 }
 
+/// A session for `scenario_text`, its recording streaming into `out` (made and tested first)
+/// when given.
+pub fn open_live(
+    scenario_text: &str,
+    scenario_file: &str,
+    pacing: Pacing,
+    out: Option<&Path>,
+) -> Result<Live, SessionError> {
+    let mut live = Live::new(scenario_text, scenario_file, pacing)?;
+    if let Some(dir) = out {
+        session::prepare(dir)?;
+        live.stream_to(&dir.join(session::RECORDING))?;
+    }
+    Ok(live)
+}
+
 /// Steps `live` until its trace ends, the window stops it, or a signal asks it to end.
 fn play(
     live: &mut Live,
-    source: &Source,
+    source: &mut Source,
     inbox: &Receiver<Command>,
     (bus, status, stop): (&SnapshotBus, &ArcSwap<Status>, &AtomicBool),
 ) -> Result<(), SessionError> {
@@ -118,6 +162,7 @@ fn play(
     let end = match source {
         Source::Trace(t) => Some(live.steps_for(t.duration_s() + SETTLE_S)),
         Source::Live(_) => None,
+        Source::Devices { until_s, .. } => until_s.map(|s| live.steps_for(s)),
     };
     loop {
         if interrupt::interrupted().is_some() {
@@ -129,6 +174,9 @@ fn play(
             return Ok(());
         }
         if end.is_some_and(|e| live.step_count() >= e) {
+            if matches!(source, Source::Devices { .. }) {
+                live.set_ended(ended::TIME_UP);
+            }
             return Ok(());
         }
         while let Ok(Command::Tune(model, values)) = inbox.try_recv() {
@@ -139,6 +187,13 @@ fn play(
         let frame = match source {
             Source::Trace(t) => t.sample(live.time_s()),
             Source::Live(input) => **input.load(),
+            Source::Devices { input, .. } => {
+                if input.stopped() {
+                    // A servo loop ended (a device fault): so does the session.
+                    return Ok(());
+                }
+                input.frame()
+            }
         };
         live.step(frame)?;
         if live.step_count().is_multiple_of(publish_every) {

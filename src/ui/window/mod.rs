@@ -8,6 +8,7 @@ use super::dashboard::{Dashboard, FrameTimes, Summary};
 use super::desktop::{DesktopHands, OrbitCamera, Pointer};
 use super::runner::{SimThread, Source};
 use crate::assess::alarms::AlarmRules;
+use crate::haptics::{DeviceRun, HapticDevice, HapticsError, Rig, RigOptions};
 use crate::profiler::Tracked;
 use crate::render::gpu::{EYE_FORMAT, colour_texture, tracked_texture};
 use crate::render::{Gpu, RenderError, RenderTarget, Renderer};
@@ -49,6 +50,17 @@ pub struct WindowOptions {
     /// Mirror an XR session (the headset drives; the window shows an eye or a free camera)
     /// instead of running a desktop session.
     pub xr: Option<XrOptions>,
+    /// Force-feedback devices driving the instruments instead of the mouse.
+    pub devices: Option<WindowDevices>,
+}
+
+/// Force-feedback devices for a window session.
+pub struct WindowDevices {
+    /// One or two: the probe (else the right hand), or both hands.
+    pub devices: Vec<Box<dyn HapticDevice>>,
+    pub options: RigOptions,
+    /// End after this many simulated seconds (none: when the window closes).
+    pub until_s: Option<f64>,
 }
 
 /// What the 3D view shows.
@@ -73,6 +85,9 @@ pub enum WindowError {
     Xr(#[from] XrRunError),
     #[error(transparent)]
     Render(#[from] RenderError),
+    /// A force-feedback device or its servo loop.
+    #[error(transparent)]
+    Haptics(#[from] HapticsError),
     #[error("cannot open a window ({0}); is DISPLAY set? (headless: xvfb-run, or --headless)")]
     NoDisplay(#[source] EventLoopError),
     /// The event loop failed while the window was open.
@@ -148,10 +163,12 @@ pub struct WindowRun {
     pub xr: Option<(String, u64, u32, (u32, u32))>,
     pub screenshot: Option<((u32, u32), PathBuf)>,
     pub device: String,
+    /// How each force-feedback device's servo loop went.
+    pub devices: Vec<DeviceRun>,
 }
 
 /// Runs the window until the session ends and its screenshot is taken, or the user closes it.
-pub fn run(opts: WindowOptions) -> Result<WindowRun, WindowError> {
+pub fn run(mut opts: WindowOptions) -> Result<WindowRun, WindowError> {
     let info = crate::procedures::find(&opts.procedure)
         .ok_or_else(|| WindowError::UnknownProcedure(opts.procedure.clone()))?;
     let hands = DesktopHands::parked(info);
@@ -162,36 +179,59 @@ pub fn run(opts: WindowOptions) -> Result<WindowRun, WindowError> {
     };
     // The procedure is built (and a bad scenario reported) before any window opens; under XR
     // the runtime and its Vulkan device are opened first, and the window shares that device.
-    let (sim, xr) = match opts.xr {
-        Some(x) => {
-            let mut l = XrLoop::open(
+    // Devices get their servo threads, and the simulation the cores those leave.
+    let mut rig = None;
+    let mut device_names = Vec::new();
+    let (sim, xr) = match (opts.xr, opts.devices.take()) {
+        (None, Some(d)) => {
+            let live = super::runner::open_live(
                 &opts.scenario_text,
                 &opts.scenario_file,
-                x,
-                opts.out.as_deref(),
-            )?;
-            l.mirror_eye(MirrorEye::Left);
-            (None, Some(l))
-        }
-        None => (
-            Some(SimThread::start(
-                &opts.scenario_text,
-                &opts.scenario_file,
-                source,
                 Pacing::RealTime,
                 opts.out.as_deref(),
-            )?),
-            None,
-        ),
+            )?;
+            device_names = d.devices.iter().map(|x| x.name().to_string()).collect();
+            let pool = crate::haptics::stand::sim_pool(d.devices.len())?;
+            let (r, input) = Rig::start(d.devices, info, live.haptics(), d.options)?;
+            rig = Some(r);
+            let source = Source::Devices {
+                input,
+                until_s: d.until_s,
+            };
+            (Some(SimThread::start_live(live, source, Some(pool))?), None)
+        }
+        (xr, _) => match xr {
+            Some(x) => {
+                let mut l = XrLoop::open(
+                    &opts.scenario_text,
+                    &opts.scenario_file,
+                    x,
+                    opts.out.as_deref(),
+                )?;
+                l.mirror_eye(MirrorEye::Left);
+                (None, Some(l))
+            }
+            None => (
+                Some(SimThread::start(
+                    &opts.scenario_text,
+                    &opts.scenario_file,
+                    source,
+                    Pacing::RealTime,
+                    opts.out.as_deref(),
+                )?),
+                None,
+            ),
+        },
     };
     let event_loop = EventLoop::new().map_err(WindowError::NoDisplay)?;
     let source = match (&opts.trace, &xr) {
+        _ if !device_names.is_empty() => format!("force feedback: {}", device_names.join(", ")),
         (_, Some(l)) => format!("headset ({})", l.runtime_name()),
         (Some((_, name)), None) => format!("playing {name}"),
         (None, None) => "mouse and keyboard".to_string(),
     };
     let mut dashboard = Dashboard::new(info, &source, AlarmRules::for_procedure(info));
-    let desktop = (opts.trace.is_none() && xr.is_none()).then(|| {
+    let desktop = (opts.trace.is_none() && xr.is_none() && rig.is_none()).then(|| {
         dashboard.key_map = hands.key_map();
         (hands, desk)
     });
@@ -216,6 +256,8 @@ pub fn run(opts: WindowOptions) -> Result<WindowRun, WindowError> {
         shift: false,
         opts,
         sim,
+        rig,
+        device_runs: Vec::new(),
         xr,
         xr_run: None,
         view_mode,
@@ -264,6 +306,7 @@ pub fn run(opts: WindowOptions) -> Result<WindowRun, WindowError> {
         xr: app.xr_run.take(),
         screenshot: app.shot,
         device,
+        devices: std::mem::take(&mut app.device_runs),
     })
 }
 
@@ -295,6 +338,9 @@ struct App {
     desktop: Option<(DesktopHands, Arc<ArcSwap<InputFrame>>)>,
     shift: bool,
     sim: Option<SimThread>,
+    /// The force-feedback devices' servo threads, and how they went once stopped.
+    rig: Option<Rig>,
+    device_runs: Vec<DeviceRun>,
     xr: Option<XrLoop>,
     /// Runtime, stereo frames, sessions and eye size of a finished XR session.
     xr_run: Option<(String, u64, u32, (u32, u32))>,
@@ -326,8 +372,22 @@ impl App {
 impl App {
     /// The session ended: keep its outcome, write its files, show its report.
     fn end_session(&mut self) -> Result<(), WindowError> {
+        let mut device_error = None;
         let outcome = if let Some(sim) = self.sim.take() {
-            sim.finish()?
+            // The servo loops stop first (their devices at zero force); their events join
+            // the session's stream.
+            let mut events = Vec::new();
+            match self.rig.take().map(Rig::stop) {
+                Some(Ok(mut runs)) => {
+                    for r in &mut runs {
+                        events.append(&mut r.servo.events);
+                    }
+                    self.device_runs = runs;
+                }
+                Some(Err(e)) => device_error = Some(e),
+                None => {}
+            }
+            sim.finish_with(events)?
         } else if let Some(x) = self.xr.take() {
             let run = x.finish()?;
             self.xr_run = Some((run.runtime, run.frames, run.sessions, run.eye_size));
@@ -344,7 +404,11 @@ impl App {
         };
         self.dashboard.summary = Some(Summary::from_report(&outcome.report, written));
         self.outcome = Some(outcome);
-        Ok(())
+        // A device's failure, once the session's record is safe.
+        match device_error {
+            Some(e) => Err(e.into()),
+            None => Ok(()),
+        }
     }
 
     fn key(&mut self, key: &Key) {
