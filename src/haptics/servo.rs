@@ -70,7 +70,9 @@ pub struct ServoConfig {
     pub safety: SafetyParams,
     /// The nominal servo period, s. Default 0.001 (1 kHz).
     pub period_s: f64,
-    /// The loop sleeps until this long before each deadline, then spins, s. Default 0.0002.
+    /// The loop sleeps until this long before each deadline, then spins, s. Default 0.0005:
+    /// wide enough to take in the wake-up lateness of a sleeping thread on a loaded machine
+    /// (its own core is left to it; see `stand::sim_pool`).
     pub spin_s: f64,
     /// How long it runs, s (it also stops when asked).
     pub duration_s: f64,
@@ -86,7 +88,7 @@ impl Default for ServoConfig {
             workspace_scale: 1.0,
             safety: SafetyParams::default(),
             period_s: 0.001,
-            spin_s: 0.0002,
+            spin_s: 0.0005,
             duration_s: 3.0,
             clutch: false,
         }
