@@ -1,5 +1,6 @@
 //! Tissue models. Each implements [`crate::sim::TissueModel`].
 
+pub mod cosserat;
 pub mod forces;
 mod simplex;
 mod softbody;

@@ -13,6 +13,7 @@
 use std::time::Instant;
 
 mod collision_cases;
+mod cosserat_cases;
 mod forces_cases;
 pub mod hertz_cases;
 mod softbody_cases;
@@ -137,6 +138,7 @@ pub fn cases() -> Vec<Case> {
     all.extend(hertz_cases::cases());
     all.extend(xpbd_cases::cases());
     all.extend(collision_cases::cases());
+    all.extend(cosserat_cases::cases());
     all
 }
 
