@@ -2,6 +2,7 @@
 
 pub mod cosserat;
 pub mod forces;
+pub mod membrane;
 mod simplex;
 mod softbody;
 pub mod xpbd;

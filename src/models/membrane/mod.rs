@@ -1,0 +1,603 @@
+//! The rectum paper's multi-layer mass-spring membrane (eqs 1-6): four layers of `rows x cols`
+//! nodes on a structured grid, `rows` along the bowel and `cols` around it (a closed ring
+//! when `periodic`). Layer 0 lies on the rectum's surface, layer 3 on the surrounding tissue,
+//! layers 1 and 2 between them; the paper numbers them 1 to 4. Springs join each node to its
+//! neighbours in its layer (around and along) and to the node of the same row and column in
+//! the next layer (links 0-1, 1-2 and 2-3). Links 1-2 are the dissection plane: cutting one
+//! removes it and puts the tissue it held under the residual strain of eq 5, `sigma_r = E
+//! eps_r`: the in-layer springs between released nodes have their rest length shortened by
+//! `eps_r`, so a freed sheet shrinks by that much (the superposition the paper cites: the
+//! residual stress equals a force on the cut surface).
+//!
+//! Forces (eqs 3-4): each spring pulls with `k (|d| - L0)` along `d` plus a damping force along
+//! it, `c_s (v_j - v_i) . d`; each node feels point damping `-D v` (eq 4's `f`) and gravity.
+//! Masses come from each layer's density and thickness over each node's share of the area;
+//! spring stiffness from its layer's modulus: `k = E t w / L0` for a spring of rest length
+//! `L0` spanning a strip `w` wide (a sheet of thickness `t`), and `E A / L0` for a link over
+//! the column's area. Layer 0 is held to targets its owner sets each step (the rod's skin)
+//! and layer 3 to where it lay at rest, by stiff springs per unit area.
+//!
+//! Integrators (see [`Integrator`]): symplectic Euler and classical Runge-Kutta (the paper's),
+//! each stable only below about `0.7 dx / c` ([`Membrane::explicit_step_limit`]); at the
+//! paper's resolution with physical masses that is a fraction of a millisecond (see
+//! `docs/rectum.md`). f32 state in structure-of-arrays form; rows are stepped in fixed chunks
+//! in parallel (rayon), the same bytes on any number of threads.
+
+mod forces;
+mod integrate;
+#[cfg(test)]
+mod tests;
+
+use glam::Vec3;
+
+/// Layers in the membrane.
+pub const LAYERS: usize = 4;
+
+/// How the membrane's state advances. Both are explicit: stable below
+/// [`Membrane::explicit_step_limit`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Integrator {
+    /// v += dt F / m; x += dt v.
+    Symplectic,
+    /// Classical fourth-order Runge-Kutta on (x, v), as the paper.
+    RungeKutta4,
+}
+
+impl Integrator {
+    pub fn name(self) -> &'static str {
+        match self {
+            Integrator::Symplectic => "symplectic",
+            Integrator::RungeKutta4 => "runge_kutta_4",
+        }
+    }
+}
+
+/// One layer's material.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LayerMaterial {
+    /// Young's modulus of the sheet, Pa.
+    pub youngs_modulus_pa: f32,
+    /// Thickness of the sheet the layer stands for, m.
+    pub thickness_m: f32,
+    pub density_kg_per_m3: f32,
+}
+
+/// The membrane's figures.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MembraneParams {
+    pub layers: [LayerMaterial; LAYERS],
+    /// Modulus of the tissue the links stand for (between layers), Pa.
+    pub link_modulus_pa: [f32; LAYERS - 1],
+    /// Eq 4's point damping D as a rate, 1/s (force -D m v).
+    pub damping_per_s: f32,
+    /// Damping along each spring, as a fraction of its critical damping for the lighter end.
+    pub spring_damping_ratio: f32,
+    /// Stiffness per unit area holding layer 0 to its targets and layer 3 to its rest, Pa/m.
+    pub attach_pa_per_m: f32,
+    /// Eq 5's residual strain of the tissue freed by a cut.
+    pub residual_strain: f32,
+    pub gravity: Vec3,
+    pub integrator: Integrator,
+}
+
+/// Where the membrane's nodes start: `positions[l][i * cols + j]` for layer `l`, row `i`,
+/// column `j`.
+#[derive(Debug, Clone)]
+pub struct MembraneShape {
+    pub rows: usize,
+    pub cols: usize,
+    /// Whether column `cols - 1` joins column 0 (a tube) or the sheet has two free edges.
+    pub periodic: bool,
+    pub positions: [Vec<Vec3>; LAYERS],
+}
+
+/// Why a membrane could not be built.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MembraneError {
+    #[error("a membrane needs at least 2 rows and 3 columns, got {rows} x {cols}")]
+    TooSmall { rows: usize, cols: usize },
+    #[error("layer {layer} has {found} positions, expected {expected} (rows x cols)")]
+    WrongCount {
+        layer: usize,
+        found: usize,
+        expected: usize,
+    },
+    #[error("layer {layer}, node {node}: position {value} is not finite")]
+    NotFinite {
+        layer: usize,
+        node: usize,
+        value: Vec3,
+    },
+    #[error(
+        "two neighbouring nodes coincide (layer {layer}, node {node}): no spring can join them"
+    )]
+    Coincident { layer: usize, node: usize },
+    #[error("{what} must be finite and > 0, got {value}")]
+    BadParameter { what: &'static str, value: f32 },
+}
+
+/// Structure-of-arrays state: one entry per node, `node = (l * rows + i) * cols + j`.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct State {
+    pub x: [Vec<f32>; 3],
+    pub v: [Vec<f32>; 3],
+}
+
+/// The membrane.
+#[derive(Debug, Clone)]
+pub struct Membrane {
+    pub params: MembraneParams,
+    rows: usize,
+    cols: usize,
+    periodic: bool,
+    state: State,
+    mass: Vec<f32>,
+    /// Springs: around (node to the next column), along (node to the next row), link (node
+    /// to the same place in the next layer). Stiffness 0 marks a missing spring.
+    k_around: Vec<f32>,
+    rest_around: Vec<f32>,
+    k_along: Vec<f32>,
+    rest_along: Vec<f32>,
+    k_link: Vec<f32>,
+    rest_link: Vec<f32>,
+    /// Spring damping coefficients, N s/m (one per spring, as the stiffness).
+    c_around: Vec<f32>,
+    c_along: Vec<f32>,
+    c_link: Vec<f32>,
+    /// Stiffness holding each node of layers 0 and 3 to its target, N/m (0 elsewhere).
+    k_attach: Vec<f32>,
+    /// Targets of layer 0 (set by the owner) and rest of layer 3: per node of those layers.
+    target: [Vec<f32>; 3],
+    /// Nodes freed by a cut (their in-layer springs carry the residual strain).
+    released: Vec<bool>,
+    /// External forces for the next step (node, force), N.
+    external: Vec<(u32, Vec3)>,
+    scratch: integrate::Scratch,
+}
+
+impl Membrane {
+    /// Builds the membrane at rest in `shape`.
+    pub fn new(shape: MembraneShape, params: MembraneParams) -> Result<Membrane, MembraneError> {
+        let (rows, cols) = (shape.rows, shape.cols);
+        if rows < 2 || cols < 3 {
+            return Err(MembraneError::TooSmall { rows, cols });
+        }
+        let per = rows * cols;
+        for (l, p) in shape.positions.iter().enumerate() {
+            if p.len() != per {
+                return Err(MembraneError::WrongCount {
+                    layer: l,
+                    found: p.len(),
+                    expected: per,
+                });
+            }
+            if let Some((node, value)) = p.iter().enumerate().find(|(_, q)| !q.is_finite()) {
+                return Err(MembraneError::NotFinite {
+                    layer: l,
+                    node,
+                    value: *value,
+                });
+            }
+        }
+        check_params(&params)?;
+        let n = LAYERS * per;
+        let at = |l: usize, i: usize, j: usize| shape.positions[l][i * cols + j];
+        let next_j = |j: usize| {
+            if j + 1 < cols {
+                Some(j + 1)
+            } else {
+                shape.periodic.then_some(0)
+            }
+        };
+        let mut m = Membrane {
+            params,
+            rows,
+            cols,
+            periodic: shape.periodic,
+            state: State {
+                x: std::array::from_fn(|c| {
+                    shape
+                        .positions
+                        .iter()
+                        .flat_map(|layer| layer.iter().map(move |p| p[c]))
+                        .collect()
+                }),
+                v: std::array::from_fn(|_| vec![0.0; n]),
+            },
+            mass: vec![0.0; n],
+            k_around: vec![0.0; n],
+            rest_around: vec![0.0; n],
+            k_along: vec![0.0; n],
+            rest_along: vec![0.0; n],
+            k_link: vec![0.0; (LAYERS - 1) * per],
+            rest_link: vec![0.0; (LAYERS - 1) * per],
+            c_around: vec![0.0; n],
+            c_along: vec![0.0; n],
+            c_link: vec![0.0; (LAYERS - 1) * per],
+            k_attach: vec![0.0; n],
+            target: std::array::from_fn(|_| vec![0.0; 2 * per]),
+            released: vec![false; n],
+            external: Vec::new(),
+            scratch: integrate::Scratch::default(),
+        };
+        // Each node's share of its layer's area: a quarter of each cell around it, the cell
+        // spanned by its neighbours along and around (half a spring each way).
+        let mut area = vec![0.0f32; n];
+        for l in 0..LAYERS {
+            let mat = params.layers[l];
+            for i in 0..rows {
+                for j in 0..cols {
+                    let node = m.node(l, i, j);
+                    let p = at(l, i, j);
+                    let along = |di: isize| {
+                        let ii = i as isize + di;
+                        (0..rows as isize)
+                            .contains(&ii)
+                            .then(|| (at(l, ii as usize, j) - p).length())
+                    };
+                    let around = |dj: isize| {
+                        let jj = j as isize + dj;
+                        let jj = if shape.periodic {
+                            Some(jj.rem_euclid(cols as isize) as usize)
+                        } else {
+                            (0..cols as isize).contains(&jj).then_some(jj as usize)
+                        };
+                        jj.map(|jj| (at(l, i, jj) - p).length())
+                    };
+                    let half = |a: Option<f32>, b: Option<f32>| {
+                        0.5 * (a.unwrap_or(0.0) + b.unwrap_or(0.0))
+                    };
+                    let a = half(along(-1), along(1)) * half(around(-1), around(1));
+                    area[node] = a;
+                    m.mass[node] = mat.density_kg_per_m3 * mat.thickness_m * a;
+                    // Springs to the next column and the next row: E t w / L0, the strip w
+                    // wide being the node's extent across the spring.
+                    let et = mat.youngs_modulus_pa * mat.thickness_m;
+                    if let Some(jn) = next_j(j) {
+                        let l0 = (at(l, i, jn) - p).length();
+                        if l0 <= 0.0 {
+                            return Err(MembraneError::Coincident { layer: l, node });
+                        }
+                        let w = half(along(-1), along(1));
+                        m.k_around[node] = et * w / l0;
+                        m.rest_around[node] = l0;
+                    }
+                    if i + 1 < rows {
+                        let l0 = (at(l, i + 1, j) - p).length();
+                        if l0 <= 0.0 {
+                            return Err(MembraneError::Coincident { layer: l, node });
+                        }
+                        let w = half(around(-1), around(1));
+                        m.k_along[node] = et * w / l0;
+                        m.rest_along[node] = l0;
+                    }
+                }
+            }
+        }
+        for l in 0..LAYERS - 1 {
+            for i in 0..rows {
+                for j in 0..cols {
+                    let node = m.node(l, i, j);
+                    let link = l * per + i * cols + j;
+                    let l0 = (at(l + 1, i, j) - at(l, i, j)).length();
+                    if l0 <= 0.0 {
+                        return Err(MembraneError::Coincident { layer: l, node });
+                    }
+                    let a = 0.5 * (area[node] + area[node + per]);
+                    m.k_link[link] = params.link_modulus_pa[l] * a / l0;
+                    m.rest_link[link] = l0;
+                }
+            }
+        }
+        // Attachments: layer 0 to its targets (its rest until the owner moves them), layer 3
+        // to its rest.
+        for (slot, l) in [(0usize, 0usize), (1, LAYERS - 1)] {
+            for i in 0..rows {
+                for j in 0..cols {
+                    let node = m.node(l, i, j);
+                    m.k_attach[node] = params.attach_pa_per_m * area[node];
+                    let p = at(l, i, j);
+                    for c in 0..3 {
+                        m.target[c][slot * per + i * cols + j] = p[c];
+                    }
+                }
+            }
+        }
+        m.set_spring_damping();
+        Ok(m)
+    }
+
+    /// Spring damping from each spring's stiffness and its lighter end's mass: a fraction of
+    /// critical, `2 zeta sqrt(k m)`.
+    fn set_spring_damping(&mut self) {
+        let z = self.params.spring_damping_ratio;
+        let per = self.rows * self.cols;
+        for node in 0..self.mass.len() {
+            let (l, i, j) = self.coords(node);
+            let lighter = |other: usize| self.mass[node].min(self.mass[other]);
+            if let Some(jn) = self.next_col(j) {
+                let k = self.k_around[node];
+                self.c_around[node] = 2.0 * z * (k * lighter(self.node(l, i, jn))).sqrt();
+            }
+            if i + 1 < self.rows {
+                let k = self.k_along[node];
+                self.c_along[node] = 2.0 * z * (k * lighter(node + self.cols)).sqrt();
+            }
+            if l + 1 < LAYERS {
+                let link = l * per + i * self.cols + j;
+                let k = self.k_link[link];
+                self.c_link[link] = 2.0 * z * (k * lighter(node + per)).sqrt();
+            }
+        }
+    }
+
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+
+    pub fn cols(&self) -> usize {
+        self.cols
+    }
+
+    pub fn periodic(&self) -> bool {
+        self.periodic
+    }
+
+    /// Nodes in all.
+    pub fn len(&self) -> usize {
+        self.mass.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.mass.is_empty()
+    }
+
+    /// Springs in all (around, along, links), cut ones not counted.
+    pub fn springs(&self) -> usize {
+        [&self.k_around, &self.k_along, &self.k_link]
+            .iter()
+            .map(|k| k.iter().filter(|&&k| k > 0.0).count())
+            .sum()
+    }
+
+    /// The node at layer `l`, row `i`, column `j`.
+    pub fn node(&self, l: usize, i: usize, j: usize) -> usize {
+        (l * self.rows + i) * self.cols + j
+    }
+
+    pub fn coords(&self, node: usize) -> (usize, usize, usize) {
+        let per = self.rows * self.cols;
+        (node / per, (node % per) / self.cols, node % self.cols)
+    }
+
+    fn next_col(&self, j: usize) -> Option<usize> {
+        if j + 1 < self.cols {
+            Some(j + 1)
+        } else {
+            self.periodic.then_some(0)
+        }
+    }
+
+    pub fn position(&self, node: usize) -> Vec3 {
+        let x = &self.state.x;
+        Vec3::new(x[0][node], x[1][node], x[2][node])
+    }
+
+    pub fn velocity(&self, node: usize) -> Vec3 {
+        let v = &self.state.v;
+        Vec3::new(v[0][node], v[1][node], v[2][node])
+    }
+
+    pub fn mass(&self, node: usize) -> f32 {
+        self.mass[node]
+    }
+
+    /// Total mass, kg.
+    pub fn total_mass(&self) -> f32 {
+        self.mass.iter().sum()
+    }
+
+    /// Sets where layer 0's node at row `i`, column `j` is held (the rod's skin there).
+    pub fn set_target(&mut self, i: usize, j: usize, p: Vec3) {
+        if i < self.rows && j < self.cols && p.is_finite() {
+            let t = i * self.cols + j;
+            for c in 0..3 {
+                self.target[c][t] = p[c];
+            }
+        }
+    }
+
+    /// Lets layer `l` go free of its attachment (layer 0 from the rod, layer 3 from the wall).
+    pub fn detach_layer(&mut self, l: usize) {
+        let per = self.rows * self.cols;
+        if l < LAYERS {
+            self.k_attach[l * per..(l + 1) * per].fill(0.0);
+        }
+    }
+
+    /// Adds a force on `node` for the next step, N.
+    pub fn add_force(&mut self, node: usize, f: Vec3) {
+        if node < self.len() && f.is_finite() {
+            self.external.push((node as u32, f));
+        }
+    }
+
+    /// Cuts the dissection-plane links (between layers 1 and 2) whose midpoints lie within
+    /// `radius_m` of `center`; the nodes they held are released, and the in-layer springs
+    /// between released nodes shrink by the residual strain (eq 5). Returns how many links
+    /// were cut.
+    pub fn cut_plane(&mut self, center: Vec3, radius_m: f32) -> u32 {
+        let per = self.rows * self.cols;
+        let plane = 1;
+        let mut cut = Vec::new();
+        for t in 0..per {
+            let link = plane * per + t;
+            if self.k_link[link] <= 0.0 {
+                continue;
+            }
+            let a = plane * per + t;
+            let mid = (self.position(a) + self.position(a + per)) * 0.5;
+            if mid.distance_squared(center) <= radius_m * radius_m {
+                cut.push(t);
+            }
+        }
+        for &t in &cut {
+            let link = plane * per + t;
+            self.k_link[link] = 0.0;
+            self.c_link[link] = 0.0;
+            for l in [plane, plane + 1] {
+                self.release(l * per + t);
+            }
+        }
+        cut.len() as u32
+    }
+
+    /// Frees `node`: each in-layer spring to a node already freed takes the residual strain.
+    fn release(&mut self, node: usize) {
+        if self.released[node] {
+            return;
+        }
+        self.released[node] = true;
+        let shrink = 1.0 - self.params.residual_strain;
+        let (l, i, j) = self.coords(node);
+        // The springs around and along that start or end here.
+        if let Some(jn) = self.next_col(j) {
+            let other = self.node(l, i, jn);
+            if self.released[other] {
+                self.rest_around[node] *= shrink;
+            }
+        }
+        let prev_j = if j > 0 {
+            Some(j - 1)
+        } else {
+            self.periodic.then_some(self.cols - 1)
+        };
+        if let Some(jp) = prev_j {
+            let other = self.node(l, i, jp);
+            if self.released[other] {
+                self.rest_around[other] *= shrink;
+            }
+        }
+        if i + 1 < self.rows && self.released[node + self.cols] {
+            self.rest_along[node] *= shrink;
+        }
+        if i > 0 && self.released[node - self.cols] {
+            self.rest_along[node - self.cols] *= shrink;
+        }
+    }
+
+    /// Whether the link between layer `l` and `l + 1` at row `i`, column `j` is there.
+    pub fn link_alive(&self, l: usize, i: usize, j: usize) -> bool {
+        l + 1 < LAYERS && self.k_link[l * self.rows * self.cols + i * self.cols + j] > 0.0
+    }
+
+    /// One step of `dt_s` with the configured integrator.
+    pub fn step(&mut self, dt_s: f32) {
+        integrate::step(self, dt_s);
+        self.external.clear();
+    }
+
+    /// Kinetic energy, J.
+    pub fn kinetic_energy(&self) -> f64 {
+        let v = &self.state.v;
+        (0..self.len())
+            .map(|n| {
+                let s = v[0][n] * v[0][n] + v[1][n] * v[1][n] + v[2][n] * v[2][n];
+                0.5 * f64::from(self.mass[n]) * f64::from(s)
+            })
+            .sum()
+    }
+
+    /// The largest explicit step the stiffest node allows, s: `2 / omega` with `omega^2` the
+    /// sum of its springs' stiffness times 4 over its mass (a bound on the grid's highest
+    /// frequency).
+    pub fn explicit_step_limit(&self) -> f32 {
+        let per = self.rows * self.cols;
+        let mut worst = 0.0f32;
+        for node in 0..self.len() {
+            let (l, i, j) = self.coords(node);
+            let mut k = self.k_around[node] + self.k_along[node] + self.k_attach[node];
+            if let Some(jp) = if j > 0 {
+                Some(j - 1)
+            } else {
+                self.periodic.then_some(self.cols - 1)
+            } {
+                k += self.k_around[self.node(l, i, jp)];
+            }
+            if i > 0 {
+                k += self.k_along[node - self.cols];
+            }
+            let t = i * self.cols + j;
+            if l + 1 < LAYERS {
+                k += self.k_link[l * per + t];
+            }
+            if l > 0 {
+                k += self.k_link[(l - 1) * per + t];
+            }
+            if self.mass[node] > 0.0 {
+                worst = worst.max(4.0 * k / self.mass[node]);
+            }
+        }
+        if worst > 0.0 {
+            2.0 / worst.sqrt()
+        } else {
+            f32::INFINITY
+        }
+    }
+
+    /// Whether every position and velocity is finite.
+    pub fn is_finite(&self) -> bool {
+        self.state
+            .x
+            .iter()
+            .chain(&self.state.v)
+            .all(|c| c.iter().all(|v| v.is_finite()))
+    }
+
+    /// A digest of the state's bits.
+    pub fn state_hash(&self) -> u64 {
+        let mut h = crate::models::Fnv::default();
+        for c in self.state.x.iter().chain(&self.state.v) {
+            for v in c {
+                h.write(v.to_bits());
+            }
+        }
+        h.0
+    }
+}
+
+fn check_params(p: &MembraneParams) -> Result<(), MembraneError> {
+    let positive = |what: &'static str, v: f32| {
+        if v.is_finite() && v > 0.0 {
+            Ok(())
+        } else {
+            Err(MembraneError::BadParameter { what, value: v })
+        }
+    };
+    for m in &p.layers {
+        positive("a layer's Young's modulus", m.youngs_modulus_pa)?;
+        positive("a layer's thickness", m.thickness_m)?;
+        positive("a layer's density", m.density_kg_per_m3)?;
+    }
+    let non_negative = |what: &'static str, v: f32| {
+        if v.is_finite() && v >= 0.0 {
+            Ok(())
+        } else {
+            Err(MembraneError::BadParameter { what, value: v })
+        }
+    };
+    for e in p.link_modulus_pa {
+        non_negative("a link modulus", e)?;
+    }
+    non_negative("damping", p.damping_per_s)?;
+    non_negative("spring damping ratio", p.spring_damping_ratio)?;
+    non_negative("attachment stiffness", p.attach_pa_per_m)?;
+    if !(0.0..0.9).contains(&p.residual_strain) {
+        return Err(MembraneError::BadParameter {
+            what: "residual strain (0 to 0.9)",
+            value: p.residual_strain,
+        });
+    }
+    Ok(())
+}
