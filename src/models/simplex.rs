@@ -150,6 +150,19 @@ impl SimplexMesh {
         self.update_render(alive, &all);
     }
 
+    /// The triangle-mesh vertices whose runs change when `faces` die: those of the faces and
+    /// of their neighbours (whose normals at rest depend on them), sorted, each once.
+    pub fn vertices_around(&self, faces: &[u32]) -> Vec<u32> {
+        let mut changed: Vec<u32> = faces
+            .iter()
+            .flat_map(|&f| std::iter::once(f).chain(self.neighbors[f as usize]))
+            .flat_map(|f| self.faces[f as usize])
+            .collect();
+        changed.sort_unstable();
+        changed.dedup();
+        changed
+    }
+
     /// Brings the render runs up to date after faces died: the vertices `changed` (sorted,
     /// each once: those with a dead face in their fan, or a face whose rest normal changed)
     /// are split into runs again; every other vertex keeps its runs, renumbered. The runs stay
@@ -363,13 +376,7 @@ mod tests {
             for &f in &cut {
                 alive[f as usize] = false;
             }
-            let mut changed: Vec<u32> = cut
-                .iter()
-                .flat_map(|&f| std::iter::once(f).chain(s.neighbors[f as usize]))
-                .flat_map(|f| s.faces[f as usize])
-                .collect();
-            changed.sort_unstable();
-            changed.dedup();
+            let changed = s.vertices_around(&cut);
             assert!(changed.len() < s.vertex_count() / 4, "the update is local");
             s.update_render(&alive, &changed);
             let mut full = s.clone();

@@ -23,3 +23,13 @@ pub use quarantine::Quarantine;
 pub use snapshot::{ModelSnapshot, Snapshot, SnapshotBus, SurfaceRole, ToolSnapshot};
 pub use surface::{Collider, MeshSurface, TriangleSource};
 pub use world::{CHECKPOINT_STEPS, Interaction, ModelId, PointForces, PointSource, World};
+
+/// Runs `f` on a pool of `threads` workers (tests comparing the bytes of 1 and 2 threads).
+#[cfg(test)]
+pub(crate) fn on_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("a thread pool")
+        .install(f)
+}

@@ -97,11 +97,7 @@ fn a_model_that_goes_bad_is_frozen_alone_and_the_others_go_on() {
 /// Twelve balls pressed with pressures over six decades: the tool's reaction is a sum whose
 /// float rounding depends on the order of its terms.
 fn pressed_world(threads: usize, steps: u64) -> (u64, [Vec3; 2], Vec<[Vec3; 2]>, usize) {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .expect("a thread pool");
-    pool.install(|| {
+    crate::sim::on_threads(threads, || {
         let mut world = World::new();
         let c = centers(12);
         for (i, p) in c.iter().enumerate() {

@@ -224,11 +224,7 @@ fn cutting_removes_only_the_plane_links_inside_the_sphere() {
 #[test]
 fn one_or_two_threads_give_the_same_bytes() {
     let run = |threads| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .expect("pool");
-        pool.install(|| {
+        crate::sim::on_threads(threads, || {
             let mut m = Membrane::new(
                 tube(40, 32, 0.05, [0.01, 0.012, 0.013, 0.016]),
                 params(Integrator::Symplectic),

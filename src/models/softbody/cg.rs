@@ -398,11 +398,7 @@ mod tests {
     #[test]
     fn same_bytes_on_one_thread_or_two() {
         let run = |threads| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .expect("pool");
-            pool.install(|| {
+            crate::sim::on_threads(threads, || {
                 let (mut s, _) = chain(PARALLEL_ROWS + 3 * CHUNK + 5);
                 s.solve(1e-5, 0.0, 10_000);
                 s.x.iter()

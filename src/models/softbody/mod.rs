@@ -441,14 +441,7 @@ impl SoftBody {
     /// Brings the render runs up to date after the faces `removed` were cut: the runs around
     /// them, and around their neighbours (whose normals at rest changed), are made again.
     fn rebuild_render_runs(&mut self, removed: &[u32]) {
-        let mesh = &self.mesh;
-        let mut changed: Vec<u32> = removed
-            .iter()
-            .flat_map(|&f| std::iter::once(f).chain(mesh.neighbors[f as usize]))
-            .flat_map(|f| mesh.faces[f as usize])
-            .collect();
-        changed.sort_unstable();
-        changed.dedup();
+        let changed = self.mesh.vertices_around(removed);
         self.mesh.update_render(&self.alive, &changed);
     }
 

@@ -377,11 +377,7 @@ fn the_regions_of_one_closed_surface_share_its_gas() {
 /// its state hash and the tip's reaction. Big enough that the implicit rows, the normals and
 /// the CG sums are split into several parallel tasks, and the projection into its blocks.
 fn pressed_ball_on(threads: usize) -> (u64, [u32; 3]) {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .expect("a thread pool");
-    pool.install(|| {
+    crate::sim::on_threads(threads, || {
         let m = ball(4, 0.03, Vec3::ZERO);
         let mut b = body_of(&m, vec![0; m.triangle_count()]);
         b.stay_awake();
