@@ -1,173 +1,247 @@
-//! The membrane's forces (eqs 3-4) over a chunk of rows, all four layers: springs around,
-//! along and between layers, point damping, gravity, the attachments and the external
-//! forces. The state is only read, so chunks run in parallel; each writes its own rows.
+//! The membrane's forces (eqs 3-4), one grid row at a time: springs around, along and between
+//! layers, point damping, gravity, the attachments and the external forces. The state is only
+//! read, so chunks of rows run in parallel, each writing its own rows.
+//!
+//! The kernel works on whole rows: every spring family of a row is one loop over slices of
+//! equal length (positions and velocities of both ends, stiffness, rest length, damping), with
+//! no branches and no bounds checks inside, which the compiler turns into SIMD (AVX2 where the
+//! CPU has it, chosen at run time). A missing or cut spring has stiffness 0, so its damping
+//! (`beta k`) is 0 too, and it adds exactly nothing.
+//!
+//! Each node's force is summed in a fixed order (the spring from the row before, the springs
+//! around, the spring to the row after, the links, then the node's own terms), and a chunk's
+//! first row recomputes the spring from the row before it with the same inputs, so the bytes
+//! do not depend on how rows are split among threads.
 
-use super::{LAYERS, Membrane};
+use super::{ALONG, AROUND, LAYERS, LINK, Membrane, field};
 
-/// Where a chunk writes: for each component, one slice per layer covering the chunk's rows.
-pub(super) struct ChunkOut<'a> {
-    pub f: [[&'a mut [f32]; LAYERS]; 3],
+/// Read access to the state's rows: `get(l, i)` is row `i` of layer `l`, six runs of `cols`
+/// (positions x, y, z, velocities x, y, z).
+pub(super) trait Rows: Sync {
+    fn get(&self, l: usize, i: usize) -> &[f32];
 }
 
-/// A state to evaluate forces at (positions and velocities, structure of arrays).
-pub(super) struct StateRef<'a> {
-    pub x: [&'a [f32]; 3],
-    pub v: [&'a [f32]; 3],
+/// A whole state, read only.
+pub(super) struct Whole<'a> {
+    pub data: &'a [f32],
+    pub rows: usize,
+    pub cols: usize,
 }
 
-/// One spring from `a` to `b` (d = x_b - x_a): the force on `a` (the opposite on `b`).
+impl Rows for Whole<'_> {
+    fn get(&self, l: usize, i: usize) -> &[f32] {
+        let at = (l * self.rows + i) * 6 * self.cols;
+        &self.data[at..at + 6 * self.cols]
+    }
+}
+
+/// One row of nodes in one layer: positions and velocities, `len` long from a column.
+#[derive(Clone, Copy)]
+struct Run<'a> {
+    x: [&'a [f32]; 3],
+    v: [&'a [f32]; 3],
+}
+
+impl<'a> Run<'a> {
+    fn of(row: &'a [f32], cols: usize, from: usize, len: usize) -> Run<'a> {
+        let part = |c: usize| &row[c * cols + from..c * cols + from + len];
+        Run {
+            x: [part(0), part(1), part(2)],
+            v: [part(3), part(4), part(5)],
+        }
+    }
+}
+
+/// The springs from `a[j]` to `b[j]` for every `j < k.len()`: the force on `a[j]` (the
+/// opposite acts on `b[j]`) into `out[c * stride + j]`. Eqs 3-4: `k (|d| - L0)` along `d`
+/// plus `beta k (dv . d) / |d|` along it.
 #[inline(always)]
-fn spring(d: [f32; 3], dv: [f32; 3], k: f32, rest: f32, c: f32) -> [f32; 3] {
-    let len2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-    let len = len2.sqrt();
-    let inv = if len > 0.0 { 1.0 / len } else { 0.0 };
-    let along = dv[0] * d[0] + dv[1] * d[1] + dv[2] * d[2];
-    let s = (k * (len - rest) + c * along * inv) * inv;
-    [d[0] * s, d[1] * s, d[2] * s]
+fn springs(a: &Run, b: &Run, k: &[f32], rest: &[f32], beta: f32, out: &mut [f32], stride: usize) {
+    let n = k.len();
+    let rest = &rest[..n];
+    let (ax, ay, az) = (&a.x[0][..n], &a.x[1][..n], &a.x[2][..n]);
+    let (bx, by, bz) = (&b.x[0][..n], &b.x[1][..n], &b.x[2][..n]);
+    let (avx, avy, avz) = (&a.v[0][..n], &a.v[1][..n], &a.v[2][..n]);
+    let (bvx, bvy, bvz) = (&b.v[0][..n], &b.v[1][..n], &b.v[2][..n]);
+    let (ox, rest_out) = out.split_at_mut(stride);
+    let (oy, oz) = rest_out.split_at_mut(stride);
+    let (ox, oy, oz) = (&mut ox[..n], &mut oy[..n], &mut oz[..n]);
+    for j in 0..n {
+        let (dx, dy, dz) = (bx[j] - ax[j], by[j] - ay[j], bz[j] - az[j]);
+        let len = (dx * dx + dy * dy + dz * dz).sqrt();
+        let inv = 1.0 / if len > 1e-20 { len } else { 1e-20 };
+        let along = (bvx[j] - avx[j]) * dx + (bvy[j] - avy[j]) * dy + (bvz[j] - avz[j]) * dz;
+        let s = k[j] * ((len - rest[j]) + beta * along * inv) * inv;
+        ox[j] = dx * s;
+        oy[j] = dy * s;
+        oz[j] = dz * s;
+    }
 }
 
-/// Forces on rows `r0..r1` of every layer at `state` into `out` (overwritten).
-pub(super) fn chunk(m: &Membrane, state: &StateRef, r0: usize, r1: usize, out: &mut ChunkOut) {
+/// Per-thread buffers of the row kernel.
+#[derive(Default)]
+pub(super) struct RowScratch {
+    /// Forces of the current row: `[layer][component][column]`.
+    pub f: Vec<f32>,
+    /// The along springs' forces on the next row: `[layer][component][column]`.
+    carry: Vec<f32>,
+    /// One family of springs: `[component][column]`.
+    s: Vec<f32>,
+}
+
+impl RowScratch {
+    fn fit(&mut self, cols: usize) {
+        for b in [&mut self.f, &mut self.carry] {
+            b.clear();
+            b.resize(LAYERS * 3 * cols, 0.0);
+        }
+        self.s.clear();
+        self.s.resize(3 * cols, 0.0);
+    }
+
+    /// The forces on layer `l`, component `c` of the current row.
+    pub fn row(&self, l: usize, c: usize, cols: usize) -> &[f32] {
+        let at = (l * 3 + c) * cols;
+        &self.f[at..at + cols]
+    }
+}
+
+/// The external forces sorted by node, so each row finds its own by bisection.
+pub(super) fn sort_external(ext: &mut [(u32, glam::Vec3)]) {
+    ext.sort_by_key(|e| e.0);
+}
+
+/// The acceleration a node's own terms give it (eq 4's point damping `-D v` and gravity):
+/// they scale with its mass, so they are added as accelerations, not forces.
+#[inline(always)]
+pub(super) fn own_acceleration(p: &super::MembraneParams, c: usize, v: f32) -> f32 {
+    p.gravity[c] - p.damping_per_s * v
+}
+
+/// Forces on row `i` of every layer into `sc.f`: the springs, the attachments and the
+/// external forces (not the node's own terms, [`own_acceleration`]). `first` says that row
+/// `i - 1` was not the last row computed with `sc` (so its springs to this row are
+/// recomputed rather than carried).
+#[inline(always)]
+pub(super) fn row<R: Rows>(m: &Membrane, state: &R, i: usize, first: bool, sc: &mut RowScratch) {
     let (rows, cols) = (m.rows, m.cols);
-    let per = rows * cols;
-    let p = &m.params;
-    let (x, v) = (&state.x, &state.v);
-    // The along-spring force carried from row i to row i + 1, per layer and column.
-    let mut carry = vec![[0.0f32; 3]; LAYERS * cols];
-    let mut ring = vec![[0.0f32; 3]; cols];
-    for i in r0..r1 {
-        let local = (i - r0) * cols;
-        for l in 0..LAYERS {
-            let base = (l * rows + i) * cols;
-            let carried = &mut carry[l * cols..(l + 1) * cols];
-            if i == r0 && i > 0 {
-                // The spring from the row before (the chunk before computes it too).
-                for (j, slot) in carried.iter_mut().enumerate() {
-                    let a = base - cols + j;
-                    let fa = pair(
-                        x,
-                        v,
-                        a,
-                        a + cols,
-                        m.k_along[a],
-                        m.rest_along[a],
-                        m.c_along[a],
-                    );
-                    *slot = [-fa[0], -fa[1], -fa[2]];
-                }
-            } else if i == r0 {
-                carried.iter_mut().for_each(|s| *s = [0.0; 3]);
-            }
-            // Around: ring[j] is the spring from column j to the next.
-            for (j, slot) in ring.iter_mut().enumerate() {
-                let node = base + j;
-                let jn = if j + 1 < cols { j + 1 } else { 0 };
-                let k = m.k_around[node];
-                *slot = if k > 0.0 {
-                    pair(
-                        x,
-                        v,
-                        node,
-                        base + jn,
-                        k,
-                        m.rest_around[node],
-                        m.c_around[node],
-                    )
-                } else {
-                    [0.0; 3]
-                };
-            }
-            for j in 0..cols {
-                let before = if j > 0 {
-                    ring[j - 1]
-                } else if m.periodic {
-                    ring[cols - 1]
-                } else {
-                    [0.0; 3]
-                };
-                let node = base + j;
-                // Along: the spring to the next row, carried to it.
-                let ahead = if i + 1 < rows && m.k_along[node] > 0.0 {
-                    pair(
-                        x,
-                        v,
-                        node,
-                        node + cols,
-                        m.k_along[node],
-                        m.rest_along[node],
-                        m.c_along[node],
-                    )
-                } else {
-                    [0.0; 3]
-                };
-                let behind = carried[j];
-                carried[j] = [-ahead[0], -ahead[1], -ahead[2]];
-                for c in 0..3 {
-                    out.f[c][l][local + j] = ring[j][c] - before[c] + ahead[c] + behind[c];
-                }
-            }
-        }
-        // Links between layers, at this row.
-        for l in 0..LAYERS - 1 {
-            for j in 0..cols {
-                let t = i * cols + j;
-                let link = l * per + t;
-                let k = m.k_link[link];
-                if k <= 0.0 {
-                    continue;
-                }
-                let fs = pair(x, v, link, link + per, k, m.rest_link[link], m.c_link[link]);
-                for c in 0..3 {
-                    out.f[c][l][local + j] += fs[c];
-                    out.f[c][l + 1][local + j] -= fs[c];
-                }
-            }
-        }
-        // Per node: point damping, gravity, attachments.
-        for l in 0..LAYERS {
-            let slot = match l {
-                0 => Some(0),
-                x if x == LAYERS - 1 => Some(1),
-                _ => None,
-            };
-            for j in 0..cols {
-                let node = (l * rows + i) * cols + j;
-                let mass = m.mass[node];
-                let ka = m.k_attach[node];
-                for c in 0..3 {
-                    let mut add = mass * (p.gravity[c] - p.damping_per_s * v[c][node]);
-                    if let (Some(s), true) = (slot, ka > 0.0) {
-                        add -= ka * (x[c][node] - m.target[c][s * per + i * cols + j]);
-                    }
-                    out.f[c][l][local + j] += add;
-                }
-            }
-        }
+    if sc.s.len() != 3 * cols {
+        sc.fit(cols);
     }
-    // External forces on these rows.
-    for &(node, fe) in &m.external {
-        let (l, i, j) = m.coords(node as usize);
-        if (r0..r1).contains(&i) {
-            let local = (i - r0) * cols + j;
+    let params = |b: usize, f: usize| {
+        let at = (b * field::COUNT + f) * cols;
+        &m.rows_data[at..at + cols]
+    };
+    let RowScratch { f, carry, s } = sc;
+    for l in 0..LAYERS {
+        let b = l * rows + i;
+        let fl = &mut f[l * 3 * cols..(l + 1) * 3 * cols];
+        let cl = &mut carry[l * 3 * cols..(l + 1) * 3 * cols];
+        let here_row = state.get(l, i);
+        let here = Run::of(here_row, cols, 0, cols);
+        // The spring from the row before.
+        if i == 0 {
+            fl.fill(0.0);
+        } else if first {
+            let before = Run::of(state.get(l, i - 1), cols, 0, cols);
+            let (k, rest) = (
+                params(b - 1, field::K[ALONG]),
+                params(b - 1, field::REST[ALONG]),
+            );
+            springs(&before, &here, k, rest, m.beta[b - 1][ALONG], s, cols);
+            for (o, v) in fl.iter_mut().zip(s.iter()) {
+                *o = -v;
+            }
+        } else {
+            fl.copy_from_slice(cl);
+        }
+        // Around: column j to j + 1 in one loop, the closing spring of a ring on its own.
+        let (k, rest) = (params(b, field::K[AROUND]), params(b, field::REST[AROUND]));
+        let beta = m.beta[b][AROUND];
+        let (a, bb) = (
+            Run::of(here_row, cols, 0, cols - 1),
+            Run::of(here_row, cols, 1, cols - 1),
+        );
+        springs(&a, &bb, &k[..cols - 1], rest, beta, s, cols);
+        for c in 0..3 {
+            // Node j gets spring j and loses spring j - 1.
+            let (fc, sc) = (
+                &mut fl[c * cols..(c + 1) * cols],
+                &s[c * cols..c * cols + cols - 1],
+            );
+            fc[0] += sc[0];
+            for ((o, a), b) in fc[1..cols - 1].iter_mut().zip(&sc[1..]).zip(sc) {
+                *o += a - b;
+            }
+            fc[cols - 1] -= sc[cols - 2];
+        }
+        if k[cols - 1] > 0.0 {
+            let (a, bb) = (
+                Run::of(here_row, cols, cols - 1, 1),
+                Run::of(here_row, cols, 0, 1),
+            );
+            springs(&a, &bb, &k[cols - 1..], &rest[cols - 1..], beta, s, cols);
             for c in 0..3 {
-                out.f[c][l][local] += fe[c];
+                fl[c * cols + cols - 1] += s[c * cols];
+                fl[c * cols] -= s[c * cols];
+            }
+        }
+        // Along: to the next row, whose share is carried.
+        if i + 1 < rows {
+            let next = Run::of(state.get(l, i + 1), cols, 0, cols);
+            let (k, rest) = (params(b, field::K[ALONG]), params(b, field::REST[ALONG]));
+            springs(&here, &next, k, rest, m.beta[b][ALONG], s, cols);
+            for ((o, cv), v) in fl.iter_mut().zip(cl.iter_mut()).zip(s.iter()) {
+                *o += v;
+                *cv = -v;
             }
         }
     }
-}
-
-/// The spring from node `a` to node `b` at the state: its force on `a` (the opposite on `b`).
-#[inline(always)]
-fn pair(
-    x: &[&[f32]; 3],
-    v: &[&[f32]; 3],
-    a: usize,
-    b: usize,
-    k: f32,
-    rest: f32,
-    c: f32,
-) -> [f32; 3] {
-    let d = [x[0][b] - x[0][a], x[1][b] - x[1][a], x[2][b] - x[2][a]];
-    let dv = [v[0][b] - v[0][a], v[1][b] - v[1][a], v[2][b] - v[2][a]];
-    spring(d, dv, k, rest, c)
+    // Links between layers at this row.
+    for l in 0..LAYERS - 1 {
+        let b = l * rows + i;
+        let a = Run::of(state.get(l, i), cols, 0, cols);
+        let bb = Run::of(state.get(l + 1, i), cols, 0, cols);
+        let (k, rest) = (params(b, field::K[LINK]), params(b, field::REST[LINK]));
+        springs(&a, &bb, k, rest, m.beta[b][LINK], s, cols);
+        let (lower, upper) = f.split_at_mut((l + 1) * 3 * cols);
+        let fa = &mut lower[l * 3 * cols..];
+        let fb = &mut upper[..3 * cols];
+        for ((oa, ob), v) in fa.iter_mut().zip(fb.iter_mut()).zip(s.iter()) {
+            *oa += v;
+            *ob -= v;
+        }
+    }
+    // The attachments (a node's point damping and gravity are its own: see
+    // [`own_acceleration`]).
+    for (slot, l) in [(0usize, 0usize), (1, LAYERS - 1)] {
+        let x = state.get(l, i);
+        let at = (slot * rows + i) * 4 * cols;
+        let attach = &m.attach[at..at + 4 * cols];
+        let ka = &attach[..cols];
+        for c in 0..3 {
+            let fc = &mut f[(l * 3 + c) * cols..(l * 3 + c + 1) * cols];
+            let (x, tg) = (
+                &x[c * cols..(c + 1) * cols],
+                &attach[(1 + c) * cols..(2 + c) * cols],
+            );
+            for j in 0..cols {
+                fc[j] -= ka[j] * (x[j] - tg[j]);
+            }
+        }
+    }
+    for l in 0..LAYERS {
+        let base = (l * rows + i) * cols;
+        // External forces on this row of this layer.
+        let from = m.external.partition_point(|e| (e.0 as usize) < base);
+        for &(node, fe) in m.external[from..]
+            .iter()
+            .take_while(|e| (e.0 as usize) < base + cols)
+        {
+            let j = node as usize - base;
+            for c in 0..3 {
+                f[(l * 3 + c) * cols + j] += fe[c];
+            }
+        }
+    }
 }

@@ -4,158 +4,263 @@
 //! the paper's resolution).
 //!
 //! Rows go in fixed chunks; every sum is per node, so the bytes do not depend on the number
-//! of threads.
+//! of threads. The symplectic step is one pass in place: a chunk computes a row's forces and
+//! advances that row at once (no later row of the chunk reads it: the springs to it are
+//! carried). The first and last rows of each chunk are read by the neighbouring chunks, so
+//! their new state waits in a buffer until every chunk is done.
 
-use super::forces::{self, ChunkOut, StateRef};
-use super::{Integrator, LAYERS, Membrane, State};
+use super::forces::{self, RowScratch, Rows, Whole};
+use super::{LAYERS, Membrane, State, field};
 use rayon::prelude::*;
 
 /// Rows per parallel task.
-const CHUNK_ROWS: usize = 8;
+const CHUNK_ROWS: usize = 16;
 
 #[derive(Debug, Clone, Default)]
 pub(super) struct Scratch {
-    f: [Vec<f32>; 3],
-    /// Runge-Kutta: a stage's state and the running sums.
+    /// Forces in row blocks: `[block][component][column]`.
+    f: Vec<f32>,
+    /// Runge-Kutta's stage state and running sums.
     stage: State,
-    sum_x: [Vec<f32>; 3],
-    sum_v: [Vec<f32>; 3],
+    sum: Vec<f32>,
 }
 
 pub(super) fn step(m: &mut Membrane, dt: f32) {
     let dt = if dt.is_finite() && dt > 0.0 { dt } else { 1e-3 };
+    forces::sort_external(&mut m.external);
     let mut sc = std::mem::take(&mut m.scratch);
-    let n = m.len();
-    for c in 0..3 {
-        sc.f[c].resize(n, 0.0);
-    }
     match m.params.integrator {
-        Integrator::Symplectic => symplectic(m, &mut sc, dt),
-        Integrator::RungeKutta4 => runge_kutta(m, &mut sc, dt),
+        super::Integrator::Symplectic => symplectic(m, dt),
+        super::Integrator::RungeKutta4 => runge_kutta(m, &mut sc, dt),
     }
     m.scratch = sc;
 }
 
-/// `a` (one value per node, layer-major) cut into chunks of [`CHUNK_ROWS`] rows: for each
-/// chunk, the slice of each layer.
-fn chunks_of(a: &mut [f32], rows: usize, cols: usize) -> Vec<[&mut [f32]; LAYERS]> {
-    let per = rows * cols;
-    let count = rows.div_ceil(CHUNK_ROWS);
-    let mut out: Vec<Vec<&mut [f32]>> = (0..count).map(|_| Vec::with_capacity(LAYERS)).collect();
-    for layer in a.chunks_mut(per) {
-        for (c, piece) in layer.chunks_mut(CHUNK_ROWS * cols).enumerate() {
-            out[c].push(piece);
+fn chunk_rows(c: usize, rows: usize) -> (usize, usize) {
+    let r0 = c * CHUNK_ROWS;
+    (r0, (r0 + CHUNK_ROWS).min(rows))
+}
+
+/// Forces at `state` for every node into `f` (row blocks of three components), the node's
+/// own terms included.
+fn forces_all(m: &Membrane, state: &[f32], f: &mut Vec<f32>) {
+    let (rows, cols) = (m.rows, m.cols);
+    f.resize(m.len() * 3, 0.0);
+    let whole = Whole {
+        data: state,
+        rows,
+        cols,
+    };
+    // Per chunk, the blocks of each layer.
+    let mut parts: Vec<Vec<&mut [f32]>> =
+        (0..rows.div_ceil(CHUNK_ROWS)).map(|_| Vec::new()).collect();
+    for layer in f.chunks_mut(rows * 3 * cols) {
+        for (c, piece) in layer.chunks_mut(CHUNK_ROWS * 3 * cols).enumerate() {
+            parts[c].push(piece);
         }
     }
-    out.into_iter()
-        .map(|v| match <[&mut [f32]; LAYERS]>::try_from(v) {
-            Ok(a) => a,
-            Err(_) => unreachable!("every layer has the same rows"),
-        })
-        .collect()
-}
-
-fn state_ref(s: &State) -> StateRef<'_> {
-    StateRef {
-        x: [&s.x[0], &s.x[1], &s.x[2]],
-        v: [&s.v[0], &s.v[1], &s.v[2]],
-    }
-}
-
-/// Forces at `state` for every node into `f`.
-fn forces_all(m: &Membrane, state: &StateRef, f: &mut [Vec<f32>; 3]) {
-    let (rows, cols) = (m.rows, m.cols);
-    let [fx, fy, fz] = f;
-    let mut outs: Vec<ChunkOut> = chunks_of(fx, rows, cols)
-        .into_iter()
-        .zip(chunks_of(fy, rows, cols))
-        .zip(chunks_of(fz, rows, cols))
-        .map(|((a, b), c)| ChunkOut { f: [a, b, c] })
-        .collect();
-    outs.par_iter_mut().enumerate().for_each(|(c, out)| {
-        let r0 = c * CHUNK_ROWS;
-        let r1 = (r0 + CHUNK_ROWS).min(rows);
-        forces::chunk(m, state, r0, r1, out);
-    });
-}
-
-fn symplectic(m: &mut Membrane, sc: &mut Scratch, dt: f32) {
-    let state = std::mem::take(&mut m.state);
-    forces_all(m, &state_ref(&state), &mut sc.f);
-    m.state = state;
-    let mass = &m.mass;
-    let s = &mut m.state;
-    for c in 0..3 {
-        let (x, v, f) = (&mut s.x[c], &mut s.v[c], &sc.f[c]);
-        x.par_chunks_mut(4096)
-            .zip(v.par_chunks_mut(4096))
-            .zip(f.par_chunks(4096))
-            .zip(mass.par_chunks(4096))
-            .for_each(|(((x, v), f), mass)| {
-                for k in 0..x.len() {
-                    v[k] += dt * f[k] / mass[k];
-                    x[k] += dt * v[k];
+    parts
+        .par_iter_mut()
+        .enumerate()
+        .for_each_init(RowScratch::default, |sc, (chunk, out)| {
+            let (r0, r1) = chunk_rows(chunk, rows);
+            for i in r0..r1 {
+                forces::row(m, &whole, i, i == r0, sc);
+                for (l, o) in out.iter_mut().enumerate() {
+                    let b = l * rows + i;
+                    let (mass, row) = (&m.mass[b * cols..(b + 1) * cols], whole.get(l, i));
+                    for c in 0..3 {
+                        let o = &mut o[((i - r0) * 3 + c) * cols..((i - r0) * 3 + c + 1) * cols];
+                        let v = &row[(3 + c) * cols..(4 + c) * cols];
+                        for (((o, f), w), v) in
+                            o.iter_mut().zip(sc.row(l, c, cols)).zip(mass).zip(v)
+                        {
+                            *o = f + w * forces::own_acceleration(&m.params, c, *v);
+                        }
+                    }
                 }
-            });
+            }
+        });
+}
+
+/// A chunk's view of the state in the symplectic pass: its interior rows to write, and the
+/// first and last rows of every chunk to read.
+struct ChunkView<'a, 'e> {
+    r0: usize,
+    rows: usize,
+    /// Per layer, rows `r0 + 1 .. r1 - 1`.
+    own: Vec<Vec<&'a mut [f32]>>,
+    /// Per row block, the first and last rows of every chunk.
+    edges: &'e [Option<&'a [f32]>],
+}
+
+impl Rows for ChunkView<'_, '_> {
+    fn get(&self, l: usize, i: usize) -> &[f32] {
+        match self.edges[l * self.rows + i] {
+            Some(r) => r,
+            None => &self.own[l][i - self.r0 - 1][..],
+        }
     }
+}
+
+/// Advances one row (six runs of `cols`) by symplectic Euler under the forces `f`.
+#[inline(always)]
+fn advance(m: &Membrane, l: usize, i: usize, f: &RowScratch, row: &mut [f32], dt: f32) {
+    let cols = m.cols;
+    let b = l * m.rows + i;
+    let at = (b * field::COUNT + field::INV_MASS) * cols;
+    let inv_m = &m.rows_data[at..at + cols];
+    let (g, d) = (m.params.gravity, m.params.damping_per_s);
+    let (xs, vs) = row.split_at_mut(3 * cols);
+    for c in 0..3 {
+        let fc = f.row(l, c, cols);
+        let x = &mut xs[c * cols..(c + 1) * cols];
+        let v = &mut vs[c * cols..(c + 1) * cols];
+        for j in 0..cols {
+            let a = fc[j] * inv_m[j] + (g[c] - d * v[j]);
+            v[j] += dt * a;
+            x[j] += dt * v[j];
+        }
+    }
+}
+
+/// One chunk's symplectic pass, compiled for the widest vector unit the CPU has (the loops
+/// are plain element-wise arithmetic, so every width gives the same bytes).
+struct ChunkPass<'v, 'a, 'e, 'm> {
+    m: &'m Membrane,
+    view: &'v mut ChunkView<'a, 'e>,
+    sc: &'v mut RowScratch,
+    dt: f32,
+}
+
+impl pulp::WithSimd for ChunkPass<'_, '_, '_, '_> {
+    /// The new state of the chunk's first and last rows, by row block.
+    type Output = Vec<(usize, Vec<f32>)>;
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) -> Self::Output {
+        let ChunkPass { m, view, sc, dt } = self;
+        let rows = m.rows;
+        let (r0, r1) = (view.r0, (view.r0 + CHUNK_ROWS).min(rows));
+        let mut later = Vec::new();
+        for i in r0..r1 {
+            forces::row(m, &*view, i, i == r0, sc);
+            for l in 0..LAYERS {
+                if i == r0 || i + 1 == r1 {
+                    let mut row = view.get(l, i).to_vec();
+                    advance(m, l, i, sc, &mut row, dt);
+                    later.push((l * rows + i, row));
+                } else {
+                    advance(m, l, i, sc, view.own[l][i - r0 - 1], dt);
+                }
+            }
+        }
+        later
+    }
+}
+
+fn symplectic(m: &mut Membrane, dt: f32) {
+    let (rows, cols) = (m.rows, m.cols);
+    let width = 6 * cols;
+    let chunks = rows.div_ceil(CHUNK_ROWS);
+    let mut data = std::mem::take(&mut m.state.data);
+    let deferred: Vec<Vec<(usize, Vec<f32>)>> = {
+        let mut edges: Vec<Option<&[f32]>> = Vec::with_capacity(LAYERS * rows);
+        let mut own: Vec<Vec<Vec<&mut [f32]>>> = (0..chunks)
+            .map(|_| (0..LAYERS).map(|_| Vec::new()).collect())
+            .collect();
+        for (k, row) in data.chunks_mut(width).enumerate() {
+            let (l, i) = (k / rows, k % rows);
+            let (r0, r1) = chunk_rows(i / CHUNK_ROWS, rows);
+            if i == r0 || i + 1 == r1 {
+                edges.push(Some(row));
+            } else {
+                edges.push(None);
+                own[i / CHUNK_ROWS][l].push(row);
+            }
+        }
+        let m = &*m;
+        let edges = &edges[..];
+        let mut views: Vec<ChunkView> = own
+            .into_iter()
+            .enumerate()
+            .map(|(c, own)| ChunkView {
+                r0: c * CHUNK_ROWS,
+                rows,
+                own,
+                edges,
+            })
+            .collect();
+        views
+            .par_iter_mut()
+            .map_init(RowScratch::default, |sc, view| {
+                pulp::Arch::new().dispatch(ChunkPass { m, view, sc, dt })
+            })
+            .collect()
+    };
+    for (k, row) in deferred.into_iter().flatten() {
+        data[k * width..(k + 1) * width].copy_from_slice(&row);
+    }
+    m.state.data = data;
 }
 
 fn runge_kutta(m: &mut Membrane, sc: &mut Scratch, dt: f32) {
-    let n = m.len();
-    let state = std::mem::take(&mut m.state);
-    for c in 0..3 {
-        sc.sum_x[c].clear();
-        sc.sum_x[c].resize(n, 0.0);
-        sc.sum_v[c].clear();
-        sc.sum_v[c].resize(n, 0.0);
-    }
-    let mut stage = std::mem::take(&mut sc.stage);
-    stage.x.clone_from(&state.x);
-    stage.v.clone_from(&state.v);
+    let (rows, cols) = (m.rows, m.cols);
+    let blocks = LAYERS * rows;
+    let start = std::mem::take(&mut m.state.data);
+    let mut stage = std::mem::take(&mut sc.stage.data);
+    stage.clone_from(&start);
+    sc.sum.clear();
+    sc.sum.resize(start.len(), 0.0);
     // Stage k: derivative (v, F/m) at the stage's state; weights 1, 2, 2, 1; the next stage
     // starts from the state plus `h_k` times the derivative.
     let weights = [1.0f32, 2.0, 2.0, 1.0];
     let next_h = [0.5 * dt, 0.5 * dt, dt, 0.0];
     for k in 0..4 {
-        forces_all(m, &state_ref(&stage), &mut sc.f);
-        let mass = &m.mass;
-        for c in 0..3 {
-            let (w, h) = (weights[k], next_h[k]);
-            let sv = &stage.v[c];
-            for i in 0..n {
-                let a = sc.f[c][i] / mass[i];
-                sc.sum_x[c][i] += w * sv[i];
-                sc.sum_v[c][i] += w * a;
-            }
-            if k < 3 {
-                // The next stage's state from the start, with this stage's derivative.
-                let (x0, v0) = (&state.x[c], &state.v[c]);
-                let vs: Vec<f32> = stage.v[c].clone();
-                for i in 0..n {
-                    let a = sc.f[c][i] / mass[i];
-                    stage.x[c][i] = x0[i] + h * vs[i];
-                    stage.v[c][i] = v0[i] + h * a;
+        forces_all(m, &stage, &mut sc.f);
+        let (w, h) = (weights[k], next_h[k]);
+        for b in 0..blocks {
+            let at = (b * field::COUNT + field::INV_MASS) * cols;
+            let inv_m = &m.rows_data[at..at + cols];
+            for c in 0..3 {
+                let (xo, vo) = ((b * 6 + c) * cols, (b * 6 + 3 + c) * cols);
+                let fo = (b * 3 + c) * cols;
+                for j in 0..cols {
+                    let v = stage[vo + j];
+                    let a = sc.f[fo + j] * inv_m[j];
+                    sc.sum[xo + j] += w * v;
+                    sc.sum[vo + j] += w * a;
+                    if k < 3 {
+                        // The next stage's state from the start, with this derivative.
+                        stage[xo + j] = start[xo + j] + h * v;
+                        stage[vo + j] = start[vo + j] + h * a;
+                    }
                 }
             }
         }
     }
-    let mut state = state;
-    for c in 0..3 {
-        for i in 0..n {
-            state.x[c][i] += dt / 6.0 * sc.sum_x[c][i];
-            state.v[c][i] += dt / 6.0 * sc.sum_v[c][i];
-        }
+    let mut state = start;
+    for (s, d) in state.iter_mut().zip(&sc.sum) {
+        *s += dt / 6.0 * d;
     }
-    m.state = state;
-    sc.stage = stage;
+    m.state.data = state;
+    sc.stage.data = stage;
 }
 
 #[cfg(test)]
 pub(super) mod tests_support {
     use super::*;
 
-    /// The forces on every node at the membrane's state, into `f`.
-    pub fn forces(m: &Membrane, f: &mut [Vec<f32>; 3]) {
-        forces_all(m, &state_ref(&m.state), f);
+    /// The forces on every node at the membrane's state.
+    pub fn forces(m: &Membrane) -> Vec<glam::Vec3> {
+        let mut f = Vec::new();
+        forces_all(m, &m.state.data, &mut f);
+        let cols = m.cols;
+        (0..m.len())
+            .map(|node| {
+                let (b, j) = (node / cols, node % cols);
+                glam::Vec3::from_array(std::array::from_fn(|c| f[(b * 3 + c) * cols + j]))
+            })
+            .collect()
     }
 }

@@ -10,7 +10,8 @@
 //! residual stress equals a force on the cut surface).
 //!
 //! Forces (eqs 3-4): each spring pulls with `k (|d| - L0)` along `d` plus a damping force along
-//! it, `c_s (v_j - v_i) . d`; each node feels point damping `-D v` (eq 4's `f`) and gravity.
+//! it, `c_s (v_j - v_i) . d / |d|` with `c_s = beta k` (stiffness-proportional, `beta` per row
+//! and family for a damping ratio); each node feels point damping `-D v` (eq 4's `f`) and gravity.
 //! Masses come from each layer's density and thickness over each node's share of the area;
 //! spring stiffness from its layer's modulus: `k = E t w / L0` for a spring of rest length
 //! `L0` spanning a strip `w` wide (a sheet of thickness `t`), and `E A / L0` for a link over
@@ -20,8 +21,9 @@
 //! Integrators (see [`Integrator`]): symplectic Euler and classical Runge-Kutta (the paper's),
 //! each stable only below about `0.7 dx / c` ([`Membrane::explicit_step_limit`]); at the
 //! paper's resolution with physical masses that is a fraction of a millisecond (see
-//! `docs/rectum.md`). f32 state in structure-of-arrays form; rows are stepped in fixed chunks
-//! in parallel (rayon), the same bytes on any number of threads.
+//! `docs/rectum.md`). f32 state in row blocks (each row of each layer one contiguous run of
+//! positions and velocities); rows are stepped in fixed chunks in parallel (rayon), the same
+//! bytes on any number of threads.
 
 mod forces;
 mod integrate;
@@ -71,7 +73,7 @@ pub struct MembraneParams {
     pub link_modulus_pa: [f32; LAYERS - 1],
     /// Eq 4's point damping D as a rate, 1/s (force -D m v).
     pub damping_per_s: f32,
-    /// Damping along each spring, as a fraction of its critical damping for the lighter end.
+    /// Damping along each spring, as a fraction of critical for its row's mean node mass.
     pub spring_damping_ratio: f32,
     /// Stiffness per unit area holding layer 0 to its targets and layer 3 to its rest, Pa/m.
     pub attach_pa_per_m: f32,
@@ -117,12 +119,27 @@ pub enum MembraneError {
     BadParameter { what: &'static str, value: f32 },
 }
 
-/// Structure-of-arrays state: one entry per node, `node = (l * rows + i) * cols + j`.
+/// The state in row blocks: for layer `l` and row `i` (block `b = l * rows + i`), the row's
+/// positions x, y, z then velocities x, y, z, `cols` values each, at `(b * 6 + c) * cols + j`.
+/// A row is one contiguous run, so a pass over the grid reads a few long streams.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct State {
-    pub x: [Vec<f32>; 3],
-    pub v: [Vec<f32>; 3],
+    pub data: Vec<f32>,
 }
+
+/// Fields of a row block of [`Membrane::rows_data`]: stiffness and rest length of the spring
+/// to the next column, to the next row and to the next layer, then 1 / mass.
+pub(crate) mod field {
+    pub const K: [usize; 3] = [0, 2, 4];
+    pub const REST: [usize; 3] = [1, 3, 5];
+    pub const INV_MASS: usize = 6;
+    pub const COUNT: usize = 7;
+}
+
+/// Spring families: index into [`field::K`] and [`field::REST`].
+pub(crate) const AROUND: usize = 0;
+pub(crate) const ALONG: usize = 1;
+pub(crate) const LINK: usize = 2;
 
 /// The membrane.
 #[derive(Debug, Clone)]
@@ -133,22 +150,16 @@ pub struct Membrane {
     periodic: bool,
     state: State,
     mass: Vec<f32>,
-    /// Springs: around (node to the next column), along (node to the next row), link (node
-    /// to the same place in the next layer). Stiffness 0 marks a missing spring.
-    k_around: Vec<f32>,
-    rest_around: Vec<f32>,
-    k_along: Vec<f32>,
-    rest_along: Vec<f32>,
-    k_link: Vec<f32>,
-    rest_link: Vec<f32>,
-    /// Spring damping coefficients, N s/m (one per spring, as the stiffness).
-    c_around: Vec<f32>,
-    c_along: Vec<f32>,
-    c_link: Vec<f32>,
-    /// Stiffness holding each node of layers 0 and 3 to its target, N/m (0 elsewhere).
-    k_attach: Vec<f32>,
-    /// Targets of layer 0 (set by the owner) and rest of layer 3: per node of those layers.
-    target: [Vec<f32>; 3],
+    /// Per row block, [`field::COUNT`] runs of `cols`: the springs that start at each node
+    /// (around: to the next column; along: to the next row; link: to the same place in the
+    /// next layer) and the node's 1 / mass. Stiffness 0 marks a missing or cut spring.
+    rows_data: Vec<f32>,
+    /// Damping of each spring family per row block, as a time: `c = beta k` (stiffness-
+    /// proportional), `beta = 2 zeta sqrt(m / k)` from the row's springs.
+    beta: Vec<[f32; 3]>,
+    /// Attachments of layers 0 (slot 0, to targets the owner sets) and 3 (slot 1, to its
+    /// rest): per slot and row, four runs of `cols`: stiffness N/m, then the target x, y, z.
+    attach: Vec<f32>,
     /// Nodes freed by a cut (their in-layer springs carry the residual strain).
     released: Vec<bool>,
     /// External forces for the next step (node, force), N.
@@ -190,33 +201,27 @@ impl Membrane {
                 shape.periodic.then_some(0)
             }
         };
+        let mut data = vec![0.0; 6 * n];
+        for l in 0..LAYERS {
+            for i in 0..rows {
+                for j in 0..cols {
+                    let p = at(l, i, j);
+                    for c in 0..3 {
+                        data[((l * rows + i) * 6 + c) * cols + j] = p[c];
+                    }
+                }
+            }
+        }
         let mut m = Membrane {
             params,
             rows,
             cols,
             periodic: shape.periodic,
-            state: State {
-                x: std::array::from_fn(|c| {
-                    shape
-                        .positions
-                        .iter()
-                        .flat_map(|layer| layer.iter().map(move |p| p[c]))
-                        .collect()
-                }),
-                v: std::array::from_fn(|_| vec![0.0; n]),
-            },
+            state: State { data },
             mass: vec![0.0; n],
-            k_around: vec![0.0; n],
-            rest_around: vec![0.0; n],
-            k_along: vec![0.0; n],
-            rest_along: vec![0.0; n],
-            k_link: vec![0.0; (LAYERS - 1) * per],
-            rest_link: vec![0.0; (LAYERS - 1) * per],
-            c_around: vec![0.0; n],
-            c_along: vec![0.0; n],
-            c_link: vec![0.0; (LAYERS - 1) * per],
-            k_attach: vec![0.0; n],
-            target: std::array::from_fn(|_| vec![0.0; 2 * per]),
+            rows_data: vec![0.0; field::COUNT * n],
+            beta: vec![[0.0; 3]; LAYERS * rows],
+            attach: vec![0.0; 2 * 4 * per],
             released: vec![false; n],
             external: Vec::new(),
             scratch: integrate::Scratch::default(),
@@ -260,8 +265,8 @@ impl Membrane {
                             return Err(MembraneError::Coincident { layer: l, node });
                         }
                         let w = half(along(-1), along(1));
-                        m.k_around[node] = et * w / l0;
-                        m.rest_around[node] = l0;
+                        *m.spring_mut(field::K[AROUND], node) = et * w / l0;
+                        *m.spring_mut(field::REST[AROUND], node) = l0;
                     }
                     if i + 1 < rows {
                         let l0 = (at(l, i + 1, j) - p).length();
@@ -269,8 +274,8 @@ impl Membrane {
                             return Err(MembraneError::Coincident { layer: l, node });
                         }
                         let w = half(around(-1), around(1));
-                        m.k_along[node] = et * w / l0;
-                        m.rest_along[node] = l0;
+                        *m.spring_mut(field::K[ALONG], node) = et * w / l0;
+                        *m.spring_mut(field::REST[ALONG], node) = l0;
                     }
                 }
             }
@@ -279,16 +284,18 @@ impl Membrane {
             for i in 0..rows {
                 for j in 0..cols {
                     let node = m.node(l, i, j);
-                    let link = l * per + i * cols + j;
                     let l0 = (at(l + 1, i, j) - at(l, i, j)).length();
                     if l0 <= 0.0 {
                         return Err(MembraneError::Coincident { layer: l, node });
                     }
                     let a = 0.5 * (area[node] + area[node + per]);
-                    m.k_link[link] = params.link_modulus_pa[l] * a / l0;
-                    m.rest_link[link] = l0;
+                    *m.spring_mut(field::K[LINK], node) = params.link_modulus_pa[l] * a / l0;
+                    *m.spring_mut(field::REST[LINK], node) = l0;
                 }
             }
+        }
+        for node in 0..n {
+            *m.spring_mut(field::INV_MASS, node) = 1.0 / m.mass[node];
         }
         // Attachments: layer 0 to its targets (its rest until the owner moves them), layer 3
         // to its rest.
@@ -296,10 +303,11 @@ impl Membrane {
             for i in 0..rows {
                 for j in 0..cols {
                     let node = m.node(l, i, j);
-                    m.k_attach[node] = params.attach_pa_per_m * area[node];
                     let p = at(l, i, j);
+                    let row = (slot * rows + i) * 4;
+                    m.attach[row * cols + j] = params.attach_pa_per_m * area[node];
                     for c in 0..3 {
-                        m.target[c][slot * per + i * cols + j] = p[c];
+                        m.attach[(row + 1 + c) * cols + j] = p[c];
                     }
                 }
             }
@@ -308,26 +316,47 @@ impl Membrane {
         Ok(m)
     }
 
-    /// Spring damping from each spring's stiffness and its lighter end's mass: a fraction of
-    /// critical, `2 zeta sqrt(k m)`.
+    /// Index of `f` (a [`field`]) of `node` in `rows_data`.
+    fn spring_at(&self, f: usize, node: usize) -> usize {
+        let (b, j) = (node / self.cols, node % self.cols);
+        (b * field::COUNT + f) * self.cols + j
+    }
+
+    fn spring(&self, f: usize, node: usize) -> f32 {
+        self.rows_data[self.spring_at(f, node)]
+    }
+
+    fn spring_mut(&mut self, f: usize, node: usize) -> &mut f32 {
+        let at = self.spring_at(f, node);
+        &mut self.rows_data[at]
+    }
+
+    /// Index of component `c` (0-2 position, 3-5 velocity) of `node` in the state.
+    fn state_at(&self, c: usize, node: usize) -> usize {
+        let (b, j) = (node / self.cols, node % self.cols);
+        (b * 6 + c) * self.cols + j
+    }
+
+    /// Spring damping, stiffness-proportional per family and row block: `c = beta k` with
+    /// `beta = 2 zeta sqrt(m / k)` for the row's mean stiffness and its nodes' mean mass, so a
+    /// spring of the row is damped at about `zeta` of critical.
     fn set_spring_damping(&mut self) {
         let z = self.params.spring_damping_ratio;
-        let per = self.rows * self.cols;
-        for node in 0..self.mass.len() {
-            let (l, i, j) = self.coords(node);
-            let lighter = |other: usize| self.mass[node].min(self.mass[other]);
-            if let Some(jn) = self.next_col(j) {
-                let k = self.k_around[node];
-                self.c_around[node] = 2.0 * z * (k * lighter(self.node(l, i, jn))).sqrt();
-            }
-            if i + 1 < self.rows {
-                let k = self.k_along[node];
-                self.c_along[node] = 2.0 * z * (k * lighter(node + self.cols)).sqrt();
-            }
-            if l + 1 < LAYERS {
-                let link = l * per + i * self.cols + j;
-                let k = self.k_link[link];
-                self.c_link[link] = 2.0 * z * (k * lighter(node + per)).sqrt();
+        let cols = self.cols;
+        for b in 0..LAYERS * self.rows {
+            let nodes = b * cols..(b + 1) * cols;
+            let mass = self.mass[nodes.clone()].iter().sum::<f32>() / cols as f32;
+            for fam in [AROUND, ALONG, LINK] {
+                let (sum, count) = nodes
+                    .clone()
+                    .map(|node| self.spring(field::K[fam], node))
+                    .filter(|&k| k > 0.0)
+                    .fold((0.0f32, 0usize), |(s, c), k| (s + k, c + 1));
+                self.beta[b][fam] = if count > 0 {
+                    2.0 * z * (mass / (sum / count as f32)).sqrt()
+                } else {
+                    0.0
+                };
             }
         }
     }
@@ -355,9 +384,13 @@ impl Membrane {
 
     /// Springs in all (around, along, links), cut ones not counted.
     pub fn springs(&self) -> usize {
-        [&self.k_around, &self.k_along, &self.k_link]
-            .iter()
-            .map(|k| k.iter().filter(|&&k| k > 0.0).count())
+        (0..self.len())
+            .map(|node| {
+                field::K
+                    .iter()
+                    .filter(|&&f| self.spring(f, node) > 0.0)
+                    .count()
+            })
             .sum()
     }
 
@@ -380,13 +413,13 @@ impl Membrane {
     }
 
     pub fn position(&self, node: usize) -> Vec3 {
-        let x = &self.state.x;
-        Vec3::new(x[0][node], x[1][node], x[2][node])
+        let d = &self.state.data;
+        Vec3::from_array(std::array::from_fn(|c| d[self.state_at(c, node)]))
     }
 
     pub fn velocity(&self, node: usize) -> Vec3 {
-        let v = &self.state.v;
-        Vec3::new(v[0][node], v[1][node], v[2][node])
+        let d = &self.state.data;
+        Vec3::from_array(std::array::from_fn(|c| d[self.state_at(3 + c, node)]))
     }
 
     pub fn mass(&self, node: usize) -> f32 {
@@ -401,18 +434,23 @@ impl Membrane {
     /// Sets where layer 0's node at row `i`, column `j` is held (the rod's skin there).
     pub fn set_target(&mut self, i: usize, j: usize, p: Vec3) {
         if i < self.rows && j < self.cols && p.is_finite() {
-            let t = i * self.cols + j;
+            let row = i * 4;
             for c in 0..3 {
-                self.target[c][t] = p[c];
+                self.attach[(row + 1 + c) * self.cols + j] = p[c];
             }
         }
     }
 
     /// Lets layer `l` go free of its attachment (layer 0 from the rod, layer 3 from the wall).
     pub fn detach_layer(&mut self, l: usize) {
-        let per = self.rows * self.cols;
-        if l < LAYERS {
-            self.k_attach[l * per..(l + 1) * per].fill(0.0);
+        let slot = match l {
+            0 => 0,
+            x if x == LAYERS - 1 => 1,
+            _ => return,
+        };
+        for i in 0..self.rows {
+            let row = (slot * self.rows + i) * 4;
+            self.attach[row * self.cols..(row + 1) * self.cols].fill(0.0);
         }
     }
 
@@ -432,20 +470,17 @@ impl Membrane {
         let plane = 1;
         let mut cut = Vec::new();
         for t in 0..per {
-            let link = plane * per + t;
-            if self.k_link[link] <= 0.0 {
+            let a = plane * per + t;
+            if self.spring(field::K[LINK], a) <= 0.0 {
                 continue;
             }
-            let a = plane * per + t;
             let mid = (self.position(a) + self.position(a + per)) * 0.5;
             if mid.distance_squared(center) <= radius_m * radius_m {
                 cut.push(t);
             }
         }
         for &t in &cut {
-            let link = plane * per + t;
-            self.k_link[link] = 0.0;
-            self.c_link[link] = 0.0;
+            *self.spring_mut(field::K[LINK], plane * per + t) = 0.0;
             for l in [plane, plane + 1] {
                 self.release(l * per + t);
             }
@@ -465,7 +500,7 @@ impl Membrane {
         if let Some(jn) = self.next_col(j) {
             let other = self.node(l, i, jn);
             if self.released[other] {
-                self.rest_around[node] *= shrink;
+                *self.spring_mut(field::REST[AROUND], node) *= shrink;
             }
         }
         let prev_j = if j > 0 {
@@ -476,20 +511,23 @@ impl Membrane {
         if let Some(jp) = prev_j {
             let other = self.node(l, i, jp);
             if self.released[other] {
-                self.rest_around[other] *= shrink;
+                *self.spring_mut(field::REST[AROUND], other) *= shrink;
             }
         }
         if i + 1 < self.rows && self.released[node + self.cols] {
-            self.rest_along[node] *= shrink;
+            *self.spring_mut(field::REST[ALONG], node) *= shrink;
         }
         if i > 0 && self.released[node - self.cols] {
-            self.rest_along[node - self.cols] *= shrink;
+            *self.spring_mut(field::REST[ALONG], node - self.cols) *= shrink;
         }
     }
 
     /// Whether the link between layer `l` and `l + 1` at row `i`, column `j` is there.
     pub fn link_alive(&self, l: usize, i: usize, j: usize) -> bool {
-        l + 1 < LAYERS && self.k_link[l * self.rows * self.cols + i * self.cols + j] > 0.0
+        l + 1 < LAYERS
+            && i < self.rows
+            && j < self.cols
+            && self.spring(field::K[LINK], self.node(l, i, j)) > 0.0
     }
 
     /// One step of `dt_s` with the configured integrator.
@@ -500,12 +538,8 @@ impl Membrane {
 
     /// Kinetic energy, J.
     pub fn kinetic_energy(&self) -> f64 {
-        let v = &self.state.v;
         (0..self.len())
-            .map(|n| {
-                let s = v[0][n] * v[0][n] + v[1][n] * v[1][n] + v[2][n] * v[2][n];
-                0.5 * f64::from(self.mass[n]) * f64::from(s)
-            })
+            .map(|n| 0.5 * f64::from(self.mass[n]) * f64::from(self.velocity(n).length_squared()))
             .sum()
     }
 
@@ -517,23 +551,24 @@ impl Membrane {
         let mut worst = 0.0f32;
         for node in 0..self.len() {
             let (l, i, j) = self.coords(node);
-            let mut k = self.k_around[node] + self.k_along[node] + self.k_attach[node];
+            let mut k = self.spring(field::K[AROUND], node)
+                + self.spring(field::K[ALONG], node)
+                + self.attach_stiffness(node);
             if let Some(jp) = if j > 0 {
                 Some(j - 1)
             } else {
                 self.periodic.then_some(self.cols - 1)
             } {
-                k += self.k_around[self.node(l, i, jp)];
+                k += self.spring(field::K[AROUND], self.node(l, i, jp));
             }
             if i > 0 {
-                k += self.k_along[node - self.cols];
+                k += self.spring(field::K[ALONG], node - self.cols);
             }
-            let t = i * self.cols + j;
             if l + 1 < LAYERS {
-                k += self.k_link[l * per + t];
+                k += self.spring(field::K[LINK], node);
             }
             if l > 0 {
-                k += self.k_link[(l - 1) * per + t];
+                k += self.spring(field::K[LINK], node - per);
             }
             if self.mass[node] > 0.0 {
                 worst = worst.max(4.0 * k / self.mass[node]);
@@ -546,22 +581,27 @@ impl Membrane {
         }
     }
 
+    /// The stiffness holding `node` to its target or rest, N/m (0 off layers 0 and 3).
+    fn attach_stiffness(&self, node: usize) -> f32 {
+        let (l, i, j) = self.coords(node);
+        let slot = match l {
+            0 => 0,
+            x if x == LAYERS - 1 => 1,
+            _ => return 0.0,
+        };
+        self.attach[(slot * self.rows + i) * 4 * self.cols + j]
+    }
+
     /// Whether every position and velocity is finite.
     pub fn is_finite(&self) -> bool {
-        self.state
-            .x
-            .iter()
-            .chain(&self.state.v)
-            .all(|c| c.iter().all(|v| v.is_finite()))
+        self.state.data.iter().all(|v| v.is_finite())
     }
 
     /// A digest of the state's bits.
     pub fn state_hash(&self) -> u64 {
         let mut h = crate::models::Fnv::default();
-        for c in self.state.x.iter().chain(&self.state.v) {
-            for v in c {
-                h.write(v.to_bits());
-            }
+        for v in &self.state.data {
+            h.write(v.to_bits());
         }
         h.0
     }

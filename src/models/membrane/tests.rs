@@ -59,11 +59,7 @@ fn params(integrator: Integrator) -> MembraneParams {
 
 /// Forces on every node now (no step).
 fn forces_now(m: &Membrane) -> Vec<Vec3> {
-    let mut f: [Vec<f32>; 3] = std::array::from_fn(|_| vec![0.0; m.len()]);
-    integrate::tests_support::forces(m, &mut f);
-    (0..m.len())
-        .map(|n| Vec3::new(f[0][n], f[1][n], f[2][n]))
-        .collect()
+    integrate::tests_support::forces(m)
 }
 
 #[test]
@@ -76,7 +72,8 @@ fn a_stretched_spring_pulls_as_eqs_3_and_4_say() {
     // Move the middle node of layer 1 (row 1, column 1) 2 mm along +x: its along-springs
     // to rows 0 and 2 change length by +2 and -2 mm, its ring springs and links tilt.
     let node = m.node(1, 1, 1);
-    m.state.x[0][node] += 0.002;
+    let at = m.state_at(0, node);
+    m.state.data[at] += 0.002;
     let f = forces_now(&m)[node];
     // Hand-computed: along springs k = E t w / L0 with w = L0 = 10 mm: k = E t = 4 N/m each;
     // stretched by 2 mm and compressed by 2 mm: -2 * 4 * 0.002 = -0.016 N in x. The two ring
@@ -173,7 +170,8 @@ fn the_explicit_limit_separates_stable_steps_from_unstable_ones() {
             Membrane::new(tube(16, 24, 0.04, [0.01, 0.011, 0.012, 0.015]), p).expect("membrane");
         for j in 0..24 {
             let node = m.node(1, 8, j);
-            m.state.v[1][node] = 0.5;
+            let at = m.state_at(4, node);
+            m.state.data[at] = 0.5;
         }
         let start = m.kinetic_energy();
         for _ in 0..2000 {
