@@ -6,6 +6,7 @@ use crate::scenario::InputError;
 
 pub mod nephrectomy;
 mod procedure;
+pub mod rectum;
 pub mod sandbox;
 pub mod soft_tissue;
 

@@ -1,0 +1,9 @@
+//! Laparoscopic rectum dissection (rectum paper, issue 14): the bowel as a Cosserat rod, the
+//! tissue around it as the four-layer membrane, dissected by cutting the springs of the plane
+//! between layers 2 and 3. This folder grows into the procedure; today it holds the anatomy.
+
+pub mod anatomy;
+#[cfg(test)]
+mod tests;
+
+pub use anatomy::{Anatomy, AnatomyError, AnatomyParams};
