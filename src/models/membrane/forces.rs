@@ -118,98 +118,185 @@ pub(super) fn own_acceleration(p: &super::MembraneParams, c: usize, v: f32) -> f
     p.gravity[c] - p.damping_per_s * v
 }
 
-/// Forces on row `i` of every layer into `sc.f`: the springs, the attachments and the
-/// external forces (not the node's own terms, [`own_acceleration`]). `first` says that row
-/// `i - 1` was not the last row computed with `sc` (so its springs to this row are
-/// recomputed rather than carried).
+/// Forces on row `i` of every layer, columns `span`, into `sc.f` (at the same columns): the
+/// springs, the attachments and the external forces (not the node's own terms,
+/// [`own_acceleration`]). Nodes outside `span` are read, not written. `first` says that row
+/// `i - 1` was not the last row computed with `sc` over the same span (so its springs to this
+/// row are recomputed rather than carried).
 #[inline(always)]
-pub(super) fn row<R: Rows>(m: &Membrane, state: &R, i: usize, first: bool, sc: &mut RowScratch) {
+pub(super) fn row<R: Rows>(
+    m: &Membrane,
+    state: &R,
+    i: usize,
+    span: std::ops::Range<usize>,
+    first: bool,
+    sc: &mut RowScratch,
+) {
     let (rows, cols) = (m.rows, m.cols);
+    let (c0, c1) = (span.start, span.end.min(cols));
+    if c0 >= c1 {
+        return;
+    }
+    let w = c1 - c0;
     if sc.s.len() != 3 * cols {
         sc.fit(cols);
     }
     let params = |b: usize, f: usize| {
         let at = (b * field::COUNT + f) * cols;
-        &m.rows_data[at..at + cols]
+        &m.rows_data[at + c0..at + c1]
     };
+    let around_at = |b: usize, f: usize, j: usize| m.rows_data[(b * field::COUNT + f) * cols + j];
     let RowScratch { f, carry, s } = sc;
+    // `f`, `carry` and `s` hold a run of `cols` per component; this span is `c0..c1` of it.
     for l in 0..LAYERS {
         let b = l * rows + i;
         let fl = &mut f[l * 3 * cols..(l + 1) * 3 * cols];
         let cl = &mut carry[l * 3 * cols..(l + 1) * 3 * cols];
         let here_row = state.get(l, i);
-        let here = Run::of(here_row, cols, 0, cols);
+        let here = Run::of(here_row, cols, c0, w);
         // The spring from the row before.
         if i == 0 {
-            fl.fill(0.0);
+            for c in 0..3 {
+                fl[c * cols + c0..c * cols + c1].fill(0.0);
+            }
         } else if first {
-            let before = Run::of(state.get(l, i - 1), cols, 0, cols);
+            let before = Run::of(state.get(l, i - 1), cols, c0, w);
             let (k, rest) = (
                 params(b - 1, field::K[ALONG]),
                 params(b - 1, field::REST[ALONG]),
             );
             springs(&before, &here, k, rest, m.beta[b - 1][ALONG], s, cols);
-            for (o, v) in fl.iter_mut().zip(s.iter()) {
-                *o = -v;
+            for c in 0..3 {
+                let r = c * cols..c * cols + w;
+                for (o, v) in fl[c * cols + c0..c * cols + c1].iter_mut().zip(&s[r]) {
+                    *o = -v;
+                }
             }
         } else {
-            fl.copy_from_slice(cl);
-        }
-        // Around: column j to j + 1 in one loop, the closing spring of a ring on its own.
-        let (k, rest) = (params(b, field::K[AROUND]), params(b, field::REST[AROUND]));
-        let beta = m.beta[b][AROUND];
-        let (a, bb) = (
-            Run::of(here_row, cols, 0, cols - 1),
-            Run::of(here_row, cols, 1, cols - 1),
-        );
-        springs(&a, &bb, &k[..cols - 1], rest, beta, s, cols);
-        for c in 0..3 {
-            // Node j gets spring j and loses spring j - 1.
-            let (fc, sc) = (
-                &mut fl[c * cols..(c + 1) * cols],
-                &s[c * cols..c * cols + cols - 1],
-            );
-            fc[0] += sc[0];
-            for ((o, a), b) in fc[1..cols - 1].iter_mut().zip(&sc[1..]).zip(sc) {
-                *o += a - b;
-            }
-            fc[cols - 1] -= sc[cols - 2];
-        }
-        if k[cols - 1] > 0.0 {
-            let (a, bb) = (
-                Run::of(here_row, cols, cols - 1, 1),
-                Run::of(here_row, cols, 0, 1),
-            );
-            springs(&a, &bb, &k[cols - 1..], &rest[cols - 1..], beta, s, cols);
             for c in 0..3 {
-                fl[c * cols + cols - 1] += s[c * cols];
-                fl[c * cols] -= s[c * cols];
+                let r = c * cols + c0..c * cols + c1;
+                fl[r.clone()].copy_from_slice(&cl[r]);
+            }
+        }
+        // Around: column j to j + 1 inside the span in one loop; the springs that cross its
+        // two edges (to the columns beside it, or round the ring) on their own.
+        let beta = m.beta[b][AROUND];
+        if w > 1 {
+            let (k, rest) = (params(b, field::K[AROUND]), params(b, field::REST[AROUND]));
+            let (a, bb) = (
+                Run::of(here_row, cols, c0, w - 1),
+                Run::of(here_row, cols, c0 + 1, w - 1),
+            );
+            springs(&a, &bb, &k[..w - 1], rest, beta, s, cols);
+            for c in 0..3 {
+                // Node j gets spring j and loses spring j - 1.
+                let fc = &mut fl[c * cols + c0..c * cols + c1];
+                let sc = &s[c * cols..c * cols + w - 1];
+                fc[0] += sc[0];
+                for ((o, a), b) in fc[1..w - 1].iter_mut().zip(&sc[1..]).zip(sc) {
+                    *o += a - b;
+                }
+                fc[w - 1] -= sc[w - 2];
+            }
+        }
+        // The spring into the span's first column and the one out of its last.
+        let left = (c0 + cols - 1) % cols;
+        let right = c1 - 1;
+        for (from, to, into) in [(left, c0, c0), (right, c1 % cols, right)] {
+            let k = around_at(b, field::K[AROUND], from);
+            if k <= 0.0 {
+                continue;
+            }
+            let rest = around_at(b, field::REST[AROUND], from);
+            let (a, bb) = (
+                Run::of(here_row, cols, from, 1),
+                Run::of(here_row, cols, to, 1),
+            );
+            springs(&a, &bb, &[k], &[rest], beta, s, cols);
+            let sign = if into == from { 1.0 } else { -1.0 };
+            for c in 0..3 {
+                fl[c * cols + into] += sign * s[c * cols];
             }
         }
         // Along: to the next row, whose share is carried.
         if i + 1 < rows {
-            let next = Run::of(state.get(l, i + 1), cols, 0, cols);
+            let next = Run::of(state.get(l, i + 1), cols, c0, w);
             let (k, rest) = (params(b, field::K[ALONG]), params(b, field::REST[ALONG]));
             springs(&here, &next, k, rest, m.beta[b][ALONG], s, cols);
-            for ((o, cv), v) in fl.iter_mut().zip(cl.iter_mut()).zip(s.iter()) {
-                *o += v;
-                *cv = -v;
+            for c in 0..3 {
+                let r = c * cols + c0..c * cols + c1;
+                let sv = &s[c * cols..c * cols + w];
+                for ((o, cv), v) in fl[r.clone()].iter_mut().zip(&mut cl[r]).zip(sv) {
+                    *o += v;
+                    *cv = -v;
+                }
             }
         }
     }
     // Links between layers at this row.
     for l in 0..LAYERS - 1 {
         let b = l * rows + i;
-        let a = Run::of(state.get(l, i), cols, 0, cols);
-        let bb = Run::of(state.get(l + 1, i), cols, 0, cols);
+        let a = Run::of(state.get(l, i), cols, c0, w);
+        let bb = Run::of(state.get(l + 1, i), cols, c0, w);
         let (k, rest) = (params(b, field::K[LINK]), params(b, field::REST[LINK]));
         springs(&a, &bb, k, rest, m.beta[b][LINK], s, cols);
         let (lower, upper) = f.split_at_mut((l + 1) * 3 * cols);
         let fa = &mut lower[l * 3 * cols..];
         let fb = &mut upper[..3 * cols];
-        for ((oa, ob), v) in fa.iter_mut().zip(fb.iter_mut()).zip(s.iter()) {
-            *oa += v;
-            *ob -= v;
+        for c in 0..3 {
+            let r = c * cols + c0..c * cols + c1;
+            let sv = &s[c * cols..c * cols + w];
+            for ((oa, ob), v) in fa[r.clone()].iter_mut().zip(&mut fb[r]).zip(sv) {
+                *oa += v;
+                *ob -= v;
+            }
+        }
+    }
+    // The shear tethers of layers 1 and 2: each node pulled sideways (across its column's
+    // line from layer 0 to layer 3) back onto that line; the reaction shared by the column's
+    // layer-0 and layer-3 nodes in proportion to where on the line it is.
+    for l in 1..LAYERS - 1 {
+        let b = l * rows + i;
+        let (k, wt) = (params(b, field::SHEAR_K), params(b, field::SHEAR_W));
+        let (x0, xl, x3) = (state.get(0, i), state.get(l, i), state.get(LAYERS - 1, i));
+        fn px(r: &[f32], c: usize, cols: usize, c0: usize, c1: usize) -> &[f32] {
+            &r[c * cols + c0..c * cols + c1]
+        }
+        let px = |r, c| px(r, c, cols, c0, c1);
+        let (ax, ay, az) = (px(x0, 0), px(x0, 1), px(x0, 2));
+        let (bx, by, bz) = (px(x3, 0), px(x3, 1), px(x3, 2));
+        let (nx, ny, nz) = (px(xl, 0), px(xl, 1), px(xl, 2));
+        let (sx, rest_s) = s.split_at_mut(cols);
+        let (sy, sz) = rest_s.split_at_mut(cols);
+        let (sx, sy, sz) = (&mut sx[..w], &mut sy[..w], &mut sz[..w]);
+        let (k, wt) = (&k[..w], &wt[..w]);
+        for j in 0..w {
+            let (ux, uy, uz) = (bx[j] - ax[j], by[j] - ay[j], bz[j] - az[j]);
+            let len2 = ux * ux + uy * uy + uz * uz;
+            let inv2 = 1.0 / if len2 > 1e-30 { len2 } else { 1e-30 };
+            let (dx, dy, dz) = (
+                nx[j] - (ax[j] + wt[j] * ux),
+                ny[j] - (ay[j] + wt[j] * uy),
+                nz[j] - (az[j] + wt[j] * uz),
+            );
+            let along = (dx * ux + dy * uy + dz * uz) * inv2;
+            sx[j] = -k[j] * (dx - along * ux);
+            sy[j] = -k[j] * (dy - along * uy);
+            sz[j] = -k[j] * (dz - along * uz);
+        }
+        for c in 0..3 {
+            let sv = &s[c * cols..c * cols + w];
+            let r = c * cols + c0..c * cols + c1;
+            let (lower, upper) = f.split_at_mut(l * 3 * cols);
+            let (mid, top) = upper.split_at_mut(3 * cols);
+            let f0 = &mut lower[r.clone()];
+            let fm = &mut mid[r.clone()];
+            let f3 = &mut top[(LAYERS - 2 - l) * 3 * cols..][r];
+            for j in 0..w {
+                fm[j] += sv[j];
+                f0[j] -= (1.0 - wt[j]) * sv[j];
+                f3[j] -= wt[j] * sv[j];
+            }
         }
     }
     // The attachments (a node's point damping and gravity are its own: see
@@ -218,25 +305,25 @@ pub(super) fn row<R: Rows>(m: &Membrane, state: &R, i: usize, first: bool, sc: &
         let x = state.get(l, i);
         let at = (slot * rows + i) * 4 * cols;
         let attach = &m.attach[at..at + 4 * cols];
-        let ka = &attach[..cols];
+        let ka = &attach[c0..c1];
         for c in 0..3 {
-            let fc = &mut f[(l * 3 + c) * cols..(l * 3 + c + 1) * cols];
+            let fc = &mut f[(l * 3 + c) * cols + c0..(l * 3 + c) * cols + c1];
             let (x, tg) = (
-                &x[c * cols..(c + 1) * cols],
-                &attach[(1 + c) * cols..(2 + c) * cols],
+                &x[c * cols + c0..c * cols + c1],
+                &attach[(1 + c) * cols + c0..(1 + c) * cols + c1],
             );
-            for j in 0..cols {
+            for j in 0..w {
                 fc[j] -= ka[j] * (x[j] - tg[j]);
             }
         }
     }
     for l in 0..LAYERS {
         let base = (l * rows + i) * cols;
-        // External forces on this row of this layer.
-        let from = m.external.partition_point(|e| (e.0 as usize) < base);
+        // External forces on this row of this layer, inside the span.
+        let from = m.external.partition_point(|e| (e.0 as usize) < base + c0);
         for &(node, fe) in m.external[from..]
             .iter()
-            .take_while(|e| (e.0 as usize) < base + cols)
+            .take_while(|e| (e.0 as usize) < base + c1)
         {
             let j = node as usize - base;
             for c in 0..3 {

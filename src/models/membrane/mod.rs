@@ -25,12 +25,15 @@
 //! positions and velocities); rows are stepped in fixed chunks in parallel (rayon), the same
 //! bytes on any number of threads.
 
+mod active;
 mod forces;
 mod integrate;
 #[cfg(test)]
 mod tests;
 
 use glam::Vec3;
+
+pub use active::{ActivityParams, TILE_COLS, TILE_ROWS};
 
 /// Layers in the membrane.
 pub const LAYERS: usize = 4;
@@ -128,12 +131,16 @@ pub(crate) struct State {
 }
 
 /// Fields of a row block of [`Membrane::rows_data`]: stiffness and rest length of the spring
-/// to the next column, to the next row and to the next layer, then 1 / mass.
+/// to the next column, to the next row and to the next layer, then 1 / mass, then the shear
+/// tether's stiffness and place (layers 1 and 2).
 pub(crate) mod field {
     pub const K: [usize; 3] = [0, 2, 4];
     pub const REST: [usize; 3] = [1, 3, 5];
     pub const INV_MASS: usize = 6;
-    pub const COUNT: usize = 7;
+    /// Layers 1 and 2: stiffness of the shear tether to the column line, and where on it.
+    pub const SHEAR_K: usize = 7;
+    pub const SHEAR_W: usize = 8;
+    pub const COUNT: usize = 9;
 }
 
 /// Spring families: index into [`field::K`] and [`field::REST`].
@@ -165,6 +172,10 @@ pub struct Membrane {
     /// External forces for the next step (node, force), N.
     external: Vec<(u32, Vec3)>,
     scratch: integrate::Scratch,
+    /// The largest stable explicit step, s (see [`Membrane::explicit_step_limit`]).
+    step_limit: f32,
+    /// The active set, when on.
+    activity: Option<active::Activity>,
 }
 
 impl Membrane {
@@ -225,6 +236,8 @@ impl Membrane {
             released: vec![false; n],
             external: Vec::new(),
             scratch: integrate::Scratch::default(),
+            step_limit: f32::INFINITY,
+            activity: None,
         };
         // Each node's share of its layer's area: a quarter of each cell around it, the cell
         // spanned by its neighbours along and around (half a spring each way).
@@ -297,6 +310,31 @@ impl Membrane {
         for node in 0..n {
             *m.spring_mut(field::INV_MASS, node) = 1.0 / m.mass[node];
         }
+        // Shear of the tissue between the layers: the links are springs along their length
+        // only, so a middle layer could slide sideways over the others at no cost. A node of
+        // layers 1 and 2 is tethered, sideways only, to its place on the line from its
+        // column's layer-0 node to its layer-3 node (where it was built): moved sideways by
+        // `u`, the tissue on either side shears by `u / L` over the node's area, so the
+        // tether's stiffness is `G A (1 / L_below + 1 / L_above)`, `G = E / 3` (nearly
+        // incompressible).
+        for l in 1..LAYERS - 1 {
+            for i in 0..rows {
+                for j in 0..cols {
+                    let node = m.node(l, i, j);
+                    let (p0, p, p3) = (at(0, i, j), at(l, i, j), at(LAYERS - 1, i, j));
+                    let span = (p3 - p0).length().max(f32::EPSILON);
+                    let below = (p - at(l - 1, i, j)).length().max(f32::EPSILON);
+                    let above = (at(l + 1, i, j) - p).length().max(f32::EPSILON);
+                    let g = |e: f32| e / 3.0;
+                    let k = area[node]
+                        * (g(params.link_modulus_pa[l - 1]) / below
+                            + g(params.link_modulus_pa[l]) / above);
+                    *m.spring_mut(field::SHEAR_K, node) = k;
+                    *m.spring_mut(field::SHEAR_W, node) =
+                        ((p - p0).dot(p3 - p0) / (span * span)).clamp(0.0, 1.0);
+                }
+            }
+        }
         // Attachments: layer 0 to its targets (its rest until the owner moves them), layer 3
         // to its rest.
         for (slot, l) in [(0usize, 0usize), (1, LAYERS - 1)] {
@@ -313,6 +351,7 @@ impl Membrane {
             }
         }
         m.set_spring_damping();
+        m.step_limit = m.explicit_step_limit();
         Ok(m)
     }
 
@@ -530,10 +569,54 @@ impl Membrane {
             && self.spring(field::K[LINK], self.node(l, i, j)) > 0.0
     }
 
-    /// One step of `dt_s` with the configured integrator.
+    /// One step of `dt_s` with the configured integrator, every node (the active set, if on,
+    /// is not consulted: see [`Membrane::advance`]).
     pub fn step(&mut self, dt_s: f32) {
         integrate::step(self, dt_s);
         self.external.clear();
+    }
+
+    /// Advances `dt_s` in as many equal explicit steps as stability needs (each at most
+    /// `safety` times the explicit limit, `safety` in (0, 1]); with the active set on, only
+    /// the awake tiles step. The external forces act over all of them. Returns the number of
+    /// steps taken.
+    pub fn advance(&mut self, dt_s: f32, safety: f32) -> usize {
+        let dt = if dt_s.is_finite() && dt_s > 0.0 {
+            dt_s
+        } else {
+            1e-3
+        };
+        let safety = if safety.is_finite() {
+            safety.clamp(0.05, 1.0)
+        } else {
+            0.9
+        };
+        let limit = safety * self.step_limit;
+        let n = if limit.is_finite() && limit > 0.0 {
+            ((dt / limit).ceil() as usize).clamp(1, 100_000)
+        } else {
+            1
+        };
+        let all = self.activity.as_ref().is_none_or(|a| a.all_awake);
+        if all {
+            for _ in 0..n {
+                integrate::step(self, dt / n as f32);
+            }
+            if let Some(a) = &mut self.activity {
+                a.awake_share += 1.0;
+                a.steps += 1;
+            }
+        } else {
+            forces::sort_external(&mut self.external);
+            active::step(self, dt, n);
+        }
+        self.external.clear();
+        n
+    }
+
+    /// The largest stable explicit step, as computed when built, s.
+    pub fn step_limit(&self) -> f32 {
+        self.step_limit
     }
 
     /// Kinetic energy, J.
@@ -545,7 +628,7 @@ impl Membrane {
 
     /// The largest explicit step the stiffest node allows, s: `2 / omega` with `omega^2` the
     /// sum of its springs' stiffness times 4 over its mass (a bound on the grid's highest
-    /// frequency).
+    /// frequency), shortened for the springs' damping.
     pub fn explicit_step_limit(&self) -> f32 {
         let per = self.rows * self.cols;
         let mut worst = 0.0f32;
@@ -570,12 +653,16 @@ impl Membrane {
             if l > 0 {
                 k += self.spring(field::K[LINK], node - per);
             }
+            k += self.spring(field::SHEAR_K, node);
             if self.mass[node] > 0.0 {
                 worst = worst.max(4.0 * k / self.mass[node]);
             }
         }
+        // Damping along the springs shortens it: `(sqrt(1 + zeta^2) - zeta)` of the undamped
+        // limit for a mode damped at `zeta` of critical.
+        let z = self.params.spring_damping_ratio;
         if worst > 0.0 {
-            2.0 / worst.sqrt()
+            2.0 / worst.sqrt() * ((1.0 + z * z).sqrt() - z)
         } else {
             f32::INFINITY
         }

@@ -227,7 +227,10 @@ fn outline(mesh: &TriMesh, centroid: &[Vec3], f: &AxisFrame, reach: f32) -> Vec<
             let s = d[a] / (d[a] - d[b]);
             let q = v[a].lerp(v[b], s);
             let r = q - f.point;
-            let angle = r.dot(f.binormal).atan2(r.dot(f.normal)).rem_euclid(2.0 * PI);
+            let angle = r
+                .dot(f.binormal)
+                .atan2(r.dot(f.normal))
+                .rem_euclid(2.0 * PI);
             pts.push((angle, q));
         }
     }

@@ -49,7 +49,10 @@ fn a_straight_cylinder_cuts_into_even_circles_starting_at_the_normal() {
         for k in 0..cols {
             let gap = ring[k].distance(ring[(k + 1) % cols]);
             // A gap that straddles a corner of the polygon is a chord, slightly shorter.
-            assert!(gap <= want * 1.0001 && gap > want * 0.998, "{gap} vs {want}");
+            assert!(
+                gap <= want * 1.0001 && gap > want * 0.998,
+                "{gap} vs {want}"
+            );
         }
     }
 }
@@ -69,7 +72,10 @@ fn the_full_size_membrane_has_the_papers_grid_and_ordered_layers() {
         for j in 0..m.cols {
             let k = i * m.cols + j;
             let d: [f32; LAYERS] = std::array::from_fn(|l| off_axis(f, m.positions[l][k]));
-            assert!(d[0] < d[1] && d[1] < d[2] && d[2] < d[3], "row {i} col {j}: {d:?}");
+            assert!(
+                d[0] < d[1] && d[1] < d[2] && d[2] < d[3],
+                "row {i} col {j}: {d:?}"
+            );
             // Links 1-2 and 3-4 at their fixed depths.
             let l12 = m.positions[0][k].distance(m.positions[1][k]);
             let l34 = m.positions[2][k].distance(m.positions[3][k]);

@@ -1,0 +1,526 @@
+//! The membrane's active set: the grid is cut into tiles of [`TILE_ROWS`] x [`TILE_COLS`]
+//! columns (all four layers); only awake tiles step. A sleeping tile is carried by its
+//! anchors: each node sits at its anchor plus the offset it had when the tile fell asleep,
+//! the anchor being the node's rest position moved by its column's layer-0 target, in
+//! proportion to how far the node lies from layer 3 (layer 0 moves with the target, layer 3
+//! not at all, layers 1 and 2 by their rest fractions between them). So the tissue far from
+//! every tool follows the rectum quasi-statically, and where a tool works the full dynamics
+//! run at the explicit step.
+//!
+//! A tile wakes when a tool's box comes near it, or when the nodes on its border with an
+//! awake tile move faster (relative to their anchors) than the wake speed; it falls asleep
+//! when every node has moved slower than the sleep speed for the sleep time and no tool is
+//! near. Tiles step in parallel into their own buffers, which are then copied back in tile
+//! order, so the bytes do not depend on the thread count.
+
+use super::forces::{self, RowScratch, Whole};
+use super::{LAYERS, Membrane, field};
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// Rows of a tile (along the bowel).
+pub const TILE_ROWS: usize = 8;
+/// Columns of a tile (around the bowel).
+pub const TILE_COLS: usize = 16;
+
+/// When tiles sleep and wake.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ActivityParams {
+    /// A tile sleeps once every node has moved slower than this, relative to its anchor, m/s.
+    pub sleep_speed_m_per_s: f32,
+    /// ... for this long, s.
+    pub sleep_after_s: f32,
+    /// A sleeping tile wakes when a border node of an awake neighbour has moved this far from
+    /// where its anchor and its offset put it when its own tile woke, m.
+    pub wake_distance_m: f32,
+    /// A tile wakes when a tool's box comes within this distance of its box, m.
+    pub wake_margin_m: f32,
+}
+
+impl Default for ActivityParams {
+    fn default() -> Self {
+        ActivityParams {
+            sleep_speed_m_per_s: 2e-4,
+            sleep_after_s: 0.1,
+            wake_distance_m: 3e-5,
+            wake_margin_m: 3e-3,
+        }
+    }
+}
+
+/// The tiles' state.
+#[derive(Debug, Clone, Default)]
+pub(super) struct Activity {
+    pub params: ActivityParams,
+    pub tiles_r: usize,
+    pub tiles_c: usize,
+    pub awake: Vec<bool>,
+    /// Time each awake tile has been still, s.
+    still_s: Vec<f32>,
+    /// Every tile steps (benchmarks).
+    pub all_awake: bool,
+    /// Each tile's box (all layers) when last refreshed, m.
+    boxes: Vec<(Vec3, Vec3)>,
+    /// Positions at rest, in the state's row blocks but positions only: `[b][3][cols]`.
+    rest: Vec<f32>,
+    /// Each node's rest fraction from layer 0 (0) to layer 3 (1): `[b][cols]`.
+    weight: Vec<f32>,
+    /// Offsets of nodes from their anchors when their tile fell asleep: `[b][3][cols]`.
+    offset: Vec<f32>,
+    /// Offsets of awake tiles' nodes at the last check (their speed is measured from it).
+    last: Vec<f32>,
+    /// Per awake tile, its new state (rows x layers x 6 x width).
+    buffers: Vec<Vec<f32>>,
+    /// Awake tiles this step, ascending.
+    list: Vec<u32>,
+    /// Sum of awake node shares over steps, and steps (for the mean awake fraction).
+    pub awake_share: f64,
+    pub steps: u64,
+}
+
+impl Activity {
+    pub fn new(m: &Membrane) -> Activity {
+        let (rows, cols) = (m.rows, m.cols);
+        let tiles_r = rows.div_ceil(TILE_ROWS);
+        let tiles_c = cols.div_ceil(TILE_COLS);
+        let mut rest = vec![0.0; LAYERS * rows * 3 * cols];
+        for b in 0..LAYERS * rows {
+            for c in 0..3 {
+                let from = (b * 6 + c) * cols;
+                rest[(b * 3 + c) * cols..(b * 3 + c + 1) * cols]
+                    .copy_from_slice(&m.state.data[from..from + cols]);
+            }
+        }
+        let mut weight = vec![0.0; LAYERS * rows * cols];
+        let per = rows * cols;
+        for i in 0..rows {
+            for j in 0..cols {
+                let p: [Vec3; LAYERS] =
+                    std::array::from_fn(|l| m.position((l * rows + i) * cols + j));
+                let span = p[0].distance(p[LAYERS - 1]).max(f32::EPSILON);
+                for l in 0..LAYERS {
+                    let w = (p[l].distance(p[0]) / span).clamp(0.0, 1.0);
+                    weight[l * per + i * cols + j] = if l == 0 { 0.0 } else { w };
+                }
+            }
+        }
+        let mut a = Activity {
+            params: ActivityParams::default(),
+            tiles_r,
+            tiles_c,
+            awake: vec![false; tiles_r * tiles_c],
+            still_s: vec![0.0; tiles_r * tiles_c],
+            all_awake: false,
+            boxes: vec![(Vec3::ZERO, Vec3::ZERO); tiles_r * tiles_c],
+            rest,
+            weight,
+            offset: vec![0.0; LAYERS * rows * 3 * cols],
+            last: vec![0.0; LAYERS * rows * 3 * cols],
+            buffers: Vec::new(),
+            list: Vec::new(),
+            awake_share: 0.0,
+            steps: 0,
+        };
+        for t in 0..a.awake.len() {
+            a.boxes[t] = tile_box(m, &a, t);
+        }
+        a
+    }
+
+    /// Rows and columns of tile `t`.
+    pub fn span(&self, t: usize, rows: usize, cols: usize) -> ([usize; 2], [usize; 2]) {
+        let (ti, tj) = (t / self.tiles_c, t % self.tiles_c);
+        let r0 = ti * TILE_ROWS;
+        let c0 = tj * TILE_COLS;
+        (
+            [r0, (r0 + TILE_ROWS).min(rows)],
+            [c0, (c0 + TILE_COLS).min(cols)],
+        )
+    }
+
+    /// The tiles beside `t` (eight-connected; around the ring when `periodic`).
+    pub fn neighbours(&self, t: usize, periodic: bool) -> impl Iterator<Item = usize> + '_ {
+        let (ti, tj) = ((t / self.tiles_c) as isize, (t % self.tiles_c) as isize);
+        let (nr, nc) = (self.tiles_r as isize, self.tiles_c as isize);
+        (-1..=1isize)
+            .flat_map(move |di| (-1..=1isize).map(move |dj| (di, dj)))
+            .filter(|&(di, dj)| di != 0 || dj != 0)
+            .filter_map(move |(di, dj)| {
+                let i = ti + di;
+                let mut j = tj + dj;
+                if !(0..nr).contains(&i) {
+                    return None;
+                }
+                if periodic {
+                    j = j.rem_euclid(nc);
+                } else if !(0..nc).contains(&j) {
+                    return None;
+                }
+                Some((i * nc + j) as usize)
+            })
+    }
+}
+
+/// The box around tile `t`'s nodes (all layers) as they are in the state.
+fn tile_box(m: &Membrane, a: &Activity, t: usize) -> (Vec3, Vec3) {
+    let ([r0, r1], [c0, c1]) = a.span(t, m.rows, m.cols);
+    let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+    for l in 0..LAYERS {
+        for i in r0..r1 {
+            for j in c0..c1 {
+                let p = m.position((l * m.rows + i) * m.cols + j);
+                lo = lo.min(p);
+                hi = hi.max(p);
+            }
+        }
+    }
+    (lo, hi)
+}
+
+/// Node `(l, i, j)`'s anchor now: its rest position moved by its column's layer-0 target
+/// (its displacement from rest) times `1 - weight`.
+fn anchor(m: &Membrane, a: &Activity, l: usize, i: usize, j: usize) -> Vec3 {
+    let cols = m.cols;
+    let b0 = i; // layer 0's block for row i
+    let b = l * m.rows + i;
+    let rest = |b: usize| Vec3::from_array(std::array::from_fn(|c| a.rest[(b * 3 + c) * cols + j]));
+    let target = Vec3::from_array(std::array::from_fn(|c| {
+        m.attach[(i * 4 + 1 + c) * cols + j]
+    }));
+    let w = a.weight[b * cols + j];
+    rest(b) + (target - rest(b0)) * (1.0 - w)
+}
+
+impl Membrane {
+    /// Whether the active set is on (the membrane was built with it, see
+    /// [`Membrane::use_active_set`]).
+    pub fn has_active_set(&self) -> bool {
+        self.activity.is_some()
+    }
+
+    /// Turns on the active set: every tile asleep at its anchors until a tool comes near.
+    pub fn use_active_set(&mut self, params: ActivityParams) {
+        let mut a = Activity::new(self);
+        a.params = params;
+        self.activity = Some(a);
+    }
+
+    /// Keeps every tile stepping from now on (benchmarks).
+    pub fn stay_awake(&mut self) {
+        if let Some(a) = &mut self.activity {
+            a.all_awake = true;
+            a.awake.fill(true);
+        }
+    }
+
+    /// The mean share of nodes stepped per step so far (1 without the active set).
+    pub fn awake_fraction(&self) -> f64 {
+        match &self.activity {
+            Some(a) if a.steps > 0 => a.awake_share / a.steps as f64,
+            Some(_) => 0.0,
+            None => 1.0,
+        }
+    }
+
+    /// Whether tile `t` is awake (all are without an active set).
+    pub fn tile_awake(&self, t: usize) -> bool {
+        self.activity
+            .as_ref()
+            .is_none_or(|a| a.awake.get(t).copied().unwrap_or(false))
+    }
+
+    /// Tiles: (rows of tiles, columns of tiles).
+    pub fn tiles(&self) -> (usize, usize) {
+        self.activity
+            .as_ref()
+            .map_or((1, 1), |a| (a.tiles_r, a.tiles_c))
+    }
+
+    /// The tile holding row `i`, column `j`.
+    pub fn tile_of(&self, i: usize, j: usize) -> usize {
+        let tc = self.cols.div_ceil(TILE_COLS);
+        (i / TILE_ROWS) * tc + j / TILE_COLS
+    }
+
+    /// Wakes every tile whose box comes within the wake margin of a box `(min, max)`.
+    pub fn wake_near(&mut self, boxes: &[(Vec3, Vec3)]) {
+        let rows = self.rows;
+        let cols = self.cols;
+        let periodic = self.periodic;
+        let Some(a) = &mut self.activity else {
+            return;
+        };
+        let margin = Vec3::splat(a.params.wake_margin_m);
+        let mut woken = Vec::new();
+        for t in 0..a.awake.len() {
+            let (lo, hi) = a.boxes[t];
+            let near = boxes.iter().any(|(blo, bhi)| {
+                (lo - margin).cmple(*bhi).all() && (hi + margin).cmpge(*blo).all()
+            });
+            if near {
+                a.still_s[t] = 0.0;
+                if !a.awake[t] {
+                    woken.push(t);
+                }
+            }
+        }
+        let _ = (rows, cols, periodic);
+        for t in woken {
+            self.wake(t);
+        }
+    }
+
+    /// Wakes tile `t`: its nodes start where their anchors carry them.
+    fn wake(&mut self, t: usize) {
+        let Some(mut a) = self.activity.take() else {
+            return;
+        };
+        if !a.awake[t] {
+            place_asleep(self, &a, t);
+            start_watch(self, &mut a, t);
+            a.awake[t] = true;
+            a.still_s[t] = 0.0;
+        }
+        self.activity = Some(a);
+    }
+
+    /// Puts every sleeping node where its anchor carries it (call after setting all the
+    /// targets, before drawing).
+    pub fn place_sleeping(&mut self) {
+        let Some(mut a) = self.activity.take() else {
+            return;
+        };
+        for t in 0..a.awake.len() {
+            if !a.awake[t] {
+                place_asleep(self, &a, t);
+                a.boxes[t] = tile_box(self, &a, t);
+            }
+        }
+        self.activity = Some(a);
+    }
+
+    /// The layer-0 rows and columns whose targets the next step needs: those of awake tiles
+    /// and of the sleeping tiles beside them (every one with `all`).
+    pub fn tiles_needing_targets(&self, all: bool) -> Vec<usize> {
+        let Some(a) = &self.activity else {
+            return vec![0];
+        };
+        let mut need = vec![all; a.awake.len()];
+        for t in 0..a.awake.len() {
+            if a.awake[t] {
+                need[t] = true;
+                for n in a.neighbours(t, self.periodic) {
+                    need[n] = true;
+                }
+            }
+        }
+        (0..need.len()).filter(|&t| need[t]).collect()
+    }
+
+    /// Rows `[r0, r1)` and columns `[c0, c1)` of tile `t` (the whole grid without an active
+    /// set).
+    pub fn tile_span(&self, t: usize) -> ([usize; 2], [usize; 2]) {
+        match &self.activity {
+            Some(a) => a.span(t, self.rows, self.cols),
+            None => ([0, self.rows], [0, self.cols]),
+        }
+    }
+}
+
+/// Starts the speed measure of tile `t`, waking: its nodes are at their offsets.
+fn start_watch(m: &Membrane, a: &mut Activity, t: usize) {
+    let ([r0, r1], [c0, c1]) = a.span(t, m.rows, m.cols);
+    let (rows, cols) = (m.rows, m.cols);
+    for b in (0..LAYERS).flat_map(|l| (r0..r1).map(move |i| l * rows + i)) {
+        for c in 0..3 {
+            let r = (b * 3 + c) * cols + c0..(b * 3 + c) * cols + c1;
+            let (last, off) = (&mut a.last[r.clone()], &a.offset[r]);
+            last.copy_from_slice(off);
+        }
+    }
+}
+
+/// Places tile `t`'s nodes at anchor + offset, at rest relative to it.
+fn place_asleep(m: &mut Membrane, a: &Activity, t: usize) {
+    let ([r0, r1], [c0, c1]) = a.span(t, m.rows, m.cols);
+    let cols = m.cols;
+    for l in 0..LAYERS {
+        for i in r0..r1 {
+            let b = l * m.rows + i;
+            for j in c0..c1 {
+                let p = anchor(m, a, l, i, j);
+                for c in 0..3 {
+                    let o = a.offset[(b * 3 + c) * cols + j];
+                    m.state.data[(b * 6 + c) * cols + j] = p[c] + o;
+                    m.state.data[(b * 6 + 3 + c) * cols + j] = 0.0;
+                }
+            }
+        }
+    }
+}
+
+/// One step of `dt` over the awake tiles: the sleeping tiles beside them placed at their
+/// anchors, then explicit substeps, then the sleep and wake checks.
+pub(super) fn step(m: &mut Membrane, dt: f32, substeps: usize) {
+    let Some(mut a) = m.activity.take() else {
+        return;
+    };
+    // The halo: sleeping tiles beside awake ones, where their anchors are now.
+    let halo: Vec<usize> = (0..a.awake.len())
+        .filter(|&t| !a.awake[t] && a.neighbours(t, m.periodic).any(|n| a.awake[n]))
+        .collect();
+    for &t in &halo {
+        place_asleep(m, &a, t);
+    }
+    a.list.clear();
+    a.list
+        .extend((0..a.awake.len() as u32).filter(|&t| a.awake[t as usize]));
+    let h = dt / substeps as f32;
+    let mut buffers = std::mem::take(&mut a.buffers);
+    buffers.resize_with(a.list.len(), Vec::new);
+    for _ in 0..substeps {
+        substep(m, &a, &mut buffers, h);
+    }
+    a.buffers = buffers;
+    // Sleep and wake checks, once per step.
+    let nodes_awake: usize = a
+        .list
+        .iter()
+        .map(|&t| {
+            let ([r0, r1], [c0, c1]) = a.span(t as usize, m.rows, m.cols);
+            LAYERS * (r1 - r0) * (c1 - c0)
+        })
+        .sum();
+    a.awake_share += nodes_awake as f64 / m.len().max(1) as f64;
+    a.steps += 1;
+    if !a.all_awake {
+        settle(m, &mut a, dt);
+    }
+    m.activity = Some(a);
+}
+
+/// One explicit substep of the awake tiles, each into its buffer, then copied back in order.
+fn substep(m: &mut Membrane, a: &Activity, buffers: &mut [Vec<f32>], h: f32) {
+    let (rows, cols) = (m.rows, m.cols);
+    {
+        let whole = Whole {
+            data: &m.state.data,
+            rows,
+            cols,
+        };
+        let mm = &*m;
+        buffers.par_iter_mut().zip(a.list.par_iter()).for_each_init(
+            RowScratch::default,
+            |sc, (buf, &t)| {
+                let ([r0, r1], [c0, c1]) = a.span(t as usize, rows, cols);
+                let w = c1 - c0;
+                buf.resize((r1 - r0) * LAYERS * 6 * w, 0.0);
+                for i in r0..r1 {
+                    forces::row(mm, &whole, i, c0..c1, i == r0, sc);
+                    for l in 0..LAYERS {
+                        let b = l * rows + i;
+                        let at = (b * field::COUNT + field::INV_MASS) * cols;
+                        let inv_m = &mm.rows_data[at + c0..at + c1];
+                        let out = &mut buf[((i - r0) * LAYERS + l) * 6 * w..][..6 * w];
+                        let (g, d) = (mm.params.gravity, mm.params.damping_per_s);
+                        for c in 0..3 {
+                            let f = &sc.row(l, c, cols)[c0..c1];
+                            let x0 = &whole.data[(b * 6 + c) * cols + c0..(b * 6 + c) * cols + c1];
+                            let v0 = &whole.data
+                                [(b * 6 + 3 + c) * cols + c0..(b * 6 + 3 + c) * cols + c1];
+                            let (xs, vs) = out.split_at_mut(3 * w);
+                            let (xo, vo) =
+                                (&mut xs[c * w..(c + 1) * w], &mut vs[c * w..(c + 1) * w]);
+                            for j in 0..w {
+                                let acc = f[j] * inv_m[j] + (g[c] - d * v0[j]);
+                                let v = v0[j] + h * acc;
+                                vo[j] = v;
+                                xo[j] = x0[j] + h * v;
+                            }
+                        }
+                    }
+                }
+            },
+        );
+    }
+    for (buf, &t) in buffers.iter().zip(&a.list) {
+        let ([r0, r1], [c0, c1]) = a.span(t as usize, rows, cols);
+        let w = c1 - c0;
+        for i in r0..r1 {
+            for l in 0..LAYERS {
+                let b = l * rows + i;
+                let src = &buf[((i - r0) * LAYERS + l) * 6 * w..][..6 * w];
+                for k in 0..6 {
+                    m.state.data[(b * 6 + k) * cols + c0..(b * 6 + k) * cols + c1]
+                        .copy_from_slice(&src[k * w..(k + 1) * w]);
+                }
+            }
+        }
+    }
+}
+
+/// After a step: each awake tile's fastest node relative to its anchor; still tiles with no
+/// tool near fall asleep, and fast border nodes wake the sleeping tiles beside them.
+fn settle(m: &mut Membrane, a: &mut Activity, dt: f32) {
+    let (rows, cols) = (m.rows, m.cols);
+    let p = a.params;
+    let mut to_wake = Vec::new();
+    let list = a.list.clone();
+    for &t in &list {
+        let t = t as usize;
+        let ([r0, r1], [c0, c1]) = a.span(t, rows, cols);
+        let mut fastest = 0.0f32;
+        // How far the tile's edge nodes have moved from where they were when it woke.
+        let mut edge = 0.0f32;
+        for l in 0..LAYERS {
+            for i in r0..r1 {
+                let b = l * rows + i;
+                for j in c0..c1 {
+                    let now = m.position(b * cols + j) - anchor(m, a, l, i, j);
+                    let at = |c: usize| (b * 3 + c) * cols + j;
+                    let get = |v: &[f32]| Vec3::new(v[at(0)], v[at(1)], v[at(2)]);
+                    let speed = (now - get(&a.last)).length() / dt;
+                    for c in 0..3 {
+                        a.last[at(c)] = now[c];
+                    }
+                    fastest = fastest.max(speed);
+                    if i == r0 || i + 1 == r1 || j == c0 || j + 1 == c1 {
+                        edge = edge.max((now - get(&a.offset)).length());
+                    }
+                }
+            }
+        }
+        if edge > p.wake_distance_m {
+            to_wake.extend(a.neighbours(t, m.periodic).filter(|&n| !a.awake[n]));
+        }
+        if fastest < p.sleep_speed_m_per_s {
+            a.still_s[t] += dt;
+        } else {
+            a.still_s[t] = 0.0;
+        }
+        a.boxes[t] = tile_box(m, a, t);
+        if a.still_s[t] >= p.sleep_after_s {
+            // Asleep where it is: its offsets now hold it there.
+            let ([r0, r1], [c0, c1]) = a.span(t, rows, cols);
+            for b in (0..LAYERS).flat_map(|l| (r0..r1).map(move |i| l * rows + i)) {
+                for c in 0..3 {
+                    let r = (b * 3 + c) * cols + c0..(b * 3 + c) * cols + c1;
+                    let (off, last) = (&mut a.offset[r.clone()], &a.last[r]);
+                    off.copy_from_slice(last);
+                }
+            }
+            a.awake[t] = false;
+            a.still_s[t] = 0.0;
+        }
+    }
+    to_wake.sort_unstable();
+    to_wake.dedup();
+    for t in to_wake {
+        if !a.awake[t] {
+            place_asleep(m, a, t);
+            start_watch(m, a, t);
+            a.awake[t] = true;
+            a.still_s[t] = 0.0;
+        }
+    }
+}
