@@ -3,6 +3,8 @@
 //! between layers 2 and 3. This folder grows into the procedure; today it holds the anatomy.
 
 pub mod anatomy;
+pub mod rod;
+pub mod skin;
 #[cfg(test)]
 mod tests;
 
