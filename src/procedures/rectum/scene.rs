@@ -1,0 +1,312 @@
+//! The rectum's models coupled in one step: the Cosserat rod (the bowel), the four-layer
+//! membrane around it, the skin that carries the membrane's layer 0 on the rod, and the
+//! instruments (an L-hook and a grasper) as generalized cylinders. This is the physics the
+//! `rectum` procedure will step; it knows no input device, task or score.
+//!
+//! One step of `dt`:
+//! 1. the grasper holds (or takes, or lets go of) the rectum's surface; the hook presses the
+//!    rod's bounding spheres; the rod steps;
+//! 2. layer 0's targets are placed by the skin where the next membrane step needs them (the
+//!    awake tiles and those beside them);
+//! 3. the membrane's tiles near each instrument wake; the hook's cylinders are tested against
+//!    every node of the awake tiles (the paper's two-step test) and push them by penalty
+//!    forces scaled by each node's area; with the cut button held, the dissection-plane
+//!    springs inside a sphere at the hook's end are cut (eqs 5-6);
+//! 4. the membrane advances in the explicit substeps its stability needs.
+//!
+//! The hook's reaction is the sum of what the rod and the membrane do to it.
+
+use super::anatomy::Anatomy;
+use super::rod::{RectumRod, RectumRodParams, RodModelError};
+use super::skin::{Selection, Skin};
+use crate::collision::{Instrument, PointCloud, ToolContact, VertexAreas, penalty_forces};
+use crate::models::membrane::{
+    ActivityParams, Integrator, LAYERS, LayerMaterial, Membrane, MembraneError, MembraneParams,
+};
+use glam::{Quat, Vec3};
+
+/// The membrane's tissues (documented choices; the paper gives no values):
+/// - sheets (layer 0 on the bowel, layers 1-2 the visceral and parietal fasciae, layer 3 the
+///   pelvic side): loose connective tissue, E = 5 kPa, 0.5 mm thick, 1000 kg/m^3. Dense
+///   fascia is stiffer (MPa); at the paper's 0.25 mm spacing that would need 6 us explicit
+///   steps (`docs/rectum.md`);
+/// - links 1-2 and 3-4: mesorectal and presacral fat, E = 2 kPa (adipose tissue is 1-3 kPa in
+///   indentation); links 2-3: the areolar tissue of the dissection plane, E = 1 kPa;
+/// - damping: half of critical along the springs and 20/s at the nodes (tissue is strongly
+///   damped); attachments 1e6 Pa/m; eq 5's residual strain 0.1 (the paper's); gravity.
+pub fn membrane_params() -> MembraneParams {
+    let sheet = LayerMaterial {
+        youngs_modulus_pa: 5e3,
+        thickness_m: 5e-4,
+        density_kg_per_m3: 1000.0,
+    };
+    MembraneParams {
+        layers: [sheet; LAYERS],
+        link_modulus_pa: [2e3, 1e3, 2e3],
+        damping_per_s: 20.0,
+        spring_damping_ratio: 0.5,
+        attach_pa_per_m: 1e6,
+        residual_strain: 0.1,
+        gravity: Vec3::new(0.0, -9.81, 0.0),
+        integrator: Integrator::Symplectic,
+    }
+}
+
+/// The scene's figures.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SceneParams {
+    pub membrane: MembraneParams,
+    pub rod: RectumRodParams,
+    pub activity: ActivityParams,
+    /// The hook's penalty on membrane nodes, per unit of their area, Pa/m.
+    pub hook_stiffness_pa_per_m: f32,
+    /// Radius of the sphere at the hook's end whose plane springs a cut removes, m.
+    pub cut_radius_m: f32,
+    /// Explicit substeps at this fraction of the stability limit.
+    pub substep_safety: f32,
+    /// The part of each instrument that wakes tissue: this far up from its working end, m.
+    pub wake_reach_m: f32,
+}
+
+impl Default for SceneParams {
+    fn default() -> Self {
+        SceneParams {
+            membrane: membrane_params(),
+            rod: RectumRodParams::default(),
+            activity: ActivityParams::default(),
+            hook_stiffness_pa_per_m: 1e6,
+            cut_radius_m: 1.5e-3,
+            substep_safety: 0.9,
+            wake_reach_m: 0.03,
+        }
+    }
+}
+
+/// Why the scene could not be built.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    #[error("rectum: {0}")]
+    Rod(#[from] RodModelError),
+    #[error("membrane: {0}")]
+    Membrane(#[from] MembraneError),
+}
+
+/// Where the instruments are this step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ToolState {
+    /// The L-hook's corner (where the hook leaves the shaft) and orientation (forward -Z, the
+    /// hook along +Y).
+    pub hook: Option<(Vec3, Quat)>,
+    /// The cut button (the hook's current) is held.
+    pub cutting: bool,
+    /// The grasper's jaw point and orientation, and whether it is closed.
+    pub grasper: Option<(Vec3, Quat, bool)>,
+}
+
+/// What a step did.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StepOutcome {
+    /// Force of the tissue on the hook and on the grasper, N.
+    pub hook_n: Vec3,
+    pub grasper_n: Vec3,
+    /// Plane springs cut this step.
+    pub cut: u32,
+    /// Membrane nodes the hook touches.
+    pub hook_contacts: usize,
+    /// Explicit membrane substeps taken.
+    pub substeps: usize,
+}
+
+/// The rod, the membrane and the skin between them.
+pub struct RectumScene {
+    pub params: SceneParams,
+    pub rod: RectumRod,
+    pub membrane: Membrane,
+    /// Layer 0's nodes bound to the rod.
+    skin: Skin,
+    /// Each node's area, m^2 (mass over density and thickness).
+    area: Vec<f32>,
+    // Scratch, reused every step.
+    nodes: Vec<u32>,
+    points: Vec<Vec3>,
+    areas: Vec<f32>,
+    contacts: Vec<ToolContact>,
+    forces: Vec<(u32, Vec3)>,
+    targets: Vec<Vec3>,
+}
+
+impl RectumScene {
+    /// Builds the scene on the anatomy, the membrane at rest with its active set on.
+    pub fn new(anatomy: &Anatomy, params: SceneParams) -> Result<RectumScene, SceneError> {
+        let axis: Vec<Vec3> = anatomy.axis.iter().map(|f| f.point).collect();
+        let rod = RectumRod::new(&axis, &anatomy.rectum, params.rod)?;
+        let mut membrane = Membrane::new(anatomy.membrane.clone(), params.membrane)?;
+        membrane.use_active_set(params.activity);
+        let skin = Skin::bind(&rod, &anatomy.membrane.positions[0]);
+        let per = membrane.rows() * membrane.cols();
+        let area = (0..membrane.len())
+            .map(|n| {
+                let m = &params.membrane.layers[n / per];
+                membrane.mass(n) / (m.density_kg_per_m3 * m.thickness_m)
+            })
+            .collect();
+        Ok(RectumScene {
+            params,
+            rod,
+            membrane,
+            skin,
+            area,
+            nodes: Vec::new(),
+            points: Vec::new(),
+            areas: Vec::new(),
+            contacts: Vec::new(),
+            forces: Vec::new(),
+            targets: Vec::new(),
+        })
+    }
+
+    /// Sets layer 0's targets on tiles `tiles` from the rod's skin.
+    fn place_targets(&mut self, tiles: &[usize]) {
+        let cols = self.membrane.cols();
+        self.nodes.clear();
+        for &t in tiles {
+            let ([r0, r1], [c0, c1]) = self.membrane.tile_span(t);
+            for i in r0..r1 {
+                self.nodes.extend((c0..c1).map(|j| (i * cols + j) as u32));
+            }
+        }
+        self.targets.resize(self.nodes.len(), Vec3::ZERO);
+        if self
+            .skin
+            .place(&self.rod, Selection::List(&self.nodes), &mut self.targets)
+            .is_ok()
+        {
+            for (&k, &p) in self.nodes.iter().zip(&self.targets) {
+                let k = k as usize;
+                self.membrane.set_target(k / cols, k % cols, p);
+            }
+        }
+    }
+
+    /// Every node where the rod carries it now (before drawing the whole membrane).
+    pub fn place_everything(&mut self) {
+        let (tr, tc) = self.membrane.tiles();
+        let all: Vec<usize> = (0..tr * tc).collect();
+        self.place_targets(&all);
+        self.membrane.place_sleeping();
+    }
+
+    /// The box around the part of `tool` within the wake reach of its working end `end`.
+    fn wake_box(&self, tool: &Instrument, end: Vec3) -> (Vec3, Vec3) {
+        let reach = self.params.wake_reach_m;
+        let (mut lo, mut hi) = (end, end);
+        for c in tool.cylinders() {
+            let r = Vec3::splat(c.max_radius_m());
+            for p in [c.p0(), c.p1()] {
+                // Clip the segment to the ball of the reach around the end.
+                let q = if p.distance(end) > reach {
+                    end + (p - end).normalize_or_zero() * reach
+                } else {
+                    p
+                };
+                lo = lo.min(q - r);
+                hi = hi.max(q + r);
+            }
+        }
+        (lo, hi)
+    }
+
+    /// One step of `dt_s`.
+    pub fn step(&mut self, dt_s: f32, tools: &ToolState) -> StepOutcome {
+        let mut out = StepOutcome::default();
+        // 1. The rod: grasper, hook, step.
+        match tools.grasper {
+            Some((jaw, _, true)) => {
+                if self.rod.grip(0).is_none() {
+                    self.rod.grasp(0, jaw);
+                }
+                if self.rod.grip(0).is_some() {
+                    out.grasper_n += self.rod.hold(0, jaw);
+                }
+            }
+            _ => self.rod.release(0),
+        }
+        let hook = tools
+            .hook
+            .and_then(|(tip, q)| Instrument::l_hook(tip, q).ok());
+        if let Some(h) = &hook {
+            out.hook_n += self.rod.press(h, 1);
+        }
+        let held = self.rod.advance(f64::from(dt_s));
+        if let Some(r) = held[0] {
+            out.grasper_n = r;
+        }
+        // 2-3. Wake what the instruments reach, place the targets the step needs.
+        let mut boxes = Vec::new();
+        if let (Some(h), Some((tip, _))) = (&hook, tools.hook) {
+            boxes.push(self.wake_box(h, tip));
+        }
+        if let Some((jaw, q, _)) = tools.grasper
+            && let Ok(g) = Instrument::grasper(jaw, q, 0.0)
+        {
+            boxes.push(self.wake_box(&g, jaw));
+        }
+        self.membrane.wake_near(&boxes);
+        let needed = self.membrane.tiles_needing_targets(false);
+        self.place_targets(&needed);
+        if let Some(h) = &hook {
+            out.hook_n += self.press_membrane(h);
+            out.hook_contacts = self.contacts.len();
+            if tools.cutting
+                && let Some(end) = h.cylinders().get(1).map(|c| c.p1())
+            {
+                out.cut = self.membrane.cut_plane(end, self.params.cut_radius_m);
+            }
+        }
+        // 4. The membrane.
+        out.substeps = self.membrane.advance(dt_s, self.params.substep_safety);
+        out
+    }
+
+    /// The hook against every node of the awake tiles: penalty forces on the nodes, and the
+    /// reaction on the hook.
+    fn press_membrane(&mut self, hook: &Instrument) -> Vec3 {
+        let m = &self.membrane;
+        let (tr, tc) = m.tiles();
+        self.nodes.clear();
+        for t in (0..tr * tc).filter(|&t| m.tile_awake(t)) {
+            let ([r0, r1], [c0, c1]) = m.tile_span(t);
+            for l in 0..LAYERS {
+                for i in r0..r1 {
+                    self.nodes.extend((c0..c1).map(|j| m.node(l, i, j) as u32));
+                }
+            }
+        }
+        self.points.clear();
+        self.points
+            .extend(self.nodes.iter().map(|&n| m.position(n as usize)));
+        self.areas.clear();
+        self.areas
+            .extend(self.nodes.iter().map(|&n| self.area[n as usize]));
+        hook.contacts_all(PointCloud::from_points(&self.points), &mut self.contacts);
+        let about = hook.cylinders().first().map_or(Vec3::ZERO, |c| c.p1());
+        let Ok(reaction) = penalty_forces(
+            &self.contacts,
+            VertexAreas::PerVertex(&self.areas),
+            self.params.hook_stiffness_pa_per_m,
+            about,
+            &mut self.forces,
+        ) else {
+            return Vec3::ZERO;
+        };
+        for &(k, f) in &self.forces {
+            let node = self.nodes[k as usize] as usize;
+            self.membrane.add_force(node, f);
+        }
+        reaction.force_n
+    }
+}
+
+#[cfg(test)]
+#[path = "scene_tests.rs"]
+mod tests;
