@@ -399,6 +399,61 @@ pub(super) fn step(m: &mut Membrane, dt: f32, substeps: usize) {
     m.activity = Some(a);
 }
 
+/// One tile's substep into its buffer, compiled for the widest vector unit the CPU has.
+struct TilePass<'a, 'w> {
+    m: &'a Membrane,
+    a: &'a Activity,
+    whole: &'a Whole<'w>,
+    sc: &'a mut RowScratch,
+    buf: &'a mut Vec<f32>,
+    t: usize,
+    h: f32,
+}
+
+impl pulp::WithSimd for TilePass<'_, '_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) {
+        let TilePass {
+            m: mm,
+            a,
+            whole,
+            sc,
+            buf,
+            t,
+            h,
+        } = self;
+        let (rows, cols) = (mm.rows, mm.cols);
+        let ([r0, r1], [c0, c1]) = a.span(t, rows, cols);
+        let w = c1 - c0;
+        buf.resize((r1 - r0) * LAYERS * 6 * w, 0.0);
+        for i in r0..r1 {
+            forces::row(mm, whole, i, c0..c1, i == r0, sc);
+            for l in 0..LAYERS {
+                let b = l * rows + i;
+                let at = (b * field::COUNT + field::INV_MASS) * cols;
+                let inv_m = &mm.rows_data[at + c0..at + c1];
+                let out = &mut buf[((i - r0) * LAYERS + l) * 6 * w..][..6 * w];
+                let (g, d) = (mm.params.gravity, mm.params.damping_per_s);
+                for c in 0..3 {
+                    let f = &sc.row(l, c, cols)[c0..c1];
+                    let x0 = &whole.data[(b * 6 + c) * cols + c0..(b * 6 + c) * cols + c1];
+                    let v0 = &whole.data[(b * 6 + 3 + c) * cols + c0..(b * 6 + 3 + c) * cols + c1];
+                    let (xs, vs) = out.split_at_mut(3 * w);
+                    let (xo, vo) = (&mut xs[c * w..(c + 1) * w], &mut vs[c * w..(c + 1) * w]);
+                    for j in 0..w {
+                        let acc = f[j] * inv_m[j] + (g[c] - d * v0[j]);
+                        let v = v0[j] + h * acc;
+                        vo[j] = v;
+                        xo[j] = x0[j] + h * v;
+                    }
+                }
+            }
+        }
+    }
+}
+
 /// One explicit substep of the awake tiles, each into its buffer, then copied back in order.
 fn substep(m: &mut Membrane, a: &Activity, buffers: &mut [Vec<f32>], h: f32) {
     let (rows, cols) = (m.rows, m.cols);
@@ -412,34 +467,15 @@ fn substep(m: &mut Membrane, a: &Activity, buffers: &mut [Vec<f32>], h: f32) {
         buffers.par_iter_mut().zip(a.list.par_iter()).for_each_init(
             RowScratch::default,
             |sc, (buf, &t)| {
-                let ([r0, r1], [c0, c1]) = a.span(t as usize, rows, cols);
-                let w = c1 - c0;
-                buf.resize((r1 - r0) * LAYERS * 6 * w, 0.0);
-                for i in r0..r1 {
-                    forces::row(mm, &whole, i, c0..c1, i == r0, sc);
-                    for l in 0..LAYERS {
-                        let b = l * rows + i;
-                        let at = (b * field::COUNT + field::INV_MASS) * cols;
-                        let inv_m = &mm.rows_data[at + c0..at + c1];
-                        let out = &mut buf[((i - r0) * LAYERS + l) * 6 * w..][..6 * w];
-                        let (g, d) = (mm.params.gravity, mm.params.damping_per_s);
-                        for c in 0..3 {
-                            let f = &sc.row(l, c, cols)[c0..c1];
-                            let x0 = &whole.data[(b * 6 + c) * cols + c0..(b * 6 + c) * cols + c1];
-                            let v0 = &whole.data
-                                [(b * 6 + 3 + c) * cols + c0..(b * 6 + 3 + c) * cols + c1];
-                            let (xs, vs) = out.split_at_mut(3 * w);
-                            let (xo, vo) =
-                                (&mut xs[c * w..(c + 1) * w], &mut vs[c * w..(c + 1) * w]);
-                            for j in 0..w {
-                                let acc = f[j] * inv_m[j] + (g[c] - d * v0[j]);
-                                let v = v0[j] + h * acc;
-                                vo[j] = v;
-                                xo[j] = x0[j] + h * v;
-                            }
-                        }
-                    }
-                }
+                pulp::Arch::new().dispatch(TilePass {
+                    m: mm,
+                    a,
+                    whole: &whole,
+                    sc,
+                    buf,
+                    t: t as usize,
+                    h,
+                })
             },
         );
     }

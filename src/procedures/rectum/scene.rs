@@ -33,7 +33,11 @@ use glam::{Quat, Vec3};
 /// - links 1-2 and 3-4: mesorectal and presacral fat, E = 2 kPa (adipose tissue is 1-3 kPa in
 ///   indentation); links 2-3: the areolar tissue of the dissection plane, E = 1 kPa;
 /// - damping: half of critical along the springs and 20/s at the nodes (tissue is strongly
-///   damped); attachments 1e6 Pa/m; eq 5's residual strain 0.1 (the paper's); gravity.
+///   damped); attachments 1e7 Pa/m (the pelvic wall is muscle on bone: 400 Pa of shear from
+///   the fat moves it 40 um); eq 5's residual strain 0.1 (the paper's);
+/// - no gravity: the anatomy is generated as it lies, carried by the body, and a sheet of
+///   0.5 kg/m^2 on 2 kPa of fat 10 mm thick would sag 25 um, below what the active set
+///   resolves (its wake distance is 30 um), but enough to wake tile after tile if left in.
 pub fn membrane_params() -> MembraneParams {
     let sheet = LayerMaterial {
         youngs_modulus_pa: 5e3,
@@ -45,9 +49,9 @@ pub fn membrane_params() -> MembraneParams {
         link_modulus_pa: [2e3, 1e3, 2e3],
         damping_per_s: 20.0,
         spring_damping_ratio: 0.5,
-        attach_pa_per_m: 1e6,
+        attach_pa_per_m: 1e7,
         residual_strain: 0.1,
-        gravity: Vec3::new(0.0, -9.81, 0.0),
+        gravity: Vec3::ZERO,
         integrator: Integrator::Symplectic,
     }
 }
@@ -72,7 +76,14 @@ impl Default for SceneParams {
     fn default() -> Self {
         SceneParams {
             membrane: membrane_params(),
-            rod: RectumRodParams::default(),
+            // The rectum as generated lies where the body holds it: its weight is carried by
+            // the mesorectum and the pelvic floor, and the skin couples the membrane to the
+            // rod one way (the membrane does not pull back on the rod yet), so the rod is
+            // weightless here rather than sagging between its clamps.
+            rod: RectumRodParams {
+                gravity_m_per_s2: glam::DVec3::ZERO,
+                ..RectumRodParams::default()
+            },
             activity: ActivityParams::default(),
             hook_stiffness_pa_per_m: 1e6,
             cut_radius_m: 1.5e-3,
