@@ -4,6 +4,7 @@
 //! skin, and the scene that steps them with the membrane and the instruments.
 
 pub mod anatomy;
+pub mod regions;
 pub mod rod;
 pub mod scene;
 pub mod skin;

@@ -17,6 +17,7 @@
 //! The hook's reaction is the sum of what the rod and the membrane do to it.
 
 use super::anatomy::Anatomy;
+use super::regions::{self, RegionId, RegionKind};
 use super::rod::{RectumRod, RectumRodParams, RodModelError};
 use super::skin::{Selection, Skin};
 use crate::collision::{Instrument, PointCloud, ToolContact, VertexAreas, penalty_forces};
@@ -126,7 +127,16 @@ pub struct StepOutcome {
     pub hook_contacts: usize,
     /// Explicit membrane substeps taken.
     pub substeps: usize,
+    /// Vulnerable regions the hook touches now: bit `id` for region id `id`
+    /// ([`regions::REGIONS`]).
+    pub touching: u32,
+    /// Alarms raised this step: bit `id` for a vulnerable region the hook has just touched,
+    /// [`ALARM_RECTAL_WALL`] when the hook cuts with the rectum's wall (layer 0) under it.
+    pub alarms: u32,
 }
+
+/// Alarm bit: the hook's current is on while it touches the rectum's wall (a perforation).
+pub const ALARM_RECTAL_WALL: u32 = 1 << 7;
 
 /// The rod, the membrane and the skin between them.
 pub struct RectumScene {
@@ -137,6 +147,14 @@ pub struct RectumScene {
     skin: Skin,
     /// Each node's area, m^2 (mass over density and thickness).
     area: Vec<f32>,
+    /// Each node's region (0: none).
+    regions: Vec<RegionId>,
+    /// Last step's touching bits and wall-cut state (alarms fire on a change to touching).
+    touching: u32,
+    cutting_wall: bool,
+    /// This step's: vulnerable regions touched, and whether the hook touches layer 0.
+    touched_now: u32,
+    on_wall: bool,
     // Scratch, reused every step.
     nodes: Vec<u32>,
     points: Vec<Vec3>,
@@ -167,6 +185,11 @@ impl RectumScene {
             membrane,
             skin,
             area,
+            regions: regions::map(anatomy.membrane.rows, anatomy.membrane.cols),
+            touching: 0,
+            cutting_wall: false,
+            touched_now: 0,
+            on_wall: false,
             nodes: Vec::new(),
             points: Vec::new(),
             areas: Vec::new(),
@@ -265,6 +288,8 @@ impl RectumScene {
         self.membrane.wake_near(&boxes);
         let needed = self.membrane.tiles_needing_targets(false);
         self.place_targets(&needed);
+        self.touched_now = 0;
+        self.on_wall = false;
         if let Some(h) = &hook {
             out.hook_n += self.press_membrane(h);
             out.hook_contacts = self.contacts.len();
@@ -274,9 +299,23 @@ impl RectumScene {
                 out.cut = self.membrane.cut_plane(end, self.params.cut_radius_m);
             }
         }
+        // Alarms: a vulnerable region newly touched, the wall newly cut.
+        out.touching = self.touched_now;
+        out.alarms = self.touched_now & !self.touching;
+        let cutting_wall = tools.cutting && self.on_wall && hook.is_some();
+        if cutting_wall && !self.cutting_wall {
+            out.alarms |= ALARM_RECTAL_WALL;
+        }
+        self.touching = self.touched_now;
+        self.cutting_wall = cutting_wall;
         // 4. The membrane.
         out.substeps = self.membrane.advance(dt_s, self.params.substep_safety);
         out
+    }
+
+    /// The region of membrane node `node` (0: none).
+    pub fn region_of(&self, node: usize) -> RegionId {
+        self.regions.get(node).copied().unwrap_or(0)
     }
 
     /// The hook against every node of the awake tiles: penalty forces on the nodes, and the
@@ -310,6 +349,15 @@ impl RectumScene {
         ) else {
             return Vec3::ZERO;
         };
+        let per = self.membrane.rows() * self.membrane.cols();
+        for c in &self.contacts {
+            let node = self.nodes[c.vertex as usize] as usize;
+            let id = self.regions[node];
+            if regions::region(id).is_some_and(|r| r.kind == RegionKind::Vulnerable) {
+                self.touched_now |= 1 << id;
+            }
+            self.on_wall |= node < per;
+        }
         for &(k, f) in &self.forces {
             let node = self.nodes[k as usize] as usize;
             self.membrane.add_force(node, f);

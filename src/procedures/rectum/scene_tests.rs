@@ -86,3 +86,69 @@ fn the_hook_pushes_the_membrane_and_feels_it_and_cuts_the_plane() {
     assert!(s.membrane.link_alive(1, 2, s.membrane.cols() / 2));
     assert!(s.membrane.link_alive(0, mid, 0));
 }
+
+/// The hook's corner for its end to sit on node `(l, i, j)`, shaft from above.
+fn hook_on(s: &RectumScene, l: usize, i: usize, j: usize) -> Vec3 {
+    s.membrane.position(s.membrane.node(l, i, j)) + Vec3::new(0.0, 0.0, 0.006)
+}
+
+#[test]
+fn regions_lie_where_the_anatomy_says() {
+    let s = scene();
+    let (rows, cols) = (s.membrane.rows(), s.membrane.cols());
+    let name = |l, i, j| regions::region(s.region_of(s.membrane.node(l, i, j))).map(|r| r.name);
+    // The plane (layers 1 and 2) in the middle, all round; not at the ends, not layer 0.
+    assert_eq!(name(1, rows / 2, 0), Some("dissection_plane"));
+    assert_eq!(name(2, rows / 2, cols / 2), Some("dissection_plane"));
+    assert_eq!(name(1, 0, 0), None);
+    assert_eq!(name(0, rows / 2, 0), None);
+    // The ureters on layer 3 of the side walls (a quarter and three quarters round), high up.
+    assert_eq!(name(3, rows / 5, cols / 4), Some("ureter_left"));
+    assert_eq!(name(3, rows / 5, 3 * cols / 4), Some("ureter_right"));
+    assert_eq!(name(3, 4 * rows / 5, cols / 4), None);
+    // The plexus low down, in front of the side walls, over the plane's outer fascia.
+    assert_eq!(name(2, 9 * rows / 10, cols / 6), Some("pelvic_plexus_left"));
+}
+
+#[test]
+fn touching_a_ureter_raises_its_alarm_at_once_and_only_once() {
+    let mut s = scene();
+    let (rows, cols) = (s.membrane.rows(), s.membrane.cols());
+    let (l, i, j) = (3, rows / 5, cols / 4);
+    let ureter = 1 << s.region_of(s.membrane.node(l, i, j));
+    let tools = ToolState {
+        hook: Some((hook_on(&s, l, i, j), from_above())),
+        cutting: false,
+        grasper: None,
+    };
+    let first = s.step(1e-3, &tools);
+    assert!(first.hook_contacts > 0, "{first:?}");
+    assert_eq!(first.alarms & ureter, ureter, "{first:?}");
+    let second = s.step(1e-3, &tools);
+    assert_eq!(second.touching & ureter, ureter, "{second:?}");
+    assert_eq!(second.alarms, 0, "{second:?}");
+}
+
+#[test]
+fn cutting_on_the_rectal_wall_raises_an_alarm_and_cutting_in_the_plane_does_not() {
+    let mut s = scene();
+    let mid = s.membrane.rows() / 2;
+    let plane = 0.5
+        * (s.membrane.position(s.membrane.node(1, mid, 0))
+            + s.membrane.position(s.membrane.node(2, mid, 0)));
+    let in_plane = ToolState {
+        hook: Some((plane + Vec3::new(0.0, 0.0, 0.006), from_above())),
+        cutting: true,
+        grasper: None,
+    };
+    let out = s.step(1e-3, &in_plane);
+    assert!(out.cut > 0 && out.alarms == 0, "{out:?}");
+    let mut s = scene();
+    let wall = ToolState {
+        hook: Some((hook_on(&s, 0, mid, 0), from_above())),
+        cutting: true,
+        grasper: None,
+    };
+    let out = s.step(1e-3, &wall);
+    assert_eq!(out.alarms & ALARM_RECTAL_WALL, ALARM_RECTAL_WALL, "{out:?}");
+}
