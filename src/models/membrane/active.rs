@@ -467,7 +467,7 @@ fn substep(m: &mut Membrane, a: &Activity, buffers: &mut [Vec<f32>], h: f32) {
         buffers.par_iter_mut().zip(a.list.par_iter()).for_each_init(
             RowScratch::default,
             |sc, (buf, &t)| {
-                pulp::Arch::new().dispatch(TilePass {
+                mm.vectorized(TilePass {
                     m: mm,
                     a,
                     whole: &whole,

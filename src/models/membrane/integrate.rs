@@ -194,7 +194,7 @@ fn symplectic(m: &mut Membrane, dt: f32) {
         views
             .par_iter_mut()
             .map_init(RowScratch::default, |sc, view| {
-                pulp::Arch::new().dispatch(ChunkPass { m, view, sc, dt })
+                m.vectorized(ChunkPass { m, view, sc, dt })
             })
             .collect()
     };

@@ -176,6 +176,9 @@ pub struct Membrane {
     step_limit: f32,
     /// The active set, when on.
     activity: Option<active::Activity>,
+    /// Run the kernels on the baseline vector unit even where a wider one exists (tests
+    /// compare the two).
+    baseline_vectors: bool,
 }
 
 impl Membrane {
@@ -238,6 +241,7 @@ impl Membrane {
             scratch: integrate::Scratch::default(),
             step_limit: f32::INFINITY,
             activity: None,
+            baseline_vectors: false,
         };
         // Each node's share of its layer's area: a quarter of each cell around it, the cell
         // spanned by its neighbours along and around (half a spring each way).
@@ -612,6 +616,16 @@ impl Membrane {
         }
         self.external.clear();
         n
+    }
+
+    /// Runs `op` on the widest vector unit the CPU has (AVX2 on x86-64 where present), or on
+    /// the baseline one when asked to.
+    fn vectorized<Op: pulp::WithSimd>(&self, op: Op) -> Op::Output {
+        if self.baseline_vectors {
+            op.with_simd(pulp::Scalar::new())
+        } else {
+            pulp::Arch::new().dispatch(op)
+        }
     }
 
     /// The largest stable explicit step, as computed when built, s.

@@ -385,3 +385,23 @@ fn the_active_set_gives_the_same_bytes_on_one_and_two_threads() {
     };
     assert_eq!(run(1), run(2));
 }
+
+#[test]
+fn the_wide_and_the_baseline_vector_units_give_the_same_bytes() {
+    // The kernels are element-wise arithmetic (no fused multiply-add, no horizontal sums), so
+    // AVX2 and the baseline unit must agree bit for bit, on the whole grid and on tiles.
+    let run = |baseline: bool, tiles: bool| {
+        let mut m = sleepy_tube();
+        m.baseline_vectors = baseline;
+        if !tiles {
+            m.stay_awake();
+        }
+        poke(&mut m, 2e-4, 30, 10);
+        m.cut_plane(m.position(m.node(1, 64, 64)), 0.001);
+        poke(&mut m, 2e-4, 10, 0);
+        m.state_hash()
+    };
+    for tiles in [false, true] {
+        assert_eq!(run(false, tiles), run(true, tiles), "tiles: {tiles}");
+    }
+}
