@@ -14,18 +14,7 @@ fn aiming(dir: glam::Vec3) -> glam::Quat {
     glam::Quat::from_rotation_arc(Vec3::NEG_Z, dir.normalize())
 }
 
-/// A deterministic generator of numbers in [0, 1) (Knuth's MMIX LCG, top 24 bits).
-struct Lcg(u64);
-
-impl Lcg {
-    fn next(&mut self) -> f32 {
-        self.0 = self
-            .0
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-}
+use crate::collision::test_support::Lcg;
 
 /// A 101 x 101 sheet over [-50, 50] mm in x and y, 1 mm apart, row-major (x fastest), each point
 /// jittered by up to ±0.3 mm in x and y and ±0.5 mm in z.

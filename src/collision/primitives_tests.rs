@@ -511,21 +511,7 @@ fn non_finite_queries_and_empty_sets_answer_nothing() {
     assert!(none.distance(Vec3::ZERO).is_none());
 }
 
-/// A fixed-seed linear congruential generator: uniform in [0, 1).
-struct Lcg(u64);
-
-impl Lcg {
-    fn next(&mut self) -> f32 {
-        self.0 = self
-            .0
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.next()
-    }
-}
+use crate::collision::test_support::Lcg;
 
 #[test]
 fn random_rays_hit_the_surface_with_nothing_inside_before() {

@@ -505,14 +505,27 @@ impl Membrane {
     }
 
     /// Cuts the dissection-plane links (between layers 1 and 2) whose midpoints lie within
-    /// `radius_m` of `center`; the nodes they held are released, and the in-layer springs
-    /// between released nodes shrink by the residual strain (eq 5). Returns how many links
-    /// were cut.
+    /// `radius_m` of `center` (on the awake tiles only, with the active set on); the nodes
+    /// they held are released, and the in-layer springs between released nodes shrink by the
+    /// residual strain (eq 5). Returns how many links were cut.
     pub fn cut_plane(&mut self, center: Vec3, radius_m: f32) -> u32 {
         let per = self.rows * self.cols;
         let plane = 1;
         let mut cut = Vec::new();
-        for t in 0..per {
+        // With the active set on, only the awake tiles are searched: a tool that cuts has
+        // woken the tissue around it, and a sleeping tile's nodes do not step.
+        let (rows, cols) = (self.rows, self.cols);
+        let candidates: Vec<usize> = match &self.activity {
+            Some(a) if !a.all_awake => (0..a.awake.len())
+                .filter(|&t| a.awake[t])
+                .flat_map(|t| {
+                    let ([r0, r1], [c0, c1]) = a.span(t, rows, cols);
+                    (r0..r1).flat_map(move |i| (c0..c1).map(move |j| i * cols + j))
+                })
+                .collect(),
+            _ => (0..per).collect(),
+        };
+        for t in candidates {
             let a = plane * per + t;
             if self.spring(field::K[LINK], a) <= 0.0 {
                 continue;

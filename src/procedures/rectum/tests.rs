@@ -1,6 +1,6 @@
 use super::anatomy::*;
 use crate::mesh::{TubeSpec, tube};
-use crate::models::membrane::{Integrator, LAYERS, LayerMaterial, Membrane, MembraneParams};
+use crate::models::membrane::{LAYERS, Membrane};
 use glam::Vec3;
 
 /// A coarse anatomy for quick tests: the default shape on a 60 x 48 grid.
@@ -90,22 +90,8 @@ fn the_full_size_membrane_has_the_papers_grid_and_ordered_layers() {
     // tube's axis being 0.8 mm back): 34 - 20 - 10 - 2.5 = 1.5 mm -+ 0.8 mm.
     assert!(gap_min > 0.5e-3 && gap_min < 0.8e-3, "{gap_min}");
     assert!(gap_max > 2.2e-3 && gap_max < 2.4e-3, "{gap_max}");
-    // The membrane builds from it (no two neighbours coincide).
-    let fat = LayerMaterial {
-        youngs_modulus_pa: 2e3,
-        thickness_m: 1e-3,
-        density_kg_per_m3: 950.0,
-    };
-    let params = MembraneParams {
-        layers: [fat; LAYERS],
-        link_modulus_pa: [2e3; LAYERS - 1],
-        damping_per_s: 5.0,
-        spring_damping_ratio: 0.05,
-        attach_pa_per_m: 1e6,
-        residual_strain: 0.1,
-        gravity: Vec3::new(0.0, -9.81, 0.0),
-        integrator: Integrator::Symplectic,
-    };
+    // The membrane builds from it (no two neighbours coincide), with the scene's tissues.
+    let params = crate::procedures::rectum::scene::membrane_params();
     let membrane = Membrane::new(a.membrane.clone(), params);
     assert!(membrane.is_ok(), "{:?}", membrane.err());
 }
