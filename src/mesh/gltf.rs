@@ -151,6 +151,13 @@ impl Reader<'_> {
     }
 }
 
+/// The array under `key` (none: empty).
+fn array<'v>(v: &'v Value, key: &str) -> &'v [Value] {
+    v.get(key)
+        .and_then(Value::as_array)
+        .map_or(&[], Vec::as_slice)
+}
+
 fn u32_at(b: &[u8], at: usize) -> Option<u32> {
     b.get(at..at + 4)
         .map(|s| u32::from_le_bytes([s[0], s[1], s[2], s[3]]))
@@ -224,14 +231,9 @@ pub fn parse(
         json,
         buffers: Vec::new(),
     };
-    let declared = reader
-        .json
-        .get("buffers")
-        .and_then(Value::as_array)
-        .cloned()
-        .unwrap_or_default();
+    let json = std::mem::take(&mut reader.json);
     let mut bin = bin;
-    for (k, b) in declared.iter().enumerate() {
+    for (k, b) in array(&json, "buffers").iter().enumerate() {
         let at = format!("buffers[{k}]");
         let data = match b.get("uri").and_then(Value::as_str) {
             None => bin
@@ -257,19 +259,9 @@ pub fn parse(
     }
     let mut positions: Vec<Vec3> = Vec::new();
     let mut triangles: Vec<[u32; 3]> = Vec::new();
-    let meshes = reader
-        .json
-        .get("meshes")
-        .and_then(Value::as_array)
-        .cloned()
-        .unwrap_or_default();
-    for (mi, mesh) in meshes.iter().enumerate() {
-        let prims = mesh
-            .get("primitives")
-            .and_then(Value::as_array)
-            .cloned()
-            .unwrap_or_default();
-        for (pi, prim) in prims.iter().enumerate() {
+    reader.json = json;
+    for (mi, mesh) in array(&reader.json, "meshes").iter().enumerate() {
+        for (pi, prim) in array(mesh, "primitives").iter().enumerate() {
             let at = format!("meshes[{mi}].primitives[{pi}]");
             let mode = prim
                 .get("mode")
