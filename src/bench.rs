@@ -28,9 +28,17 @@ pub struct BenchLine {
     pub awake_fraction: f64,
     /// Every point was kept awake for this line.
     pub all_awake: bool,
+    /// Mass points and springs, and the integrator, of a mass-spring model.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nodes: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub springs: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub integrator: Option<&'static str>,
 }
 
-/// Simulated seconds of the all-awake pass (the whole demo all awake would take minutes).
+/// Simulated seconds of the all-awake pass (the whole demo all awake would take minutes) by
+/// default; each procedure says its own ([`crate::procedures::ProcedureInfo::bench_all_awake_s`]).
 pub const ALL_AWAKE_S: f64 = 1.0;
 
 /// Why a benchmark did not run.
@@ -46,7 +54,8 @@ pub enum BenchError {
 }
 
 /// Runs the procedure's demo trace once on its default scenario, timing every model and the
-/// whole step; then again over its first [`ALL_AWAKE_S`] seconds with every point awake.
+/// whole step; then again over its first seconds (the procedure's `bench_all_awake_s`) with
+/// every point awake.
 pub fn run(procedure: &str) -> Result<Vec<BenchLine>, BenchError> {
     let info = crate::procedures::find(procedure)
         .ok_or_else(|| BenchError::NoSuchProcedure(procedure.to_string()))?;
@@ -55,7 +64,7 @@ pub fn run(procedure: &str) -> Result<Vec<BenchLine>, BenchError> {
     out.extend(pass(
         info,
         &trace,
-        ALL_AWAKE_S.min(trace.duration_s()),
+        info.bench_all_awake_s.min(trace.duration_s()),
         true,
     )?);
     Ok(out)
@@ -104,6 +113,9 @@ fn pass(
             threads,
             awake_fraction,
             all_awake,
+            nodes: None,
+            springs: None,
+            integrator: None,
         }
     };
     let models = p.model_reports();
@@ -112,8 +124,11 @@ fn pass(
         .iter()
         .zip(p.model_times())
         .zip(&awake)
-        .map(|((m, t), a)| {
-            line(
+        .map(|((m, t), a)| BenchLine {
+            nodes: m.nodes,
+            springs: m.springs,
+            integrator: m.integrator,
+            ..line(
                 m.name.clone(),
                 t,
                 [m.vertices, m.triangles, m.constraints],

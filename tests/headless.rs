@@ -1,6 +1,8 @@
 //! Headless sessions end to end: the demo completes, runs are byte-identical, replays match,
 //! and 1 and 2 worker threads agree.
 
+mod common;
+use common::without_id;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use vesalius::scenario::builtin;
@@ -150,15 +152,6 @@ fn run_cli(dir: &Path, threads: &str) -> Vec<u8> {
         .expect("runs");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     std::fs::read(out.join("report.json")).expect("report")
-}
-
-/// A report without its session id (two sessions have two ids; everything else must agree).
-fn without_id(report: &[u8]) -> String {
-    String::from_utf8_lossy(report)
-        .lines()
-        .filter(|l| !l.trim_start().starts_with("\"session_id\""))
-        .collect::<Vec<_>>()
-        .join("\n")
 }
 
 #[test]

@@ -13,11 +13,11 @@ pub mod soft_tissue;
 pub use nephrectomy::Nephrectomy;
 pub use procedure::{
     BuildError, ModelReport, Plan, Procedure, ProcedureInfo, ProcedureReport, TaskStatus, TaskStep,
-    ToolInfo, ToolKind, Tunable, Viewpoint,
+    ToolInfo, ToolKind, Tunable, Viewpoint, tick_off,
 };
 
 /// Every procedure that runs today, in the order `vesalius demo` plays them.
-pub const REGISTRY: &[&ProcedureInfo] = &[&nephrectomy::INFO, &sandbox::INFO];
+pub const REGISTRY: &[&ProcedureInfo] = &[&nephrectomy::INFO, &sandbox::INFO, &rectum::INFO];
 
 /// The registered procedure called `name`.
 pub fn find(name: &str) -> Option<&'static ProcedureInfo> {

@@ -15,6 +15,26 @@ pub struct TaskStep {
     pub text: &'static str,
 }
 
+/// Ticks off the checklist in order: while the next step's entry in `done` holds, it is
+/// recorded in `steps_done` and raised as a `task_step` event (so a step done early waits
+/// its turn).
+pub fn tick_off(
+    steps: &[TaskStep],
+    done: &[bool],
+    steps_done: &mut Vec<String>,
+    events: &mut Vec<crate::sim::EventKind>,
+) {
+    while let Some(next) = steps.get(steps_done.len()) {
+        if !done.get(steps_done.len()).copied().unwrap_or(false) {
+            break;
+        }
+        steps_done.push(next.id.to_string());
+        events.push(crate::sim::EventKind::TaskStep {
+            name: next.id.to_string(),
+        });
+    }
+}
+
 /// What an instrument does, so input devices and feedback know how to drive it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ToolKind {
@@ -24,6 +44,9 @@ pub enum ToolKind {
     Laser,
     /// A rigid tip for palpation and pushing.
     Probe,
+    /// An electrosurgical L-hook: it presses tissue along its whole shape, and its current
+    /// (the trigger) cuts what its end touches.
+    Hook,
 }
 
 /// The instrument one hand holds.
@@ -95,6 +118,9 @@ pub struct ProcedureInfo {
     /// The parameter tables its scenario holds that have a table of specs: (scenario table,
     /// specs). They drive validation, sliders and `docs/parameters.md`.
     pub param_tables: &'static [(&'static str, &'static [crate::params::ParamSpec])],
+    /// Simulated seconds of `vesalius bench`'s all-awake pass (a model of a million points
+    /// all awake steps far slower than real time).
+    pub bench_all_awake_s: f64,
     /// The model that tunings in recordings of format versions 1 and 2 (which name no model)
     /// were made to; none for a procedure that had no such recordings.
     pub legacy_tuned_model: Option<&'static str>,
@@ -145,6 +171,14 @@ pub struct ModelReport {
     pub vertices: usize,
     pub triangles: usize,
     pub constraints: usize,
+    /// Mass points and springs, for mass-spring models.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nodes: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub springs: Option<usize>,
+    /// The time integrator, where the model offers a choice.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub integrator: Option<&'static str>,
 }
 
 /// How the task stands now, for the panels, the alarms and the report.

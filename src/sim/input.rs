@@ -94,6 +94,16 @@ impl InputFrame {
         &self.hands[h.index()]
     }
 
+    /// How far each hand (left, right) has moved since `prev`, metres.
+    pub fn moved_since(&self, prev: &InputFrame) -> [f32; 2] {
+        [0, 1].map(|k| {
+            self.hands[k]
+                .pose
+                .position
+                .distance(prev.hands[k].pose.position)
+        })
+    }
+
     pub fn is_finite(&self) -> bool {
         self.hands.iter().all(|h| {
             h.pose.is_finite() && h.buttons.trigger.is_finite() && h.buttons.grip.is_finite()

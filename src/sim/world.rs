@@ -323,6 +323,9 @@ impl<M: TissueModel> World<M> {
                     vertices: s.vertices,
                     triangles: s.triangles,
                     constraints: s.constraints,
+                    nodes: None,
+                    springs: None,
+                    integrator: None,
                 }
             })
             .collect()

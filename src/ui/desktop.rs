@@ -177,6 +177,13 @@ impl DesktopHands {
                     ..Buttons::default()
                 },
             },
+            ToolKind::Hook => HandInput {
+                pose: Pose::looking_at(eye + dir * self.depth_m[k], eye + dir * 1.0),
+                buttons: Buttons {
+                    trigger: if p.primary_down { 1.0 } else { 0.0 },
+                    ..Buttons::default()
+                },
+            },
             ToolKind::Laser => {
                 let from = eye + down * 0.01;
                 HandInput {
@@ -196,7 +203,7 @@ impl DesktopHands {
         let [left, right] = self.tools.map(|t| t.name);
         let does = |t: &ToolInfo| match t.kind {
             ToolKind::Grasper => format!("grip ({})", t.name),
-            ToolKind::Laser => format!("cut ({})", t.name),
+            ToolKind::Laser | ToolKind::Hook => format!("cut ({})", t.name),
             ToolKind::Probe => format!("press ({})", t.name),
         };
         let mut lines = vec![

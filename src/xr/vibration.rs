@@ -46,10 +46,11 @@ pub struct HapticProfile {
 
 impl HapticProfile {
     /// The contact buzz of an instrument: a soft 160 Hz buzz for instruments that hold or
-    /// press (the Vive's actuator resonates near there), a sharper 250 Hz one for a laser.
+    /// press (the Vive's actuator resonates near there), a sharper 250 Hz one for a laser or
+    /// an energy hook.
     pub fn for_tool(tool: &ToolInfo) -> HapticProfile {
         let frequency_hz = match tool.kind {
-            ToolKind::Laser => 250.0,
+            ToolKind::Laser | ToolKind::Hook => 250.0,
             ToolKind::Grasper | ToolKind::Probe => 160.0,
         };
         HapticProfile {

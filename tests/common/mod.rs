@@ -44,6 +44,15 @@ pub fn tmp(group: &str, name: &str) -> Scratch {
     Scratch(d)
 }
 
+/// A report without its session id (two sessions have two ids; everything else must agree).
+pub fn without_id(report: &[u8]) -> String {
+    String::from_utf8_lossy(report)
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("\"session_id\""))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
 /// A session's report.json.
 pub fn report(dir: &Path) -> serde_json::Value {
     serde_json::from_slice(&std::fs::read(dir.join("report.json")).expect("report.json"))

@@ -10,7 +10,8 @@
 //! A tile wakes when a tool's box comes near it, or when the nodes on its border with an
 //! awake tile move faster (relative to their anchors) than the wake speed; it falls asleep
 //! when every node has moved slower than the sleep speed for the sleep time and no tool is
-//! near. Tiles step in parallel into their own buffers, which are then copied back in tile
+//! near. Awake tiles side by side in a row of tiles step as one run; runs step in parallel into
+//! their own buffers, which are then copied back in run
 //! order, so the bytes do not depend on the thread count.
 
 use super::forces::{self, RowScratch, Whole};
@@ -40,9 +41,12 @@ pub struct ActivityParams {
 impl Default for ActivityParams {
     fn default() -> Self {
         ActivityParams {
-            sleep_speed_m_per_s: 2e-4,
+            // Sub-millimetre departures from the anchors' linear carriage are tolerated:
+            // lifting the rectum moves layer 0 along much of the bowel, and with 30 um and
+            // 0.2 mm/s a sixth of the membrane woke for it (docs/rectum.md).
+            sleep_speed_m_per_s: 1e-3,
             sleep_after_s: 0.1,
-            wake_distance_m: 3e-5,
+            wake_distance_m: 2e-4,
             wake_margin_m: 3e-3,
         }
     }
@@ -69,10 +73,12 @@ pub(super) struct Activity {
     offset: Vec<f32>,
     /// Offsets of awake tiles' nodes at the last check (their speed is measured from it).
     last: Vec<f32>,
-    /// Per awake tile, its new state (rows x layers x 6 x width).
+    /// Per run of awake tiles, its new state (rows x layers x 6 x width).
     buffers: Vec<Vec<f32>>,
     /// Awake tiles this step, ascending.
     list: Vec<u32>,
+    /// This step's runs of awake tiles side by side in one row of tiles: (rows, columns).
+    runs: Vec<([usize; 2], [usize; 2])>,
     /// Sum of awake node shares over steps, and steps (for the mean awake fraction).
     pub awake_share: f64,
     pub steps: u64,
@@ -118,6 +124,7 @@ impl Activity {
             last: vec![0.0; LAYERS * rows * 3 * cols],
             buffers: Vec::new(),
             list: Vec::new(),
+            runs: Vec::new(),
             awake_share: 0.0,
             steps: 0,
         };
@@ -125,6 +132,19 @@ impl Activity {
             a.boxes[t] = tile_box(m, &a, t);
         }
         a
+    }
+
+    /// Heap bytes of the tiles' data and buffers.
+    pub fn heap_bytes(&self) -> usize {
+        let f = std::mem::size_of::<f32>();
+        (self.rest.capacity()
+            + self.weight.capacity()
+            + self.offset.capacity()
+            + self.last.capacity()
+            + self.buffers.iter().map(Vec::capacity).sum::<usize>())
+            * f
+            + self.awake.capacity()
+            + self.still_s.capacity() * f
     }
 
     /// Rows and columns of tile `t`.
@@ -375,9 +395,28 @@ pub(super) fn step(m: &mut Membrane, dt: f32, substeps: usize) {
     a.list.clear();
     a.list
         .extend((0..a.awake.len() as u32).filter(|&t| a.awake[t as usize]));
+    // Awake tiles side by side step as one run: the kernel's loops run over the whole run's
+    // width rather than one tile's 16 columns.
+    a.runs.clear();
+    for ti in 0..a.tiles_r {
+        let mut tj = 0;
+        while tj < a.tiles_c {
+            if !a.awake[ti * a.tiles_c + tj] {
+                tj += 1;
+                continue;
+            }
+            let first = tj;
+            while tj < a.tiles_c && a.awake[ti * a.tiles_c + tj] {
+                tj += 1;
+            }
+            let (rs, [c0, _]) = a.span(ti * a.tiles_c + first, m.rows, m.cols);
+            let (_, [_, c1]) = a.span(ti * a.tiles_c + tj - 1, m.rows, m.cols);
+            a.runs.push((rs, [c0, c1]));
+        }
+    }
     let h = dt / substeps as f32;
     let mut buffers = std::mem::take(&mut a.buffers);
-    buffers.resize_with(a.list.len(), Vec::new);
+    buffers.resize_with(a.runs.len(), Vec::new);
     for _ in 0..substeps {
         substep(m, &a, &mut buffers, h);
     }
@@ -399,14 +438,13 @@ pub(super) fn step(m: &mut Membrane, dt: f32, substeps: usize) {
     m.activity = Some(a);
 }
 
-/// One tile's substep into its buffer, compiled for the widest vector unit the CPU has.
+/// One run's substep into its buffer, compiled for the widest vector unit the CPU has.
 struct TilePass<'a, 'w> {
     m: &'a Membrane,
-    a: &'a Activity,
     whole: &'a Whole<'w>,
     sc: &'a mut RowScratch,
     buf: &'a mut Vec<f32>,
-    t: usize,
+    span: ([usize; 2], [usize; 2]),
     h: f32,
 }
 
@@ -417,15 +455,13 @@ impl pulp::WithSimd for TilePass<'_, '_> {
     fn with_simd<S: pulp::Simd>(self, _simd: S) {
         let TilePass {
             m: mm,
-            a,
             whole,
             sc,
             buf,
-            t,
+            span: ([r0, r1], [c0, c1]),
             h,
         } = self;
         let (rows, cols) = (mm.rows, mm.cols);
-        let ([r0, r1], [c0, c1]) = a.span(t, rows, cols);
         let w = c1 - c0;
         buf.resize((r1 - r0) * LAYERS * 6 * w, 0.0);
         for i in r0..r1 {
@@ -454,7 +490,7 @@ impl pulp::WithSimd for TilePass<'_, '_> {
     }
 }
 
-/// One explicit substep of the awake tiles, each into its buffer, then copied back in order.
+/// One explicit substep of the awake runs, each into its buffer, then copied back in order.
 fn substep(m: &mut Membrane, a: &Activity, buffers: &mut [Vec<f32>], h: f32) {
     let (rows, cols) = (m.rows, m.cols);
     {
@@ -464,23 +500,21 @@ fn substep(m: &mut Membrane, a: &Activity, buffers: &mut [Vec<f32>], h: f32) {
             cols,
         };
         let mm = &*m;
-        buffers.par_iter_mut().zip(a.list.par_iter()).for_each_init(
+        buffers.par_iter_mut().zip(a.runs.par_iter()).for_each_init(
             RowScratch::default,
-            |sc, (buf, &t)| {
+            |sc, (buf, &span)| {
                 mm.vectorized(TilePass {
                     m: mm,
-                    a,
                     whole: &whole,
                     sc,
                     buf,
-                    t: t as usize,
+                    span,
                     h,
                 })
             },
         );
     }
-    for (buf, &t) in buffers.iter().zip(&a.list) {
-        let ([r0, r1], [c0, c1]) = a.span(t as usize, rows, cols);
+    for (buf, &([r0, r1], [c0, c1])) in buffers.iter().zip(&a.runs) {
         let w = c1 - c0;
         for i in r0..r1 {
             for l in 0..LAYERS {

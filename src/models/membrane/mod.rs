@@ -509,9 +509,16 @@ impl Membrane {
     /// they held are released, and the in-layer springs between released nodes shrink by the
     /// residual strain (eq 5). Returns how many links were cut.
     pub fn cut_plane(&mut self, center: Vec3, radius_m: f32) -> u32 {
+        let mut cut = Vec::new();
+        self.cut_plane_into(center, radius_m, &mut cut)
+    }
+
+    /// [`Membrane::cut_plane`], also putting the grid cell `i * cols + j` of every link cut
+    /// into `cut` (cleared first, ascending).
+    pub fn cut_plane_into(&mut self, center: Vec3, radius_m: f32, cut: &mut Vec<u32>) -> u32 {
         let per = self.rows * self.cols;
         let plane = 1;
-        let mut cut = Vec::new();
+        cut.clear();
         // With the active set on, only the awake tiles are searched: a tool that cuts has
         // woken the tissue around it, and a sleeping tile's nodes do not step.
         let (rows, cols) = (self.rows, self.cols);
@@ -532,10 +539,11 @@ impl Membrane {
             }
             let mid = (self.position(a) + self.position(a + per)) * 0.5;
             if mid.distance_squared(center) <= radius_m * radius_m {
-                cut.push(t);
+                cut.push(t as u32);
             }
         }
-        for &t in &cut {
+        for &t in cut.iter() {
+            let t = t as usize;
             *self.spring_mut(field::K[LINK], plane * per + t) = 0.0;
             for l in [plane, plane + 1] {
                 self.release(l * per + t);
@@ -646,6 +654,16 @@ impl Membrane {
         self.step_limit
     }
 
+    /// Heap bytes of the state, the springs' data and the active set's buffers.
+    pub fn heap_bytes(&self) -> usize {
+        let f = std::mem::size_of::<f32>();
+        let a = self.activity.as_ref().map_or(0, |a| a.heap_bytes());
+        (self.state.data.capacity() + self.rows_data.capacity() + self.attach.capacity()) * f
+            + self.mass.capacity() * f
+            + self.released.capacity()
+            + a
+    }
+
     /// Kinetic energy, J.
     pub fn kinetic_energy(&self) -> f64 {
         (0..self.len())
@@ -653,36 +671,65 @@ impl Membrane {
             .sum()
     }
 
-    /// The largest explicit step the stiffest node allows, s: `2 / omega` with `omega^2` the
-    /// sum of its springs' stiffness times 4 over its mass (a bound on the grid's highest
-    /// frequency), shortened for the springs' damping.
+    /// The largest explicit step the grid allows, s: `2 / omega` with `omega^2` a bound on
+    /// the highest eigenvalue of `M^-1 K` (linearised at rest), shortened for the springs'
+    /// damping. The bound is Gershgorin's on the symmetric `M^-1/2 K M^-1/2`: a spring (or
+    /// tether) acting on nodes `p` with weights `a_p` (1 and -1 for a spring; 1, w - 1 and -w
+    /// for a tether) adds `k |a_p| / sqrt(m_p) * sum_q |a_q| / sqrt(m_q)` to row `p`, an
+    /// attachment `k / m_p`; `omega^2` is the largest row. (For a uniform chain it gives
+    /// `4 k / m`, the exact highest frequency.)
     pub fn explicit_step_limit(&self) -> f32 {
         let per = self.rows * self.cols;
-        let mut worst = 0.0f32;
-        for node in 0..self.len() {
-            let (l, i, j) = self.coords(node);
-            let mut k = self.spring(field::K[AROUND], node)
-                + self.spring(field::K[ALONG], node)
-                + self.attach_stiffness(node);
-            if let Some(jp) = if j > 0 {
-                Some(j - 1)
-            } else {
-                self.periodic.then_some(self.cols - 1)
-            } {
-                k += self.spring(field::K[AROUND], self.node(l, i, jp));
+        let n = self.len();
+        let inv_sqrt: Vec<f32> = self
+            .mass
+            .iter()
+            .map(|&m| if m > 0.0 { 1.0 / m.sqrt() } else { 0.0 })
+            .collect();
+        let mut row = vec![0.0f32; n];
+        let mut add = |nodes: &[(usize, f32)], k: f32| {
+            if k <= 0.0 {
+                return;
             }
-            if i > 0 {
-                k += self.spring(field::K[ALONG], node - self.cols);
+            let total: f32 = nodes.iter().map(|&(q, a)| a.abs() * inv_sqrt[q]).sum();
+            for &(p, a) in nodes {
+                row[p] += k * a.abs() * inv_sqrt[p] * total;
+            }
+        };
+        for node in 0..n {
+            let (l, i, j) = self.coords(node);
+            if let Some(jn) = self.next_col(j) {
+                let k = self.spring(field::K[AROUND], node);
+                add(&[(node, 1.0), (self.node(l, i, jn), -1.0)], k);
+            }
+            if i + 1 < self.rows {
+                add(
+                    &[(node, 1.0), (node + self.cols, -1.0)],
+                    self.spring(field::K[ALONG], node),
+                );
             }
             if l + 1 < LAYERS {
-                k += self.spring(field::K[LINK], node);
+                add(
+                    &[(node, 1.0), (node + per, -1.0)],
+                    self.spring(field::K[LINK], node),
+                );
             }
-            if l > 0 {
-                k += self.spring(field::K[LINK], node - per);
+            if l > 0 && l + 1 < LAYERS {
+                let w = self.spring(field::SHEAR_W, node);
+                add(
+                    &[
+                        (node, 1.0),
+                        (self.node(0, i, j), w - 1.0),
+                        (self.node(LAYERS - 1, i, j), -w),
+                    ],
+                    self.spring(field::SHEAR_K, node),
+                );
             }
-            k += self.spring(field::SHEAR_K, node);
+        }
+        let mut worst = 0.0f32;
+        for (node, r) in row.iter().enumerate() {
             if self.mass[node] > 0.0 {
-                worst = worst.max(4.0 * k / self.mass[node]);
+                worst = worst.max(r + self.attach_stiffness(node) / self.mass[node]);
             }
         }
         // Damping along the springs shortens it: `(sqrt(1 + zeta^2) - zeta)` of the undamped

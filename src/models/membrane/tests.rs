@@ -193,10 +193,12 @@ fn the_explicit_limit_separates_stable_steps_from_unstable_ones() {
         "at 0.9 x the limit: {:?}",
         kicked(0.9 * limit)
     );
+    // The bound is not much below the truth: twice it is already unstable (on this tube
+    // the step blows up between 1.4 and 1.5 times the bound).
     assert!(
-        !kicked(3.0 * limit).0,
-        "at 3 x the limit: {:?}",
-        kicked(3.0 * limit)
+        !kicked(2.0 * limit).0,
+        "at 2 x the limit: {:?}",
+        kicked(2.0 * limit)
     );
 }
 

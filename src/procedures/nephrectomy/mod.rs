@@ -72,6 +72,7 @@ pub const INFO: super::ProcedureInfo = super::ProcedureInfo {
     // Tables 2 and 3 of the paper.
     profile_reference: Some(|| [crate::profiler::paper_cpu(), crate::profiler::paper_gpu()]),
     param_tables: scenario::PARAM_TABLES,
+    bench_all_awake_s: crate::bench::ALL_AWAKE_S,
     legacy_tuned_model: Some(TUNED_MODEL),
     plan,
     build,

@@ -1,15 +1,21 @@
 //! Laparoscopic rectum dissection (rectum paper, issue 14): the bowel as a Cosserat rod, the
 //! tissue around it as the four-layer membrane, dissected by cutting the springs of the plane
-//! between layers 2 and 3. This folder grows into the procedure; today it holds the anatomy, the rod with its
-//! skin, and the scene that steps them with the membrane and the instruments.
+//! between layers 2 and 3: the anatomy, the rod with its skin, the scene that steps them with
+//! the membrane and the instruments, and the procedure (scenario, task, metrics, drawing).
 
 pub mod anatomy;
+mod plugin;
+mod procedure;
 pub mod regions;
 pub mod rod;
+pub mod scenario;
 pub mod scene;
 pub mod skin;
 #[cfg(test)]
 mod tests;
 
 pub use anatomy::{Anatomy, AnatomyError, AnatomyParams};
+pub use plugin::{INFO, ScoreParts, score};
+pub use procedure::{JUMP_M, Metrics, Rectum, STEPS};
+pub use scenario::Scenario;
 pub use scene::{RectumScene, SceneError, SceneParams, StepOutcome, ToolState};

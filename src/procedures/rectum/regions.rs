@@ -39,6 +39,9 @@ pub struct Region {
     pub arc_deg: (f32, f32),
 }
 
+/// The target's id (the first region).
+pub const TARGET: RegionId = 1;
+
 /// The regions, id = index + 1.
 pub const REGIONS: [Region; 5] = [
     Region {
@@ -109,6 +112,31 @@ fn on_arc(deg: f32, (from, to): (f32, f32)) -> bool {
 /// Each membrane node's region (0: none), `node = (l * rows + i) * cols + j`. A node in two
 /// regions takes the vulnerable one.
 pub fn map(rows: usize, cols: usize) -> Vec<RegionId> {
+    map_with(rows, cols, &REGIONS)
+}
+
+/// [`map`] with the target's rows and arc set by a scenario: [`REGIONS`] with the target's
+/// extent replaced.
+pub fn map_for_target(
+    rows: usize,
+    cols: usize,
+    target_rows: (f32, f32),
+    target_arc_deg: (f32, f32),
+) -> Vec<RegionId> {
+    let mut regions = REGIONS;
+    regions[0].rows = target_rows;
+    regions[0].arc_deg = target_arc_deg;
+    map_with(rows, cols, &regions)
+}
+
+/// Whether grid row `i` of `rows`, column `j` of `cols` lies in `r` (on any of its layers).
+pub fn covers(r: &Region, rows: usize, cols: usize, i: usize, j: usize) -> bool {
+    let s = (i as f32 + 0.5) / rows as f32;
+    let deg = 360.0 * j as f32 / cols as f32;
+    s >= r.rows.0 && s < r.rows.1 && on_arc(deg, r.arc_deg)
+}
+
+fn map_with(rows: usize, cols: usize, regions: &[Region; 5]) -> Vec<RegionId> {
     let mut out = vec![0; LAYERS * rows * cols];
     for l in 0..LAYERS {
         for i in 0..rows {
@@ -116,7 +144,7 @@ pub fn map(rows: usize, cols: usize) -> Vec<RegionId> {
             for j in 0..cols {
                 let deg = 360.0 * j as f32 / cols as f32;
                 let mut id = 0;
-                for (k, r) in REGIONS.iter().enumerate() {
+                for (k, r) in regions.iter().enumerate() {
                     let inside =
                         r.layers[l] && s >= r.rows.0 && s < r.rows.1 && on_arc(deg, r.arc_deg);
                     let better = id == 0 || r.kind == RegionKind::Vulnerable;

@@ -38,7 +38,7 @@ use glam::{Quat, Vec3};
 ///   the fat moves it 40 um); eq 5's residual strain 0.1 (the paper's);
 /// - no gravity: the anatomy is generated as it lies, carried by the body, and a sheet of
 ///   0.5 kg/m^2 on 2 kPa of fat 10 mm thick would sag 25 um, below what the active set
-///   resolves (its wake distance is 30 um), but enough to wake tile after tile if left in.
+///   resolves (its wake distance is 0.2 mm), but enough to keep tiles from sleeping.
 pub fn membrane_params() -> MembraneParams {
     let sheet = LayerMaterial {
         youngs_modulus_pa: 5e3,
@@ -71,6 +71,10 @@ pub struct SceneParams {
     pub substep_safety: f32,
     /// The part of each instrument that wakes tissue: this far up from its working end, m.
     pub wake_reach_m: f32,
+    /// The dissection target: its rows as fractions of the section's length from the top,
+    /// and its arc in degrees from the front towards +z ([`regions::Region`]).
+    pub target_rows: (f32, f32),
+    pub target_arc_deg: (f32, f32),
 }
 
 impl Default for SceneParams {
@@ -88,8 +92,12 @@ impl Default for SceneParams {
             activity: ActivityParams::default(),
             hook_stiffness_pa_per_m: 1e6,
             cut_radius_m: 1.5e-3,
-            substep_safety: 0.9,
+            // The bound is the grid's at rest; stretched and sheared under a grasp, 0.9 of
+            // it went unstable (docs/rectum.md).
+            substep_safety: 0.6,
             wake_reach_m: 0.03,
+            target_rows: regions::REGIONS[0].rows,
+            target_arc_deg: regions::REGIONS[0].arc_deg,
         }
     }
 }
@@ -121,8 +129,9 @@ pub struct StepOutcome {
     /// Force of the tissue on the hook and on the grasper, N.
     pub hook_n: Vec3,
     pub grasper_n: Vec3,
-    /// Plane springs cut this step.
+    /// Plane springs cut this step, and of them those inside the target.
     pub cut: u32,
+    pub cut_in_target: u32,
     /// Membrane nodes the hook touches.
     pub hook_contacts: usize,
     /// Explicit membrane substeps taken.
@@ -130,6 +139,10 @@ pub struct StepOutcome {
     /// Vulnerable regions the hook touches now: bit `id` for region id `id`
     /// ([`regions::REGIONS`]).
     pub touching: u32,
+    /// The hook touches the rectal wall (layer 0).
+    pub on_wall: bool,
+    /// The vulnerable region nearest the hook's end among the awake nodes, and its distance, m.
+    pub near_vulnerable: Option<(RegionId, f32)>,
     /// Alarms raised this step: bit `id` for a vulnerable region the hook has just touched,
     /// [`ALARM_RECTAL_WALL`] when the hook cuts with the rectum's wall (layer 0) under it.
     pub alarms: u32,
@@ -155,6 +168,15 @@ pub struct RectumScene {
     /// This step's: vulnerable regions touched, and whether the hook touches layer 0.
     touched_now: u32,
     on_wall: bool,
+    near_vulnerable: Option<(RegionId, f32)>,
+    /// Plane springs in the target, and of them cut so far.
+    target_links: u32,
+    target_cut: u32,
+    /// The grid cells (`i * cols + j`) whose plane springs the last step cut.
+    last_cut: Vec<u32>,
+    /// Wall-clock seconds spent in the rod, the instruments' collision with the membrane,
+    /// and the membrane's step (benchmarks only; never in state or reports).
+    pub times: [f64; 3],
     // Scratch, reused every step.
     nodes: Vec<u32>,
     points: Vec<Vec3>,
@@ -172,6 +194,12 @@ impl RectumScene {
         let mut membrane = Membrane::new(anatomy.membrane.clone(), params.membrane)?;
         membrane.use_active_set(params.activity);
         let skin = Skin::bind(&rod, &anatomy.membrane.positions[0]);
+        let (rows, cols) = (anatomy.membrane.rows, anatomy.membrane.cols);
+        let regions =
+            regions::map_for_target(rows, cols, params.target_rows, params.target_arc_deg);
+        let target_links = (0..rows * cols)
+            .filter(|&t| regions[rows * cols + t] == regions::TARGET)
+            .count() as u32;
         let per = membrane.rows() * membrane.cols();
         let area = (0..membrane.len())
             .map(|n| {
@@ -185,11 +213,16 @@ impl RectumScene {
             membrane,
             skin,
             area,
-            regions: regions::map(anatomy.membrane.rows, anatomy.membrane.cols),
+            regions,
             touching: 0,
             cutting_wall: false,
             touched_now: 0,
             on_wall: false,
+            near_vulnerable: None,
+            target_links,
+            target_cut: 0,
+            last_cut: Vec::new(),
+            times: [0.0; 3],
             nodes: Vec::new(),
             points: Vec::new(),
             areas: Vec::new(),
@@ -253,6 +286,7 @@ impl RectumScene {
     /// One step of `dt_s`.
     pub fn step(&mut self, dt_s: f32, tools: &ToolState) -> StepOutcome {
         let mut out = StepOutcome::default();
+        let clock = std::time::Instant::now();
         // 1. The rod: grasper, hook, step.
         match tools.grasper {
             Some((jaw, _, true)) => {
@@ -275,6 +309,7 @@ impl RectumScene {
         if let Some(r) = held[0] {
             out.grasper_n = r;
         }
+        let rod_done = clock.elapsed().as_secs_f64();
         // 2-3. Wake what the instruments reach, place the targets the step needs.
         let mut boxes = Vec::new();
         if let (Some(h), Some((tip, _))) = (&hook, tools.hook) {
@@ -290,17 +325,33 @@ impl RectumScene {
         self.place_targets(&needed);
         self.touched_now = 0;
         self.on_wall = false;
+        self.near_vulnerable = None;
         if let Some(h) = &hook {
             out.hook_n += self.press_membrane(h);
             out.hook_contacts = self.contacts.len();
             if tools.cutting
                 && let Some(end) = h.cylinders().get(1).map(|c| c.p1())
             {
-                out.cut = self.membrane.cut_plane(end, self.params.cut_radius_m);
+                out.cut =
+                    self.membrane
+                        .cut_plane_into(end, self.params.cut_radius_m, &mut self.last_cut);
+            } else {
+                self.last_cut.clear();
             }
+        } else {
+            self.last_cut.clear();
         }
+        let per = self.membrane.rows() * self.membrane.cols();
+        out.cut_in_target = self
+            .last_cut
+            .iter()
+            .filter(|&&t| self.regions[per + t as usize] == regions::TARGET)
+            .count() as u32;
+        self.target_cut += out.cut_in_target;
         // Alarms: a vulnerable region newly touched, the wall newly cut.
         out.touching = self.touched_now;
+        out.on_wall = self.on_wall && hook.is_some();
+        out.near_vulnerable = self.near_vulnerable;
         out.alarms = self.touched_now & !self.touching;
         let cutting_wall = tools.cutting && self.on_wall && hook.is_some();
         if cutting_wall && !self.cutting_wall {
@@ -309,8 +360,23 @@ impl RectumScene {
         self.touching = self.touched_now;
         self.cutting_wall = cutting_wall;
         // 4. The membrane.
+        let collided = clock.elapsed().as_secs_f64();
         out.substeps = self.membrane.advance(dt_s, self.params.substep_safety);
+        let done = clock.elapsed().as_secs_f64();
+        self.times[0] += rod_done;
+        self.times[1] += collided - rod_done;
+        self.times[2] += done - collided;
         out
+    }
+
+    /// Plane springs in the target region, and of them cut so far.
+    pub fn target_progress(&self) -> (u32, u32) {
+        (self.target_cut, self.target_links)
+    }
+
+    /// The grid cells (`i * cols + j`) whose plane springs the last step cut.
+    pub fn last_cut(&self) -> &[u32] {
+        &self.last_cut
     }
 
     /// The region of membrane node `node` (0: none).
@@ -339,6 +405,18 @@ impl RectumScene {
         self.areas
             .extend(self.nodes.iter().map(|&n| self.area[n as usize]));
         hook.contacts_all(PointCloud::from_points(&self.points), &mut self.contacts);
+        // The nearest vulnerable node to the hook's end, among the awake ones.
+        if let Some(end) = hook.cylinders().get(1).map(|c| c.p1()) {
+            for (k, &n) in self.nodes.iter().enumerate() {
+                let id = self.regions[n as usize];
+                if regions::region(id).is_some_and(|r| r.kind == RegionKind::Vulnerable) {
+                    let d = self.points[k].distance(end);
+                    if self.near_vulnerable.is_none_or(|(_, best)| d < best) {
+                        self.near_vulnerable = Some((id, d));
+                    }
+                }
+            }
+        }
         let about = hook.cylinders().first().map_or(Vec3::ZERO, |c| c.p1());
         let Ok(reaction) = penalty_forces(
             &self.contacts,

@@ -82,6 +82,7 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
     desk_park: [Vec3::new(-0.04, 0.06, 0.03), Vec3::new(0.04, 0.06, 0.03)],
     profile_reference: None,
     param_tables: scenario::PARAM_TABLES,
+    bench_all_awake_s: crate::bench::ALL_AWAKE_S,
     legacy_tuned_model: None,
     plan,
     build,
@@ -232,14 +233,9 @@ impl Sandbox {
         let dt = self.scenario.dt_s;
         let tools = self.scenario.tools;
         if let Some(prev) = &self.prev_input {
-            let moved = |h: Hand| {
-                prev.hand(h)
-                    .pose
-                    .position
-                    .distance(input.hand(h).pose.position)
-            };
-            self.metrics.path_length_left_m += moved(Hand::Left);
-            self.metrics.path_length_right_m += moved(Hand::Right);
+            let [left, right] = input.moved_since(prev);
+            self.metrics.path_length_left_m += left;
+            self.metrics.path_length_right_m += right;
         }
 
         // The probe (right hand): a rigid ball tip wherever the hand is.
@@ -333,15 +329,7 @@ impl Sandbox {
             self.hold.as_ref().is_some_and(|h| h.on_top),
             let_go.is_some_and(|h| h.on_top && h.max_lift_m >= k.lift_height_m),
         ];
-        while let Some(next) = STEPS.get(m.steps_done.len()) {
-            if !done[m.steps_done.len()] {
-                break;
-            }
-            m.steps_done.push(next.id.to_string());
-            ev.push(EventKind::TaskStep {
-                name: next.id.to_string(),
-            });
-        }
+        crate::procedures::tick_off(&STEPS, &done, &mut m.steps_done, &mut ev);
         if self.is_completed() && self.metrics.completion_time_s.is_none() {
             self.metrics.completion_time_s = Some((step + 1) as f64 * f64::from(dt));
         }

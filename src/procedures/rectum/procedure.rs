@@ -1,0 +1,504 @@
+//! The `rectum` procedure: the scene of [`super::scene`] driven by the trainee's hands (the
+//! left holds a grasper, the right an L-hook with its current on the trigger), the task's
+//! checklist, the physics metrics of the paper's Table 1 that exist without the assessment
+//! layer, and what the renderer draws (the rectum, the fasciae with the dissection showing,
+//! the pelvic side with its vulnerable structures).
+
+use super::regions::{self, RegionKind};
+use super::scenario::Scenario;
+use super::scene::{ALARM_RECTAL_WALL, RectumScene, StepOutcome, ToolState};
+use crate::models::Fnv;
+use crate::models::membrane::{LAYERS, Membrane};
+use crate::sim::{
+    EventKind, Hand, InputFrame, ModelSnapshot, ProcedureEvent, SimEvent, Snapshot, SurfaceRole,
+    TissueModel, ToolSnapshot,
+};
+use glam::Vec3;
+use serde::Serialize;
+
+/// The task, in order.
+pub const STEPS: [crate::procedures::TaskStep; 4] = [
+    crate::procedures::TaskStep {
+        id: "expose",
+        text: "Grasp the rectum and lift it to put the plane under tension",
+    },
+    crate::procedures::TaskStep {
+        id: "enter",
+        text: "Enter the dissection plane with the hook",
+    },
+    crate::procedures::TaskStep {
+        id: "dissect",
+        text: "Dissect half of the target plane",
+    },
+    crate::procedures::TaskStep {
+        id: "free",
+        text: "Free the section: cut every spring of the target plane",
+    },
+];
+
+/// A cut that starts this far from where the last one ended is a jump, m.
+pub const JUMP_M: f32 = 0.005;
+/// Most vertices a drawn membrane layer has (the grid is decimated to stay under it).
+const DRAWN_LAYER_VERTICES: usize = 20_000;
+
+/// Running metrics of one session (Table 1's leaves that the physics measures).
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct Metrics {
+    pub completion_time_s: Option<f64>,
+    pub path_length_left_m: f32,
+    pub path_length_right_m: f32,
+    /// Times the hook came onto the rectal wall (layer 1 of the paper).
+    pub wall_collisions: u32,
+    /// Times it touched a vulnerable structure.
+    pub vulnerable_contacts: u32,
+    /// Largest force on the hook and the fastest the hook moved while within `near_m` of a
+    /// vulnerable structure, N and m/s.
+    pub max_force_near_vulnerable_n: f32,
+    pub max_speed_near_vulnerable_m_per_s: f32,
+    /// Path of the hook's end over the steps it cut, m.
+    pub cutting_length_m: f32,
+    /// Mean distance of the hook's end from the middle of the plane across it when cutting
+    /// (the plane's depth error), m.
+    pub mean_cut_depth_error_m: f32,
+    /// Mean angle between the hook's shaft and the plane's normal when cutting, degrees.
+    pub mean_cut_angle_deg: f32,
+    /// Cuts that began more than [`JUMP_M`] from where the last ended, per minute.
+    pub jumps: u32,
+    pub jump_frequency_per_min: f32,
+    /// Plane springs cut inside and outside the target, and the share inside.
+    pub correct_cuts: u32,
+    pub incorrect_cuts: u32,
+    pub correct_cut_ratio: f32,
+    /// Target springs cut over all of them.
+    pub target_cut_fraction: f32,
+    /// Share of the cutting steps with the grasper holding the rectum (counter-traction).
+    pub counter_traction_share: f32,
+    pub max_hook_force_n: f32,
+    pub max_grasper_force_n: f32,
+    pub alarms: u32,
+    pub steps_done: Vec<String>,
+}
+
+/// Sums behind the means.
+#[derive(Debug, Clone, Copy, Default)]
+struct Sums {
+    cut_steps: u32,
+    held_cut_steps: u32,
+    depth: f64,
+    angle: f64,
+    /// Where the last cut ended, and whether the last step cut.
+    last_cut_at: Option<Vec3>,
+    cutting: bool,
+}
+
+pub struct Rectum {
+    pub scenario: Scenario,
+    pub scene: RectumScene,
+    tools: [ToolSnapshot; 2],
+    prev_input: Option<InputFrame>,
+    prev_hook_end: Option<Vec3>,
+    /// Where the grasp took the rectum, and how far it has lifted it at most, m.
+    grasp_from: Option<Vec3>,
+    max_lift_m: f32,
+    last: StepOutcome,
+    on_wall: bool,
+    sums: Sums,
+    pub metrics: Metrics,
+}
+
+impl Rectum {
+    pub fn new(scenario: Scenario, anatomy: &super::Anatomy) -> Result<Self, super::SceneError> {
+        let mut scene = RectumScene::new(anatomy, scenario.scene_params())?;
+        scene.place_everything();
+        Ok(Rectum {
+            scenario,
+            scene,
+            tools: [ToolSnapshot::default(); 2],
+            prev_input: None,
+            prev_hook_end: None,
+            grasp_from: None,
+            max_lift_m: 0.0,
+            last: StepOutcome::default(),
+            on_wall: false,
+            sums: Sums::default(),
+            metrics: Metrics::default(),
+        })
+    }
+
+    pub fn is_completed(&self) -> bool {
+        self.metrics.steps_done.len() == STEPS.len()
+    }
+
+    /// Force of the tissue on each instrument (left grasper, right hook) after the last step.
+    pub fn reactions(&self) -> [Vec3; 2] {
+        [self.last.grasper_n, self.last.hook_n]
+    }
+
+    /// Where instrument `k` (0 grasper, 1 hook) works: the grasper's jaw, the hook's end.
+    pub fn tool_tip(&self, k: usize) -> Vec3 {
+        self.tools[k.min(1)].tip
+    }
+
+    /// The vulnerable structure nearest the hook's end after the last step, and how far.
+    pub fn near_now(&self) -> Option<(&'static str, f32)> {
+        let (id, d) = self.last.near_vulnerable?;
+        regions::region(id).map(|r| (r.label, d))
+    }
+
+    /// Whether the hook touches a vulnerable structure now.
+    pub fn touching_now(&self) -> bool {
+        self.last.touching != 0
+    }
+
+    /// Advances one step.
+    pub fn step(&mut self, input: &InputFrame, step: u64, events: &mut Vec<SimEvent>) {
+        let dt = self.scenario.dt_s;
+        if let Some(prev) = &self.prev_input {
+            let [left, right] = input.moved_since(prev);
+            self.metrics.path_length_left_m += left;
+            self.metrics.path_length_right_m += right;
+        }
+        let (hook, grasper) = (input.hand(Hand::Right), input.hand(Hand::Left));
+        let t = &self.scenario.tools;
+        let cutting = hook.buttons.trigger >= t.cut_threshold;
+        let closed = grasper.buttons.grip >= t.grip_threshold;
+        let tools = ToolState {
+            hook: Some((hook.pose.position, hook.pose.orientation)),
+            cutting,
+            grasper: Some((grasper.pose.position, grasper.pose.orientation, closed)),
+        };
+        let was_held = self.scene.rod.grip(0).is_some();
+        let out = self.scene.step(dt, &tools);
+        let held = self.scene.rod.grip(0).is_some();
+        let mut ev: Vec<EventKind> = Vec::new();
+        if held && !was_held {
+            self.grasp_from = self.scene.rod.held_point(0);
+            ev.push(EventKind::Grasp {
+                tool: "grasper".to_string(),
+                model: "rectum".to_string(),
+                vertices: 1,
+            });
+        } else if was_held && !held {
+            self.grasp_from = None;
+            ev.push(EventKind::Release {
+                tool: "grasper".to_string(),
+            });
+        }
+        if let (Some(from), Some(now)) = (self.grasp_from, self.scene.rod.held_point(0)) {
+            self.max_lift_m = self.max_lift_m.max(now.distance(from));
+        }
+        let end = self.hook_end(&tools);
+        self.measure(&out, end, hook.pose.forward(), held, dt, &mut ev);
+        self.tools = [
+            ToolSnapshot {
+                tip: grasper.pose.position,
+                direction: grasper.pose.forward(),
+                beam_end: None,
+                active: held,
+            },
+            ToolSnapshot {
+                tip: end.unwrap_or(hook.pose.position),
+                direction: hook.pose.forward(),
+                beam_end: None,
+                active: cutting,
+            },
+        ];
+        self.checklist(step, dt, &mut ev);
+        self.last = out;
+        self.prev_hook_end = end;
+        self.prev_input = Some(*input);
+        events.extend(ev.into_iter().map(|kind| SimEvent { step, kind }));
+    }
+
+    /// The hook's working end (the tip of its L) for these tools.
+    fn hook_end(&self, tools: &ToolState) -> Option<Vec3> {
+        let (corner, q) = tools.hook?;
+        let h = crate::collision::Instrument::l_hook(corner, q).ok()?;
+        h.cylinders().get(1).map(|c| c.p1())
+    }
+
+    /// Metrics and events from one step's outcome.
+    fn measure(
+        &mut self,
+        out: &StepOutcome,
+        end: Option<Vec3>,
+        axis: Vec3,
+        held: bool,
+        dt: f32,
+        ev: &mut Vec<EventKind>,
+    ) {
+        let m = &mut self.metrics;
+        m.max_hook_force_n = m.max_hook_force_n.max(out.hook_n.length());
+        m.max_grasper_force_n = m.max_grasper_force_n.max(out.grasper_n.length());
+        // The wall: counted when the hook comes onto it.
+        if out.on_wall && !self.on_wall {
+            m.wall_collisions += 1;
+        }
+        self.on_wall = out.on_wall;
+        // Near a vulnerable structure: force and speed.
+        let speed = match (end, self.prev_hook_end) {
+            (Some(a), Some(b)) => a.distance(b) / dt,
+            _ => 0.0,
+        };
+        if out
+            .near_vulnerable
+            .is_some_and(|(_, d)| d <= self.scenario.task.near_m)
+        {
+            m.max_force_near_vulnerable_n = m.max_force_near_vulnerable_n.max(out.hook_n.length());
+            m.max_speed_near_vulnerable_m_per_s = m.max_speed_near_vulnerable_m_per_s.max(speed);
+        }
+        // Alarms: each vulnerable structure newly touched, the wall cut.
+        for (k, r) in regions::REGIONS.iter().enumerate() {
+            let bit = 1u32 << (k + 1);
+            if r.kind == RegionKind::Vulnerable && out.alarms & bit != 0 {
+                m.vulnerable_contacts += 1;
+                m.alarms += 1;
+                ev.push(EventKind::VulnerableContact {
+                    tool: "hook".to_string(),
+                    model: r.name.to_string(),
+                });
+                ev.push(EventKind::Alarm {
+                    tool: "hook".to_string(),
+                    message: format!("the hook touches the {}", r.label),
+                });
+            }
+        }
+        if out.alarms & ALARM_RECTAL_WALL != 0 {
+            m.alarms += 1;
+            ev.push(EventKind::Alarm {
+                tool: "hook".to_string(),
+                message: "the hook's current is on against the rectal wall".to_string(),
+            });
+        }
+        // Cuts.
+        if out.cut > 0 {
+            let outside = out.cut - out.cut_in_target;
+            m.correct_cuts += out.cut_in_target;
+            m.incorrect_cuts += outside;
+            ev.push(EventKind::Procedure(ProcedureEvent::new(
+                "spring_cut",
+                SpringCut {
+                    springs: out.cut,
+                    in_target: out.cut_in_target,
+                },
+            )));
+            if let Some(e) = end {
+                if !self.sums.cutting {
+                    if self
+                        .sums
+                        .last_cut_at
+                        .is_some_and(|p| p.distance(e) > JUMP_M)
+                    {
+                        m.jumps += 1;
+                    }
+                } else if let Some(p) = self.prev_hook_end {
+                    m.cutting_length_m += p.distance(e);
+                }
+                self.sums.last_cut_at = Some(e);
+                let (depth, angle) = plane_geometry(&self.scene, e, axis, self.scene.last_cut());
+                self.sums.depth += f64::from(depth);
+                self.sums.angle += f64::from(angle.unwrap_or(0.0));
+            }
+            self.sums.cut_steps += 1;
+            self.sums.held_cut_steps += u32::from(held);
+        }
+        self.sums.cutting = out.cut > 0;
+        let n = self.sums.cut_steps.max(1) as f64;
+        m.mean_cut_depth_error_m = (self.sums.depth / n) as f32;
+        m.mean_cut_angle_deg = (self.sums.angle / n) as f32;
+        m.counter_traction_share = (f64::from(self.sums.held_cut_steps) / n) as f32;
+        let all = m.correct_cuts + m.incorrect_cuts;
+        m.correct_cut_ratio = if all > 0 {
+            m.correct_cuts as f32 / all as f32
+        } else {
+            0.0
+        };
+        let (cut, total) = self.scene.target_progress();
+        m.target_cut_fraction = if total > 0 {
+            cut as f32 / total as f32
+        } else {
+            0.0
+        };
+    }
+
+    /// The checklist: only the next step can be done, so one done early waits its turn.
+    fn checklist(&mut self, step: u64, dt: f32, ev: &mut Vec<EventKind>) {
+        let (cut, total) = self.scene.target_progress();
+        let m = &mut self.metrics;
+        let done = [
+            self.max_lift_m >= self.scenario.task.expose_lift_m,
+            cut > 0,
+            2 * cut >= total,
+            total > 0 && cut >= total,
+        ];
+        crate::procedures::tick_off(&STEPS, &done, &mut m.steps_done, ev);
+        let minutes = (step + 1) as f64 * f64::from(dt) / 60.0;
+        m.jump_frequency_per_min = (f64::from(m.jumps) / minutes.max(1e-9)) as f32;
+        if m.steps_done.len() == STEPS.len() && m.completion_time_s.is_none() {
+            m.completion_time_s = Some((step + 1) as f64 * f64::from(dt));
+        }
+    }
+
+    pub fn snapshot(&mut self, step: u64) -> Snapshot {
+        let rectum = TissueModel::render_mesh(&mut self.scene.rod);
+        let m = &self.scene.membrane;
+        let fascia = grid_mesh(
+            m,
+            &[1, 2],
+            "fascia",
+            |scene_region| match scene_region {
+                regions::TARGET => 1,
+                _ => 0,
+            },
+            &self.scene,
+        );
+        let pelvis = grid_mesh(
+            m,
+            &[LAYERS - 1],
+            "pelvis",
+            |r| {
+                regions::region(r).map_or(0, |x| match x.kind {
+                    RegionKind::Vulnerable => 1,
+                    RegionKind::Target => 0,
+                })
+            },
+            &self.scene,
+        );
+        let mut fascia = fascia;
+        fascia.roles = vec![SurfaceRole::Membrane, SurfaceRole::Target];
+        let mut pelvis = pelvis;
+        pelvis.roles = vec![SurfaceRole::Fat, SurfaceRole::Duct];
+        Snapshot {
+            step,
+            time_s: step as f64 * f64::from(self.scenario.dt_s),
+            models: vec![rectum, fascia, pelvis],
+            tools: self.tools,
+            reactions: self.reactions(),
+            target_found: true,
+        }
+    }
+
+    /// Digest of the rod, the membrane and the task's progress.
+    pub fn state_hash(&self) -> u64 {
+        let mut h = Fnv::default();
+        for v in [
+            TissueModel::state_hash(&self.scene.rod),
+            self.scene.membrane.state_hash(),
+        ] {
+            h.write(v as u32);
+            h.write((v >> 32) as u32);
+        }
+        let (cut, _) = self.scene.target_progress();
+        h.write(cut);
+        h.write(self.metrics.steps_done.len() as u32);
+        h.0
+    }
+}
+
+/// A `spring_cut` event's fields.
+#[derive(Serialize)]
+struct SpringCut {
+    springs: u32,
+    in_target: u32,
+}
+
+/// The plane where the hook cut (grid cells `cells`): how far the hook's end lies from the
+/// middle of the cut links across the plane (along the line from layer 0 to layer 3 there),
+/// m, and the angle between the shaft's axis `axis` and that line, degrees (0 to 90; none
+/// when no cells were cut).
+fn plane_geometry(scene: &RectumScene, end: Vec3, axis: Vec3, cells: &[u32]) -> (f32, Option<f32>) {
+    let m = &scene.membrane;
+    let cols = m.cols();
+    if cells.is_empty() {
+        return (0.0, None);
+    }
+    let (mut mid, mut normal) = (Vec3::ZERO, Vec3::ZERO);
+    for &t in cells {
+        let (i, j) = (t as usize / cols, t as usize % cols);
+        mid += 0.5 * (m.position(m.node(1, i, j)) + m.position(m.node(2, i, j)));
+        normal += m.position(m.node(LAYERS - 1, i, j)) - m.position(m.node(0, i, j));
+    }
+    let mid = mid / cells.len() as f32;
+    let normal = normal.normalize_or_zero();
+    let depth = (end - mid).dot(normal).abs();
+    let a = axis.angle_between(normal).to_degrees();
+    let angle =
+        (normal != Vec3::ZERO && a.is_finite()).then_some(if a > 90.0 { 180.0 - a } else { a });
+    (depth, angle)
+}
+
+/// Layers `layers` of the membrane as triangle grids, decimated to at most
+/// [`DRAWN_LAYER_VERTICES`] vertices each (closed around the ring), with each triangle's
+/// region from `region` of the scene's region id at its first corner; vertices on a cut
+/// plane link are marked cut.
+fn grid_mesh(
+    m: &Membrane,
+    layers: &[usize],
+    name: &str,
+    region: impl Fn(regions::RegionId) -> u8,
+    scene: &RectumScene,
+) -> ModelSnapshot {
+    let (rows, cols) = (m.rows(), m.cols());
+    let d = ((rows * cols) as f64 / DRAWN_LAYER_VERTICES as f64)
+        .sqrt()
+        .ceil()
+        .max(1.0) as usize;
+    let ri: Vec<usize> = (0..rows)
+        .step_by(d)
+        .chain((!(rows - 1).is_multiple_of(d)).then_some(rows - 1))
+        .collect();
+    let cj: Vec<usize> = (0..cols).step_by(d).collect();
+    let (nr, nc) = (ri.len(), cj.len());
+    let mut out = ModelSnapshot {
+        name: name.to_string(),
+        ..ModelSnapshot::default()
+    };
+    for &l in layers {
+        let base = out.positions.len() as u32;
+        for &i in &ri {
+            for &j in &cj {
+                out.positions.push(m.position(m.node(l, i, j)));
+                let plane = l == 1 || l == 2;
+                out.cut_edge.push(plane && !m.link_alive(1, i, j));
+            }
+        }
+        let wrap = m.periodic();
+        let last_c = if wrap { nc } else { nc - 1 };
+        for a in 0..nr - 1 {
+            for b in 0..last_c {
+                let b1 = (b + 1) % nc;
+                let v = |r: usize, c: usize| base + (r * nc + c) as u32;
+                out.indices.extend([
+                    v(a, b),
+                    v(a + 1, b),
+                    v(a, b1),
+                    v(a, b1),
+                    v(a + 1, b),
+                    v(a + 1, b1),
+                ]);
+                let id = scene.region_of(m.node(l, ri[a], cj[b]));
+                let r = region(id);
+                out.regions.extend([r, r]);
+            }
+        }
+    }
+    out.normals = vertex_normals(&out.positions, &out.indices);
+    out
+}
+
+/// Area-weighted vertex normals of a triangle list.
+fn vertex_normals(positions: &[Vec3], indices: &[u32]) -> Vec<Vec3> {
+    let mut n = vec![Vec3::ZERO; positions.len()];
+    for t in indices.chunks_exact(3) {
+        let [a, b, c] = [t[0], t[1], t[2]].map(|k| k as usize);
+        let f = (positions[b] - positions[a]).cross(positions[c] - positions[a]);
+        for k in [a, b, c] {
+            n[k] += f;
+        }
+    }
+    n.iter().map(|v| v.normalize_or(Vec3::Y)).collect()
+}
+
+#[cfg(test)]
+#[path = "procedure_tests.rs"]
+mod tests;

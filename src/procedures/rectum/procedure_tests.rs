@@ -1,0 +1,158 @@
+use super::*;
+use crate::procedures::rectum::{Anatomy, INFO, Scenario};
+use crate::sim::{Buttons, EventKind, HandInput, Pose};
+use glam::Quat;
+
+/// The shipped scenario on a coarse grid (60 x 48 per layer), with `edit` applied to its text.
+fn coarse(edit: impl Fn(String) -> String) -> Scenario {
+    let text = INFO
+        .scenario
+        .replace("rows = 600", "rows = 60")
+        .replace("cols = 400", "cols = 48");
+    Scenario::parse("coarse.toml", &edit(text)).expect("scenario")
+}
+
+fn rectum(s: Scenario) -> Rectum {
+    let a = Anatomy::generate(s.anatomy_params()).expect("anatomy");
+    Rectum::new(s, &a).expect("rectum")
+}
+
+/// Forward (-Z) pointing down (-Y), the hook (+Y) pointing along -Z.
+fn from_above() -> Quat {
+    Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2)
+}
+
+/// The hook's corner for its end to sit between the fasciae at row `i`, column `j`.
+fn in_plane(r: &Rectum, i: usize, j: usize) -> Vec3 {
+    let m = &r.scene.membrane;
+    0.5 * (m.position(m.node(1, i, j)) + m.position(m.node(2, i, j))) + Vec3::new(0.0, 0.0, 0.006)
+}
+
+/// Input with the hook at `corner` (current on or off) and the grasper parked far away.
+fn hook_at(corner: Vec3, current: bool) -> InputFrame {
+    let mut f = InputFrame::default();
+    f.hands[1] = HandInput {
+        pose: Pose {
+            position: corner,
+            orientation: from_above(),
+        },
+        buttons: Buttons {
+            trigger: if current { 1.0 } else { 0.0 },
+            ..Buttons::default()
+        },
+    };
+    f.hands[0].pose = Pose::looking_at(Vec3::new(0.0, 0.2, 0.0), Vec3::ZERO);
+    f
+}
+
+#[test]
+fn the_shipped_scenario_is_the_papers_grid_and_bad_values_name_their_key() {
+    let s = Scenario::parse("rectum.toml", INFO.scenario).expect("shipped");
+    assert_eq!(s.nodes(), 960_000);
+    let bad = |from: &str, to: &str| {
+        let text = INFO.scenario.replace(from, to);
+        Scenario::parse("bad.toml", &text).expect_err("refused")
+    };
+    let e = bad("target_to = 0.525", "target_to = 0.4");
+    assert_eq!(
+        (e.file.as_str(), e.key.as_str()),
+        ("bad.toml", "task.target_to")
+    );
+    let e = bad("integrator = \"symplectic\"", "integrator = \"euler\"");
+    assert_eq!(e.key, "membrane.integrator");
+    assert!(e.message.contains("runge_kutta_4"), "{e}");
+    let e = bad("pelvis_radius_m = 0.034", "pelvis_radius_m = 0.03");
+    assert_eq!(e.key, "anatomy.pelvis_radius_m");
+    let e = bad("rows = 600", "rows = 1000");
+    assert_eq!(e.key, "anatomy.rows");
+    let e = bad("cut_radius_m = 0.002", "cut_radius_m = -1.0");
+    assert_eq!(e.key, "tools.cut_radius_m");
+}
+
+#[test]
+fn cutting_in_the_target_counts_correct_cuts_and_raises_spring_cut_events() {
+    let mut r = rectum(coarse(|t| t));
+    let (rows, cols) = (r.scene.membrane.rows(), r.scene.membrane.cols());
+    let (cut0, total) = r.scene.target_progress();
+    assert_eq!(cut0, 0);
+    // The target: rows 0.475-0.525 of 60 (rows 28-31), 80 degrees of 48 columns round the
+    // front.
+    assert!(total > 0 && total < (rows * cols) as u32, "{total}");
+    let mut events = Vec::new();
+    let corner = in_plane(&r, rows / 2, 0);
+    r.step(&hook_at(corner, false), 0, &mut events);
+    assert!(
+        r.reactions()[1].length() > 0.0,
+        "the hook presses the fasciae"
+    );
+    r.step(&hook_at(corner, true), 1, &mut events);
+    let m = &r.metrics;
+    assert!(m.correct_cuts > 0, "{m:?}");
+    assert_eq!(m.correct_cuts, r.scene.target_progress().0);
+    let cut_events: u32 = events
+        .iter()
+        .filter_map(|e| match &e.kind {
+            EventKind::Procedure(p) if p.name == "spring_cut" => p.fields["springs"].as_u64(),
+            _ => None,
+        })
+        .map(|n| n as u32)
+        .sum();
+    assert_eq!(cut_events, m.correct_cuts + m.incorrect_cuts);
+    assert!(m.correct_cut_ratio > 0.0 && m.correct_cut_ratio <= 1.0);
+    // The checklist waits for the exposure: no step before it, however much is cut.
+    assert!(m.steps_done.is_empty(), "{:?}", m.steps_done);
+    // A cut outside the target (the back of the section) is counted as incorrect.
+    let before = r.metrics.incorrect_cuts;
+    let back = in_plane(&r, rows / 2, cols / 2);
+    r.step(&hook_at(back, true), 2, &mut events);
+    assert!(r.metrics.incorrect_cuts > before, "{:?}", r.metrics);
+}
+
+#[test]
+fn the_hook_on_a_ureter_raises_an_alarm_event_in_that_step() {
+    let mut r = rectum(coarse(|t| t));
+    let (rows, cols) = (r.scene.membrane.rows(), r.scene.membrane.cols());
+    let m = &r.scene.membrane;
+    let ureter = m.position(m.node(3, rows / 5, cols / 4)) + Vec3::new(0.0, 0.0, 0.006);
+    let mut events = Vec::new();
+    r.step(&hook_at(ureter, false), 0, &mut events);
+    let alarms: Vec<&str> = events
+        .iter()
+        .filter_map(|e| match &e.kind {
+            EventKind::Alarm { message, .. } => Some(message.as_str()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(alarms, ["the hook touches the left ureter"], "{events:?}");
+    assert_eq!(r.metrics.vulnerable_contacts, 1);
+    assert!(r.touching_now());
+}
+
+#[test]
+fn the_drawn_layers_show_the_dissection_and_the_vulnerable_structures() {
+    let mut r = rectum(coarse(|t| t));
+    let rows = r.scene.membrane.rows();
+    let corner = in_plane(&r, rows / 2, 0);
+    let mut events = Vec::new();
+    r.step(&hook_at(corner, true), 0, &mut events);
+    let s = r.snapshot(1);
+    let names: Vec<&str> = s.models.iter().map(|m| m.name.as_str()).collect();
+    assert_eq!(names, ["rectum", "fascia", "pelvis"]);
+    let fascia = &s.models[1];
+    // Two layers of the 60 x 48 grid, closed round the ring.
+    assert_eq!(fascia.positions.len(), 2 * 60 * 48);
+    assert_eq!(fascia.indices.len(), 2 * 59 * 48 * 6);
+    assert!(fascia.cut_edge.iter().any(|&c| c), "the cut shows");
+    assert!(fascia.regions.contains(&1), "the target is drawn as such");
+    let pelvis = &s.models[2];
+    assert!(
+        pelvis.regions.contains(&1),
+        "the ureters and plexus are drawn"
+    );
+    assert!(
+        s.models
+            .iter()
+            .all(|m| m.normals.len() == m.positions.len()
+                && m.positions.iter().all(|p| p.is_finite()))
+    );
+}
