@@ -10,7 +10,7 @@
 //! their new state waits in a buffer until every chunk is done.
 
 use super::forces::{self, RowScratch, Rows, Whole};
-use super::{LAYERS, Membrane, State, field};
+use super::{ALONG, AROUND, LAYERS, LINK, Membrane, State, field};
 use rayon::prelude::*;
 
 /// Rows per parallel task.
@@ -245,6 +245,79 @@ fn runge_kutta(m: &mut Membrane, sc: &mut Scratch, dt: f32) {
     }
     m.state.data = state;
     sc.stage.data = stage;
+}
+
+impl Membrane {
+    /// The largest explicit step the grid allows, s: `2 / omega` with `omega^2` a bound on
+    /// the highest eigenvalue of `M^-1 K` (linearised at rest), shortened for the springs'
+    /// damping. The bound is Gershgorin's on the symmetric `M^-1/2 K M^-1/2`: a spring (or
+    /// tether) acting on nodes `p` with weights `a_p` (1 and -1 for a spring; 1, w - 1 and -w
+    /// for a tether) adds `k |a_p| / sqrt(m_p) * sum_q |a_q| / sqrt(m_q)` to row `p`, an
+    /// attachment `k / m_p`; `omega^2` is the largest row. (For a uniform chain it gives
+    /// `4 k / m`, the exact highest frequency.)
+    pub fn explicit_step_limit(&self) -> f32 {
+        let per = self.rows * self.cols;
+        let n = self.len();
+        let inv_sqrt: Vec<f32> = self
+            .mass
+            .iter()
+            .map(|&m| if m > 0.0 { 1.0 / m.sqrt() } else { 0.0 })
+            .collect();
+        let mut row = vec![0.0f32; n];
+        let mut add = |nodes: &[(usize, f32)], k: f32| {
+            if k <= 0.0 {
+                return;
+            }
+            let total: f32 = nodes.iter().map(|&(q, a)| a.abs() * inv_sqrt[q]).sum();
+            for &(p, a) in nodes {
+                row[p] += k * a.abs() * inv_sqrt[p] * total;
+            }
+        };
+        for node in 0..n {
+            let (l, i, j) = self.coords(node);
+            if let Some(jn) = self.next_col(j) {
+                let k = self.spring(field::K[AROUND], node);
+                add(&[(node, 1.0), (self.node(l, i, jn), -1.0)], k);
+            }
+            if i + 1 < self.rows {
+                add(
+                    &[(node, 1.0), (node + self.cols, -1.0)],
+                    self.spring(field::K[ALONG], node),
+                );
+            }
+            if l + 1 < LAYERS {
+                add(
+                    &[(node, 1.0), (node + per, -1.0)],
+                    self.spring(field::K[LINK], node),
+                );
+            }
+            if l > 0 && l + 1 < LAYERS {
+                let w = self.spring(field::SHEAR_W, node);
+                add(
+                    &[
+                        (node, 1.0),
+                        (self.node(0, i, j), w - 1.0),
+                        (self.node(LAYERS - 1, i, j), -w),
+                    ],
+                    self.spring(field::SHEAR_K, node),
+                );
+            }
+        }
+        let mut worst = 0.0f32;
+        for (node, r) in row.iter().enumerate() {
+            if self.mass[node] > 0.0 {
+                worst = worst.max(r + self.attach_stiffness(node) / self.mass[node]);
+            }
+        }
+        // Damping along the springs shortens it: `(sqrt(1 + zeta^2) - zeta)` of the undamped
+        // limit for a mode damped at `zeta` of critical.
+        let z = self.params.spring_damping_ratio;
+        if worst > 0.0 {
+            2.0 / worst.sqrt() * ((1.0 + z * z).sqrt() - z)
+        } else {
+            f32::INFINITY
+        }
+    }
 }
 
 #[cfg(test)]

@@ -200,12 +200,14 @@ impl Procedure for Rectum {
                 integrator: Some(self.scene.params.membrane.integrator.name()),
             },
             ModelReport {
+                // The membrane's nodes it tests, as `nodes` (not `vertices`: the procedure's
+                // totals would count them twice).
                 name: "collision".to_string(),
                 kind: "generalized_cylinders".to_string(),
-                vertices: m.len(),
+                vertices: 0,
                 triangles: 0,
                 constraints: 0,
-                nodes: None,
+                nodes: Some(m.len()),
                 springs: None,
                 integrator: None,
             },
