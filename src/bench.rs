@@ -28,13 +28,9 @@ pub struct BenchLine {
     pub awake_fraction: f64,
     /// Every point was kept awake for this line.
     pub all_awake: bool,
-    /// Mass points and springs, and the integrator, of a mass-spring model.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub nodes: Option<usize>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub springs: Option<usize>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub integrator: Option<&'static str>,
+    /// A mass-spring model's particulars.
+    #[serde(flatten)]
+    pub mass_spring: crate::procedures::MassSpring,
 }
 
 /// Simulated seconds of the all-awake pass (the whole demo all awake would take minutes) by
@@ -113,9 +109,7 @@ fn pass(
             threads,
             awake_fraction,
             all_awake,
-            nodes: None,
-            springs: None,
-            integrator: None,
+            mass_spring: Default::default(),
         }
     };
     let models = p.model_reports();
@@ -125,9 +119,7 @@ fn pass(
         .zip(p.model_times())
         .zip(&awake)
         .map(|((m, t), a)| BenchLine {
-            nodes: m.nodes,
-            springs: m.springs,
-            integrator: m.integrator,
+            mass_spring: m.mass_spring,
             ..line(
                 m.name.clone(),
                 t,

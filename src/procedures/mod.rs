@@ -12,8 +12,8 @@ pub mod soft_tissue;
 
 pub use nephrectomy::Nephrectomy;
 pub use procedure::{
-    BuildError, ModelReport, Plan, Procedure, ProcedureInfo, ProcedureReport, TaskStatus, TaskStep,
-    ToolInfo, ToolKind, Tunable, Viewpoint, tick_off,
+    BuildError, MassSpring, ModelReport, Plan, Procedure, ProcedureInfo, ProcedureReport,
+    TaskStatus, TaskStep, ToolInfo, ToolKind, Tunable, Viewpoint, tick_off,
 };
 
 /// Every procedure that runs today, in the order `vesalius demo` plays them.

@@ -323,9 +323,7 @@ impl<M: TissueModel> World<M> {
                     vertices: s.vertices,
                     triangles: s.triangles,
                     constraints: s.constraints,
-                    nodes: None,
-                    springs: None,
-                    integrator: None,
+                    mass_spring: Default::default(),
                 }
             })
             .collect()

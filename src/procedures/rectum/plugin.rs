@@ -5,8 +5,8 @@ use super::procedure::{Metrics, Rectum, STEPS};
 use super::scenario::{self, NAME, Scenario};
 use crate::params::TuneError;
 use crate::procedures::{
-    BuildError, ModelReport, Plan, Procedure, ProcedureInfo, ProcedureReport, TaskStatus, ToolInfo,
-    ToolKind, Tunable, Viewpoint,
+    BuildError, MassSpring, ModelReport, Plan, Procedure, ProcedureInfo, ProcedureReport,
+    TaskStatus, ToolInfo, ToolKind, Tunable, Viewpoint,
 };
 use crate::scenario::InputError;
 use crate::sim::{Hand, InputFrame, SimEvent, Snapshot, TissueModel};
@@ -185,9 +185,10 @@ impl Procedure for Rectum {
                 vertices: rod.surface().positions.len(),
                 triangles: rod.surface().triangles.len(),
                 constraints: rod.params().elements,
-                nodes: Some(rod.params().elements + 1),
-                springs: None,
-                integrator: None,
+                mass_spring: MassSpring {
+                    nodes: Some(rod.params().elements + 1),
+                    ..MassSpring::default()
+                },
             },
             ModelReport {
                 name: "membrane".to_string(),
@@ -195,9 +196,11 @@ impl Procedure for Rectum {
                 vertices: m.len(),
                 triangles: 0,
                 constraints: m.springs(),
-                nodes: Some(m.len()),
-                springs: Some(m.springs()),
-                integrator: Some(self.scene.params.membrane.integrator.name()),
+                mass_spring: MassSpring {
+                    nodes: Some(m.len()),
+                    springs: Some(m.springs()),
+                    integrator: Some(self.scene.params.membrane.integrator.name()),
+                },
             },
             ModelReport {
                 // The membrane's nodes it tests, as `nodes` (not `vertices`: the procedure's
@@ -207,9 +210,10 @@ impl Procedure for Rectum {
                 vertices: 0,
                 triangles: 0,
                 constraints: 0,
-                nodes: Some(m.len()),
-                springs: None,
-                integrator: None,
+                mass_spring: MassSpring {
+                    nodes: Some(m.len()),
+                    ..MassSpring::default()
+                },
             },
         ]
     }
