@@ -202,6 +202,18 @@ pub fn procedure_of(file: &str, text: &str) -> Result<String, InputError> {
     }
 }
 
+/// That a file read as procedure `expected`'s scenario names it in its `procedure` key.
+pub fn expect_procedure(file: &str, got: &str, expected: &str) -> Result<(), InputError> {
+    if got == expected {
+        return Ok(());
+    }
+    Err(InputError::new(
+        file,
+        "procedure",
+        format!("must be \"{expected}\", got \"{got}\""),
+    ))
+}
+
 pub fn check_procedure(file: &str, key: &str, name: &str) -> Result<(), InputError> {
     if crate::procedures::find(name).is_some() {
         return Ok(());

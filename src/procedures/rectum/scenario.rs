@@ -451,12 +451,7 @@ impl Scenario {
     pub fn validate(&self, file: &str) -> Result<(), InputError> {
         use crate::params::validate;
         let err = |key: &str, message: String| InputError::new(file, key, message);
-        if self.procedure != NAME {
-            return Err(err(
-                "procedure",
-                format!("must be \"{NAME}\", got \"{}\"", self.procedure),
-            ));
-        }
+        crate::scenario::expect_procedure(file, &self.procedure, NAME)?;
         validate(file, TOP_LEVEL, &self.timing())?;
         validate(file, "anatomy", &self.anatomy)?;
         if self.nodes() > MAX_NODES {
