@@ -149,6 +149,9 @@ pub struct CosseratRod {
     /// (cleared after it).
     force: Vec<DVec3>,
     torque: Vec<DVec3>,
+    /// The given forces' stiffness per node for the next step, N/m (cleared after it): see
+    /// [`CosseratRod::add_node_stiffness`].
+    given_k: Vec<f64>,
     /// Newton: stop when the largest update is below this, m (rotations: per metre of
     /// element).
     pub tolerance_m: f64,
@@ -217,6 +220,7 @@ impl CosseratRod {
             clamps: Vec::new(),
             force: vec![DVec3::ZERO; n + 1],
             torque: vec![DVec3::ZERO; n],
+            given_k: vec![0.0; n + 1],
             tolerance_m: 1e-10,
             max_iterations: 12,
             scratch: step::Scratch::default(),
@@ -303,6 +307,19 @@ impl CosseratRod {
             && f.is_finite()
         {
             *slot += f;
+        }
+    }
+
+    /// Says that the force given on node `i` for the next step falls by `k` (N/m) for every
+    /// metre the node moves during it, as a spring's does (another model's tissue holding
+    /// the rod): the step takes `f_i - k (x_i - x_i(start))` implicitly, so a stiff given load
+    /// cannot ring against the step's lag. A negative or non-finite `k` is ignored.
+    pub fn add_node_stiffness(&mut self, i: usize, k: f64) {
+        if let Some(slot) = self.given_k.get_mut(i)
+            && k.is_finite()
+            && k > 0.0
+        {
+            *slot += k;
         }
     }
 

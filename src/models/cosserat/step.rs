@@ -154,6 +154,7 @@ pub(super) fn step(rod: &mut CosseratRod, dt: f64) -> StepStats {
     }
     rod.force.iter_mut().for_each(|f| *f = DVec3::ZERO);
     rod.torque.iter_mut().for_each(|t| *t = DVec3::ZERO);
+    rod.given_k.iter_mut().for_each(|k| *k = 0.0);
     rod.scratch = sc;
     stats
 }
@@ -204,7 +205,8 @@ fn potential_of(rod: &CosseratRod, sc: &Scratch, dt: f64, x: &[DVec3], r: &[DMat
         let dx = x[i] - sc.x0[i];
         phi += m / (2.0 * dt * dt) * (dx - sc.v0[i] * dt).length_squared()
             + c * m / (2.0 * dt) * dx.length_squared()
-            - (p.gravity * m + rod.force[i]).dot(x[i]);
+            - (p.gravity * m + rod.force[i]).dot(x[i])
+            + 0.5 * rod.given_k[i] * dx.length_squared();
     }
     for e in 0..r.len() {
         let rotation = so3::log(r[e] * sc.r0[e].transpose());
@@ -241,7 +243,8 @@ fn assemble(rod: &CosseratRod, sc: &mut Scratch, dt: f64) {
     for i in 0..=n {
         let m = rod.mass[i];
         let dx = rod.x[i] - sc.x0[i];
-        let grad = (dx - sc.v0[i] * dt) * (m / (dt * dt)) + dx * (c * m / dt)
+        let k = rod.given_k[i];
+        let grad = (dx - sc.v0[i] * dt) * (m / (dt * dt)) + dx * (c * m / dt + k)
             - p.gravity * m
             - rod.force[i];
         add_vec(&mut g[i], 0, grad);
@@ -249,7 +252,7 @@ fn assemble(rod: &CosseratRod, sc: &mut Scratch, dt: f64) {
             &mut h.diag[i],
             0,
             0,
-            DMat3::IDENTITY * (m / (dt * dt) + c * m / dt),
+            DMat3::IDENTITY * (m / (dt * dt) + c * m / dt + k),
         );
     }
     for e in 0..n {

@@ -332,3 +332,39 @@ pub(super) fn row<R: Rows>(
         }
     }
 }
+
+impl Membrane {
+    /// What the rest of the membrane does to layer 0 on tiles `tiles`: for each of their
+    /// layer-0 nodes (row, column) the sum of its springs, links, tethers and external forces
+    /// now, N, into `out` (in tile order). The attachment that holds the node and its own
+    /// damping are left out: at rest the attachment carries exactly this load to whatever
+    /// holds layer 0, and unlike the attachment's stretch it does not ring with the node's
+    /// own fast motion on its anchor, so a model holding layer 0 can take it as a given force.
+    pub fn anchor_loads(&mut self, tiles: &[usize], out: &mut Vec<(u32, u32, glam::Vec3)>) {
+        out.clear();
+        sort_external(&mut self.external);
+        let m = &*self;
+        let whole = Whole {
+            data: &m.state.data,
+            rows: m.rows,
+            cols: m.cols,
+        };
+        let mut sc = RowScratch::default();
+        for &t in tiles {
+            let ([r0, r1], [c0, c1]) = m.tile_span(t);
+            for i in r0..r1 {
+                row(m, &whole, i, c0..c1, i == r0, &mut sc);
+                for j in c0..c1 {
+                    let f =
+                        glam::Vec3::from_array(std::array::from_fn(|c| sc.row(0, c, m.cols)[j]));
+                    let (k, pull) = match m.anchor_pull(i, j) {
+                        Some((_, pull)) => (1.0, pull),
+                        None => (0.0, glam::Vec3::ZERO),
+                    };
+                    // The kernel's sum holds the attachment's force, -pull: take it out.
+                    out.push((i as u32, j as u32, f + k * pull));
+                }
+            }
+        }
+    }
+}

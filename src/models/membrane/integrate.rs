@@ -248,13 +248,20 @@ fn runge_kutta(m: &mut Membrane, sc: &mut Scratch, dt: f32) {
 }
 
 impl Membrane {
-    /// The largest explicit step the grid allows, s: `2 / omega` with `omega^2` a bound on
-    /// the highest eigenvalue of `M^-1 K` (linearised at rest), shortened for the springs'
-    /// damping. The bound is Gershgorin's on the symmetric `M^-1/2 K M^-1/2`: a spring (or
-    /// tether) acting on nodes `p` with weights `a_p` (1 and -1 for a spring; 1, w - 1 and -w
-    /// for a tether) adds `k |a_p| / sqrt(m_p) * sum_q |a_q| / sqrt(m_q)` to row `p`, an
-    /// attachment `k / m_p`; `omega^2` is the largest row. (For a uniform chain it gives
-    /// `4 k / m`, the exact highest frequency.)
+    /// The largest explicit step the grid allows, s, from bounds on the highest eigenvalues
+    /// of the stiffness `lambda` (of `M^-1 K`, linearised at rest) and of the damping `nu`
+    /// (of `M^-1 C` plus the point damping `D`), both by Gershgorin on the symmetric
+    /// `M^-1/2 (.) M^-1/2`: a spring (or tether) acting on nodes `p` with weights `a_p` (1 and
+    /// -1 for a spring; 1, w - 1 and -w for a tether) adds `k |a_p| / sqrt(m_p) * sum_q |a_q|
+    /// / sqrt(m_q)` to row `p` (its damping `beta k` likewise), an attachment `k / m_p`. (For
+    /// a uniform chain it gives `4 k / m`, the exact highest frequency.)
+    ///
+    /// A mode `x'' = -lambda x - nu x'` under symplectic Euler at step `h` is stable while
+    /// `h^2 lambda + 2 h nu < 4` (the Jury conditions on its 2 x 2 update), so the limit is
+    /// the positive root of that quadratic: with strong damping along stiff springs it is
+    /// the damping, not the stiffness, that bounds the step. Runge-Kutta's region holds the
+    /// left half-disc of radius 2.5 around 0, so its limit is 2.5 over the largest `|mu|` of
+    /// the mode's roots `mu = -nu/2 +- sqrt(nu^2/4 - lambda)`.
     pub fn explicit_step_limit(&self) -> f32 {
         let per = self.rows * self.cols;
         let n = self.len();
@@ -263,33 +270,37 @@ impl Membrane {
             .iter()
             .map(|&m| if m > 0.0 { 1.0 / m.sqrt() } else { 0.0 })
             .collect();
-        let mut row = vec![0.0f32; n];
-        let mut add = |nodes: &[(usize, f32)], k: f32| {
+        let mut stiff = vec![0.0f32; n];
+        let mut damp = vec![0.0f32; n];
+        let mut add = |nodes: &[(usize, f32)], k: f32, c: f32| {
             if k <= 0.0 {
                 return;
             }
             let total: f32 = nodes.iter().map(|&(q, a)| a.abs() * inv_sqrt[q]).sum();
             for &(p, a) in nodes {
-                row[p] += k * a.abs() * inv_sqrt[p] * total;
+                let g = a.abs() * inv_sqrt[p] * total;
+                stiff[p] += k * g;
+                damp[p] += c * g;
             }
         };
         for node in 0..n {
             let (l, i, j) = self.coords(node);
+            let beta = self.beta[node / self.cols];
             if let Some(jn) = self.next_col(j) {
                 let k = self.spring(field::K[AROUND], node);
-                add(&[(node, 1.0), (self.node(l, i, jn), -1.0)], k);
+                add(
+                    &[(node, 1.0), (self.node(l, i, jn), -1.0)],
+                    k,
+                    beta[AROUND] * k,
+                );
             }
             if i + 1 < self.rows {
-                add(
-                    &[(node, 1.0), (node + self.cols, -1.0)],
-                    self.spring(field::K[ALONG], node),
-                );
+                let k = self.spring(field::K[ALONG], node);
+                add(&[(node, 1.0), (node + self.cols, -1.0)], k, beta[ALONG] * k);
             }
             if l + 1 < LAYERS {
-                add(
-                    &[(node, 1.0), (node + per, -1.0)],
-                    self.spring(field::K[LINK], node),
-                );
+                let k = self.spring(field::K[LINK], node);
+                add(&[(node, 1.0), (node + per, -1.0)], k, beta[LINK] * k);
             }
             if l > 0 && l + 1 < LAYERS {
                 let w = self.spring(field::SHEAR_W, node);
@@ -300,24 +311,51 @@ impl Membrane {
                         (self.node(LAYERS - 1, i, j), -w),
                     ],
                     self.spring(field::SHEAR_K, node),
+                    0.0,
                 );
             }
         }
-        let mut worst = 0.0f32;
-        for (node, r) in row.iter().enumerate() {
+        let (mut lambda, mut nu) = (0.0f32, 0.0f32);
+        for node in 0..n {
             if self.mass[node] > 0.0 {
-                worst = worst.max(r + self.attach_stiffness(node) / self.mass[node]);
+                lambda = lambda.max(stiff[node] + self.attach_stiffness(node) / self.mass[node]);
+                nu = nu.max(damp[node]);
             }
         }
-        // Damping along the springs shortens it: `(sqrt(1 + zeta^2) - zeta)` of the undamped
-        // limit for a mode damped at `zeta` of critical.
-        let z = self.params.spring_damping_ratio;
-        if worst > 0.0 {
-            2.0 / worst.sqrt() * ((1.0 + z * z).sqrt() - z)
-        } else {
-            f32::INFINITY
-        }
+        let nu = nu + self.params.damping_per_s.max(0.0);
+        limit_for(self.params.integrator, lambda, nu)
     }
+}
+
+/// The stable step for a mode bounded by stiffness `lambda` (1/s^2) and damping `nu` (1/s):
+/// see [`Membrane::explicit_step_limit`].
+pub(super) fn limit_for(integrator: super::Integrator, lambda: f32, nu: f32) -> f32 {
+    if lambda <= 0.0 && nu <= 0.0 {
+        return f32::INFINITY;
+    }
+    let (lambda, nu) = (f64::from(lambda.max(0.0)), f64::from(nu.max(0.0)));
+    let h = match integrator {
+        super::Integrator::Symplectic => {
+            if lambda > 0.0 {
+                // The positive root of lambda h^2 + 2 nu h - 4 = 0, written to keep its
+                // precision when nu dominates.
+                4.0 / (nu + (nu * nu + 4.0 * lambda).sqrt())
+            } else {
+                2.0 / nu
+            }
+        }
+        super::Integrator::RungeKutta4 => {
+            let half = 0.5 * nu;
+            let disc = half * half - lambda;
+            let largest = if disc > 0.0 {
+                half + disc.sqrt()
+            } else {
+                lambda.sqrt()
+            };
+            2.5 / largest
+        }
+    };
+    h as f32
 }
 
 #[cfg(test)]

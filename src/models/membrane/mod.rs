@@ -162,7 +162,7 @@ pub struct Membrane {
     /// next layer) and the node's 1 / mass. Stiffness 0 marks a missing or cut spring.
     rows_data: Vec<f32>,
     /// Damping of each spring family per row block, as a time: `c = beta k` (stiffness-
-    /// proportional), `beta = 2 zeta sqrt(m / k)` from the row's springs.
+    /// proportional; see [`Membrane::set_spring_damping`]).
     beta: Vec<[f32; 3]>,
     /// Attachments of layers 0 (slot 0, to targets the owner sets) and 3 (slot 1, to its
     /// rest): per slot and row, four runs of `cols`: stiffness N/m, then the target x, y, z.
@@ -380,27 +380,44 @@ impl Membrane {
         (b * 6 + c) * self.cols + j
     }
 
-    /// Spring damping, stiffness-proportional per family and row block: `c = beta k` with
-    /// `beta = 2 zeta sqrt(m / k)` for the row's mean stiffness and its nodes' mean mass, so a
-    /// spring of the row is damped at about `zeta` of critical.
+    /// Spring damping, stiffness-proportional per family and row block: `c = beta k`, from
+    /// the row's mean stiffness of each family and its nodes' mean mass `m`. In a layer, the
+    /// grid's highest mode (neighbours moving against each other) has `omega^2 = 4 (k_a +
+    /// k_b) / m` (`k_a`, `k_b`: the springs around and along) and is damped at `beta omega /
+    /// 2`, so `beta = zeta sqrt(m / (k_a + k_b))` damps it at `zeta` of critical (the modes a
+    /// trainee sees, centimetres long, are slower and their point damping `D` rules them).
+    /// A link's `beta = 2 zeta sqrt(m / k_link)` damps a layer bouncing on its link at
+    /// `zeta` of critical.
     fn set_spring_damping(&mut self) {
         let z = self.params.spring_damping_ratio;
         let cols = self.cols;
         for b in 0..LAYERS * self.rows {
             let nodes = b * cols..(b + 1) * cols;
             let mass = self.mass[nodes.clone()].iter().sum::<f32>() / cols as f32;
-            for fam in [AROUND, ALONG, LINK] {
+            let mean = |fam: usize| {
                 let (sum, count) = nodes
                     .clone()
                     .map(|node| self.spring(field::K[fam], node))
                     .filter(|&k| k > 0.0)
                     .fold((0.0f32, 0usize), |(s, c), k| (s + k, c + 1));
-                self.beta[b][fam] = if count > 0 {
-                    2.0 * z * (mass / (sum / count as f32)).sqrt()
+                if count > 0 { sum / count as f32 } else { 0.0 }
+            };
+            let in_layer = mean(AROUND) + mean(ALONG);
+            let sheet = if in_layer > 0.0 {
+                z * (mass / in_layer).sqrt()
+            } else {
+                0.0
+            };
+            let link = mean(LINK);
+            self.beta[b] = [
+                sheet,
+                sheet,
+                if link > 0.0 {
+                    2.0 * z * (mass / link).sqrt()
                 } else {
                     0.0
-                };
-            }
+                },
+            ];
         }
     }
 
@@ -481,6 +498,64 @@ impl Membrane {
             for c in 0..3 {
                 self.attach[(row + 1 + c) * self.cols + j] = p[c];
             }
+        }
+    }
+
+    /// Layer 0's node at row `i`, column `j`: where it is held (its target) and the pull of
+    /// the membrane on whatever holds it, `k (x - target)`, N (the reaction of the
+    /// attachment's force on the node).
+    pub fn anchor_pull(&self, i: usize, j: usize) -> Option<(Vec3, Vec3)> {
+        if i >= self.rows || j >= self.cols {
+            return None;
+        }
+        let (row, cols) = (i * 4, self.cols);
+        let k = self.attach[row * cols + j];
+        let target = Vec3::from_array(std::array::from_fn(|c| {
+            self.attach[(row + 1 + c) * cols + j]
+        }));
+        let x = self.position(self.node(0, i, j));
+        Some((target, (x - target) * k))
+    }
+
+    /// How stiffly the membrane holds layer 0's node at row `i`, column `j` against its
+    /// anchor, N/m: the node's own stiffness (the diagonal of `K`: its springs around and
+    /// along, its link to layer 1 and its share `(1 - w)^2` of the tethers of layers 1 and 2
+    /// over it) in series with its attachment. Moving the anchor alone by `d` moves the
+    /// membrane's load on it by at most this times `d`; a model holding layer 0 takes it as
+    /// the stiffness of that load.
+    pub fn anchor_stiffness(&self, i: usize, j: usize) -> f32 {
+        if i >= self.rows || j >= self.cols {
+            return 0.0;
+        }
+        let node = self.node(0, i, j);
+        let mut k = self.spring(field::K[AROUND], node)
+            + self.spring(field::K[LINK], node)
+            + if i + 1 < self.rows {
+                self.spring(field::K[ALONG], node)
+            } else {
+                0.0
+            };
+        if i > 0 {
+            k += self.spring(field::K[ALONG], node - self.cols);
+        }
+        let before = if j > 0 {
+            Some(j - 1)
+        } else {
+            self.periodic.then(|| self.cols - 1)
+        };
+        if let Some(jb) = before {
+            k += self.spring(field::K[AROUND], self.node(0, i, jb));
+        }
+        for l in 1..LAYERS - 1 {
+            let above = self.node(l, i, j);
+            let w = self.spring(field::SHEAR_W, above);
+            k += self.spring(field::SHEAR_K, above) * (1.0 - w) * (1.0 - w);
+        }
+        let ka = self.attach_stiffness(node);
+        if k > 0.0 && ka > 0.0 {
+            k * ka / (k + ka)
+        } else {
+            0.0
         }
     }
 

@@ -248,6 +248,10 @@ pub struct RectumRod {
     radii: Vec<f32>,
     /// Forces on nodes for the next step (contacts, other models), N.
     load: Vec<DVec3>,
+    /// Couples waiting for the next step, per element, N m.
+    couples: Vec<DVec3>,
+    /// The stiffness of the waiting loads per node, N/m ([`RectumRod::add_surface_force`]).
+    load_k: Vec<f64>,
     grips: [Option<Grip>; 2],
     /// Grips the world's grasp contacts took (released when their contact stops).
     world_grip: [bool; 2],
@@ -396,6 +400,8 @@ impl RectumRod {
             centre,
             radii: vec![params.radius_m as f32; n + 1],
             load: vec![DVec3::ZERO; n + 1],
+            couples: vec![DVec3::ZERO; n],
+            load_k: vec![0.0; n + 1],
             rest,
             share,
             grips: [None; 2],
@@ -469,6 +475,29 @@ impl RectumRod {
         {
             *slot += f;
         }
+    }
+
+    /// Adds, for the next step, a force `f` (N) acting on the rod's surface at `lever` (m)
+    /// from the centreline point at parameter `t` of element `e`: `(1 - t) f` and `t f` on
+    /// the element's nodes and the couple `lever x f` on the element, statically the same as
+    /// `f` at that point (the grasp's split, module docs). `k` (N/m) is the force's
+    /// stiffness, shared the same way: the force falls by `k` per metre the rod moves during
+    /// the step, taken implicitly by the rod's step (tissue holding the rod, whose load
+    /// would otherwise come one step late and ring). A missing element or a non-finite value
+    /// is ignored.
+    pub fn add_surface_force(&mut self, e: usize, t: f64, lever: DVec3, f: DVec3, k: f64) {
+        if e >= self.couples.len()
+            || !(t.is_finite() && lever.is_finite() && f.is_finite() && k.is_finite())
+        {
+            return;
+        }
+        let t = t.clamp(0.0, 1.0);
+        self.load[e] += f * (1.0 - t);
+        self.load[e + 1] += f * t;
+        self.couples[e] += lever.cross(f);
+        let k = k.max(0.0);
+        self.load_k[e] += k * (1.0 - t);
+        self.load_k[e + 1] += k * t;
     }
 
     /// Pushes every sphere that reaches into a tool out by `k d_i l_i` (module docs), with
@@ -646,9 +675,18 @@ impl RectumRod {
         } else {
             0
         };
+        let start: Vec<DVec3> = self.rod.positions().to_vec();
         for _ in 0..steps {
+            // A stiff load falls with the motion since the step began; the rest of its fall
+            // within this substep is the rod step's own (implicit).
             for (i, f) in self.load.iter().enumerate() {
-                self.rod.add_force(i, *f);
+                let k = self.load_k[i];
+                self.rod
+                    .add_force(i, *f - (self.rod.positions()[i] - start[i]) * k);
+                self.rod.add_node_stiffness(i, k);
+            }
+            for (e, c) in self.couples.iter().enumerate() {
+                self.rod.add_torque(e, *c);
             }
             for (hand, sum) in grip_sum.iter_mut().enumerate() {
                 *sum -= self.apply_grip(hand);
@@ -656,6 +694,8 @@ impl RectumRod {
             self.rod.step(dt_s / steps as f64);
         }
         self.load.iter_mut().for_each(|f| *f = DVec3::ZERO);
+        self.couples.iter_mut().for_each(|c| *c = DVec3::ZERO);
+        self.load_k.iter_mut().for_each(|k| *k = 0.0);
         self.refresh_centres();
         let mut out = [None; 2];
         for (hand, slot) in out.iter_mut().enumerate() {

@@ -92,9 +92,9 @@ impl Default for SceneParams {
             activity: ActivityParams::default(),
             hook_stiffness_pa_per_m: 1e6,
             cut_radius_m: 1.5e-3,
-            // The bound is the grid's at rest; stretched and sheared under a grasp, 0.9 of
-            // it went unstable (docs/rectum.md).
-            substep_safety: 0.6,
+            // The bound (stiffness and damping, Gershgorin's) is the grid's at rest; the
+            // springs stretched under a grasp are no stiffer along and softer across.
+            substep_safety: 0.9,
             wake_reach_m: 0.03,
             target_rows: regions::REGIONS[0].rows,
             target_arc_deg: regions::REGIONS[0].arc_deg,
@@ -136,6 +136,8 @@ pub struct StepOutcome {
     pub hook_contacts: usize,
     /// Explicit membrane substeps taken.
     pub substeps: usize,
+    /// The membrane's load on the rod through layer 0 (awake tiles), for the next step, N.
+    pub membrane_on_rod_n: Vec3,
     /// Vulnerable regions the hook touches now: bit `id` for region id `id`
     /// ([`regions::REGIONS`]).
     pub touching: u32,
@@ -184,6 +186,7 @@ pub struct RectumScene {
     contacts: Vec<ToolContact>,
     forces: Vec<(u32, Vec3)>,
     targets: Vec<Vec3>,
+    loads: Vec<(u32, u32, Vec3)>,
 }
 
 impl RectumScene {
@@ -229,6 +232,7 @@ impl RectumScene {
             contacts: Vec::new(),
             forces: Vec::new(),
             targets: Vec::new(),
+            loads: Vec::new(),
         })
     }
 
@@ -361,12 +365,53 @@ impl RectumScene {
         self.cutting_wall = cutting_wall;
         // 4. The membrane.
         let collided = clock.elapsed().as_secs_f64();
+        // The membrane's load on the rod, for the rod's next step (before the membrane moves:
+        // it is what the rod's present pose asks of it).
+        out.membrane_on_rod_n = self.load_rod();
         out.substeps = self.membrane.advance(dt_s, self.params.substep_safety);
         let done = clock.elapsed().as_secs_f64();
         self.times[0] += rod_done;
         self.times[1] += collided - rod_done;
         self.times[2] += done - collided;
         out
+    }
+
+    /// The membrane loads the rod: what the rest of the membrane does to each awake layer-0
+    /// node ([`Membrane::anchor_loads`]: at rest, what its attachment hands on) acts on the
+    /// rod's surface where the skin binds the node, split onto the element's nodes with its
+    /// couple ([`RectumRod::add_surface_force`]), in the next rod step. Sleeping tiles lie
+    /// on their anchors at rest and load it with nothing. Returns the sum, N.
+    fn load_rod(&mut self) -> Vec3 {
+        let cols = self.membrane.cols();
+        let (tr, tc) = self.membrane.tiles();
+        let awake: Vec<usize> = (0..tr * tc)
+            .filter(|&t| self.membrane.tile_awake(t))
+            .collect();
+        let mut loads = std::mem::take(&mut self.loads);
+        self.membrane.anchor_loads(&awake, &mut loads);
+        let x = self.rod.rod().positions().to_vec();
+        let mut total = glam::DVec3::ZERO;
+        for &(i, j, f) in &loads {
+            let (i, j) = (i as usize, j as usize);
+            let (Some((target, _)), Some((e, u, _))) = (
+                self.membrane.anchor_pull(i, j),
+                self.skin.binding(i * cols + j),
+            ) else {
+                continue;
+            };
+            let (Some(a), Some(b)) = (x.get(e), x.get(e + 1)) else {
+                continue;
+            };
+            let u = f64::from(u);
+            let axis = *a + (*b - *a) * u;
+            let f = f.as_dvec3();
+            let k = f64::from(self.membrane.anchor_stiffness(i, j));
+            self.rod
+                .add_surface_force(e, u, target.as_dvec3() - axis, f, k);
+            total += f;
+        }
+        self.loads = loads;
+        total.as_vec3()
     }
 
     /// Plane springs in the target region, and of them cut so far.

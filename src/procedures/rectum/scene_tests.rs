@@ -152,3 +152,88 @@ fn cutting_on_the_rectal_wall_raises_an_alarm_and_cutting_in_the_plane_does_not(
     let out = s.step(1e-3, &wall);
     assert_eq!(out.alarms & ALARM_RECTAL_WALL, ALARM_RECTAL_WALL, "{out:?}");
 }
+
+/// The rod's node displacements from rest after `steps` of 1 ms with `load` (N) on the
+/// fat's nodes over the top of the rectum's middle (layer 1, 5 x 5 nodes), every tile
+/// awake; without `wall` the pelvic side is let go, so the membrane hangs on the rod alone;
+/// `direct` puts the same load on the rod's surface under the patch instead. Returns the
+/// rod's largest displacement along the load, and the membrane's last load on the rod.
+fn carry(load: Vec3, steps: usize, direct: bool, wall: bool) -> (f64, Vec3) {
+    let mut s = scene();
+    if !wall {
+        s.membrane.detach_layer(LAYERS - 1);
+    }
+    s.membrane.stay_awake();
+    let (rows, cols) = (s.membrane.rows(), s.membrane.cols());
+    let mid = rows / 2;
+    let patch: Vec<usize> = (mid - 2..=mid + 2)
+        .flat_map(|i| [cols - 2, cols - 1, 0, 1, 2].map(|j| (i, j)))
+        .map(|(i, j)| s.membrane.node(1, i, j))
+        .collect();
+    let rest: Vec<glam::DVec3> = s.rod.rod().positions().to_vec();
+    let (e, u, _) = s.skin.binding(mid * cols).expect("bound");
+    let idle = ToolState {
+        hook: None,
+        cutting: false,
+        grasper: None,
+    };
+    let mut pull = Vec3::ZERO;
+    for _ in 0..steps {
+        if direct {
+            let x = s.rod.rod().positions();
+            let axis = x[e] + (x[e + 1] - x[e]) * f64::from(u);
+            let at = s.membrane.anchor_pull(mid, 0).expect("node").0.as_dvec3();
+            s.rod
+                .add_surface_force(e, f64::from(u), at - axis, load.as_dvec3(), 0.0);
+        } else {
+            for &n in &patch {
+                s.membrane.add_force(n, load / patch.len() as f32);
+            }
+        }
+        pull = s.step(1e-3, &idle).membrane_on_rod_n;
+    }
+    let along = load.as_dvec3().normalize();
+    let most = s
+        .rod
+        .rod()
+        .positions()
+        .iter()
+        .zip(&rest)
+        .map(|(x, r)| (*x - *r).dot(along))
+        .fold(0.0, f64::max);
+    (most, pull)
+}
+
+#[test]
+fn the_membrane_hands_a_load_on_its_fat_to_the_rod() {
+    // 50 mN pressing down on the fat over the top of the rectum.
+    let load = Vec3::new(0.0, -0.05, 0.0);
+    let (through, pull) = carry(load, 800, false, false);
+    let (direct, _) = carry(load, 800, true, false);
+    // At rest the free membrane passes the whole load on (its own forces sum to zero) ...
+    assert!(
+        (pull - load).length() < 0.05 * load.length(),
+        "pull {pull} for a load of {load}"
+    );
+    // ... and the rod bends as it does under the load put straight on it.
+    assert!(
+        direct > 1e-5,
+        "the rod moved {direct} m under the direct load"
+    );
+    assert!(
+        (through - direct).abs() < 0.1 * direct,
+        "through the membrane {through} m, directly {direct} m"
+    );
+    // Held by the pelvic wall too, the tissue shares the load: the rod takes a part of it,
+    // and the coupling stays at rest (it rang and grew without the load's stiffness).
+    let (held, part) = carry(load, 800, false, true);
+    let share = part.dot(load) / load.length_squared();
+    assert!(
+        share > 0.02 && share < 0.9,
+        "the rod takes {share} of the load"
+    );
+    assert!(
+        held > 0.0 && held < through,
+        "{held} m held, {through} m hanging"
+    );
+}
