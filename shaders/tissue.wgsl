@@ -1,6 +1,7 @@
 // Tissue and instrument shading for both eyes. The renderer compiles this file twice: with
 // multiview (the eye is @builtin(view_index)) and, where the adapter lacks multiview, with the
-// eye fixed per pass. The line marked VIEW_INDEX is rewritten for that.
+// eye fixed per pass. The line marked VIEW_INDEX is rewritten for that. fs_main draws opaque
+// surfaces; fs_membrane the same shading with the membranes' alpha, for the translucent pass.
 
 struct Eye {
     view_proj: mat4x4<f32>,
@@ -9,7 +10,8 @@ struct Eye {
 
 struct Frame {
     eyes: array<Eye, 2>,
-    // x: 1 when the tumour has been identified (highlight), y: time in seconds.
+    // x: 1 when the tumour has been identified (highlight), y: time in seconds, z: the
+    // membranes' alpha.
     flags: vec4<f32>,
 };
 
@@ -51,8 +53,7 @@ fn vs_main(v: VertexIn /*VIEW_INDEX*/) -> VertexOut {
 const CUT_FLAG: u32 = 256u;
 const TARGET: u32 = 1u;
 
-@fragment
-fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
+fn shade(in: VertexOut) -> vec3<f32> {
     let index = in.material & 15u;
     let m = materials[index];
     var albedo = m.albedo.rgb;
@@ -79,5 +80,15 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
         // Identified: a green glow the trainee cannot miss.
         colour = mix(colour, vec3<f32>(0.3, 0.95, 0.35), 0.35);
     }
-    return vec4<f32>(colour, 1.0);
+    return colour;
+}
+
+@fragment
+fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
+    return vec4<f32>(shade(in), 1.0);
+}
+
+@fragment
+fn fs_membrane(in: VertexOut) -> @location(0) vec4<f32> {
+    return vec4<f32>(shade(in), frame.flags.z);
 }

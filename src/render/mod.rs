@@ -4,28 +4,36 @@
 //! swapchain image, a headless test texture) in one multiview pass, or, where the adapter lacks
 //! multiview, one view per eye in two passes. Organ vertex buffers are rewritten from each
 //! snapshot in place and grow only when a cut adds render vertices beyond their headroom.
+//! Each pass draws the opaque surfaces first, then the translucent ones: membranes, then
+//! smoke (`pipelines`, `smoke`).
 
 pub mod camera;
 pub mod frames;
 pub mod gpu;
+mod pipelines;
+pub mod smoke;
 
 pub use camera::{EyeView, Fov};
 pub use gpu::{EyeTarget, Gpu, RenderError};
 
 use crate::profiler::{Category, FrameCounters, Ledger, Tracked};
-use crate::sim::{Snapshot, SurfaceRole, ToolSnapshot};
+use crate::sim::{Emission, Snapshot, SurfaceRole, ToolSnapshot};
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
 use std::num::NonZeroU32;
 use std::sync::Arc;
 use std::time::Instant;
 
-const SHADER: &str = include_str!("../../shaders/tissue.wgsl");
 /// 16-bit depth: at 0.2 m from the eye with the near plane at 1 cm it resolves 0.06 mm, and it
 /// halves the depth buffer of a 2 x 1080 x 1200 target (5.2 MB).
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth16Unorm;
 /// Background: the dim, warm cavity a laparoscope sees.
 pub const BACKGROUND: [f64; 3] = [0.02, 0.012, 0.01];
+/// Alpha of membrane surfaces ([`SurfaceRole::Membrane`]). The rectum paper draws its
+/// membranes with an "Alpha" and gives no value. At 0.5 one membrane shows what lies behind
+/// it at half strength and stays plainly a surface; the rectum's two fasciae over each other
+/// let a quarter through, enough to see the rectum and the hook behind them.
+pub const MEMBRANE_ALPHA: f32 = 0.5;
 
 /// Material slots (the shader's table; it holds up to 16).
 pub mod material {
@@ -101,6 +109,12 @@ fn material_table() -> [MaterialUniform; material::SLOTS] {
     ]
 }
 
+/// The role of triangle `t` of a model (a region without a role is tissue).
+fn triangle_role(m: &crate::sim::ModelSnapshot, t: usize) -> SurfaceRole {
+    let region = m.regions.get(t).copied().unwrap_or(0) as usize;
+    m.roles.get(region).copied().unwrap_or_default()
+}
+
 /// The material of a surface role.
 fn role_material(role: SurfaceRole) -> u32 {
     match role {
@@ -119,6 +133,8 @@ struct GpuMesh {
     index: Tracked<wgpu::Buffer>,
     vertex_count: u32,
     index_count: u32,
+    /// Indices before this draw opaque triangles; from it on, membranes (translucent).
+    opaque_count: u32,
 }
 
 /// Where to draw: both eyes' layers of one array texture (multiview), one view per eye, or
@@ -141,7 +157,7 @@ pub struct Renderer {
     queue: wgpu::Queue,
     ledger: Arc<Ledger>,
     multiview: bool,
-    pipeline: wgpu::RenderPipeline,
+    pipelines: pipelines::Pipelines,
     frame_buffers: Vec<Tracked<wgpu::Buffer>>,
     bind_groups: Vec<wgpu::BindGroup>,
     _materials: Tracked<wgpu::Buffer>,
@@ -153,6 +169,10 @@ pub struct Renderer {
     scratch: Vec<Vertex>,
     scratch_idx: Vec<u32>,
     tools: [ToolSnapshot; 2],
+    /// The snapshot's emissions and time, drawn as smoke once the eyes are known.
+    emissions: Vec<Emission>,
+    time_s: f64,
+    smoke: smoke::SmokeBuffer,
     objects: u64,
     flags: [f32; 4],
 }
@@ -172,79 +192,7 @@ impl Renderer {
     pub fn with_multiview(gpu: &Gpu, format: wgpu::TextureFormat, multiview: bool) -> Self {
         let device = gpu.device.clone();
         let multiview = multiview && gpu.multiview;
-        let source = if multiview {
-            SHADER
-                .replace("/*VIEW_INDEX*/", ", @builtin(view_index) view: u32")
-                .replace("let eye = VIEW;", "let eye = view;")
-        } else {
-            SHADER.replace("let eye = VIEW;", "let eye = 0u;")
-        };
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("tissue.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(source.into()),
-        });
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("frame"),
-            entries: &[0, 1].map(|binding| wgpu::BindGroupLayoutEntry {
-                binding,
-                visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
-                },
-                count: None,
-            }),
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("tissue"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Uint32];
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("tissue"),
-            layout: Some(&pipeline_layout),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[Some(wgpu::VertexBufferLayout {
-                    array_stride: std::mem::size_of::<Vertex>() as u64,
-                    step_mode: wgpu::VertexStepMode::Vertex,
-                    attributes: &attributes,
-                })],
-            },
-            primitive: wgpu::PrimitiveState {
-                topology: wgpu::PrimitiveTopology::TriangleList,
-                cull_mode: None,
-                ..Default::default()
-            },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: DEPTH_FORMAT,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Less),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format,
-                    blend: None,
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: if multiview {
-                NonZeroU32::new(0b11)
-            } else {
-                None
-            },
-            cache: None,
-        });
+        let pipelines = pipelines::Pipelines::new(&device, format, multiview);
         let ledger = gpu.ledger.clone();
         let table = material_table();
         let materials = tracked_buffer(
@@ -275,7 +223,7 @@ impl Renderer {
             .map(|fb| {
                 device.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: Some("frame"),
-                    layout: &layout,
+                    layout: &pipelines.layout,
                     entries: &[
                         wgpu::BindGroupEntry {
                             binding: 0,
@@ -290,12 +238,13 @@ impl Renderer {
             })
             .collect();
         let instruments = empty_mesh(&device, &ledger, 512, 1024);
+        let smoke = smoke::SmokeBuffer::new(&device, &ledger);
         Renderer {
             device,
             queue: gpu.queue.clone(),
             ledger,
             multiview,
-            pipeline,
+            pipelines,
             frame_buffers,
             bind_groups,
             _materials: materials,
@@ -307,6 +256,9 @@ impl Renderer {
             scratch: Vec::new(),
             scratch_idx: Vec::new(),
             tools: Default::default(),
+            emissions: Vec::new(),
+            time_s: 0.0,
+            smoke,
             objects: 0,
             flags: [0.0; 4],
         }
@@ -330,8 +282,7 @@ impl Renderer {
         for (k, m) in snap.models.iter().enumerate() {
             let mut vertex_material = vec![material::TISSUE; m.positions.len()];
             for (t, tri) in m.indices.chunks_exact(3).enumerate() {
-                let region = m.regions.get(t).copied().unwrap_or(0) as usize;
-                let base = role_material(m.roles.get(region).copied().unwrap_or_default());
+                let base = role_material(triangle_role(m, t));
                 for &i in tri {
                     if let Some(v) = vertex_material.get_mut(i as usize) {
                         *v = base;
@@ -364,13 +315,37 @@ impl Renderer {
                         .copy_from_slice(bytemuck::cast_slice(&self.scratch));
                 }
             }
-            if !m.indices.is_empty() {
+            // Membranes' triangles go after the opaque ones, to be drawn in the translucent
+            // part of the pass; a model with none is written as it comes.
+            let translucent = |t: usize| triangle_role(m, t) == SurfaceRole::Membrane;
+            let triangles = m.indices.len() / 3;
+            let indices: &[u32] =
+                if m.roles.contains(&SurfaceRole::Membrane) && (0..triangles).any(translucent) {
+                    self.scratch_idx.clear();
+                    for pass in [false, true] {
+                        for (t, tri) in m.indices.chunks_exact(3).enumerate() {
+                            if translucent(t) == pass {
+                                self.scratch_idx.extend_from_slice(tri);
+                            }
+                        }
+                        if !pass {
+                            mesh.opaque_count = self.scratch_idx.len() as u32;
+                        }
+                    }
+                    &self.scratch_idx
+                } else {
+                    mesh.opaque_count = m.indices.len() as u32;
+                    &m.indices
+                };
+            if !indices.is_empty() {
                 self.queue
-                    .write_buffer(&mesh.index, 0, bytemuck::cast_slice(&m.indices));
+                    .write_buffer(&mesh.index, 0, bytemuck::cast_slice(indices));
             }
             mesh.vertex_count = m.positions.len() as u32;
-            mesh.index_count = m.indices.len() as u32;
+            mesh.index_count = indices.len() as u32;
         }
+        self.emissions.clone_from(&snap.emissions);
+        self.time_s = snap.time_s;
         // Instruments and beams are built per frame, clipped to the eyes (see `render`).
         self.tools = snap.tools;
         let tools = snap
@@ -383,12 +358,13 @@ impl Renderer {
             .iter()
             .filter(|t| t.direction.length_squared() >= 0.5 && t.beam_end.is_some())
             .count() as u64;
-        // Organs, instruments, beams, the headlight and the eye rig.
+        // Organs, instruments, beams, the headlight and the eye rig (and the smoke, counted
+        // when it is drawn).
         self.objects = snap.models.len() as u64 + tools + beams + 2;
         let flags = [
             if snap.target_found { 1.0 } else { 0.0 },
             snap.time_s as f32,
-            0.0,
+            MEMBRANE_ALPHA,
             0.0,
         ];
         self.flags = flags;
@@ -468,6 +444,14 @@ impl Renderer {
         let t0 = Instant::now();
         self.ensure_depth(size);
         self.build_instruments(eyes);
+        self.smoke.update(
+            &self.device,
+            &self.queue,
+            &self.ledger,
+            &self.emissions,
+            self.time_s,
+            eyes,
+        );
         let eye_uniform = |e: &EyeView| EyeUniform {
             view_proj: e.view_proj().to_cols_array_2d(),
             position: e.position.extend(1.0).to_array(),
@@ -541,21 +525,27 @@ impl Renderer {
                 occlusion_query_set: None,
                 multiview_mask: *mask,
             });
-            pass.set_pipeline(&self.pipeline);
+            pass.set_pipeline(&self.pipelines.opaque);
             pass.set_bind_group(0, &self.bind_groups[k.min(self.bind_groups.len() - 1)], &[]);
             c.setpass_calls += 1;
             c.passes += 1;
-            for mesh in self.meshes.iter().chain(std::iter::once(&self.instruments)) {
-                if mesh.index_count == 0 {
-                    continue;
-                }
-                pass.set_vertex_buffer(0, mesh.vertex.inner.slice(..));
-                pass.set_index_buffer(mesh.index.inner.slice(..), wgpu::IndexFormat::Uint32);
-                pass.draw_indexed(0..mesh.index_count, 0, 0..1);
-                c.draw_calls += 1;
-                c.triangles += mesh.index_count as u64 / 3;
-                c.vertices += mesh.vertex_count as u64;
+            // Opaque surfaces write depth; then membranes and smoke blend over them, tested
+            // against that depth and writing none.
+            let meshes = || self.meshes.iter().chain(std::iter::once(&self.instruments));
+            for mesh in meshes() {
+                draw_range(&mut pass, mesh, 0..mesh.opaque_count, true, &mut c);
             }
+            if meshes().any(|m| m.index_count > m.opaque_count) {
+                pass.set_pipeline(&self.pipelines.membrane);
+                c.setpass_calls += 1;
+                for mesh in meshes() {
+                    // A mesh's vertices count once, with its first draw.
+                    let first = mesh.opaque_count == 0;
+                    let range = mesh.opaque_count..mesh.index_count;
+                    draw_range(&mut pass, mesh, range, first, &mut c);
+                }
+            }
+            self.smoke.draw(&mut pass, &self.pipelines.smoke, &mut c);
         }
         c.batches = c.draw_calls;
         let t1 = Instant::now();
@@ -569,7 +559,7 @@ impl Renderer {
         c.materials.count = material::COUNT as u64;
         c.vram_bytes = self.ledger.total_bytes();
         c.total_memory_bytes = crate::profiler::heap_bytes() + c.vram_bytes;
-        c.objects = self.objects;
+        c.objects = self.objects + u64::from(self.smoke.count() > 0);
         self.frame += 1;
         c
     }
@@ -594,6 +584,28 @@ fn tracked_buffer(
     Tracked::new(buffer, size, category, ledger)
 }
 
+/// Draws indices `range` of a mesh (nothing when it is empty) and counts it, with its
+/// vertices if `vertices`.
+fn draw_range(
+    pass: &mut wgpu::RenderPass<'_>,
+    mesh: &GpuMesh,
+    range: std::ops::Range<u32>,
+    vertices: bool,
+    c: &mut FrameCounters,
+) {
+    if range.is_empty() {
+        return;
+    }
+    pass.set_vertex_buffer(0, mesh.vertex.inner.slice(..));
+    pass.set_index_buffer(mesh.index.inner.slice(..), wgpu::IndexFormat::Uint32);
+    c.triangles += (range.end - range.start) as u64 / 3;
+    pass.draw_indexed(range, 0, 0..1);
+    c.draw_calls += 1;
+    if vertices {
+        c.vertices += mesh.vertex_count as u64;
+    }
+}
+
 fn empty_mesh(device: &wgpu::Device, ledger: &Arc<Ledger>, verts: u64, indices: u64) -> GpuMesh {
     GpuMesh {
         vertex: tracked_buffer(
@@ -614,6 +626,7 @@ fn empty_mesh(device: &wgpu::Device, ledger: &Arc<Ledger>, verts: u64, indices: 
         ),
         vertex_count: 0,
         index_count: 0,
+        opaque_count: 0,
     }
 }
 
@@ -638,6 +651,7 @@ fn upload(
     }
     mesh.vertex_count = verts.len() as u32;
     mesh.index_count = indices.len() as u32;
+    mesh.opaque_count = mesh.index_count;
 }
 
 /// Grows a mesh's buffers (by a quarter more than asked) when they are too small.

@@ -1,9 +1,11 @@
 //! The simulation core: fixed-step clock, per-step input, the tissue-model trait, contacts,
-//! events, snapshots, the per-step haptic channel, the NaN quarantine, and the world that
-//! holds a procedure's models and the interactions between them.
+//! events, snapshots and the emissions they carry, the per-step haptic channel, the NaN
+//! quarantine, and the world that holds a procedure's models and the interactions between
+//! them.
 
 mod attachment;
 mod clock;
+mod emission;
 mod events;
 mod haptic;
 mod input;
@@ -15,6 +17,7 @@ mod world;
 
 pub use attachment::{Attachment, Link, LinkSpring};
 pub use clock::{Clock, Pacing};
+pub use emission::{Emission, EmissionKind, EmissionLog};
 pub use events::{EventKind, ProcedureEvent, SimEvent, shortest_f32};
 pub use haptic::{HapticFrame, HapticSlot, SeqWords, ToolHaptics};
 pub use input::{Buttons, Hand, HandInput, InputFrame, Pose};

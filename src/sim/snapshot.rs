@@ -1,3 +1,4 @@
+use super::Emission;
 use arc_swap::ArcSwap;
 use glam::Vec3;
 use std::sync::Arc;
@@ -57,6 +58,10 @@ pub struct Snapshot {
     /// The trainee has found the target (the renderer highlights surfaces whose role is
     /// [`SurfaceRole::Target`]).
     pub target_found: bool,
+    /// Recent emissions (smoke where an energized instrument cut), oldest first: a bounded
+    /// few (the procedure keeps about the last 2 s), which the renderer animates from
+    /// `time_s`. Empty for procedures that give off nothing.
+    pub emissions: Vec<Emission>,
 }
 
 /// Publishes snapshots without blocking: readers load the newest `Arc`, the simulation swaps in

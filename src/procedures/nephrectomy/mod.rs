@@ -697,6 +697,7 @@ impl Nephrectomy {
             tools: self.tools,
             reactions: self.world.reactions(),
             target_found: self.identified,
+            emissions: Vec::new(),
         }
     }
 }

@@ -2,7 +2,7 @@
 //! left holds a grasper, the right an L-hook with its current on the trigger), the task's
 //! checklist, the physics metrics of the paper's Table 1 that exist without the assessment
 //! layer, and what the renderer draws (the rectum, the fasciae with the dissection showing,
-//! the pelvic side with its vulnerable structures).
+//! the pelvic side with its vulnerable structures, the smoke where the hook cut).
 
 use super::regions::{self, RegionKind};
 use super::scenario::Scenario;
@@ -10,8 +10,8 @@ use super::scene::{ALARM_RECTAL_WALL, RectumScene, StepOutcome, ToolState};
 use crate::models::Fnv;
 use crate::models::membrane::{LAYERS, Membrane};
 use crate::sim::{
-    EventKind, Hand, InputFrame, ModelSnapshot, ProcedureEvent, SimEvent, Snapshot, SurfaceRole,
-    TissueModel, ToolSnapshot,
+    EmissionKind, EmissionLog, EventKind, Hand, InputFrame, ModelSnapshot, ProcedureEvent,
+    SimEvent, Snapshot, SurfaceRole, TissueModel, ToolSnapshot,
 };
 use glam::Vec3;
 use serde::Serialize;
@@ -103,6 +103,8 @@ pub struct Rectum {
     last: StepOutcome,
     on_wall: bool,
     sums: Sums,
+    /// Smoke given off where the hook cut (drawn by the renderer, not simulated).
+    smoke: EmissionLog,
     pub metrics: Metrics,
 }
 
@@ -121,6 +123,7 @@ impl Rectum {
             last: StepOutcome::default(),
             on_wall: false,
             sums: Sums::default(),
+            smoke: EmissionLog::smoke(),
             metrics: Metrics::default(),
         })
     }
@@ -203,11 +206,25 @@ impl Rectum {
                 active: cutting,
             },
         ];
+        // Smoke rises where the current cut springs this step, at the hook's end; its time is
+        // the end of the step, the time of the snapshot taken after it.
+        let now_s = Self::time_s(step + 1, dt);
+        match end {
+            Some(e) if out.cut > 0 => {
+                self.smoke.record(now_s, e, EmissionKind::Smoke);
+            }
+            _ => self.smoke.forget_before(now_s),
+        }
         self.checklist(step, dt, &mut ev);
         self.last = out;
         self.prev_hook_end = end;
         self.prev_input = Some(*input);
         events.extend(ev.into_iter().map(|kind| SimEvent { step, kind }));
+    }
+
+    /// Simulation time after `steps` steps of `dt`, s (as the snapshot states it).
+    fn time_s(steps: u64, dt: f32) -> f64 {
+        steps as f64 * f64::from(dt)
     }
 
     /// The hook's working end (the tip of its L) for these tools.
@@ -368,13 +385,15 @@ impl Rectum {
         fascia.roles = vec![SurfaceRole::Membrane, SurfaceRole::Target];
         let mut pelvis = pelvis;
         pelvis.roles = vec![SurfaceRole::Fat, SurfaceRole::Duct];
+        let time_s = Self::time_s(step, self.scenario.dt_s);
         Snapshot {
             step,
-            time_s: step as f64 * f64::from(self.scenario.dt_s),
+            time_s,
             models: vec![rectum, fascia, pelvis],
             tools: self.tools,
             reactions: self.reactions(),
             target_found: true,
+            emissions: self.smoke.at(time_s),
         }
     }
 

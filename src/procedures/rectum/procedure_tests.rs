@@ -156,3 +156,69 @@ fn the_drawn_layers_show_the_dissection_and_the_vulnerable_structures() {
                 && m.positions.iter().all(|p| p.is_finite()))
     );
 }
+
+/// Springs cut in the events of `step`.
+fn springs_cut(events: &[SimEvent], step: u64) -> u64 {
+    events
+        .iter()
+        .filter(|e| e.step == step)
+        .filter_map(|e| match &e.kind {
+            EventKind::Procedure(p) if p.name == "spring_cut" => p.fields["springs"].as_u64(),
+            _ => None,
+        })
+        .sum()
+}
+
+#[test]
+fn cutting_gives_off_smoke_at_the_hooks_end_that_is_forgotten_after_two_seconds() {
+    let mut r = rectum(coarse(|t| t));
+    let rows = r.scene.membrane.rows();
+    let mut events = Vec::new();
+    let corner = in_plane(&r, rows / 2, 0);
+    r.step(&hook_at(corner, false), 0, &mut events);
+    assert!(
+        r.snapshot(1).emissions.is_empty(),
+        "no smoke without current"
+    );
+    r.step(&hook_at(corner, true), 1, &mut events);
+    assert!(springs_cut(&events, 1) > 0, "the hook cut");
+    let s = r.snapshot(2);
+    assert_eq!(s.emissions.len(), 1, "{:?}", s.emissions);
+    let e = s.emissions[0];
+    assert_eq!(e.kind, crate::sim::EmissionKind::Smoke);
+    // At the end of the step that cut (the snapshot's time), at the hook's working end: the
+    // tip of its L, not the corner the hand holds.
+    assert_eq!(e.time_s, s.time_s);
+    let hook = crate::collision::Instrument::l_hook(corner, from_above()).expect("hook");
+    let end = hook.cylinders()[1].p1();
+    assert_eq!(e.position, end);
+    assert_eq!(s.tools[1].tip, end);
+    assert!(
+        e.position.distance(corner) > 0.003,
+        "the end, not the corner"
+    );
+    // A millisecond later it cuts again, but smoke is given off at most every 15 ms.
+    let next = in_plane(&r, rows / 2, 2);
+    r.step(&hook_at(next, true), 2, &mut events);
+    assert!(springs_cut(&events, 2) > 0, "the hook cut again");
+    assert_eq!(r.snapshot(3).emissions.len(), 1);
+    // 20 ms on (the step number is the clock), another cut, another emission.
+    let further = in_plane(&r, rows / 2, 46);
+    r.step(&hook_at(further, true), 21, &mut events);
+    assert!(springs_cut(&events, 21) > 0, "the hook cut a third time");
+    let at = |steps: u64| steps as f64 * f64::from(r.scenario.dt_s);
+    let (first, second) = (at(2), at(22));
+    let times: Vec<f64> = r.snapshot(22).emissions.iter().map(|e| e.time_s).collect();
+    assert_eq!(times, [first, second]);
+    // With the current off, none; and each is forgotten 2 s after it was given off.
+    r.step(&hook_at(further, false), 2010, &mut events);
+    let times: Vec<f64> = r
+        .snapshot(2011)
+        .emissions
+        .iter()
+        .map(|e| e.time_s)
+        .collect();
+    assert_eq!(times, [second]);
+    r.step(&hook_at(further, false), 2030, &mut events);
+    assert!(r.snapshot(2031).emissions.is_empty());
+}

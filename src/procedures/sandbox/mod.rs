@@ -347,6 +347,7 @@ impl Sandbox {
             reactions: self.world.reactions(),
             // The target is given, not found: the top is highlighted from the start.
             target_found: true,
+            emissions: Vec::new(),
         }
     }
 

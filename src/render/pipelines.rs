@@ -1,0 +1,159 @@
+//! The renderer's three pipelines, in the order a pass binds them: opaque surfaces (depth
+//! written), translucent membranes and smoke (alpha blended, depth tested, not written, so
+//! what lies behind them still shows and nothing in front of them is drawn over).
+
+use super::{DEPTH_FORMAT, Vertex};
+use std::num::NonZeroU32;
+
+const TISSUE: &str = include_str!("../../shaders/tissue.wgsl");
+const SMOKE: &str = include_str!("../../shaders/smoke.wgsl");
+
+/// The byte size of one smoke particle's instance data (centre, then radius, alpha, grey).
+pub(super) const PARTICLE_BYTES: u64 = 24;
+
+pub(super) struct Pipelines {
+    pub opaque: wgpu::RenderPipeline,
+    pub membrane: wgpu::RenderPipeline,
+    pub smoke: wgpu::RenderPipeline,
+    /// The frame uniform and the material table (the smoke reads only the frame).
+    pub layout: wgpu::BindGroupLayout,
+}
+
+/// A shader's source for a multiview pass (the eye is the view index) or for one eye a pass
+/// (eye 0 of the frame uniform, which the renderer fills with that pass's eye).
+fn specialise(source: &str, multiview: bool) -> String {
+    if multiview {
+        source
+            .replace("/*VIEW_INDEX*/", ", @builtin(view_index) view: u32")
+            .replace("let eye = VIEW;", "let eye = view;")
+    } else {
+        source.replace("let eye = VIEW;", "let eye = 0u;")
+    }
+}
+
+/// Standard "over" blending of straight alpha; the target's alpha stays 1 where it was.
+const OVER: wgpu::BlendState = wgpu::BlendState::ALPHA_BLENDING;
+
+impl Pipelines {
+    pub fn new(device: &wgpu::Device, format: wgpu::TextureFormat, multiview: bool) -> Self {
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("frame"),
+            entries: &[0, 1].map(|binding| wgpu::BindGroupLayoutEntry {
+                binding,
+                visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            }),
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("frame"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let module = |label: &str, source: &str| {
+            device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(label),
+                source: wgpu::ShaderSource::Wgsl(specialise(source, multiview).into()),
+            })
+        };
+        let tissue = module("tissue.wgsl", TISSUE);
+        let smoke = module("smoke.wgsl", SMOKE);
+        let surface_attributes =
+            wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Uint32];
+        let surface_buffers = [Some(wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<Vertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &surface_attributes,
+        })];
+        let particle_attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
+        let particle_buffers = [Some(wgpu::VertexBufferLayout {
+            array_stride: PARTICLE_BYTES,
+            step_mode: wgpu::VertexStepMode::Instance,
+            attributes: &particle_attributes,
+        })];
+        let make = |label: &str,
+                    module: &wgpu::ShaderModule,
+                    buffers: &[Option<wgpu::VertexBufferLayout<'_>>],
+                    fragment: &str,
+                    blend: Option<wgpu::BlendState>| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(label),
+                layout: Some(&pipeline_layout),
+                vertex: wgpu::VertexState {
+                    module,
+                    entry_point: Some("vs_main"),
+                    compilation_options: Default::default(),
+                    buffers,
+                },
+                primitive: wgpu::PrimitiveState {
+                    topology: wgpu::PrimitiveTopology::TriangleList,
+                    cull_mode: None,
+                    ..Default::default()
+                },
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: DEPTH_FORMAT,
+                    // Only opaque surfaces write depth: a blended one that did would hide what
+                    // lies behind it and is drawn after it.
+                    depth_write_enabled: Some(blend.is_none()),
+                    depth_compare: Some(wgpu::CompareFunction::Less),
+                    stencil: Default::default(),
+                    bias: Default::default(),
+                }),
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module,
+                    entry_point: Some(fragment),
+                    compilation_options: Default::default(),
+                    targets: &[Some(wgpu::ColorTargetState {
+                        format,
+                        blend,
+                        write_mask: wgpu::ColorWrites::ALL,
+                    })],
+                }),
+                multiview_mask: if multiview {
+                    NonZeroU32::new(0b11)
+                } else {
+                    None
+                },
+                cache: None,
+            })
+        };
+        Pipelines {
+            opaque: make("tissue", &tissue, &surface_buffers, "fs_main", None),
+            membrane: make(
+                "membrane",
+                &tissue,
+                &surface_buffers,
+                "fs_membrane",
+                Some(OVER),
+            ),
+            smoke: make("smoke", &smoke, &particle_buffers, "fs_main", Some(OVER)),
+            layout,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn both_shaders_name_the_eye_the_same_way() {
+        // The rewrite must find its marks in each shader, or one of them would fail to
+        // compile on one of the paths (only the device would say so).
+        for source in [TISSUE, SMOKE] {
+            assert_eq!(source.matches("let eye = VIEW;").count(), 1);
+            assert_eq!(source.matches("/*VIEW_INDEX*/").count(), 1);
+            let both = specialise(source, true);
+            assert!(
+                both.contains("@builtin(view_index) view: u32") && both.contains("eye = view;")
+            );
+            let one = specialise(source, false);
+            assert!(one.contains("let eye = 0u;") && !one.contains("view_index) view"));
+        }
+    }
+}
