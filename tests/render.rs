@@ -509,3 +509,57 @@ fn the_full_size_scene_profiles_within_the_papers_budget() {
     assert!(bytes("textures") >= 2 * 1080 * 1200 * 4);
     assert_eq!(v["paper"]["cpu"]["draw_calls"].as_u64(), Some(19));
 }
+
+#[test]
+fn frames_show_the_field_from_a_laparoscope_the_trainee_moved() {
+    use vesalius::render::frames::render_snapshots;
+    use vesalius::sim::ScopeView;
+    let gpu = gpu(true);
+    let view = vesalius::procedures::nephrectomy::INFO.view;
+    let still = scene(ball(0.03, None));
+    // The same viewpoint published as a scope, and one moved 4 cm to the camera's right.
+    let right = (view.target - view.eye).cross(Vec3::Y).normalize() * 0.04;
+    let at_home = Snapshot {
+        scope: Some(ScopeView {
+            eye: view.eye,
+            target: view.target,
+        }),
+        ..still.clone()
+    };
+    let moved = Snapshot {
+        scope: Some(ScopeView {
+            eye: view.eye + right,
+            target: view.target + right,
+        }),
+        ..still.clone()
+    };
+    let dir = std::env::temp_dir().join(format!("vesalius-scope-{}", std::process::id()));
+    render_snapshots(
+        &gpu,
+        &view,
+        &[still, at_home, moved],
+        1,
+        SIZE,
+        0.0,
+        Some(&dir),
+    )
+    .expect("frames");
+    let left = |k: usize| {
+        let (size, px) = read_png(&dir.join(format!("left_{k:04}.png"))).expect("a frame");
+        assert_eq!(size, SIZE);
+        px
+    };
+    let (a, b, c) = (left(0), left(1), left(2));
+    assert_eq!(
+        a, b,
+        "the procedure's own viewpoint as a scope draws the same frame"
+    );
+    // Moved to the right, the camera sees the organ further left.
+    let ((ca, xa), (cc, xc)) = (coverage(&a), coverage(&c));
+    assert!(ca > 0.01 && cc > 0.01, "the organ shows: {ca} {cc}");
+    assert!(
+        xc < xa - 10.0,
+        "organ at x {xa} from home, {xc} from the moved scope"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

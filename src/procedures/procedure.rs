@@ -121,6 +121,9 @@ pub struct ProcedureInfo {
     /// Simulated seconds of `vesalius bench`'s all-awake pass (a model of a million points
     /// all awake steps far slower than real time).
     pub bench_all_awake_s: f64,
+    /// The hand whose primary button makes its device drive the laparoscope (its instrument
+    /// waits meanwhile), if any.
+    pub scope_hand: Option<crate::sim::Hand>,
     /// The model that tunings in recordings of format versions 1 and 2 (which name no model)
     /// were made to; none for a procedure that had no such recordings.
     pub legacy_tuned_model: Option<&'static str>,

@@ -49,6 +49,17 @@ pub fn render_snapshots(
     for (k, snap) in each.enumerate() {
         let t0 = Instant::now();
         renderer.update(snap);
+        // A laparoscope the trainee moved shows the field from its place.
+        let eyes = match snap.scope {
+            Some(s) => field_eyes(
+                &Viewpoint {
+                    eye: s.eye,
+                    target: s.target,
+                },
+                DEFAULT_IPD_M,
+            ),
+            None => eyes,
+        };
         let mut c = renderer.render(target.target(renderer.multiview()), eye_size, &eyes);
         gpu.device
             .poll(wgpu::PollType::wait_indefinitely())

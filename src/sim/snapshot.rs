@@ -62,6 +62,17 @@ pub struct Snapshot {
     /// few (the procedure keeps about the last 2 s), which the renderer animates from
     /// `time_s`. Empty for procedures that give off nothing.
     pub emissions: Vec<Emission>,
+    /// Where the procedure's laparoscope looks from, once the trainee has moved it (the
+    /// rectum's left device drives it); `None`: the procedure's own viewpoint. The desktop
+    /// window and headless frames show the field from here.
+    pub scope: Option<ScopeView>,
+}
+
+/// A laparoscope's place: its eye and the point it looks at, metres (field frame, y up).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScopeView {
+    pub eye: Vec3,
+    pub target: Vec3,
 }
 
 /// Publishes snapshots without blocking: readers load the newest `Arc`, the simulation swaps in

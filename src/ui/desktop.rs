@@ -125,6 +125,8 @@ pub struct DesktopHands {
     pub frame: InputFrame,
     /// What each hand holds.
     pub tools: [ToolInfo; 2],
+    /// The hand whose primary button drives the laparoscope.
+    pub scope_hand: Option<Hand>,
 }
 
 impl DesktopHands {
@@ -141,6 +143,7 @@ impl DesktopHands {
             depth_m: [0.15, 0.15],
             frame,
             tools: info.tools,
+            scope_hand: info.scope_hand,
         }
     }
 }
@@ -219,6 +222,15 @@ impl DesktopHands {
             lines.push((
                 "right button".to_string(),
                 format!("mark the margin ({})", l.name),
+            ));
+        }
+        if let Some(h) = self.scope_hand {
+            lines.push((
+                "right button".to_string(),
+                format!(
+                    "with the {} selected: move the laparoscope with it",
+                    self.tools[h.index()].name
+                ),
             ));
         }
         let camera = [

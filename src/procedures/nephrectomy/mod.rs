@@ -73,6 +73,7 @@ pub const INFO: super::ProcedureInfo = super::ProcedureInfo {
     profile_reference: Some(|| [crate::profiler::paper_cpu(), crate::profiler::paper_gpu()]),
     param_tables: scenario::PARAM_TABLES,
     bench_all_awake_s: crate::bench::ALL_AWAKE_S,
+    scope_hand: None,
     legacy_tuned_model: Some(TUNED_MODEL),
     plan,
     build,
@@ -698,6 +699,7 @@ impl Nephrectomy {
             reactions: self.world.reactions(),
             target_found: self.identified,
             emissions: Vec::new(),
+            scope: None,
         }
     }
 }

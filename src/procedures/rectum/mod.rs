@@ -10,6 +10,7 @@ pub mod regions;
 pub mod rod;
 pub mod scenario;
 pub mod scene;
+mod scope;
 pub mod skin;
 #[cfg(test)]
 mod tests;

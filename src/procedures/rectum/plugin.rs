@@ -50,6 +50,8 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
     param_tables: scenario::PARAM_TABLES,
     // 20 steps: each all-awake step is some 40 explicit steps of all 960,000 nodes.
     bench_all_awake_s: 0.02,
+    // The paper: "The left haptic device can also be used as a navigation camera".
+    scope_hand: Some(Hand::Left),
     legacy_tuned_model: None,
     plan,
     build,

@@ -7,11 +7,12 @@
 use super::regions::{self, RegionKind};
 use super::scenario::Scenario;
 use super::scene::{ALARM_RECTAL_WALL, RectumScene, StepOutcome, ToolState};
+use super::scope::Scope;
 use crate::models::Fnv;
 use crate::models::membrane::{LAYERS, Membrane};
 use crate::sim::{
-    EmissionKind, EmissionLog, EventKind, Hand, InputFrame, ModelSnapshot, ProcedureEvent,
-    SimEvent, Snapshot, SurfaceRole, TissueModel, ToolSnapshot,
+    EmissionKind, EmissionLog, EventKind, Hand, HandInput, InputFrame, ModelSnapshot,
+    ProcedureEvent, ScopeView, SimEvent, Snapshot, SurfaceRole, TissueModel, ToolSnapshot,
 };
 use glam::Vec3;
 use serde::Serialize;
@@ -95,7 +96,6 @@ pub struct Rectum {
     pub scenario: Scenario,
     pub scene: RectumScene,
     tools: [ToolSnapshot; 2],
-    prev_input: Option<InputFrame>,
     prev_hook_end: Option<Vec3>,
     /// Where the grasp took the rectum, and how far it has lifted it at most, m.
     grasp_from: Option<Vec3>,
@@ -105,6 +105,10 @@ pub struct Rectum {
     sums: Sums,
     /// Smoke given off where the hook cut (drawn by the renderer, not simulated).
     smoke: EmissionLog,
+    /// The laparoscope the left device drives while its primary button is held.
+    scope: Scope,
+    /// The instruments' places last step (left, right), for their path lengths.
+    prev_tools: Option<[Vec3; 2]>,
     pub metrics: Metrics,
 }
 
@@ -116,7 +120,6 @@ impl Rectum {
             scenario,
             scene,
             tools: [ToolSnapshot::default(); 2],
-            prev_input: None,
             prev_hook_end: None,
             grasp_from: None,
             max_lift_m: 0.0,
@@ -124,6 +127,8 @@ impl Rectum {
             on_wall: false,
             sums: Sums::default(),
             smoke: EmissionLog::smoke(),
+            scope: Scope::new(super::plugin::INFO.view),
+            prev_tools: None,
             metrics: Metrics::default(),
         })
     }
@@ -156,12 +161,23 @@ impl Rectum {
     /// Advances one step.
     pub fn step(&mut self, input: &InputFrame, step: u64, events: &mut Vec<SimEvent>) {
         let dt = self.scenario.dt_s;
-        if let Some(prev) = &self.prev_input {
-            let [left, right] = input.moved_since(prev);
-            self.metrics.path_length_left_m += left;
-            self.metrics.path_length_right_m += right;
+        let hook = input.hand(Hand::Right);
+        let left = input.hand(Hand::Left);
+        // The left device drives the camera while its button is held; the grasper waits.
+        let grasper = HandInput {
+            pose: self.scope.update(&left.pose, left.buttons.mark),
+            buttons: left.buttons,
+        };
+        let grasper = &grasper;
+        // Path lengths are the instruments' (driving the camera is not instrument travel).
+        let places = [grasper.pose.position, hook.pose.position];
+        if let Some(prev) = self.prev_tools
+            && places.iter().chain(&prev).all(|p| p.is_finite())
+        {
+            self.metrics.path_length_left_m += places[0].distance(prev[0]);
+            self.metrics.path_length_right_m += places[1].distance(prev[1]);
         }
-        let (hook, grasper) = (input.hand(Hand::Right), input.hand(Hand::Left));
+        self.prev_tools = Some(places);
         let t = &self.scenario.tools;
         let cutting = hook.buttons.trigger >= t.cut_threshold;
         let closed = grasper.buttons.grip >= t.grip_threshold;
@@ -218,7 +234,6 @@ impl Rectum {
         self.checklist(step, dt, &mut ev);
         self.last = out;
         self.prev_hook_end = end;
-        self.prev_input = Some(*input);
         events.extend(ev.into_iter().map(|kind| SimEvent { step, kind }));
     }
 
@@ -368,7 +383,10 @@ impl Rectum {
                 _ => 0,
             },
             &self.scene,
+            0.0,
         );
+        // The pelvic side is drawn open over the front: the laparoscope looks down into the
+        // pelvis from its inlet, onto the mesorectum, not through a wall.
         let pelvis = grid_mesh(
             m,
             &[LAYERS - 1],
@@ -380,6 +398,7 @@ impl Rectum {
                 })
             },
             &self.scene,
+            PELVIS_OPEN_FRONT_DEG,
         );
         let mut fascia = fascia;
         fascia.roles = vec![SurfaceRole::Membrane, SurfaceRole::Target];
@@ -394,6 +413,10 @@ impl Rectum {
             reactions: self.reactions(),
             target_found: true,
             emissions: self.smoke.at(time_s),
+            scope: self.scope.moved_view().map(|v| ScopeView {
+                eye: v.eye,
+                target: v.target,
+            }),
         }
     }
 
@@ -413,6 +436,10 @@ impl Rectum {
         h.0
     }
 }
+
+/// The pelvic side (layer 3) is not drawn this far round either side of the front, degrees:
+/// over the target's arc (40 degrees), short of the ureters (45-75).
+const PELVIS_OPEN_FRONT_DEG: f32 = 44.0;
 
 /// A `spring_cut` event's fields.
 #[derive(Serialize)]
@@ -456,6 +483,7 @@ fn grid_mesh(
     name: &str,
     region: impl Fn(regions::RegionId) -> u8,
     scene: &RectumScene,
+    open_front_deg: f32,
 ) -> ModelSnapshot {
     let (rows, cols) = (m.rows(), m.cols());
     let d = ((rows * cols) as f64 / DRAWN_LAYER_VERTICES as f64)
@@ -483,9 +511,17 @@ fn grid_mesh(
         }
         let wrap = m.periodic();
         let last_c = if wrap { nc } else { nc - 1 };
+        // Column j lies `360 j / cols` degrees round from the front (column 0).
+        let from_front = |j: usize| {
+            let deg = 360.0 * j as f32 / cols as f32;
+            deg.min(360.0 - deg)
+        };
         for a in 0..nr - 1 {
             for b in 0..last_c {
                 let b1 = (b + 1) % nc;
+                if from_front(cj[b]) < open_front_deg && from_front(cj[b1]) < open_front_deg {
+                    continue;
+                }
                 let v = |r: usize, c: usize| base + (r * nc + c) as u32;
                 out.indices.extend([
                     v(a, b),

@@ -222,3 +222,58 @@ fn cutting_gives_off_smoke_at_the_hooks_end_that_is_forgotten_after_two_seconds(
     r.step(&hook_at(further, false), 2030, &mut events);
     assert!(r.snapshot(2031).emissions.is_empty());
 }
+
+#[test]
+fn the_left_device_drives_the_laparoscope_while_its_button_is_held() {
+    let mut r = rectum(coarse(|t| t));
+    let mut events = Vec::new();
+    let start = Vec3::new(0.0, 0.2, 0.0);
+    let mut input = hook_at(Vec3::new(0.0, 0.3, 0.0), false);
+    input.hands[0].pose = Pose::looking_at(start, Vec3::ZERO);
+    r.step(&input, 0, &mut events);
+    assert_eq!(
+        r.snapshot(1).scope,
+        None,
+        "the procedure's viewpoint to begin with"
+    );
+    let grasper_at = r.tool_tip(0);
+    // Button down, the device moves 3 cm along +x over 30 steps: the camera goes with it,
+    // the grasper stays and travels nothing.
+    for k in 0..=30 {
+        input.hands[0].buttons.mark = true;
+        input.hands[0].pose = Pose::looking_at(
+            start + Vec3::new(0.001 * k as f32, 0.0, 0.0),
+            Vec3::new(0.001 * k as f32, 0.0, 0.0),
+        );
+        r.step(&input, k + 1, &mut events);
+    }
+    let scope = r.snapshot(32).scope.expect("a moved laparoscope");
+    let home = INFO.view;
+    assert!(
+        (scope.eye - (home.eye + Vec3::new(0.03, 0.0, 0.0))).length() < 1e-5,
+        "{scope:?} from {home:?}"
+    );
+    assert!((scope.target - (home.target + Vec3::new(0.03, 0.0, 0.0))).length() < 1e-5);
+    assert!(r.tool_tip(0).distance(grasper_at) < 1e-6);
+    assert!(
+        r.metrics.path_length_left_m < 1e-6,
+        "{}",
+        r.metrics.path_length_left_m
+    );
+    // Button up: the grasper follows the device's motions from where it waited.
+    input.hands[0].buttons.mark = false;
+    r.step(&input, 32, &mut events);
+    assert!(r.tool_tip(0).distance(grasper_at) < 1e-6);
+    input.hands[0].pose.position += Vec3::new(0.0, 0.0, 0.01);
+    r.step(&input, 33, &mut events);
+    assert!(
+        r.tool_tip(0)
+            .distance(grasper_at + Vec3::new(0.0, 0.0, 0.01))
+            < 1e-5,
+        "{} from {grasper_at}",
+        r.tool_tip(0)
+    );
+    assert!((r.metrics.path_length_left_m - 0.01).abs() < 1e-5);
+    // The camera stays where it was left.
+    assert_eq!(r.snapshot(34).scope, Some(scope));
+}

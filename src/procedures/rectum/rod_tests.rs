@@ -700,7 +700,10 @@ fn a_surface_force_is_statically_the_force_at_its_point() {
         .sum::<DVec3>()
         + rod.couples.iter().copied().sum::<DVec3>();
     let expected = (axis + lever - about).cross(f);
-    assert!((moment - expected).length() < 1e-12, "{moment} vs {expected}");
+    assert!(
+        (moment - expected).length() < 1e-12,
+        "{moment} vs {expected}"
+    );
     // The stiffness is shared as the force is.
     assert!((rod.load_k[e] - 35.0).abs() < 1e-12 && (rod.load_k[e + 1] - 15.0).abs() < 1e-12);
     // A bad element or value is ignored.
@@ -738,7 +741,10 @@ fn a_stiff_given_load_does_not_ring() {
     let (finite, swing, off) = run(true);
     // At rest within 0.1 um over the last 100 ms, a few um from where it started (the load's
     // 0.5 N over 2e5 N/m is 2.5 um; the rod's weight adds its sag).
-    assert!(finite && swing < 1e-7 && off < 1e-5, "declared: swing {swing}, off {off}");
+    assert!(
+        finite && swing < 1e-7 && off < 1e-5,
+        "declared: swing {swing}, off {off}"
+    );
     let (finite, swing, _) = run(false);
     assert!(!finite || swing > 1e-5, "undeclared: swing {swing}");
 }

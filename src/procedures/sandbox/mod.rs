@@ -83,6 +83,7 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
     profile_reference: None,
     param_tables: scenario::PARAM_TABLES,
     bench_all_awake_s: crate::bench::ALL_AWAKE_S,
+    scope_hand: None,
     legacy_tuned_model: None,
     plan,
     build,
@@ -348,6 +349,7 @@ impl Sandbox {
             // The target is given, not found: the top is highlighted from the start.
             target_found: true,
             emissions: Vec::new(),
+            scope: None,
         }
     }
 

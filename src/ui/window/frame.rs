@@ -52,6 +52,13 @@ impl App {
             v.renderer.update(s);
             v.last_step = Some(s.step);
         }
+        // The laparoscope moved by the trainee's device: the free camera goes there.
+        if let Some(scope) = snapshot.as_ref().and_then(|s| s.scope)
+            && self.scope_seen != Some(scope)
+        {
+            self.camera = OrbitCamera::looking(scope.eye, scope.target);
+            self.scope_seen = Some(scope);
+        }
         // Panels first: they decide how large the 3D view is.
         let input = v.egui.take_egui_input(&v.window);
         let ppp = v.egui.egui_ctx().pixels_per_point();

@@ -267,6 +267,7 @@ pub fn run(mut opts: WindowOptions) -> Result<WindowRun, WindowError> {
         last_window_frame: None,
         view: None,
         camera: OrbitCamera::at(&info.view),
+        scope_seen: None,
         outcome: None,
         frames: 0,
         shot: None,
@@ -353,6 +354,9 @@ struct App {
     last_window_frame: Option<(f64, Instant)>,
     view: Option<View>,
     camera: OrbitCamera,
+    /// The procedure's laparoscope as last applied to `camera` (the trainee drives it with a
+    /// device: each new place it publishes moves the window's camera there).
+    scope_seen: Option<crate::sim::ScopeView>,
     outcome: Option<Outcome>,
     frames: u64,
     shot: Option<((u32, u32), PathBuf)>,
