@@ -290,6 +290,34 @@ impl Membrane {
         }
     }
 
+    /// The awake tiles whose box (all layers, as the last step left them) comes within
+    /// `margin` of the box `(lo, hi)`, ascending, into `out`: a broad phase for an
+    /// instrument, whose cost follows the awake tiles, not their nodes. Without an active set,
+    /// the one tile that is the whole grid.
+    pub fn awake_tiles_near(&self, lo: Vec3, hi: Vec3, margin: f32, out: &mut Vec<usize>) {
+        out.clear();
+        let Some(a) = &self.activity else {
+            out.push(0);
+            return;
+        };
+        let m = Vec3::splat(margin.max(0.0));
+        out.extend((0..a.awake.len()).filter(|&t| {
+            let (blo, bhi) = a.boxes[t];
+            a.awake[t] && (blo - m).cmple(hi).all() && (bhi + m).cmpge(lo).all()
+        }));
+    }
+
+    /// Every tile's box from its nodes now.
+    pub(super) fn refresh_boxes(&mut self) {
+        let Some(mut a) = self.activity.take() else {
+            return;
+        };
+        for t in 0..a.awake.len() {
+            a.boxes[t] = tile_box(self, &a, t);
+        }
+        self.activity = Some(a);
+    }
+
     /// Wakes tile `t`: its nodes start where their anchors carry them.
     fn wake(&mut self, t: usize) {
         let Some(mut a) = self.activity.take() else {
@@ -297,6 +325,7 @@ impl Membrane {
         };
         if !a.awake[t] {
             place_asleep(self, &a, t);
+            a.boxes[t] = tile_box(self, &a, t);
             start_watch(self, &mut a, t);
             a.awake[t] = true;
             a.still_s[t] = 0.0;
@@ -588,6 +617,7 @@ fn settle(m: &mut Membrane, a: &mut Activity, dt: f32) {
     for t in to_wake {
         if !a.awake[t] {
             place_asleep(m, a, t);
+            a.boxes[t] = tile_box(m, a, t);
             start_watch(m, a, t);
             a.awake[t] = true;
             a.still_s[t] = 0.0;

@@ -341,30 +341,56 @@ impl Membrane {
     /// holds layer 0, and unlike the attachment's stretch it does not ring with the node's
     /// own fast motion on its anchor, so a model holding layer 0 can take it as a given force.
     pub fn anchor_loads(&mut self, tiles: &[usize], out: &mut Vec<(u32, u32, glam::Vec3)>) {
+        use rayon::prelude::*;
         out.clear();
         sort_external(&mut self.external);
         let m = &*self;
+        let (rows, cols) = (m.rows, m.cols);
+        // Tiles side by side in a row of tiles go as one run of the row kernel.
+        let (_, tc) = m.tiles();
+        let mut runs: Vec<([usize; 2], [usize; 2])> = Vec::new();
+        let mut last: Option<usize> = None;
+        for &t in tiles {
+            let (rs, cs) = m.tile_span(t);
+            match (runs.last_mut(), last) {
+                (Some((r, c)), Some(p))
+                    if t == p + 1 && t % tc != 0 && *r == rs && c[1] == cs[0] =>
+                {
+                    c[1] = cs[1];
+                }
+                _ => runs.push((rs, cs)),
+            }
+            last = Some(t);
+        }
         let whole = Whole {
             data: &m.state.data,
-            rows: m.rows,
-            cols: m.cols,
+            rows,
+            cols,
         };
-        let mut sc = RowScratch::default();
-        for &t in tiles {
-            let ([r0, r1], [c0, c1]) = m.tile_span(t);
-            for i in r0..r1 {
-                row(m, &whole, i, c0..c1, i == r0, &mut sc);
-                for j in c0..c1 {
-                    let f =
-                        glam::Vec3::from_array(std::array::from_fn(|c| sc.row(0, c, m.cols)[j]));
-                    let (k, pull) = match m.anchor_pull(i, j) {
-                        Some((_, pull)) => (1.0, pull),
-                        None => (0.0, glam::Vec3::ZERO),
-                    };
-                    // The kernel's sum holds the attachment's force, -pull: take it out.
-                    out.push((i as u32, j as u32, f + k * pull));
+        let parts: Vec<Vec<(u32, u32, glam::Vec3)>> = runs
+            .par_iter()
+            .map_init(RowScratch::default, |sc, &([r0, r1], [c0, c1])| {
+                let mut part = Vec::with_capacity((r1 - r0) * (c1 - c0));
+                for i in r0..r1 {
+                    row(m, &whole, i, c0..c1, i == r0, sc);
+                    // Layer 0's row `i` is block `i`: the kernel's sum holds the attachment's
+                    // force, `-k (x - target)`: take it out.
+                    let at = i * 4 * cols;
+                    for j in c0..c1 {
+                        let k = m.attach[at + j];
+                        let f = glam::Vec3::from_array(std::array::from_fn(|c| {
+                            let x = whole.data[(i * 6 + c) * cols + j];
+                            let target = m.attach[at + (1 + c) * cols + j];
+                            sc.row(0, c, cols)[j] + k * (x - target)
+                        }));
+                        part.push((i as u32, j as u32, f));
+                    }
                 }
-            }
+                part
+            })
+            .collect();
+        for p in parts {
+            out.extend(p);
         }
     }
 }

@@ -706,6 +706,8 @@ impl Membrane {
                 a.awake_share += 1.0;
                 a.steps += 1;
             }
+            // Every tile moved: the instruments' broad phase needs their boxes.
+            self.refresh_boxes();
         } else {
             forces::sort_external(&mut self.external);
             active::step(self, dt, n);

@@ -416,3 +416,50 @@ fn the_wide_and_the_baseline_vector_units_give_the_same_bytes() {
         assert_eq!(run(false, tiles), run(true, tiles), "tiles: {tiles}");
     }
 }
+
+#[test]
+fn anchor_loads_are_the_same_whatever_tiles_are_asked_together() {
+    // A pulled tube with some tiles awake: layer 0's loads over all the awake tiles at once
+    // (side by side they run as one) are, node by node, those asked tile by tile; and they
+    // are what the layer's attachments carry once the tube is at rest under the pull (the
+    // bytes follow the tiles asked, which a step takes in a fixed order).
+    let mut m = sleepy_tube();
+    poke(&mut m, 2e-4, 300, 0);
+    let (tr, tc) = m.tiles();
+    let awake: Vec<usize> = (0..tr * tc).filter(|&t| m.tile_awake(t)).collect();
+    assert!(awake.len() > 2, "{} tiles awake", awake.len());
+    let mut together = Vec::new();
+    m.anchor_loads(&awake, &mut together);
+    let mut one_by_one = Vec::new();
+    let mut one = Vec::new();
+    for &t in &awake {
+        m.anchor_loads(&[t], &mut one);
+        one_by_one.extend_from_slice(&one);
+    }
+    let key = |e: &(u32, u32, Vec3)| (e.0, e.1);
+    together.sort_by_key(key);
+    one_by_one.sort_by_key(key);
+    // The same nodes; the same loads but for the order of a few sums at the tiles' edges.
+    assert!(together.iter().map(key).eq(one_by_one.iter().map(key)));
+    let largest = together.iter().map(|e| e.2.length()).fold(0.0f32, f32::max);
+    let worst = together
+        .iter()
+        .zip(&one_by_one)
+        .map(|(a, b)| (a.2 - b.2).length())
+        .fold(0.0f32, f32::max);
+    assert!(
+        largest > 0.0 && worst <= 1e-4 * largest,
+        "{worst} of {largest}"
+    );
+    // At rest each load balances its attachment's force: sum of `k (x - target)`.
+    let pulls: Vec3 = together
+        .iter()
+        .filter_map(|&(i, j, _)| m.anchor_pull(i as usize, j as usize))
+        .map(|(_, p)| p)
+        .sum();
+    let loads: Vec3 = together.iter().map(|e| e.2).sum();
+    assert!(
+        (loads - pulls).length() <= 0.05 * pulls.length().max(1e-9),
+        "loads {loads}, attachments {pulls}"
+    );
+}

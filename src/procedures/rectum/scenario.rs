@@ -443,6 +443,7 @@ impl Scenario {
             cut_radius_m: self.tools.cut_radius_m,
             target_rows: (k.target_from, k.target_to),
             target_arc_deg: (k.target_arc_from_deg, k.target_arc_to_deg),
+            near_m: k.near_m,
             ..SceneParams::default()
         }
     }

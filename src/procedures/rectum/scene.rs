@@ -75,6 +75,9 @@ pub struct SceneParams {
     /// and its arc in degrees from the front towards +z ([`regions::Region`]).
     pub target_rows: (f32, f32),
     pub target_arc_deg: (f32, f32),
+    /// How near the hook's end a vulnerable structure counts as near, m (the nearest one is
+    /// looked for this far).
+    pub near_m: f32,
 }
 
 impl Default for SceneParams {
@@ -82,9 +85,9 @@ impl Default for SceneParams {
         SceneParams {
             membrane: membrane_params(),
             // The rectum as generated lies where the body holds it: its weight is carried by
-            // the mesorectum and the pelvic floor, and the skin couples the membrane to the
-            // rod one way (the membrane does not pull back on the rod yet), so the rod is
-            // weightless here rather than sagging between its clamps.
+            // the mesorectum and the pelvic floor (the membrane's sleeping tiles, which load
+            // the rod with nothing), so the rod is weightless here rather than sagging
+            // between its clamps.
             rod: RectumRodParams {
                 gravity_m_per_s2: glam::DVec3::ZERO,
                 ..RectumRodParams::default()
@@ -98,6 +101,7 @@ impl Default for SceneParams {
             wake_reach_m: 0.03,
             target_rows: regions::REGIONS[0].rows,
             target_arc_deg: regions::REGIONS[0].arc_deg,
+            near_m: 0.005,
         }
     }
 }
@@ -187,6 +191,10 @@ pub struct RectumScene {
     forces: Vec<(u32, Vec3)>,
     targets: Vec<Vec3>,
     loads: Vec<(u32, u32, Vec3)>,
+    /// Layer 0's anchor stiffness per node (row-major), N/m: cuts never change it (they take
+    /// links 1-2 only).
+    anchor_k: Vec<f32>,
+    tiles: Vec<usize>,
 }
 
 impl RectumScene {
@@ -209,6 +217,9 @@ impl RectumScene {
                 let m = &params.membrane.layers[n / per];
                 membrane.mass(n) / (m.density_kg_per_m3 * m.thickness_m)
             })
+            .collect();
+        let anchor_k = (0..rows * cols)
+            .map(|n| membrane.anchor_stiffness(n / cols, n % cols))
             .collect();
         Ok(RectumScene {
             params,
@@ -233,6 +244,8 @@ impl RectumScene {
             forces: Vec::new(),
             targets: Vec::new(),
             loads: Vec::new(),
+            anchor_k,
+            tiles: Vec::new(),
         })
     }
 
@@ -405,13 +418,34 @@ impl RectumScene {
             let u = f64::from(u);
             let axis = *a + (*b - *a) * u;
             let f = f.as_dvec3();
-            let k = f64::from(self.membrane.anchor_stiffness(i, j));
+            let k = f64::from(self.anchor_k[i * cols + j]);
             self.rod
                 .add_surface_force(e, u, target.as_dvec3() - axis, f, k);
             total += f;
         }
         self.loads = loads;
         total.as_vec3()
+    }
+
+    /// The nodes of tiles `tiles` (all layers) with their positions and areas, into
+    /// `nodes`, `points` and `areas`.
+    fn gather(&mut self, tiles: &[usize]) {
+        let m = &self.membrane;
+        self.nodes.clear();
+        for &t in tiles {
+            let ([r0, r1], [c0, c1]) = m.tile_span(t);
+            for l in 0..LAYERS {
+                for i in r0..r1 {
+                    self.nodes.extend((c0..c1).map(|j| m.node(l, i, j) as u32));
+                }
+            }
+        }
+        self.points.clear();
+        self.points
+            .extend(self.nodes.iter().map(|&n| m.position(n as usize)));
+        self.areas.clear();
+        self.areas
+            .extend(self.nodes.iter().map(|&n| self.area[n as usize]));
     }
 
     /// Plane springs in the target region, and of them cut so far.
@@ -429,39 +463,46 @@ impl RectumScene {
         self.regions.get(node).copied().unwrap_or(0)
     }
 
-    /// The hook against every node of the awake tiles: penalty forces on the nodes, and the
-    /// reaction on the hook.
+    /// The hook against the nodes of the awake tiles whose boxes reach its own (the broad
+    /// phase: the cost follows the hook's neighbourhood): penalty forces on the nodes, and
+    /// the reaction on the hook. The nearest vulnerable node to the hook's end is looked for
+    /// in the awake tiles within `near_m` of it (nearer is what the task measures).
     fn press_membrane(&mut self, hook: &Instrument) -> Vec3 {
-        let m = &self.membrane;
-        let (tr, tc) = m.tiles();
-        self.nodes.clear();
-        for t in (0..tr * tc).filter(|&t| m.tile_awake(t)) {
-            let ([r0, r1], [c0, c1]) = m.tile_span(t);
-            for l in 0..LAYERS {
-                for i in r0..r1 {
-                    self.nodes.extend((c0..c1).map(|j| m.node(l, i, j) as u32));
-                }
-            }
+        let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+        for c in hook.cylinders() {
+            let r = Vec3::splat(c.max_radius_m());
+            lo = lo.min(c.p0().min(c.p1()) - r);
+            hi = hi.max(c.p0().max(c.p1()) + r);
         }
-        self.points.clear();
-        self.points
-            .extend(self.nodes.iter().map(|&n| m.position(n as usize)));
-        self.areas.clear();
-        self.areas
-            .extend(self.nodes.iter().map(|&n| self.area[n as usize]));
+        let mut tiles = std::mem::take(&mut self.tiles);
+        self.membrane.awake_tiles_near(lo, hi, 0.0, &mut tiles);
+        self.gather(&tiles);
         hook.contacts_all(PointCloud::from_points(&self.points), &mut self.contacts);
-        // The nearest vulnerable node to the hook's end, among the awake ones.
+        // The nearest vulnerable node to the hook's end, among the awake ones near it.
         if let Some(end) = hook.cylinders().get(1).map(|c| c.p1()) {
-            for (k, &n) in self.nodes.iter().enumerate() {
-                let id = self.regions[n as usize];
-                if regions::region(id).is_some_and(|r| r.kind == RegionKind::Vulnerable) {
-                    let d = self.points[k].distance(end);
-                    if self.near_vulnerable.is_none_or(|(_, best)| d < best) {
-                        self.near_vulnerable = Some((id, d));
+            self.membrane
+                .awake_tiles_near(end, end, self.params.near_m, &mut tiles);
+            let m = &self.membrane;
+            for &t in &tiles {
+                let ([r0, r1], [c0, c1]) = m.tile_span(t);
+                for l in 0..LAYERS {
+                    for i in r0..r1 {
+                        for j in c0..c1 {
+                            let n = m.node(l, i, j);
+                            let id = self.regions[n];
+                            if regions::region(id).is_some_and(|r| r.kind == RegionKind::Vulnerable)
+                            {
+                                let d = m.position(n).distance(end);
+                                if self.near_vulnerable.is_none_or(|(_, best)| d < best) {
+                                    self.near_vulnerable = Some((id, d));
+                                }
+                            }
+                        }
                     }
                 }
             }
         }
+        self.tiles = tiles;
         let about = hook.cylinders().first().map_or(Vec3::ZERO, |c| c.p1());
         let Ok(reaction) = penalty_forces(
             &self.contacts,

@@ -237,3 +237,68 @@ fn the_membrane_hands_a_load_on_its_fat_to_the_rod() {
         "{held} m held, {through} m hanging"
     );
 }
+
+#[test]
+fn the_broad_phase_finds_what_testing_every_node_finds() {
+    // Everything awake and moved a little (tile boxes as a step leaves them), the hook in the
+    // plane at the front, then with its end on the left ureter: the tiles near the hook give
+    // the same contacts as every node, and the same nearest vulnerable node within the near
+    // distance (none at the front).
+    let mut s = scene();
+    s.membrane.stay_awake();
+    let (rows, cols) = (s.membrane.rows(), s.membrane.cols());
+    let mid = rows / 2;
+    let plane = 0.5
+        * (s.membrane.position(s.membrane.node(1, mid, 0))
+            + s.membrane.position(s.membrane.node(2, mid, 0)));
+    let corners = [
+        plane + Vec3::new(0.0, 0.0, 0.006),
+        hook_on(&s, 3, rows / 5, cols / 4),
+    ];
+    for (k, corner) in corners.into_iter().enumerate() {
+        let tools = ToolState {
+            hook: Some((corner, from_above())),
+            cutting: false,
+            grasper: None,
+        };
+        for _ in 0..3 {
+            s.step(1e-3, &tools);
+        }
+        let hook = Instrument::l_hook(corner, from_above()).expect("hook");
+        s.near_vulnerable = None;
+        s.press_membrane(&hook);
+        let mut near: Vec<u32> = s
+            .contacts
+            .iter()
+            .map(|c| s.nodes[c.vertex as usize])
+            .collect();
+        near.sort_unstable();
+        let tested = s.nodes.len();
+        let everything: Vec<Vec3> = (0..s.membrane.len())
+            .map(|n| s.membrane.position(n))
+            .collect();
+        let mut all = Vec::new();
+        hook.contacts_all(PointCloud::from_points(&everything), &mut all);
+        let mut all: Vec<u32> = all.iter().map(|c| c.vertex).collect();
+        all.sort_unstable();
+        assert_eq!(near, all, "corner {k}");
+        assert!(k == 1 || !all.is_empty(), "corner {k}: the hook touches");
+        assert!(
+            tested < s.membrane.len() / 4,
+            "corner {k}: {tested} nodes tested"
+        );
+        let end = hook.cylinders()[1].p1();
+        let nearest = (0..s.membrane.len())
+            .filter(|&n| {
+                regions::region(s.region_of(n)).is_some_and(|r| r.kind == RegionKind::Vulnerable)
+            })
+            .map(|n| (s.region_of(n), s.membrane.position(n).distance(end)))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .filter(|n| n.1 <= s.params.near_m);
+        assert_eq!(nearest.is_some(), k == 1, "corner {k}: {nearest:?}");
+        assert_eq!(
+            s.near_vulnerable.filter(|n| n.1 <= s.params.near_m),
+            nearest
+        );
+    }
+}
