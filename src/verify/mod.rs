@@ -16,6 +16,7 @@ mod collision_cases;
 mod cosserat_cases;
 mod forces_cases;
 pub mod hertz_cases;
+pub(crate) mod membrane_cases;
 mod softbody_cases;
 pub mod softbody_contact_cases;
 mod xpbd_cases;
@@ -23,7 +24,8 @@ mod xpbd_cases;
 /// One case's outcome: a row of the verification table.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct CaseResult {
-    /// The model the case exercises: "simplex soft body", "xpbd", "forces", "ray-mesh".
+    /// The model the case exercises: "simplex soft body", "xpbd", "forces", "ray-mesh",
+    /// "cosserat rod", "mass-spring membrane", "generalized cylinder", "rectum scene".
     pub model: &'static str,
     /// Short id, unique over all cases.
     pub case: &'static str,
@@ -139,6 +141,7 @@ pub fn cases() -> Vec<Case> {
     all.extend(xpbd_cases::cases());
     all.extend(collision_cases::cases());
     all.extend(cosserat_cases::cases());
+    all.extend(membrane_cases::cases());
     all
 }
 

@@ -146,6 +146,11 @@ pub(super) fn row<R: Rows>(
         &m.rows_data[at + c0..at + c1]
     };
     let around_at = |b: usize, f: usize, j: usize| m.rows_data[(b * field::COUNT + f) * cols + j];
+    // The springs from the row before were carried: the carry becomes this row's forces (the
+    // old forces' buffer takes the next carry).
+    if i > 0 && !first {
+        std::mem::swap(&mut sc.f, &mut sc.carry);
+    }
     let RowScratch { f, carry, s } = sc;
     // `f`, `carry` and `s` hold a run of `cols` per component; this span is `c0..c1` of it.
     for l in 0..LAYERS {
@@ -171,11 +176,6 @@ pub(super) fn row<R: Rows>(
                 for (o, v) in fl[c * cols + c0..c * cols + c1].iter_mut().zip(&s[r]) {
                     *o = -v;
                 }
-            }
-        } else {
-            for c in 0..3 {
-                let r = c * cols + c0..c * cols + c1;
-                fl[r.clone()].copy_from_slice(&cl[r]);
             }
         }
         // Around: column j to j + 1 inside the span in one loop; the springs that cross its

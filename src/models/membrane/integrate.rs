@@ -358,20 +358,36 @@ pub(super) fn limit_for(integrator: super::Integrator, lambda: f32, nu: f32) -> 
     h as f32
 }
 
-#[cfg(test)]
-pub(super) mod tests_support {
-    use super::*;
-
-    /// The forces on every node at the membrane's state.
-    pub fn forces(m: &Membrane) -> Vec<glam::Vec3> {
+impl Membrane {
+    /// The forces on every node at the membrane's state now, N (eqs 3-4 with the node's own
+    /// damping and gravity; for tests and `vesalius verify`).
+    pub fn forces_now(&self) -> Vec<glam::Vec3> {
         let mut f = Vec::new();
-        forces_all(m, &m.state.data, &mut f);
-        let cols = m.cols;
-        (0..m.len())
+        forces_all(self, &self.state.data, &mut f);
+        let cols = self.cols;
+        (0..self.len())
             .map(|node| {
                 let (b, j) = (node / cols, node % cols);
                 glam::Vec3::from_array(std::array::from_fn(|c| f[(b * 3 + c) * cols + j]))
             })
             .collect()
+    }
+
+    /// Moves `node` by `d` (m), its velocity kept (for tests and `vesalius verify`).
+    pub fn displace(&mut self, node: usize, d: glam::Vec3) {
+        if node < self.len() && d.is_finite() {
+            for c in 0..3 {
+                let at = self.state_at(c, node);
+                self.state.data[at] += d[c];
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+pub(super) mod tests_support {
+    /// The forces on every node at the membrane's state.
+    pub fn forces(m: &super::Membrane) -> Vec<glam::Vec3> {
+        m.forces_now()
     }
 }

@@ -97,6 +97,27 @@ pub struct MembraneShape {
     pub positions: [Vec<Vec3>; LAYERS],
 }
 
+impl MembraneShape {
+    /// A flat sheet (for tests and reference cases): rows along x and columns along z,
+    /// `spacing` apart, layer `l` at `l gap` below layer 0; not a ring.
+    pub fn sheet(rows: usize, cols: usize, spacing: f32, gap: f32) -> MembraneShape {
+        let positions = std::array::from_fn(|l| {
+            (0..rows * cols)
+                .map(|k| {
+                    let (i, j) = (k / cols, k % cols);
+                    Vec3::new(i as f32 * spacing, -(l as f32) * gap, j as f32 * spacing)
+                })
+                .collect()
+        });
+        MembraneShape {
+            rows,
+            cols,
+            periodic: false,
+            positions,
+        }
+    }
+}
+
 /// Why a membrane could not be built.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum MembraneError {
@@ -375,7 +396,7 @@ impl Membrane {
     }
 
     /// Index of component `c` (0-2 position, 3-5 velocity) of `node` in the state.
-    fn state_at(&self, c: usize, node: usize) -> usize {
+    pub(crate) fn state_at(&self, c: usize, node: usize) -> usize {
         let (b, j) = (node / self.cols, node % self.cols);
         (b * 6 + c) * self.cols + j
     }
@@ -628,7 +649,7 @@ impl Membrane {
     }
 
     /// Frees `node`: each in-layer spring to a node already freed takes the residual strain.
-    fn release(&mut self, node: usize) {
+    pub(crate) fn release(&mut self, node: usize) {
         if self.released[node] {
             return;
         }

@@ -3,20 +3,7 @@ use super::*;
 /// A flat sheet of four layers `gap` apart (layer l at y = -l gap), `rows x cols` nodes
 /// `spacing` apart in x (rows) and z (columns), not a ring.
 fn sheet(rows: usize, cols: usize, spacing: f32, gap: f32) -> MembraneShape {
-    let positions = std::array::from_fn(|l| {
-        (0..rows * cols)
-            .map(|k| {
-                let (i, j) = (k / cols, k % cols);
-                Vec3::new(i as f32 * spacing, -(l as f32) * gap, j as f32 * spacing)
-            })
-            .collect()
-    });
-    MembraneShape {
-        rows,
-        cols,
-        periodic: false,
-        positions,
-    }
+    MembraneShape::sheet(rows, cols, spacing, gap)
 }
 
 /// A straight tube along x: layer l a ring of radius `radii[l]`.
@@ -96,27 +83,11 @@ fn a_stretched_spring_pulls_as_eqs_3_and_4_say() {
 
 #[test]
 fn a_free_sheet_under_residual_strain_shrinks_by_it() {
-    let mut p = params(Integrator::Symplectic);
-    p.gravity = Vec3::ZERO;
-    p.link_modulus_pa = [0.0; LAYERS - 1];
     // Overdamped: the sheet draws in without overshooting. (Structural springs alone resist
-    // neither shear nor bending: a row that overshot would stay folded at zero energy.)
-    p.spring_damping_ratio = 0.5;
-    p.damping_per_s = 300.0;
-    let (rows, cols, spacing) = (21, 11, 0.002);
-    let mut m = Membrane::new(sheet(rows, cols, spacing, 0.003), p).expect("membrane");
-    m.detach_layer(0);
-    m.detach_layer(LAYERS - 1);
-    for i in 0..rows {
-        for j in 0..cols {
-            let node = m.node(1, i, j);
-            m.release(node);
-        }
-    }
-    let dt = 0.5 * m.explicit_step_limit();
-    for _ in 0..(4.0 / dt) as usize {
-        m.step(dt);
-    }
+    // neither shear nor bending: a row that overshot would stay folded at zero energy.) The
+    // same sheet is `vesalius verify`'s case.
+    let (rows, cols, spacing) = crate::verify::membrane_cases::FREED;
+    let (m, _) = crate::verify::membrane_cases::freed_sheet().expect("a sheet");
     let span = |l: usize| {
         let (a, b) = (m.node(l, 0, cols / 2), m.node(l, rows - 1, cols / 2));
         m.position(b).distance(m.position(a))

@@ -427,6 +427,18 @@ impl RectumScene {
         total.as_vec3()
     }
 
+    /// Layer `l`'s nodes over the top (column 0, the front) of the section's middle row,
+    /// `2 half + 1` rows by `2 half + 1` columns (for loads in tests and reference cases).
+    pub fn top_patch(&self, l: usize, half: usize) -> Vec<usize> {
+        let (rows, cols) = (self.membrane.rows(), self.membrane.cols());
+        let mid = rows / 2;
+        let (lo, hi) = (mid.saturating_sub(half), (mid + half).min(rows - 1));
+        (lo..=hi)
+            .flat_map(|i| (0..=2 * half).map(move |k| (i, (k + cols - half % cols) % cols)))
+            .map(|(i, j)| self.membrane.node(l, i, j))
+            .collect()
+    }
+
     /// The nodes of tiles `tiles` (all layers) with their positions and areas, into
     /// `nodes`, `points` and `areas`.
     fn gather(&mut self, tiles: &[usize]) {

@@ -166,10 +166,7 @@ fn carry(load: Vec3, steps: usize, direct: bool, wall: bool) -> (f64, Vec3) {
     s.membrane.stay_awake();
     let (rows, cols) = (s.membrane.rows(), s.membrane.cols());
     let mid = rows / 2;
-    let patch: Vec<usize> = (mid - 2..=mid + 2)
-        .flat_map(|i| [cols - 2, cols - 1, 0, 1, 2].map(|j| (i, j)))
-        .map(|(i, j)| s.membrane.node(1, i, j))
-        .collect();
+    let patch = s.top_patch(1, 2);
     let rest: Vec<glam::DVec3> = s.rod.rod().positions().to_vec();
     let (e, u, _) = s.skin.binding(mid * cols).expect("bound");
     let idle = ToolState {
