@@ -1,19 +1,8 @@
 // Smoke: each particle a soft grey-white disc turned to face the eye, drawn after the opaque
 // surfaces and the membranes with depth test on and depth write off. Compiled, like
 // tissue.wgsl, with multiview (the eye is @builtin(view_index)) or with the eye fixed per
-// pass: the lines marked VIEW_INDEX and VIEW are rewritten for that.
-
-struct Eye {
-    view_proj: mat4x4<f32>,
-    position: vec4<f32>,
-};
-
-struct Frame {
-    eyes: array<Eye, 2>,
-    flags: vec4<f32>,
-};
-
-@group(0) @binding(0) var<uniform> frame: Frame;
+// pass: the lines marked VIEW_INDEX and VIEW are rewritten for that. The frame's uniform
+// (frame.wgsl) is prepended.
 
 // One instance per particle.
 struct Particle {

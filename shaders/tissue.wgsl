@@ -2,18 +2,7 @@
 // multiview (the eye is @builtin(view_index)) and, where the adapter lacks multiview, with the
 // eye fixed per pass. The line marked VIEW_INDEX is rewritten for that. fs_main draws opaque
 // surfaces; fs_membrane the same shading with the membranes' alpha, for the translucent pass.
-
-struct Eye {
-    view_proj: mat4x4<f32>,
-    position: vec4<f32>,
-};
-
-struct Frame {
-    eyes: array<Eye, 2>,
-    // x: 1 when the tumour has been identified (highlight), y: time in seconds, z: the
-    // membranes' alpha.
-    flags: vec4<f32>,
-};
+// The frame's uniform (frame.wgsl) is prepended.
 
 struct Material {
     albedo: vec4<f32>,
@@ -21,7 +10,6 @@ struct Material {
     shading: vec4<f32>,
 };
 
-@group(0) @binding(0) var<uniform> frame: Frame;
 @group(0) @binding(1) var<uniform> materials: array<Material, 16>;
 
 struct VertexIn {

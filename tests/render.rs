@@ -2,6 +2,8 @@
 //! the eyes see it with the disparity the camera model predicts, a cut changes the picture
 //! where it was made, and the counters match a hand count of a known scene.
 
+mod common;
+
 use glam::Vec3;
 use vesalius::mesh::icosphere;
 use vesalius::render::camera::{DEFAULT_IPD_M, field_eyes};
@@ -136,11 +138,7 @@ fn two_passes_draw_the_same_picture_as_multiview() {
         2 * one.counters.draw_calls / one.counters.passes
     );
     for k in 0..2 {
-        let differ = one.eyes[k]
-            .chunks_exact(4)
-            .zip(two.eyes[k].chunks_exact(4))
-            .filter(|(a, b)| a.iter().zip(*b).any(|(x, y)| x.abs_diff(*y) > 2))
-            .count();
+        let differ = common::pixels_differing(&one.eyes[k], &two.eyes[k], 2);
         assert!(differ < 50, "eye {k}: {differ} pixels differ");
     }
 }

@@ -3,6 +3,8 @@
 //! depth; smoke shows as grey above where it was given off, only there, and the same snapshot
 //! draws the same bytes; the two-pass path draws what multiview draws.
 
+mod common;
+
 use glam::{Vec2, Vec3};
 use vesalius::render::camera::stereo_eyes;
 use vesalius::render::gpu::EYE_FORMAT;
@@ -196,11 +198,7 @@ fn two_passes_blend_as_multiview_does() {
     let snap = scene(vec![backdrop(), membrane(0.0), in_front()]);
     let (one, two) = (shoot(&gpu(true), &snap), shoot(&gpu(false), &snap));
     for k in 0..2 {
-        let differ = one.eyes[k]
-            .chunks_exact(4)
-            .zip(two.eyes[k].chunks_exact(4))
-            .filter(|(a, b)| a.iter().zip(*b).any(|(x, y)| x.abs_diff(*y) > 2))
-            .count();
+        let differ = common::pixels_differing(&one.eyes[k], &two.eyes[k], 2);
         assert!(differ < 20, "eye {k}: {differ} pixels differ");
     }
 }

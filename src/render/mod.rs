@@ -29,10 +29,10 @@ use std::time::Instant;
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth16Unorm;
 /// Background: the dim, warm cavity a laparoscope sees.
 pub const BACKGROUND: [f64; 3] = [0.02, 0.012, 0.01];
-/// Alpha of membrane surfaces ([`SurfaceRole::Membrane`]). The rectum paper draws its
-/// membranes with an "Alpha" and gives no value. At 0.5 one membrane shows what lies behind
-/// it at half strength and stays plainly a surface; the rectum's two fasciae over each other
-/// let a quarter through, enough to see the rectum and the hook behind them.
+/// Alpha of membrane surfaces ([`SurfaceRole::Membrane`]). Papers that draw membranes
+/// see-through give no value. At 0.5 one membrane shows what lies behind it at half strength
+/// and stays plainly a surface; two over each other let a quarter through, enough to see an
+/// organ and an instrument behind them.
 pub const MEMBRANE_ALPHA: f32 = 0.5;
 
 /// Material slots (the shader's table; it holds up to 16).

@@ -5,6 +5,8 @@
 use super::{DEPTH_FORMAT, Vertex};
 use std::num::NonZeroU32;
 
+/// The frame's uniform, prepended to each shader.
+const FRAME: &str = include_str!("../../shaders/frame.wgsl");
 const TISSUE: &str = include_str!("../../shaders/tissue.wgsl");
 const SMOKE: &str = include_str!("../../shaders/smoke.wgsl");
 
@@ -57,7 +59,9 @@ impl Pipelines {
         let module = |label: &str, source: &str| {
             device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(label),
-                source: wgpu::ShaderSource::Wgsl(specialise(source, multiview).into()),
+                source: wgpu::ShaderSource::Wgsl(
+                    specialise(&format!("{FRAME}\n{source}"), multiview).into(),
+                ),
             })
         };
         let tissue = module("tissue.wgsl", TISSUE);

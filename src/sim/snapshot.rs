@@ -62,9 +62,9 @@ pub struct Snapshot {
     /// few (the procedure keeps about the last 2 s), which the renderer animates from
     /// `time_s`. Empty for procedures that give off nothing.
     pub emissions: Vec<Emission>,
-    /// Where the procedure's laparoscope looks from, once the trainee has moved it (the
-    /// rectum's left device drives it); `None`: the procedure's own viewpoint. The desktop
-    /// window and headless frames show the field from here.
+    /// Where the procedure's laparoscope looks from, once the trainee has moved it with a
+    /// device (`ProcedureInfo::scope_hand`); `None`: the procedure's own viewpoint. The
+    /// desktop window and headless frames show the field from here.
     pub scope: Option<ScopeView>,
 }
 

@@ -58,3 +58,12 @@ pub fn report(dir: &Path) -> serde_json::Value {
     serde_json::from_slice(&std::fs::read(dir.join("report.json")).expect("report.json"))
         .expect("JSON")
 }
+
+/// Pixels (RGBA8) whose channels differ by more than `tolerance` between two images of the
+/// same size.
+pub fn pixels_differing(a: &[u8], b: &[u8], tolerance: u8) -> usize {
+    a.chunks_exact(4)
+        .zip(b.chunks_exact(4))
+        .filter(|(p, q)| p.iter().zip(*q).any(|(x, y)| x.abs_diff(*y) > tolerance))
+        .count()
+}

@@ -26,6 +26,7 @@
 //! bytes on any number of threads.
 
 mod active;
+mod anchors;
 mod forces;
 mod integrate;
 #[cfg(test)]
@@ -519,64 +520,6 @@ impl Membrane {
             for c in 0..3 {
                 self.attach[(row + 1 + c) * self.cols + j] = p[c];
             }
-        }
-    }
-
-    /// Layer 0's node at row `i`, column `j`: where it is held (its target) and the pull of
-    /// the membrane on whatever holds it, `k (x - target)`, N (the reaction of the
-    /// attachment's force on the node).
-    pub fn anchor_pull(&self, i: usize, j: usize) -> Option<(Vec3, Vec3)> {
-        if i >= self.rows || j >= self.cols {
-            return None;
-        }
-        let (row, cols) = (i * 4, self.cols);
-        let k = self.attach[row * cols + j];
-        let target = Vec3::from_array(std::array::from_fn(|c| {
-            self.attach[(row + 1 + c) * cols + j]
-        }));
-        let x = self.position(self.node(0, i, j));
-        Some((target, (x - target) * k))
-    }
-
-    /// How stiffly the membrane holds layer 0's node at row `i`, column `j` against its
-    /// anchor, N/m: the node's own stiffness (the diagonal of `K`: its springs around and
-    /// along, its link to layer 1 and its share `(1 - w)^2` of the tethers of layers 1 and 2
-    /// over it) in series with its attachment. Moving the anchor alone by `d` moves the
-    /// membrane's load on it by at most this times `d`; a model holding layer 0 takes it as
-    /// the stiffness of that load.
-    pub fn anchor_stiffness(&self, i: usize, j: usize) -> f32 {
-        if i >= self.rows || j >= self.cols {
-            return 0.0;
-        }
-        let node = self.node(0, i, j);
-        let mut k = self.spring(field::K[AROUND], node)
-            + self.spring(field::K[LINK], node)
-            + if i + 1 < self.rows {
-                self.spring(field::K[ALONG], node)
-            } else {
-                0.0
-            };
-        if i > 0 {
-            k += self.spring(field::K[ALONG], node - self.cols);
-        }
-        let before = if j > 0 {
-            Some(j - 1)
-        } else {
-            self.periodic.then(|| self.cols - 1)
-        };
-        if let Some(jb) = before {
-            k += self.spring(field::K[AROUND], self.node(0, i, jb));
-        }
-        for l in 1..LAYERS - 1 {
-            let above = self.node(l, i, j);
-            let w = self.spring(field::SHEAR_W, above);
-            k += self.spring(field::SHEAR_K, above) * (1.0 - w) * (1.0 - w);
-        }
-        let ka = self.attach_stiffness(node);
-        if k > 0.0 && ka > 0.0 {
-            k * ka / (k + ka)
-        } else {
-            0.0
         }
     }
 
