@@ -202,6 +202,18 @@ pub fn procedure_of(file: &str, text: &str) -> Result<String, InputError> {
     }
 }
 
+/// Reads scenario text of any procedure's type and runs its own checks: a TOML error or a
+/// failed check names `file` and the key.
+pub fn parse_checked<T: serde::de::DeserializeOwned>(
+    file: &str,
+    text: &str,
+    validate: impl FnOnce(&T, &str) -> Result<(), InputError>,
+) -> Result<T, InputError> {
+    let s: T = toml::from_str(text).map_err(|e| InputError::toml(file, &e))?;
+    validate(&s, file)?;
+    Ok(s)
+}
+
 /// That a file read as procedure `expected`'s scenario names it in its `procedure` key.
 pub fn expect_procedure(file: &str, got: &str, expected: &str) -> Result<(), InputError> {
     if got == expected {

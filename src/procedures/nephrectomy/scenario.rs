@@ -446,9 +446,7 @@ impl Scenario {
 
     /// Parses and validates scenario text; `file` names it in errors.
     pub fn parse(file: &str, text: &str) -> Result<Self, InputError> {
-        let s: Scenario = toml::from_str(text).map_err(|e| InputError::toml(file, &e))?;
-        s.validate(file)?;
-        Ok(s)
+        crate::scenario::parse_checked(file, text, Scenario::validate)
     }
 
     pub fn load(path: &Path) -> Result<Self, InputError> {

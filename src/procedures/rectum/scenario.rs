@@ -376,9 +376,7 @@ pub const PARAM_TABLES: &[(&str, &[ParamSpec])] = &[
 impl Scenario {
     /// Parses and checks scenario text; `file` names it in errors.
     pub fn parse(file: &str, text: &str) -> Result<Self, InputError> {
-        let s: Scenario = toml::from_str(text).map_err(|e| InputError::toml(file, &e))?;
-        s.validate(file)?;
-        Ok(s)
+        crate::scenario::parse_checked(file, text, Scenario::validate)
     }
 
     /// Membrane nodes: four layers of rows x columns.

@@ -204,9 +204,7 @@ pub const PARAM_TABLES: &[(&str, &[ParamSpec])] = &[
 impl Scenario {
     /// Parses and checks scenario text; `file` names it in errors.
     pub fn parse(file: &str, text: &str) -> Result<Self, InputError> {
-        let s: Scenario = toml::from_str(text).map_err(|e| InputError::toml(file, &e))?;
-        s.validate(file)?;
-        Ok(s)
+        crate::scenario::parse_checked(file, text, Scenario::validate)
     }
 
     /// Cells along x, y and z: the longest edge gets `resolution`, the others as many as keep
