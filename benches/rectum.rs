@@ -54,6 +54,7 @@ fn rectum(c: &mut Criterion) {
                     hook: Some((corner, q)),
                     cutting: true,
                     grasper: None,
+                    grasper_right: None,
                 },
             )
         })

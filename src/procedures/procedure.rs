@@ -124,6 +124,10 @@ pub struct ProcedureInfo {
     /// The hand whose primary button makes its device drive the laparoscope (its instrument
     /// waits meanwhile), if any.
     pub scope_hand: Option<crate::sim::Hand>,
+    /// The other instrument a hand can change to with its primary button (the scrub nurse
+    /// hands it over), if the procedure offers one; the snapshot's `ToolSnapshot::swapped`
+    /// says which of the two the hand holds.
+    pub swap: Option<ToolInfo>,
     /// The model that tunings in recordings of format versions 1 and 2 (which name no model)
     /// were made to; none for a procedure that had no such recordings.
     pub legacy_tuned_model: Option<&'static str>,

@@ -44,6 +44,8 @@ pub struct ToolSnapshot {
     /// Laser hit point, if the beam hits tissue.
     pub beam_end: Option<Vec3>,
     pub active: bool,
+    /// The hand holds the procedure's other instrument (`ProcedureInfo::swap`) now.
+    pub swapped: bool,
 }
 
 /// An immutable picture of the simulation, published for renderer and haptic threads.

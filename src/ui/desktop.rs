@@ -127,6 +127,8 @@ pub struct DesktopHands {
     pub tools: [ToolInfo; 2],
     /// The hand whose primary button drives the laparoscope.
     pub scope_hand: Option<Hand>,
+    /// The other instrument a hand can change to with the right button.
+    pub swap: Option<ToolInfo>,
 }
 
 impl DesktopHands {
@@ -144,6 +146,7 @@ impl DesktopHands {
             frame,
             tools: info.tools,
             scope_hand: info.scope_hand,
+            swap: info.swap,
         }
     }
 }
@@ -172,11 +175,18 @@ impl DesktopHands {
         };
         let (eye, dir) = ray(view, ndc.clamp(Vec2::splat(-1.0), Vec2::splat(1.0)));
         let down = view.orientation * Vec3::NEG_Y;
+        // The right button is the hand's primary button where the procedure gives it a use:
+        // driving the laparoscope, changing the instrument (the left button then works
+        // whichever instrument the hand holds).
+        let primary = p.secondary_down
+            && (self.scope_hand.is_some_and(|h| h.index() == k)
+                || self.swap.is_some_and(|s| s.hand.index() == k));
         self.frame.hands[k] = match self.tools[k].kind {
             ToolKind::Grasper | ToolKind::Probe => HandInput {
                 pose: Pose::looking_at(eye + dir * self.depth_m[k], eye + dir * 1.0),
                 buttons: Buttons {
                     grip: if p.primary_down { 1.0 } else { 0.0 },
+                    mark: primary,
                     ..Buttons::default()
                 },
             },
@@ -184,6 +194,7 @@ impl DesktopHands {
                 pose: Pose::looking_at(eye + dir * self.depth_m[k], eye + dir * 1.0),
                 buttons: Buttons {
                     trigger: if p.primary_down { 1.0 } else { 0.0 },
+                    mark: primary,
                     ..Buttons::default()
                 },
             },
@@ -222,6 +233,16 @@ impl DesktopHands {
             lines.push((
                 "right button".to_string(),
                 format!("mark the margin ({})", l.name),
+            ));
+        }
+        if let Some(s) = self.swap {
+            lines.push((
+                "right button".to_string(),
+                format!(
+                    "with the {} selected: change it for the {} (or back)",
+                    self.tools[s.hand.index()].name,
+                    s.name
+                ),
             ));
         }
         if let Some(h) = self.scope_hand {
@@ -372,5 +393,39 @@ mod hand_tests {
             },
         );
         assert_eq!(h.depth_m[1], DEPTH_RANGE_M.0);
+    }
+
+    #[test]
+    fn the_right_button_is_the_primary_button_only_where_the_procedure_uses_it() {
+        let rectum = crate::procedures::find("rectum").expect("rectum");
+        let view = OrbitCamera::at(&rectum.view).view(16.0 / 9.0);
+        let mut h = DesktopHands::parked(rectum);
+        let both = Pointer {
+            ndc: Some(Vec2::new(0.1, 0.1)),
+            primary_down: true,
+            secondary_down: true,
+            ..Pointer::default()
+        };
+        // The hook's hand: the left button is its current, the right one changes it for the
+        // second grasper.
+        h.pointer(&view, both);
+        let b = h.frame.hands[1].buttons;
+        assert_eq!((b.trigger, b.mark), (1.0, true));
+        // The grasper's hand: the right button drives the laparoscope.
+        h.selected = Hand::Left;
+        h.pointer(&view, both);
+        let b = h.frame.hands[0].buttons;
+        assert_eq!((b.grip, b.mark), (1.0, true));
+        let keys = h.key_map();
+        assert!(
+            keys.iter()
+                .any(|(k, v)| k == "right button" && v.contains("change it for the right grasper")),
+            "{keys:?}"
+        );
+        // A procedure with neither: the right button does nothing to a grasper.
+        let mut h = DesktopHands::parked(crate::procedures::REGISTRY[0]);
+        h.selected = Hand::Left;
+        h.pointer(&view, both);
+        assert!(!h.frame.hands[0].buttons.mark);
     }
 }

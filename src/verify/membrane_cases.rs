@@ -192,6 +192,7 @@ fn load_on_rod() -> Measured {
         hook: None,
         cutting: false,
         grasper: None,
+        grasper_right: None,
     };
     let steps = 800;
     let mut on_rod = Vec3::ZERO;

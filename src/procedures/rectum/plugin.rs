@@ -52,6 +52,13 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
     bench_all_awake_s: 0.02,
     // The paper: "The left haptic device can also be used as a navigation camera".
     scope_hand: Some(Hand::Left),
+    // The paper's test: one L-hook and two graspers; the right hand changes between them.
+    swap: Some(ToolInfo {
+        hand: Hand::Right,
+        name: "right grasper",
+        kind: ToolKind::Grasper,
+        full_scale_n: 5.0,
+    }),
     legacy_tuned_model: None,
     plan,
     build,
@@ -143,13 +150,14 @@ impl Procedure for Rectum {
             figures: vec![
                 ("plane cut".to_string(), format!("{cut} of {total} springs")),
                 (
-                    "hook force".to_string(),
+                    format!("{} force", self.right_name()),
                     format!("{:.2} N", self.reactions()[1].length()),
                 ),
                 (
                     "correct cuts".to_string(),
                     format!("{:.0} %", 100.0 * m.correct_cut_ratio),
                 ),
+                ("right hand".to_string(), self.right_name().to_string()),
             ],
             touching: [false, self.touching_now()],
             near: [None, near.map(|(n, d)| (n.to_string(), d))],

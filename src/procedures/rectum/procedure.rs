@@ -1,5 +1,6 @@
 //! The `rectum` procedure: the scene of [`super::scene`] driven by the trainee's hands (the
-//! left holds a grasper, the right an L-hook with its current on the trigger), the task's
+//! left holds a grasper, the right an L-hook with its current on the trigger, or a second
+//! grasper: its primary button changes one for the other), the task's
 //! checklist, the physics metrics of the paper's Table 1 that exist without the assessment
 //! layer, and what the renderer draws (the rectum, the fasciae with the dissection showing,
 //! the pelvic side with its vulnerable structures, the smoke where the hook cut).
@@ -77,6 +78,12 @@ pub struct Metrics {
     pub max_hook_force_n: f32,
     pub max_grasper_force_n: f32,
     pub alarms: u32,
+    /// Times the right hand changed instrument (hook for grasper or back).
+    pub instrument_changes: u32,
+    /// Instrument selection (Table 1): the share of the right hand's working steps (the hook
+    /// touching tissue or cutting, the grasper holding) with the instrument the task's step
+    /// calls for, graspers to expose the plane, the hook from then on; none before it worked.
+    pub instrument_selection: Option<f32>,
     pub steps_done: Vec<String>,
 }
 
@@ -90,6 +97,17 @@ struct Sums {
     /// Where the last cut ended, and whether the last step cut.
     last_cut_at: Option<Vec3>,
     cutting: bool,
+    /// The right hand's working steps, and of them those with the called-for instrument.
+    right_work_steps: u32,
+    right_apt_steps: u32,
+}
+
+/// The instrument in the right hand.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum RightTool {
+    #[default]
+    Hook,
+    Grasper,
 }
 
 pub struct Rectum {
@@ -97,8 +115,8 @@ pub struct Rectum {
     pub scene: RectumScene,
     tools: [ToolSnapshot; 2],
     prev_hook_end: Option<Vec3>,
-    /// Where the grasp took the rectum, and how far it has lifted it at most, m.
-    grasp_from: Option<Vec3>,
+    /// Where each hand's grasp took the rectum, and how far a grasp has lifted it at most, m.
+    grasp_from: [Option<Vec3>; 2],
     max_lift_m: f32,
     last: StepOutcome,
     on_wall: bool,
@@ -109,6 +127,10 @@ pub struct Rectum {
     scope: Scope,
     /// The instruments' places last step (left, right), for their path lengths.
     prev_tools: Option<[Vec3; 2]>,
+    /// The right hand's instrument, and whether its primary button was down last step (a
+    /// press changes the instrument).
+    right: RightTool,
+    right_button: bool,
     pub metrics: Metrics,
 }
 
@@ -121,7 +143,7 @@ impl Rectum {
             scene,
             tools: [ToolSnapshot::default(); 2],
             prev_hook_end: None,
-            grasp_from: None,
+            grasp_from: [None; 2],
             max_lift_m: 0.0,
             last: StepOutcome::default(),
             on_wall: false,
@@ -129,6 +151,8 @@ impl Rectum {
             smoke: EmissionLog::smoke(),
             scope: Scope::new(super::plugin::INFO.view),
             prev_tools: None,
+            right: RightTool::Hook,
+            right_button: false,
             metrics: Metrics::default(),
         })
     }
@@ -137,12 +161,21 @@ impl Rectum {
         self.metrics.steps_done.len() == STEPS.len()
     }
 
-    /// Force of the tissue on each instrument (left grasper, right hook) after the last step.
+    /// Force of the tissue on each instrument (left grasper, right hook or grasper) after the
+    /// last step.
     pub fn reactions(&self) -> [Vec3; 2] {
-        [self.last.grasper_n, self.last.hook_n]
+        [
+            self.last.grasper_n,
+            self.last.hook_n + self.last.grasper_right_n,
+        ]
     }
 
-    /// Where instrument `k` (0 grasper, 1 hook) works: the grasper's jaw, the hook's end.
+    /// The right hand's instrument now.
+    pub fn right_tool(&self) -> RightTool {
+        self.right
+    }
+
+    /// Where instrument `k` (0 left, 1 right) works: a grasper's jaw, the hook's end.
     pub fn tool_tip(&self, k: usize) -> Vec3 {
         self.tools[k.min(1)].tip
     }
@@ -179,47 +212,79 @@ impl Rectum {
         }
         self.prev_tools = Some(places);
         let t = &self.scenario.tools;
-        let cutting = hook.buttons.trigger >= t.cut_threshold;
+        let mut ev: Vec<EventKind> = Vec::new();
+        // The right hand's primary button changes its instrument (the one it held lets go).
+        let pressed = hook.buttons.mark && !self.right_button;
+        self.right_button = hook.buttons.mark;
+        if pressed {
+            self.right = match self.right {
+                RightTool::Hook => RightTool::Grasper,
+                RightTool::Grasper => RightTool::Hook,
+            };
+            self.metrics.instrument_changes += 1;
+            ev.push(EventKind::Procedure(ProcedureEvent::new(
+                "instrument_change",
+                InstrumentChange {
+                    hand: "right",
+                    to: self.right_name(),
+                },
+            )));
+        }
+        let with_hook = self.right == RightTool::Hook;
+        let cutting = with_hook && hook.buttons.trigger >= t.cut_threshold;
         let closed = grasper.buttons.grip >= t.grip_threshold;
+        // The right grasper closes on its trigger or its grip.
+        let right_closed = hook.buttons.trigger.max(hook.buttons.grip) >= t.grip_threshold;
+        let right_pose = (hook.pose.position, hook.pose.orientation);
         let tools = ToolState {
-            hook: Some((hook.pose.position, hook.pose.orientation)),
+            hook: with_hook.then_some(right_pose),
             cutting,
             grasper: Some((grasper.pose.position, grasper.pose.orientation, closed)),
+            grasper_right: (!with_hook).then_some((right_pose.0, right_pose.1, right_closed)),
         };
-        let was_held = self.scene.rod.grip(0).is_some();
+        let was_held = [0, 1].map(|h| self.scene.rod.grip(h).is_some());
         let out = self.scene.step(dt, &tools);
-        let held = self.scene.rod.grip(0).is_some();
-        let mut ev: Vec<EventKind> = Vec::new();
-        if held && !was_held {
-            self.grasp_from = self.scene.rod.held_point(0);
-            ev.push(EventKind::Grasp {
-                tool: "grasper".to_string(),
-                model: "rectum".to_string(),
-                vertices: 1,
-            });
-        } else if was_held && !held {
-            self.grasp_from = None;
-            ev.push(EventKind::Release {
-                tool: "grasper".to_string(),
-            });
+        let held = [0, 1].map(|h| self.scene.rod.grip(h).is_some());
+        for hand in 0..2 {
+            let name = ["grasper", "right grasper"][hand];
+            if held[hand] && !was_held[hand] {
+                self.grasp_from[hand] = self.scene.rod.held_point(hand);
+                ev.push(EventKind::Grasp {
+                    tool: name.to_string(),
+                    model: "rectum".to_string(),
+                    vertices: 1,
+                });
+            } else if was_held[hand] && !held[hand] {
+                self.grasp_from[hand] = None;
+                ev.push(EventKind::Release {
+                    tool: name.to_string(),
+                });
+            }
+            if let (Some(from), Some(now)) =
+                (self.grasp_from[hand], self.scene.rod.held_point(hand))
+            {
+                self.max_lift_m = self.max_lift_m.max(now.distance(from));
+            }
         }
-        if let (Some(from), Some(now)) = (self.grasp_from, self.scene.rod.held_point(0)) {
-            self.max_lift_m = self.max_lift_m.max(now.distance(from));
-        }
+        self.select(&out, held[1]);
+        let held = held[0];
         let end = self.hook_end(&tools);
         self.measure(&out, end, hook.pose.forward(), held, dt, &mut ev);
+        let held_right = self.scene.rod.grip(1).is_some();
         self.tools = [
             ToolSnapshot {
                 tip: grasper.pose.position,
                 direction: grasper.pose.forward(),
                 beam_end: None,
                 active: held,
+                swapped: false,
             },
             ToolSnapshot {
                 tip: end.unwrap_or(hook.pose.position),
                 direction: hook.pose.forward(),
                 beam_end: None,
-                active: cutting,
+                active: if with_hook { cutting } else { held_right },
+                swapped: !with_hook,
             },
         ];
         // Smoke rises where the current cut springs this step, at the hook's end; its time is
@@ -235,6 +300,38 @@ impl Rectum {
         self.last = out;
         self.prev_hook_end = end;
         events.extend(ev.into_iter().map(|kind| SimEvent { step, kind }));
+    }
+
+    /// The right hand's instrument's name.
+    pub fn right_name(&self) -> &'static str {
+        match self.right {
+            RightTool::Hook => "hook",
+            RightTool::Grasper => "right grasper",
+        }
+    }
+
+    /// Instrument selection: whether the right hand works with the instrument the task's
+    /// next step calls for (graspers to expose, the hook to enter and dissect).
+    fn select(&mut self, out: &StepOutcome, held_right: bool) {
+        let working = match self.right {
+            RightTool::Hook => {
+                out.hook_contacts > 0 || out.cut > 0 || out.hook_n.length_squared() > 0.0
+            }
+            RightTool::Grasper => held_right,
+        };
+        let next = self.metrics.steps_done.len();
+        if !working || next >= STEPS.len() {
+            return;
+        }
+        let called_for = if next == 0 {
+            RightTool::Grasper
+        } else {
+            RightTool::Hook
+        };
+        self.sums.right_work_steps += 1;
+        self.sums.right_apt_steps += u32::from(self.right == called_for);
+        self.metrics.instrument_selection =
+            Some(self.sums.right_apt_steps as f32 / self.sums.right_work_steps as f32);
     }
 
     /// Simulation time after `steps` steps of `dt`, s (as the snapshot states it).
@@ -433,6 +530,7 @@ impl Rectum {
         let (cut, _) = self.scene.target_progress();
         h.write(cut);
         h.write(self.metrics.steps_done.len() as u32);
+        h.write(u32::from(self.right == RightTool::Grasper));
         h.0
     }
 }
@@ -440,6 +538,13 @@ impl Rectum {
 /// The pelvic side (layer 3) is not drawn this far round either side of the front, degrees:
 /// over the target's arc (40 degrees), short of the ureters (45-75).
 const PELVIS_OPEN_FRONT_DEG: f32 = 44.0;
+
+/// An `instrument_change` event's fields.
+#[derive(Serialize)]
+struct InstrumentChange {
+    hand: &'static str,
+    to: &'static str,
+}
 
 /// A `spring_cut` event's fields.
 #[derive(Serialize)]

@@ -277,3 +277,86 @@ fn the_left_device_drives_the_laparoscope_while_its_button_is_held() {
     // The camera stays where it was left.
     assert_eq!(r.snapshot(34).scope, Some(scope));
 }
+
+/// Names of the `instrument_change` events' instruments, in order.
+fn changes(events: &[SimEvent]) -> Vec<String> {
+    events
+        .iter()
+        .filter_map(|e| match &e.kind {
+            EventKind::Procedure(p) if p.name == "instrument_change" => {
+                p.fields["to"].as_str().map(str::to_string)
+            }
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn the_right_hand_changes_hook_for_grasper_and_instrument_selection_follows_the_task() {
+    let mut r = rectum(coarse(|t| t));
+    let rows = r.scene.membrane.rows();
+    let m = &r.scene.membrane;
+    let top = m.position(m.node(0, rows / 2, 0));
+    let mut events = Vec::new();
+    // The primary button pressed and held for three steps: one change, to the grasper.
+    let mut input = hook_at(top + Vec3::Y * 0.03, false);
+    for k in 0..3 {
+        input.hands[1].buttons.mark = true;
+        r.step(&input, k, &mut events);
+    }
+    assert_eq!(changes(&events), ["right grasper"]);
+    assert_eq!(r.right_tool(), RightTool::Grasper);
+    assert!(r.snapshot(3).tools[1].swapped);
+    // The grasper closes (trigger) on the top of the rectum and lifts it 6 mm: the exposure,
+    // done with the instrument it calls for.
+    input.hands[1].buttons.mark = false;
+    input.hands[1].buttons.trigger = 1.0;
+    let mut step = 3;
+    for k in 0..300u64 {
+        input.hands[1].pose.position = top + Vec3::Y * (0.006 * k as f32 / 299.0);
+        r.step(&input, step, &mut events);
+        step += 1;
+        if !r.metrics.steps_done.is_empty() {
+            break;
+        }
+    }
+    assert!(r.scene.rod.grip(1).is_some(), "the right grasper holds");
+    assert!(r.scene.rod.grip(0).is_none(), "the left one does not");
+    assert!(
+        events.iter().any(|e| matches!(&e.kind,
+            EventKind::Grasp { tool, .. } if tool == "right grasper")),
+        "{events:?}"
+    );
+    assert_eq!(r.metrics.steps_done, ["expose"]);
+    assert_eq!(r.metrics.instrument_selection, Some(1.0));
+    assert!(
+        r.reactions()[1].length() > 0.0,
+        "the grasper feels the rectum"
+    );
+    // Holding on into the next step (enter: the hook's) counts against the selection.
+    let (work, apt) = (r.sums.right_work_steps, r.sums.right_apt_steps);
+    for k in 0..100u64 {
+        r.step(&input, step + k, &mut events);
+    }
+    step += 100;
+    assert_eq!(r.sums.right_work_steps, work + 100);
+    assert_eq!(r.sums.right_apt_steps, apt);
+    let share = r.metrics.instrument_selection.expect("measured");
+    assert!(
+        (share - apt as f32 / (work + 100) as f32).abs() < 1e-6,
+        "{share}"
+    );
+    assert!(share < 1.0);
+    // The button again: back to the hook, the grasper lets go; the trigger is the hook's
+    // current now, and no spring was cut while the grasper held it.
+    assert_eq!(r.metrics.correct_cuts + r.metrics.incorrect_cuts, 0);
+    input.hands[1].buttons.mark = true;
+    input.hands[1].buttons.trigger = 0.0;
+    r.step(&input, step, &mut events);
+    assert_eq!(changes(&events), ["right grasper", "hook"]);
+    assert_eq!(r.metrics.instrument_changes, 2);
+    assert!(r.scene.rod.grip(1).is_none());
+    assert!(!r.snapshot(step + 1).tools[1].swapped);
+    assert!(events.iter().any(|e| matches!(&e.kind,
+        EventKind::Release { tool } if tool == "right grasper")));
+}

@@ -123,16 +123,20 @@ pub struct ToolState {
     pub hook: Option<(Vec3, Quat)>,
     /// The cut button (the hook's current) is held.
     pub cutting: bool,
-    /// The grasper's jaw point and orientation, and whether it is closed.
+    /// The left grasper's jaw point and orientation, and whether it is closed.
     pub grasper: Option<(Vec3, Quat, bool)>,
+    /// The right hand's grasper when it holds one instead of the hook (the paper's test has
+    /// two graspers and a hook): jaw point, orientation, closed.
+    pub grasper_right: Option<(Vec3, Quat, bool)>,
 }
 
 /// What a step did.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct StepOutcome {
-    /// Force of the tissue on the hook and on the grasper, N.
+    /// Force of the tissue on the hook, on the left grasper and on the right one, N.
     pub hook_n: Vec3,
     pub grasper_n: Vec3,
+    pub grasper_right_n: Vec3,
     /// Plane springs cut this step, and of them those inside the target.
     pub cut: u32,
     pub cut_in_target: u32,
@@ -304,17 +308,17 @@ impl RectumScene {
     pub fn step(&mut self, dt_s: f32, tools: &ToolState) -> StepOutcome {
         let mut out = StepOutcome::default();
         let clock = std::time::Instant::now();
-        // 1. The rod: grasper, hook, step.
-        match tools.grasper {
-            Some((jaw, _, true)) => {
-                if self.rod.grip(0).is_none() {
-                    self.rod.grasp(0, jaw);
+        // 1. The rod: graspers, hook, step.
+        for (hand, g) in [tools.grasper, tools.grasper_right].into_iter().enumerate() {
+            match g {
+                Some((jaw, _, true)) => {
+                    if self.rod.grip(hand).is_none() {
+                        self.rod.grasp(hand, jaw);
+                    }
+                    self.rod.hold(hand, jaw);
                 }
-                if self.rod.grip(0).is_some() {
-                    out.grasper_n += self.rod.hold(0, jaw);
-                }
+                _ => self.rod.release(hand),
             }
-            _ => self.rod.release(0),
         }
         let hook = tools
             .hook
@@ -326,16 +330,21 @@ impl RectumScene {
         if let Some(r) = held[0] {
             out.grasper_n = r;
         }
+        if tools.grasper_right.is_some()
+            && let Some(r) = held[1]
+        {
+            out.grasper_right_n = r;
+        }
         let rod_done = clock.elapsed().as_secs_f64();
         // 2-3. Wake what the instruments reach, place the targets the step needs.
         let mut boxes = Vec::new();
         if let (Some(h), Some((tip, _))) = (&hook, tools.hook) {
             boxes.push(self.wake_box(h, tip));
         }
-        if let Some((jaw, q, _)) = tools.grasper
-            && let Ok(g) = Instrument::grasper(jaw, q, 0.0)
-        {
-            boxes.push(self.wake_box(&g, jaw));
+        for (jaw, q, _) in [tools.grasper, tools.grasper_right].into_iter().flatten() {
+            if let Ok(g) = Instrument::grasper(jaw, q, 0.0) {
+                boxes.push(self.wake_box(&g, jaw));
+            }
         }
         self.membrane.wake_near(&boxes);
         let needed = self.membrane.tiles_needing_targets(false);

@@ -31,6 +31,7 @@ fn lifting_the_rectum_carries_layer_zero_and_leaves_the_pelvis() {
         hook: None,
         cutting: false,
         grasper: Some((top, from_above(), true)),
+        grasper_right: None,
     };
     for k in 0..300 {
         let lift = 0.006 * (k as f32 / 299.0);
@@ -68,6 +69,7 @@ fn the_hook_pushes_the_membrane_and_feels_it_and_cuts_the_plane() {
         hook: Some((corner, from_above())),
         cutting: false,
         grasper: None,
+        grasper_right: None,
     };
     let out = s.step(1e-3, &tools);
     assert!(out.hook_contacts > 0, "{out:?}");
@@ -120,6 +122,7 @@ fn touching_a_ureter_raises_its_alarm_at_once_and_only_once() {
         hook: Some((hook_on(&s, l, i, j), from_above())),
         cutting: false,
         grasper: None,
+        grasper_right: None,
     };
     let first = s.step(1e-3, &tools);
     assert!(first.hook_contacts > 0, "{first:?}");
@@ -140,6 +143,7 @@ fn cutting_on_the_rectal_wall_raises_an_alarm_and_cutting_in_the_plane_does_not(
         hook: Some((plane + Vec3::new(0.0, 0.0, 0.006), from_above())),
         cutting: true,
         grasper: None,
+        grasper_right: None,
     };
     let out = s.step(1e-3, &in_plane);
     assert!(out.cut > 0 && out.alarms == 0, "{out:?}");
@@ -148,6 +152,7 @@ fn cutting_on_the_rectal_wall_raises_an_alarm_and_cutting_in_the_plane_does_not(
         hook: Some((hook_on(&s, 0, mid, 0), from_above())),
         cutting: true,
         grasper: None,
+        grasper_right: None,
     };
     let out = s.step(1e-3, &wall);
     assert_eq!(out.alarms & ALARM_RECTAL_WALL, ALARM_RECTAL_WALL, "{out:?}");
@@ -173,6 +178,7 @@ fn carry(load: Vec3, steps: usize, direct: bool, wall: bool) -> (f64, Vec3) {
         hook: None,
         cutting: false,
         grasper: None,
+        grasper_right: None,
     };
     let mut pull = Vec3::ZERO;
     for _ in 0..steps {
@@ -257,6 +263,7 @@ fn the_broad_phase_finds_what_testing_every_node_finds() {
             hook: Some((corner, from_above())),
             cutting: false,
             grasper: None,
+            grasper_right: None,
         };
         for _ in 0..3 {
             s.step(1e-3, &tools);
