@@ -3,6 +3,7 @@
 pub mod cosserat;
 pub mod forces;
 pub mod membrane;
+pub mod particles;
 mod simplex;
 mod softbody;
 pub mod xpbd;

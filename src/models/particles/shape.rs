@@ -1,0 +1,501 @@
+//! Shape matching in overlapping clusters (the cholecystectomy paper's eqs 3-4, after Müller
+//! et al. 2005), the model of its liver, gallbladder and fat.
+//!
+//! A cluster is a set of particles `i` with membership weights `a_i` in (0, 1] and rest
+//! offsets `q_i = x0_i - c0` from its rest centre of mass. Each projection:
+//! 1. the centre of mass now, `c = sum m_i a_i x_i / sum m_i a_i` (eq 3's optimal
+//!    translation), and `A = sum m_i a_i (x_i - c) q_i^T`;
+//! 2. the rotation `R` of `A`'s polar decomposition (eq 3's optimal rotation), by the
+//!    quaternion iteration of Müller et al. 2016 warm-started from the cluster's last one
+//!    (robust where `A` is flat or inverted, and the same bytes on every CPU);
+//! 3. the goals `g_i = R q_i + c` (eq 4);
+//! 4. every particle is pulled towards each of its clusters' goals by a zero-length spring of
+//!    stiffness `k = m_i omega_c^2 a_ic / sum_c a_ic` (its mass shared among its clusters by
+//!    weight, the paper's average over clusters), solved as an XPBD constraint `C = x_i - g_i` with
+//!    compliance `1 / k` (its multiplier kept over the step's iterations), so that the
+//!    stiffness depends neither on `dt` nor on the iteration count (Macklin et al. 2016).
+//!
+//! The cluster's stiffness is its angular frequency `omega = 2 pi f` (a particle of the
+//! cluster pulled off its goal and let go swings at `f`); the procedure derives it from the
+//! tissue's Young's modulus and density and the cluster's size, `omega^2 = E / (rho r^2)`.
+//! More clusters make a body softer between them (the paper's Fig. 6).
+//!
+//! Determinism: clusters compute their goals independently (in parallel); then every particle,
+//! independently of the others (the goals are fixed meanwhile), takes its clusters' springs
+//! one after another in cluster order, so the bytes do not depend on the thread count.
+
+use super::Particles;
+use glam::{Mat3, Quat, Vec3};
+use rayon::prelude::*;
+
+/// Iterations of the rotation extraction per projection at most (warm-started, it needs one
+/// or two when the cluster turns little between projections).
+const ROTATION_ITERATIONS: usize = 20;
+/// Memberships per parallel task (about).
+const RUN: u32 = 4096;
+
+/// A cluster as given: its particles, their membership weights in (0, 1], and its frequency,
+/// Hz.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ClusterSpec {
+    pub members: Vec<u32>,
+    pub weights: Vec<f32>,
+    pub frequency_hz: f32,
+}
+
+/// Why clusters were refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ShapeError {
+    #[error("cluster {cluster}: {members} members but {weights} weights")]
+    Lengths {
+        cluster: usize,
+        members: usize,
+        weights: usize,
+    },
+    #[error("cluster {cluster}: particle {particle} does not exist ({len} particles)")]
+    NoParticle {
+        cluster: usize,
+        particle: u32,
+        len: usize,
+    },
+    #[error("cluster {cluster}: weight {weight} of particle {particle} is not in (0, 1]")]
+    Weight {
+        cluster: usize,
+        particle: u32,
+        weight: f32,
+    },
+    #[error("cluster {cluster}: frequency {value} Hz is not a positive number")]
+    Frequency { cluster: usize, value: f32 },
+    #[error("cluster {cluster} has fewer than 2 members")]
+    TooSmall { cluster: usize },
+}
+
+#[derive(Debug, Clone)]
+struct Cluster {
+    members: Vec<u32>,
+    weights: Vec<f32>,
+    /// `m_i a_i / sum_c a_ic`, kg: the particle's mass shared among its clusters as its
+    /// springs share it, so each cluster's pulls keep momentum (a pinned particle weighs as
+    /// the cluster's heaviest free one times 1000: it anchors the cluster without an infinite
+    /// weight).
+    mw: Vec<f32>,
+    mw_sum: f32,
+    /// Rest offsets from the rest centre of mass, m.
+    rest: Vec<Vec3>,
+    /// `omega^2`, 1/s^2.
+    omega2: f32,
+    /// The last rotation (warm start).
+    q: Quat,
+    /// Goals of the last projection, m.
+    goals: Vec<Vec3>,
+}
+
+/// Clusters over a [`Particles`] world.
+#[derive(Debug, Clone)]
+pub struct ShapeMatching {
+    clusters: Vec<Cluster>,
+    /// For each particle, its (cluster, slot) entries in cluster order: `entries[offsets[i]..
+    /// offsets[i + 1]]`.
+    offsets: Vec<u32>,
+    entries: Vec<(u32, u32)>,
+    /// Each entry's spring stiffness, N/m (0 for a pinned particle), and
+    /// its XPBD multiplier over the step, N s^2.
+    stiffness: Vec<f32>,
+    lambda: Vec<Vec3>,
+}
+
+impl ShapeMatching {
+    /// Clusters at the particles' present positions as their rest shape.
+    pub fn new(p: &Particles, specs: Vec<ClusterSpec>) -> Result<ShapeMatching, ShapeError> {
+        let n = p.len();
+        let mut clusters = Vec::with_capacity(specs.len());
+        // Each particle's total membership (checked below before it is used).
+        let mut total_a = vec![0.0f32; n];
+        for s in &specs {
+            for (&i, &a) in s.members.iter().zip(&s.weights) {
+                if let Some(t) = total_a.get_mut(i as usize) {
+                    *t += a;
+                }
+            }
+        }
+        for (k, s) in specs.into_iter().enumerate() {
+            if s.members.len() != s.weights.len() {
+                return Err(ShapeError::Lengths {
+                    cluster: k,
+                    members: s.members.len(),
+                    weights: s.weights.len(),
+                });
+            }
+            if s.members.len() < 2 {
+                return Err(ShapeError::TooSmall { cluster: k });
+            }
+            if !(s.frequency_hz.is_finite() && s.frequency_hz > 0.0) {
+                return Err(ShapeError::Frequency {
+                    cluster: k,
+                    value: s.frequency_hz,
+                });
+            }
+            for (&i, &a) in s.members.iter().zip(&s.weights) {
+                if i as usize >= n {
+                    return Err(ShapeError::NoParticle {
+                        cluster: k,
+                        particle: i,
+                        len: n,
+                    });
+                }
+                if !(a > 0.0 && a <= 1.0) {
+                    return Err(ShapeError::Weight {
+                        cluster: k,
+                        particle: i,
+                        weight: a,
+                    });
+                }
+            }
+            let heaviest = s
+                .members
+                .iter()
+                .filter(|&&i| p.w[i as usize] > 0.0)
+                .map(|&i| p.mass(i as usize))
+                .fold(0.0f32, f32::max);
+            let anchor = if heaviest > 0.0 {
+                1000.0 * heaviest
+            } else {
+                1.0
+            };
+            let mw: Vec<f32> = s
+                .members
+                .iter()
+                .zip(&s.weights)
+                .map(|(&i, &a)| {
+                    let m = if p.w[i as usize] > 0.0 {
+                        p.mass(i as usize)
+                    } else {
+                        anchor
+                    };
+                    m * a / total_a[i as usize]
+                })
+                .collect();
+            let mw_sum: f32 = mw.iter().sum();
+            let c0 = weighted_centre(&p.x, &s.members, &mw, mw_sum);
+            let rest = s.members.iter().map(|&i| p.x[i as usize] - c0).collect();
+            let goals = vec![Vec3::ZERO; s.members.len()];
+            clusters.push(Cluster {
+                members: s.members,
+                weights: s.weights,
+                mw,
+                mw_sum,
+                rest,
+                omega2: (std::f32::consts::TAU * s.frequency_hz).powi(2),
+                q: Quat::IDENTITY,
+                goals,
+            });
+        }
+        // Each particle's entries, in cluster order.
+        let mut count = vec![0u32; n + 1];
+        for c in &clusters {
+            for &i in &c.members {
+                count[i as usize + 1] += 1;
+            }
+        }
+        for i in 0..n {
+            count[i + 1] += count[i];
+        }
+        let offsets = count.clone();
+        let mut fill = count;
+        let mut entries = vec![(0u32, 0u32); offsets[n] as usize];
+        for (k, c) in clusters.iter().enumerate() {
+            for (slot, &i) in c.members.iter().enumerate() {
+                let at = &mut fill[i as usize];
+                entries[*at as usize] = (k as u32, slot as u32);
+                *at += 1;
+            }
+        }
+        // A particle's springs share its mass by membership weight (the paper's average over
+        // its clusters): with every cluster at `omega`, they sum to `m omega^2`.
+        let mut stiffness = vec![0.0f32; entries.len()];
+        for i in 0..n {
+            let (from, to) = (offsets[i] as usize, offsets[i + 1] as usize);
+            if p.w[i] <= 0.0 || from == to {
+                continue;
+            }
+            let weight = |&(k, slot): &(u32, u32)| clusters[k as usize].weights[slot as usize];
+            let total: f32 = entries[from..to].iter().map(weight).sum();
+            for e in from..to {
+                let c = &clusters[entries[e].0 as usize];
+                stiffness[e] = weight(&entries[e]) / total * p.mass(i) * c.omega2;
+            }
+        }
+        let lambda = vec![Vec3::ZERO; entries.len()];
+        Ok(ShapeMatching {
+            clusters,
+            offsets,
+            entries,
+            stiffness,
+            lambda,
+        })
+    }
+
+    pub fn clusters(&self) -> usize {
+        self.clusters.len()
+    }
+
+    /// Memberships over all clusters.
+    pub fn memberships(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// Particles that belong to at least one cluster.
+    pub fn particles_in_clusters(&self) -> usize {
+        self.offsets.windows(2).filter(|w| w[1] > w[0]).count()
+    }
+
+    /// Cluster `k`'s rotation after the last projection.
+    pub fn rotation(&self, k: usize) -> Quat {
+        self.clusters[k].q
+    }
+
+    /// Cluster `k`'s goal for its member `slot` after the last projection, m.
+    pub fn goal(&self, k: usize, slot: usize) -> Vec3 {
+        self.clusters[k].goals[slot]
+    }
+
+    /// Computes every cluster's rotation and goals from the present positions (steps 1-3).
+    pub fn match_goals(&mut self, x: &[Vec3]) {
+        self.clusters.par_iter_mut().for_each(|c| c.match_goals(x));
+    }
+
+    /// Starts a step: the springs' multipliers back to zero.
+    pub fn begin_step(&mut self) {
+        self.lambda.fill(Vec3::ZERO);
+    }
+
+    /// One iteration of a step of `dt_s`: goals, then every free particle through its
+    /// clusters' springs (step 4).
+    pub fn project(&mut self, p: &mut Particles, dt_s: f32) {
+        self.match_goals(&p.x);
+        let inv_dt2 = 1.0 / (dt_s * dt_s);
+        // Particles in runs of about `RUN` memberships, each run with its multipliers.
+        let n = p.len();
+        let mut runs: Vec<(usize, usize)> = Vec::new();
+        let mut start = 0;
+        while start < n {
+            let mut end = start + 1;
+            while end < n && (self.offsets[end] - self.offsets[start]) < RUN {
+                end += 1;
+            }
+            runs.push((start, end));
+            start = end;
+        }
+        let mut xs: Vec<&mut [Vec3]> = Vec::with_capacity(runs.len());
+        let mut ls: Vec<&mut [Vec3]> = Vec::with_capacity(runs.len());
+        let (mut xr, mut lr) = (&mut p.x[..], &mut self.lambda[..]);
+        for &(a, b) in &runs {
+            let (x_here, x_rest) = std::mem::take(&mut xr).split_at_mut(b - a);
+            let m = (self.offsets[b] - self.offsets[a]) as usize;
+            let (l_here, l_rest) = std::mem::take(&mut lr).split_at_mut(m);
+            xs.push(x_here);
+            ls.push(l_here);
+            xr = x_rest;
+            lr = l_rest;
+        }
+        let (clusters, offsets, entries, stiffness, w) = (
+            &self.clusters,
+            &self.offsets,
+            &self.entries,
+            &self.stiffness,
+            &p.w,
+        );
+        xs.into_par_iter()
+            .zip(ls)
+            .zip(runs)
+            .for_each(|((xs, ls), (a, _))| {
+                let base = offsets[a] as usize;
+                for (k, x) in xs.iter_mut().enumerate() {
+                    let i = a + k;
+                    let wi = w[i];
+                    if wi <= 0.0 {
+                        continue;
+                    }
+                    for e in offsets[i] as usize..offsets[i + 1] as usize {
+                        let ke = stiffness[e];
+                        if ke <= 0.0 {
+                            continue;
+                        }
+                        let (c, slot) = entries[e];
+                        let g = clusters[c as usize].goals[slot as usize];
+                        let alpha = inv_dt2 / ke;
+                        let l = &mut ls[e - base];
+                        let dl = (g - *x - alpha * *l) / (wi + alpha);
+                        *l += dl;
+                        *x += wi * dl;
+                    }
+                }
+            });
+    }
+
+    /// Cluster `k`'s deviation from its goals, m (root mean square over its members, at the
+    /// goals of the last projection).
+    pub fn deviation(&self, x: &[Vec3], k: usize) -> f32 {
+        let c = &self.clusters[k];
+        let s: f32 = c
+            .members
+            .iter()
+            .zip(&c.goals)
+            .map(|(&i, g)| (x[i as usize] - *g).length_squared())
+            .sum();
+        (s / c.members.len() as f32).sqrt()
+    }
+
+    /// Heap bytes.
+    pub fn heap_bytes(&self) -> usize {
+        let per: usize = self
+            .clusters
+            .iter()
+            .map(|c| c.members.len() * (4 + 4 + 4 + 12 + 12))
+            .sum();
+        per + self.offsets.len() * 4 + self.entries.len() * (8 + 4 + 12)
+    }
+}
+
+impl Cluster {
+    fn match_goals(&mut self, x: &[Vec3]) {
+        let c = weighted_centre(x, &self.members, &self.mw, self.mw_sum);
+        let mut a = Mat3::ZERO;
+        for ((&i, &m), q) in self.members.iter().zip(&self.mw).zip(&self.rest) {
+            let d = (x[i as usize] - c) * m;
+            a += Mat3::from_cols(d * q.x, d * q.y, d * q.z);
+        }
+        self.q = rotation_of(&a, self.q);
+        let r = Mat3::from_quat(self.q);
+        for (g, q) in self.goals.iter_mut().zip(&self.rest) {
+            *g = r * *q + c;
+        }
+    }
+}
+
+fn weighted_centre(x: &[Vec3], members: &[u32], mw: &[f32], sum: f32) -> Vec3 {
+    let mut c = Vec3::ZERO;
+    for (&i, &m) in members.iter().zip(mw) {
+        c += x[i as usize] * m;
+    }
+    c / sum
+}
+
+/// The rotation of `a`'s polar decomposition, from `q` (Müller, Bender, Chentanez and Macklin
+/// 2016, "A robust method to extract the rotational part of deformations"): turn `q` by
+/// `omega = sum_k r_k x a_k / |sum_k r_k . a_k|` until it no longer turns.
+pub fn rotation_of(a: &Mat3, q: Quat) -> Quat {
+    let mut q = if q.is_finite() { q } else { Quat::IDENTITY };
+    if !a.is_finite() {
+        return q;
+    }
+    let cols = [a.x_axis, a.y_axis, a.z_axis];
+    for _ in 0..ROTATION_ITERATIONS {
+        let r = Mat3::from_quat(q);
+        let rc = [r.x_axis, r.y_axis, r.z_axis];
+        let mut num = Vec3::ZERO;
+        let mut den = 0.0f32;
+        for k in 0..3 {
+            num += rc[k].cross(cols[k]);
+            den += rc[k].dot(cols[k]);
+        }
+        let omega = num / (den.abs() + 1e-9 * (1.0 + num.length()));
+        let angle = omega.length();
+        if angle.is_nan() || angle <= 1e-9 {
+            break;
+        }
+        q = (Quat::from_axis_angle(omega / angle, angle) * q).normalize();
+    }
+    q
+}
+
+/// Clusters for a body whose particles lie on a lattice: centres every `stride` lattice
+/// steps (of `spacing_m`) over the particles' box, each taking the particles within
+/// `radius_m` with weight `(1 - (d / radius)^2)^2` (at least `min_weight`), and every
+/// particle left out by them its nearest centre's cluster. Clusters with fewer than 4 members
+/// are dropped (their particles join the nearest other cluster).
+pub fn lattice_clusters(
+    x: &[Vec3],
+    members: &[u32],
+    spacing_m: f32,
+    stride: usize,
+    radius_m: f32,
+    frequency_hz: f32,
+) -> Vec<ClusterSpec> {
+    let min_weight = 0.05f32;
+    if members.is_empty() {
+        return Vec::new();
+    }
+    let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+    for &i in members {
+        lo = lo.min(x[i as usize]);
+        hi = hi.max(x[i as usize]);
+    }
+    let step = spacing_m * stride.max(1) as f32;
+    let cells = ((hi - lo) / step).ceil().max(Vec3::ZERO).as_uvec3() + 1;
+    let mut centres = Vec::new();
+    for a in 0..cells.x {
+        for b in 0..cells.y {
+            for c in 0..cells.z {
+                centres.push(lo + Vec3::new(a as f32, b as f32, c as f32) * step);
+            }
+        }
+    }
+    let mut specs: Vec<ClusterSpec> = centres
+        .iter()
+        .map(|_| ClusterSpec {
+            members: Vec::new(),
+            weights: Vec::new(),
+            frequency_hz,
+        })
+        .collect();
+    let mut covered = vec![false; members.len()];
+    for (s, c) in specs.iter_mut().zip(&centres) {
+        for (k, &i) in members.iter().enumerate() {
+            let d2 = (x[i as usize] - *c).length_squared() / (radius_m * radius_m);
+            if d2 < 1.0 {
+                let wgt = ((1.0 - d2) * (1.0 - d2)).max(min_weight);
+                s.members.push(i);
+                s.weights.push(wgt);
+                covered[k] = true;
+            }
+        }
+    }
+    let nearest = |p: Vec3, specs: &[ClusterSpec]| {
+        centres
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| specs[*k].members.len() >= 4)
+            .min_by(|a, b| {
+                (p - *a.1)
+                    .length_squared()
+                    .total_cmp(&(p - *b.1).length_squared())
+            })
+            .map(|(k, _)| k)
+    };
+    for (k, &i) in members.iter().enumerate() {
+        if !covered[k]
+            && let Some(c) = nearest(x[i as usize], &specs)
+        {
+            specs[c].members.push(i);
+            specs[c].weights.push(min_weight);
+        }
+    }
+    // Small clusters' particles go to the nearest kept one (if not already in one).
+    let small: Vec<usize> = (0..specs.len())
+        .filter(|&k| !specs[k].members.is_empty() && specs[k].members.len() < 4)
+        .collect();
+    for k in small {
+        let gone = std::mem::take(&mut specs[k].members);
+        specs[k].weights.clear();
+        for i in gone {
+            let elsewhere = specs.iter().any(|s| s.members.contains(&i));
+            if !elsewhere && let Some(c) = nearest(x[i as usize], &specs) {
+                specs[c].members.push(i);
+                specs[c].weights.push(min_weight);
+            }
+        }
+    }
+    specs.retain(|s| s.members.len() >= 4);
+    specs
+}
