@@ -198,6 +198,17 @@ impl ToolCylinder {
         Self::new(p0, p1, &[(0.0, radius_m)])
     }
 
+    /// The same cylinder with every radius grown by `by_m` (metres, >= 0): tested against
+    /// points, it is this cylinder tested against spheres of radius `by_m` (particles).
+    pub fn inflated(&self, by_m: f32) -> Self {
+        let by = if by_m.is_finite() { by_m.max(0.0) } else { 0.0 };
+        Self {
+            r: self.r.iter().map(|r| r + by).collect(),
+            max_r: self.max_r + by,
+            ..self.clone()
+        }
+    }
+
     /// The axis end at `t = 0`, metres.
     pub fn p0(&self) -> Vec3 {
         self.p0
@@ -424,6 +435,13 @@ impl Instrument {
     /// The cylinders, in the order contacts name them.
     pub fn cylinders(&self) -> &[ToolCylinder] {
         &self.cylinders
+    }
+
+    /// The instrument with every cylinder grown by `by_m` (see [`ToolCylinder::inflated`]).
+    pub fn inflated(&self, by_m: f32) -> Self {
+        Self {
+            cylinders: self.cylinders.iter().map(|c| c.inflated(by_m)).collect(),
+        }
     }
 
     /// The deepest penetration of vertex `v` over the cylinders (ties go to the lower index),

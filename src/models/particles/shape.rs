@@ -28,9 +28,13 @@ use super::Particles;
 use glam::{Mat3, Quat, Vec3};
 use rayon::prelude::*;
 
-/// Iterations of the rotation extraction per projection at most (warm-started, it needs one
-/// or two when the cluster turns little between projections).
-const ROTATION_ITERATIONS: usize = 20;
+/// Iterations of the rotation extraction per projection at most: from a cold start (the
+/// first projection), and warm-started from the last rotation (a cluster turns little in a
+/// millisecond; what is left of a sudden turn is taken up by the next projections).
+const COLD_ROTATION_ITERATIONS: usize = 30;
+const WARM_ROTATION_ITERATIONS: usize = 4;
+/// A turn smaller than this ends the rotation extraction, radians (a few f32 rounding steps).
+const ROTATION_TOLERANCE_RAD: f32 = 1e-5;
 /// Memberships per parallel task (about).
 const RUN: u32 = 4096;
 
@@ -80,24 +84,32 @@ struct Cluster {
     /// weight).
     mw: Vec<f32>,
     mw_sum: f32,
-    /// Rest offsets from the rest centre of mass, m.
+    /// Rest offsets from the rest centre of mass, m, and the same times `mw`, kg m.
     rest: Vec<Vec3>,
+    mw_rest: Vec<Vec3>,
+    /// The centre of mass at the last projection (the origin the sums are taken about, so
+    /// that they stay small wherever the body is), m.
+    centre: Vec3,
     /// `omega^2`, 1/s^2.
     omega2: f32,
-    /// The last rotation (warm start).
+    /// The last rotation (warm start), and whether there was one.
     q: Quat,
-    /// Goals of the last projection, m.
-    goals: Vec<Vec3>,
+    warm: bool,
+    /// Where its goals start in [`ShapeMatching::goals`].
+    first_goal: usize,
 }
 
 /// Clusters over a [`Particles`] world.
 #[derive(Debug, Clone)]
 pub struct ShapeMatching {
     clusters: Vec<Cluster>,
+    /// Every cluster's goals of the last projection, cluster after cluster, m.
+    goals: Vec<Vec3>,
     /// For each particle, its (cluster, slot) entries in cluster order: `entries[offsets[i]..
-    /// offsets[i + 1]]`.
+    /// offsets[i + 1]]`; `goal_of[e]` is entry `e`'s goal in `goals`.
     offsets: Vec<u32>,
     entries: Vec<(u32, u32)>,
+    goal_of: Vec<u32>,
     /// Each entry's spring stiffness, N/m (0 for a pinned particle), and
     /// its XPBD multiplier over the step, N s^2.
     stiffness: Vec<f32>,
@@ -118,6 +130,7 @@ impl ShapeMatching {
                 }
             }
         }
+        let mut first_goal_at = 0;
         for (k, s) in specs.into_iter().enumerate() {
             if s.members.len() != s.weights.len() {
                 return Err(ShapeError::Lengths {
@@ -177,18 +190,22 @@ impl ShapeMatching {
                 .collect();
             let mw_sum: f32 = mw.iter().sum();
             let c0 = weighted_centre(&p.x, &s.members, &mw, mw_sum);
-            let rest = s.members.iter().map(|&i| p.x[i as usize] - c0).collect();
-            let goals = vec![Vec3::ZERO; s.members.len()];
+            let rest: Vec<Vec3> = s.members.iter().map(|&i| p.x[i as usize] - c0).collect();
+            let mw_rest = rest.iter().zip(&mw).map(|(q, m)| *q * *m).collect();
             clusters.push(Cluster {
                 members: s.members,
                 weights: s.weights,
                 mw,
                 mw_sum,
                 rest,
+                mw_rest,
+                centre: c0,
                 omega2: (std::f32::consts::TAU * s.frequency_hz).powi(2),
                 q: Quat::IDENTITY,
-                goals,
+                warm: false,
+                first_goal: first_goal_at,
             });
+            first_goal_at += clusters[k].members.len();
         }
         // Each particle's entries, in cluster order.
         let mut count = vec![0u32; n + 1];
@@ -226,10 +243,16 @@ impl ShapeMatching {
             }
         }
         let lambda = vec![Vec3::ZERO; entries.len()];
+        let goal_of = entries
+            .iter()
+            .map(|&(k, slot)| (clusters[k as usize].first_goal + slot as usize) as u32)
+            .collect();
         Ok(ShapeMatching {
             clusters,
+            goals: vec![Vec3::ZERO; first_goal_at],
             offsets,
             entries,
+            goal_of,
             stiffness,
             lambda,
         })
@@ -256,12 +279,23 @@ impl ShapeMatching {
 
     /// Cluster `k`'s goal for its member `slot` after the last projection, m.
     pub fn goal(&self, k: usize, slot: usize) -> Vec3 {
-        self.clusters[k].goals[slot]
+        self.goals[self.clusters[k].first_goal + slot]
     }
 
     /// Computes every cluster's rotation and goals from the present positions (steps 1-3).
     pub fn match_goals(&mut self, x: &[Vec3]) {
-        self.clusters.par_iter_mut().for_each(|c| c.match_goals(x));
+        let mut slices: Vec<&mut [Vec3]> = Vec::with_capacity(self.clusters.len());
+        let mut rest = &mut self.goals[..];
+        for c in &self.clusters {
+            let (here, after) = std::mem::take(&mut rest).split_at_mut(c.members.len());
+            slices.push(here);
+            rest = after;
+        }
+        self.clusters
+            .par_iter_mut()
+            .zip(slices)
+            .with_min_len(16)
+            .for_each(|(c, goals)| c.match_goals(x, goals));
     }
 
     /// Starts a step: the springs' multipliers back to zero.
@@ -298,10 +332,10 @@ impl ShapeMatching {
             xr = x_rest;
             lr = l_rest;
         }
-        let (clusters, offsets, entries, stiffness, w) = (
-            &self.clusters,
+        let (goals, offsets, goal_of, stiffness, w) = (
+            &self.goals,
             &self.offsets,
-            &self.entries,
+            &self.goal_of,
             &self.stiffness,
             &p.w,
         );
@@ -321,8 +355,7 @@ impl ShapeMatching {
                         if ke <= 0.0 {
                             continue;
                         }
-                        let (c, slot) = entries[e];
-                        let g = clusters[c as usize].goals[slot as usize];
+                        let g = goals[goal_of[e] as usize];
                         let alpha = inv_dt2 / ke;
                         let l = &mut ls[e - base];
                         let dl = (g - *x - alpha * *l) / (wi + alpha);
@@ -340,7 +373,7 @@ impl ShapeMatching {
         let s: f32 = c
             .members
             .iter()
-            .zip(&c.goals)
+            .zip(&self.goals[c.first_goal..])
             .map(|(&i, g)| (x[i as usize] - *g).length_squared())
             .sum();
         (s / c.members.len() as f32).sqrt()
@@ -353,21 +386,40 @@ impl ShapeMatching {
             .iter()
             .map(|c| c.members.len() * (4 + 4 + 4 + 12 + 12))
             .sum();
-        per + self.offsets.len() * 4 + self.entries.len() * (8 + 4 + 12)
+        per + self.goals.len() * 12 + self.offsets.len() * 4 + self.entries.len() * (8 + 4 + 4 + 12)
     }
 }
 
 impl Cluster {
-    fn match_goals(&mut self, x: &[Vec3]) {
-        let c = weighted_centre(x, &self.members, &self.mw, self.mw_sum);
-        let mut a = Mat3::ZERO;
-        for ((&i, &m), q) in self.members.iter().zip(&self.mw).zip(&self.rest) {
-            let d = (x[i as usize] - c) * m;
-            a += Mat3::from_cols(d * q.x, d * q.y, d * q.z);
+    /// Steps 1-3 in one pass over the members: about the last centre `o`, `sum m (x - o)`
+    /// gives the centre and `sum (x - o) (m q)^T` is `A` (the rest offsets' weighted sum is
+    /// zero, so the origin drops out of `A`).
+    fn match_goals(&mut self, x: &[Vec3], goals: &mut [Vec3]) {
+        if !self.warm {
+            // The body may be anywhere now: the sums about where it is.
+            self.centre = weighted_centre(x, &self.members, &self.mw, self.mw_sum);
         }
-        self.q = rotation_of(&a, self.q);
+        let o = self.centre;
+        let (mut sum, mut ax, mut ay, mut az) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
+        for ((&i, &m), mq) in self.members.iter().zip(&self.mw).zip(&self.mw_rest) {
+            let d = x[i as usize] - o;
+            sum += d * m;
+            ax += d * mq.x;
+            ay += d * mq.y;
+            az += d * mq.z;
+        }
+        let c = o + sum / self.mw_sum;
+        let a = Mat3::from_cols(ax, ay, az);
+        let most = if self.warm {
+            WARM_ROTATION_ITERATIONS
+        } else {
+            COLD_ROTATION_ITERATIONS
+        };
+        self.q = rotation_of(&a, self.q, most);
+        self.warm = true;
+        self.centre = c;
         let r = Mat3::from_quat(self.q);
-        for (g, q) in self.goals.iter_mut().zip(&self.rest) {
+        for (g, q) in goals.iter_mut().zip(&self.rest) {
             *g = r * *q + c;
         }
     }
@@ -383,14 +435,15 @@ fn weighted_centre(x: &[Vec3], members: &[u32], mw: &[f32], sum: f32) -> Vec3 {
 
 /// The rotation of `a`'s polar decomposition, from `q` (Müller, Bender, Chentanez and Macklin
 /// 2016, "A robust method to extract the rotational part of deformations"): turn `q` by
-/// `omega = sum_k r_k x a_k / |sum_k r_k . a_k|` until it no longer turns.
-pub fn rotation_of(a: &Mat3, q: Quat) -> Quat {
+/// `omega = sum_k r_k x a_k / |sum_k r_k . a_k|` until it no longer turns (at most
+/// `iterations` times).
+pub fn rotation_of(a: &Mat3, q: Quat, iterations: usize) -> Quat {
     let mut q = if q.is_finite() { q } else { Quat::IDENTITY };
     if !a.is_finite() {
         return q;
     }
     let cols = [a.x_axis, a.y_axis, a.z_axis];
-    for _ in 0..ROTATION_ITERATIONS {
+    for _ in 0..iterations {
         let r = Mat3::from_quat(q);
         let rc = [r.x_axis, r.y_axis, r.z_axis];
         let mut num = Vec3::ZERO;
@@ -401,7 +454,8 @@ pub fn rotation_of(a: &Mat3, q: Quat) -> Quat {
         }
         let omega = num / (den.abs() + 1e-9 * (1.0 + num.length()));
         let angle = omega.length();
-        if angle.is_nan() || angle <= 1e-9 {
+        // Below a few f32 rounding steps of a unit vector the turn is noise: done.
+        if angle.is_nan() || angle <= ROTATION_TOLERANCE_RAD {
             break;
         }
         q = (Quat::from_axis_angle(omega / angle, angle) * q).normalize();

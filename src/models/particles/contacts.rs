@@ -1,0 +1,355 @@
+//! Contacts: particles of different bodies keep apart (the paper's eq 2, the inequality
+//! `C = |x_i - x_j| - 2 r >= 0`), instruments push particles out of their generalized
+//! cylinders, and a closed grasper holds the particles between its jaws. Each is a position
+//! projection inside the step's iterations; what an instrument does to the particles, summed
+//! over them, is its reaction (the force the tissue puts on it), in newtons.
+//!
+//! Between bodies, only the particles a body shows to the others take part (its surface).
+//! Their candidate pairs (closer than `2 r + margin`) come from a uniform grid and are kept
+//! until some member has moved more than half the margin since (a Verlet list), so the search
+//! runs now and then, not every step. Everything runs in a fixed order: the same bytes every
+//! time.
+
+use super::Particles;
+use crate::collision::{Instrument, PointBlocks, PointCloud, ToolContact};
+use glam::Vec3;
+
+/// Particles of different bodies that keep apart.
+#[derive(Debug, Clone, Default)]
+pub struct BodyContacts {
+    members: Vec<u32>,
+    radius_m: f32,
+    margin_m: f32,
+    /// The members' positions when the pairs were found.
+    at_search: Vec<Vec3>,
+    pairs: Vec<(u32, u32)>,
+    /// Searches so far (for the profiler).
+    pub searches: u64,
+    /// Pairs in contact at the last projection.
+    pub touching: usize,
+}
+
+impl BodyContacts {
+    /// Contacts among `members` (particle indices), each a sphere of `radius_m`; candidate
+    /// pairs are kept while nothing has moved more than `margin_m / 2`.
+    pub fn new(members: Vec<u32>, radius_m: f32, margin_m: f32) -> BodyContacts {
+        BodyContacts {
+            members,
+            radius_m: radius_m.max(0.0),
+            margin_m: margin_m.max(0.0),
+            ..BodyContacts::default()
+        }
+    }
+
+    /// Candidate pairs now.
+    pub fn pairs(&self) -> &[(u32, u32)] {
+        &self.pairs
+    }
+
+    /// Searches again for candidate pairs if a member has moved more than half the margin
+    /// since the last search (or there was none).
+    pub fn refresh(&mut self, p: &Particles) {
+        let half = 0.5 * self.margin_m;
+        let moved = self.at_search.len() != self.members.len()
+            || self
+                .members
+                .iter()
+                .zip(&self.at_search)
+                .any(|(&i, a)| p.x[i as usize].distance_squared(*a) > half * half);
+        if moved {
+            self.search(p);
+        }
+    }
+
+    fn search(&mut self, p: &Particles) {
+        self.searches += 1;
+        self.at_search = self.members.iter().map(|&i| p.x[i as usize]).collect();
+        self.pairs.clear();
+        if self.members.is_empty() {
+            return;
+        }
+        let reach = 2.0 * self.radius_m + self.margin_m;
+        let cell = reach.max(1e-6);
+        let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        for a in &self.at_search {
+            if a.is_finite() {
+                lo = lo.min(*a);
+                hi = hi.max(*a);
+            }
+        }
+        if !lo.is_finite() {
+            return;
+        }
+        // A dense grid over the members' box (at most about 4 cells a member).
+        let dims = ((hi - lo) / cell).floor().as_uvec3() + 1;
+        let cells = dims.x as usize * dims.y as usize * dims.z as usize;
+        if cells > 4 * self.members.len() + 64 {
+            self.search_sorted(p, reach);
+            return;
+        }
+        let index = |x: Vec3| {
+            let c = ((x - lo) / cell).floor().as_uvec3().min(dims - 1);
+            (c.x as usize * dims.y as usize + c.y as usize) * dims.z as usize + c.z as usize
+        };
+        let mut start = vec![0u32; cells + 1];
+        for a in &self.at_search {
+            if a.is_finite() {
+                start[index(*a) + 1] += 1;
+            }
+        }
+        for c in 0..cells {
+            start[c + 1] += start[c];
+        }
+        let mut fill = start.clone();
+        let mut slots = vec![0u32; start[cells] as usize];
+        for (k, a) in self.at_search.iter().enumerate() {
+            if a.is_finite() {
+                let c = index(*a);
+                slots[fill[c] as usize] = k as u32;
+                fill[c] += 1;
+            }
+        }
+        let r2 = reach * reach;
+        let mut found = Vec::new();
+        for (k, a) in self.at_search.iter().enumerate() {
+            if !a.is_finite() {
+                continue;
+            }
+            let c = ((*a - lo) / cell).floor().as_ivec3();
+            for dx in -1..=1 {
+                for dy in -1..=1 {
+                    for dz in -1..=1 {
+                        let n = c + glam::IVec3::new(dx, dy, dz);
+                        if n.min_element() < 0 || n.cmpge(dims.as_ivec3()).any() {
+                            continue;
+                        }
+                        let ci = (n.x as usize * dims.y as usize + n.y as usize) * dims.z as usize
+                            + n.z as usize;
+                        for &m in &slots[start[ci] as usize..start[ci + 1] as usize] {
+                            found.extend(pair(self, p, k, m as usize, r2));
+                        }
+                    }
+                }
+            }
+        }
+        found.sort_unstable();
+        self.pairs = found;
+    }
+
+    /// The fallback for a sparse box: members sorted along x, pairs within `reach` in x.
+    fn search_sorted(&mut self, p: &Particles, reach: f32) {
+        let mut order: Vec<u32> = (0..self.members.len() as u32)
+            .filter(|&k| self.at_search[k as usize].is_finite())
+            .collect();
+        order.sort_by(|&a, &b| {
+            self.at_search[a as usize]
+                .x
+                .total_cmp(&self.at_search[b as usize].x)
+                .then(a.cmp(&b))
+        });
+        let r2 = reach * reach;
+        let mut found = Vec::new();
+        for (n, &a) in order.iter().enumerate() {
+            let xa = self.at_search[a as usize].x;
+            for &b in &order[n + 1..] {
+                if self.at_search[b as usize].x - xa > reach {
+                    break;
+                }
+                found.extend(pair(self, p, a as usize, b as usize, r2));
+                found.extend(pair(self, p, b as usize, a as usize, r2));
+            }
+        }
+        found.sort_unstable();
+        found.dedup();
+        self.pairs = found;
+    }
+
+    /// Pushes apart every candidate pair closer than two radii, each by its inverse masses.
+    pub fn project(&mut self, p: &mut Particles) {
+        let d0 = 2.0 * self.radius_m;
+        let mut touching = 0;
+        for &(i, j) in &self.pairs {
+            let (i, j) = (i as usize, j as usize);
+            let (wi, wj) = (p.w[i], p.w[j]);
+            let ws = wi + wj;
+            if ws <= 0.0 {
+                continue;
+            }
+            let d = p.x[i] - p.x[j];
+            let len = d.length();
+            if len >= d0 || len <= 1e-12 {
+                continue;
+            }
+            touching += 1;
+            let push = d * ((d0 - len) / (len * ws));
+            p.x[i] += push * wi;
+            p.x[j] -= push * wj;
+        }
+        self.touching = touching;
+    }
+
+    pub fn heap_bytes(&self) -> usize {
+        self.members.len() * 4 + self.at_search.len() * 12 + self.pairs.len() * 8
+    }
+}
+
+/// Members `k` and `m` (positions in `members`) as a pair, once (`i < j`), if they belong to
+/// different bodies and lay within the reach at the search.
+fn pair(c: &BodyContacts, p: &Particles, k: usize, m: usize, r2: f32) -> Option<(u32, u32)> {
+    let (i, j) = (c.members[k], c.members[m]);
+    if i >= j || p.body[i as usize] == p.body[j as usize] {
+        return None;
+    }
+    (c.at_search[k].distance_squared(c.at_search[m]) <= r2).then_some((i, j))
+}
+
+/// An instrument's generalized cylinders against every particle (culled by blocks of
+/// consecutive particles), grown by the particles' radius.
+#[derive(Debug, Clone)]
+pub struct ToolPush {
+    radius_m: f32,
+    blocks: PointBlocks,
+    contacts: Vec<ToolContact>,
+    /// What the particles were pushed by this step, summed as forces on them, N.
+    pushed_n: Vec3,
+}
+
+impl ToolPush {
+    pub fn new(p: &Particles, radius_m: f32) -> ToolPush {
+        ToolPush {
+            radius_m: radius_m.max(0.0),
+            blocks: PointBlocks::new(PointCloud::from_points(&p.x)),
+            contacts: Vec::new(),
+            pushed_n: Vec3::ZERO,
+        }
+    }
+
+    /// Starts a step (the reaction's sum back to zero).
+    pub fn begin_step(&mut self) {
+        self.pushed_n = Vec3::ZERO;
+    }
+
+    /// Moves every free particle inside `tool` (grown by the particle radius) out along the
+    /// test's direction by its depth. Returns the particles touched.
+    pub fn project(&mut self, tool: &Instrument, p: &mut Particles, dt_s: f32) -> usize {
+        let grown = tool.inflated(self.radius_m);
+        self.blocks.refresh(PointCloud::from_points(&p.x));
+        if grown
+            .contacts(
+                PointCloud::from_points(&p.x),
+                &self.blocks,
+                &mut self.contacts,
+            )
+            .is_err()
+        {
+            return 0;
+        }
+        let inv_dt2 = 1.0 / (dt_s * dt_s);
+        let mut n = 0;
+        for c in &self.contacts {
+            let i = c.vertex as usize;
+            if p.w[i] <= 0.0 {
+                continue;
+            }
+            let dx = c.dir * c.depth_m;
+            p.x[i] += dx;
+            self.pushed_n += dx * (inv_dt2 / p.w[i]);
+            n += 1;
+        }
+        n
+    }
+
+    /// The tissue's force on the instrument this step, N (minus what it did to the
+    /// particles).
+    pub fn reaction_n(&self) -> Vec3 {
+        -self.pushed_n
+    }
+}
+
+/// A closed grasper: the particles within reach of its jaw when it closed, each held by an
+/// XPBD spring to where it sat in the jaw's frame.
+#[derive(Debug, Clone, Default)]
+pub struct Grasp {
+    /// Held particles and their offsets from the jaw when taken, m.
+    held: Vec<(u32, Vec3)>,
+    lambda: Vec<Vec3>,
+    stiffness_n_per_m: f32,
+}
+
+impl Grasp {
+    /// Takes hold of the free particles within `reach_m` of `jaw` (at most `most`, the
+    /// nearest, ties to the lower index), each by a spring of `stiffness_n_per_m`. Returns
+    /// how many.
+    pub fn take(
+        p: &Particles,
+        jaw: Vec3,
+        reach_m: f32,
+        most: usize,
+        stiffness_n_per_m: f32,
+    ) -> Grasp {
+        let mut near: Vec<(f32, u32)> =
+            p.x.iter()
+                .enumerate()
+                .filter(|(i, _)| p.w[*i] > 0.0)
+                .map(|(i, x)| (x.distance(jaw), i as u32))
+                .filter(|(d, _)| *d <= reach_m)
+                .collect();
+        near.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        near.truncate(most);
+        let held: Vec<(u32, Vec3)> = near
+            .iter()
+            .map(|&(_, i)| (i, p.x[i as usize] - jaw))
+            .collect();
+        Grasp {
+            lambda: vec![Vec3::ZERO; held.len()],
+            held,
+            stiffness_n_per_m: stiffness_n_per_m.max(0.0),
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.held.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.held.is_empty()
+    }
+
+    /// The held particles.
+    pub fn particles(&self) -> impl Iterator<Item = u32> + '_ {
+        self.held.iter().map(|h| h.0)
+    }
+
+    pub fn begin_step(&mut self) {
+        self.lambda.fill(Vec3::ZERO);
+    }
+
+    /// Pulls each held particle towards its place by the jaw now at `jaw`.
+    pub fn project(&mut self, p: &mut Particles, jaw: Vec3, dt_s: f32) {
+        if self.stiffness_n_per_m <= 0.0 {
+            return;
+        }
+        let alpha = 1.0 / (self.stiffness_n_per_m * dt_s * dt_s);
+        for ((i, off), l) in self.held.iter().zip(&mut self.lambda) {
+            let i = *i as usize;
+            let w = p.w[i];
+            if w <= 0.0 {
+                continue;
+            }
+            let c = p.x[i] - (jaw + *off);
+            let dl = (-c - alpha * *l) / (w + alpha);
+            *l += dl;
+            p.x[i] += dl * w;
+        }
+    }
+
+    /// The tissue's force on the grasper this step, N: the springs' multipliers over `dt^2`
+    /// (the springs pull the particles by `lambda / dt^2`; the grasper feels the opposite).
+    pub fn reaction_n(&self, dt_s: f32) -> Vec3 {
+        -self.lambda.iter().copied().sum::<Vec3>() / (dt_s * dt_s)
+    }
+}
+
+#[cfg(test)]
+#[path = "contacts_tests.rs"]
+mod tests;
