@@ -110,10 +110,16 @@ pub struct ShapeMatching {
     offsets: Vec<u32>,
     entries: Vec<(u32, u32)>,
     goal_of: Vec<u32>,
-    /// Each entry's spring stiffness, N/m (0 for a pinned particle), and
-    /// its XPBD multiplier over the step, N s^2.
-    stiffness: Vec<f32>,
-    lambda: Vec<Vec3>,
+    /// Each entry's spring stiffness over its particle's mass, `k / m`, 1/s^2 (0 for a pinned
+    /// particle).
+    rate: Vec<f32>,
+    /// Each entry's XPBD multiplier over the step times its particle's inverse mass, m.
+    mu: Vec<Vec3>,
+    /// For the step `coef_dt` (s): each entry's `beta = m / (k dt^2)` and `1 / (1 + beta)`.
+    coef: Vec<[f32; 2]>,
+    coef_dt: f32,
+    /// Particles in runs of about [`RUN`] memberships (the parallel tasks).
+    runs: Vec<(usize, usize)>,
 }
 
 impl ShapeMatching {
@@ -229,7 +235,7 @@ impl ShapeMatching {
         }
         // A particle's springs share its mass by membership weight (the paper's average over
         // its clusters): with every cluster at `omega`, they sum to `m omega^2`.
-        let mut stiffness = vec![0.0f32; entries.len()];
+        let mut rate = vec![0.0f32; entries.len()];
         for i in 0..n {
             let (from, to) = (offsets[i] as usize, offsets[i + 1] as usize);
             if p.w[i] <= 0.0 || from == to {
@@ -239,10 +245,20 @@ impl ShapeMatching {
             let total: f32 = entries[from..to].iter().map(weight).sum();
             for e in from..to {
                 let c = &clusters[entries[e].0 as usize];
-                stiffness[e] = weight(&entries[e]) / total * p.mass(i) * c.omega2;
+                rate[e] = weight(&entries[e]) / total * c.omega2;
             }
         }
-        let lambda = vec![Vec3::ZERO; entries.len()];
+        let mu = vec![Vec3::ZERO; entries.len()];
+        let mut runs: Vec<(usize, usize)> = Vec::new();
+        let mut start = 0;
+        while start < n {
+            let mut end = start + 1;
+            while end < n && (offsets[end] - offsets[start]) < RUN {
+                end += 1;
+            }
+            runs.push((start, end));
+            start = end;
+        }
         let goal_of = entries
             .iter()
             .map(|&(k, slot)| (clusters[k as usize].first_goal + slot as usize) as u32)
@@ -253,8 +269,11 @@ impl ShapeMatching {
             offsets,
             entries,
             goal_of,
-            stiffness,
-            lambda,
+            coef: vec![[0.0; 2]; rate.len()],
+            rate,
+            mu,
+            coef_dt: 0.0,
+            runs,
         })
     }
 
@@ -300,67 +319,61 @@ impl ShapeMatching {
 
     /// Starts a step: the springs' multipliers back to zero.
     pub fn begin_step(&mut self) {
-        self.lambda.fill(Vec3::ZERO);
+        self.mu.fill(Vec3::ZERO);
     }
 
     /// One iteration of a step of `dt_s`: goals, then every free particle through its
     /// clusters' springs (step 4).
     pub fn project(&mut self, p: &mut Particles, dt_s: f32) {
         self.match_goals(&p.x);
-        let inv_dt2 = 1.0 / (dt_s * dt_s);
-        // Particles in runs of about `RUN` memberships, each run with its multipliers.
-        let n = p.len();
-        let mut runs: Vec<(usize, usize)> = Vec::new();
-        let mut start = 0;
-        while start < n {
-            let mut end = start + 1;
-            while end < n && (self.offsets[end] - self.offsets[start]) < RUN {
-                end += 1;
+        if self.coef_dt != dt_s {
+            self.coef_dt = dt_s;
+            for (c, &r) in self.coef.iter_mut().zip(&self.rate) {
+                let beta = if r > 0.0 {
+                    1.0 / (r * dt_s * dt_s)
+                } else {
+                    f32::INFINITY
+                };
+                *c = [beta, 1.0 / (1.0 + beta)];
             }
-            runs.push((start, end));
-            start = end;
         }
-        let mut xs: Vec<&mut [Vec3]> = Vec::with_capacity(runs.len());
-        let mut ls: Vec<&mut [Vec3]> = Vec::with_capacity(runs.len());
-        let (mut xr, mut lr) = (&mut p.x[..], &mut self.lambda[..]);
-        for &(a, b) in &runs {
+        let mut xs: Vec<&mut [Vec3]> = Vec::with_capacity(self.runs.len());
+        let mut ms: Vec<&mut [Vec3]> = Vec::with_capacity(self.runs.len());
+        let (mut xr, mut mr) = (&mut p.x[..], &mut self.mu[..]);
+        for &(a, b) in &self.runs {
             let (x_here, x_rest) = std::mem::take(&mut xr).split_at_mut(b - a);
             let m = (self.offsets[b] - self.offsets[a]) as usize;
-            let (l_here, l_rest) = std::mem::take(&mut lr).split_at_mut(m);
+            let (m_here, m_rest) = std::mem::take(&mut mr).split_at_mut(m);
             xs.push(x_here);
-            ls.push(l_here);
+            ms.push(m_here);
             xr = x_rest;
-            lr = l_rest;
+            mr = m_rest;
         }
-        let (goals, offsets, goal_of, stiffness, w) = (
-            &self.goals,
-            &self.offsets,
-            &self.goal_of,
-            &self.stiffness,
-            &p.w,
-        );
+        let (goals, offsets, goal_of, coef, w) =
+            (&self.goals, &self.offsets, &self.goal_of, &self.coef, &p.w);
+        // XPBD for `C = x - g` with compliance `1 / k`, `k = m r`: in `mu = w lambda` the
+        // update is `d_mu = (g - x - beta mu) / (1 + beta)`, `beta = 1 / (r dt^2)`, and
+        // `x += d_mu` (the particle's mass drops out).
         xs.into_par_iter()
-            .zip(ls)
-            .zip(runs)
-            .for_each(|((xs, ls), (a, _))| {
+            .zip(ms)
+            .zip(&self.runs)
+            .for_each(|((xs, ms), &(a, _))| {
                 let base = offsets[a] as usize;
                 for (k, x) in xs.iter_mut().enumerate() {
                     let i = a + k;
-                    let wi = w[i];
-                    if wi <= 0.0 {
+                    if w[i] <= 0.0 {
                         continue;
                     }
                     for e in offsets[i] as usize..offsets[i + 1] as usize {
-                        let ke = stiffness[e];
-                        if ke <= 0.0 {
+                        let [beta, inv] = coef[e];
+                        if inv <= 0.0 {
                             continue;
                         }
                         let g = goals[goal_of[e] as usize];
-                        let alpha = inv_dt2 / ke;
-                        let l = &mut ls[e - base];
-                        let dl = (g - *x - alpha * *l) / (wi + alpha);
-                        *l += dl;
-                        *x += wi * dl;
+                        let m = &mut ms[e - base];
+                        let d = (g - *x - beta * *m) * inv;
+                        *m += d;
+                        *x += d;
                     }
                 }
             });
@@ -386,7 +399,9 @@ impl ShapeMatching {
             .iter()
             .map(|c| c.members.len() * (4 + 4 + 4 + 12 + 12))
             .sum();
-        per + self.goals.len() * 12 + self.offsets.len() * 4 + self.entries.len() * (8 + 4 + 4 + 12)
+        per + self.goals.len() * 12
+            + self.offsets.len() * 4
+            + self.entries.len() * (8 + 4 + 4 + 12 + 8)
     }
 }
 
