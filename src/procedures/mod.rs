@@ -4,6 +4,7 @@
 
 use crate::scenario::InputError;
 
+pub mod cholecystectomy;
 pub mod nephrectomy;
 mod procedure;
 pub mod rectum;
