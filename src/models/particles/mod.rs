@@ -12,6 +12,8 @@
 //! Units are SI: metres, kilograms (a particle's mass is its tissue's density times the volume
 //! it stands for), seconds, newtons. A pinned particle has inverse mass 0.
 
+pub mod adhesion;
+pub mod cloth;
 pub mod contacts;
 pub mod shape;
 

@@ -140,7 +140,10 @@ impl Default for AnatomyParams {
                 density_kg_per_m3: 1040.0,
             },
             cystic_artery: VesselShape {
-                points: vec![Vec3::new(-0.062, 0.017, 0.007), Vec3::new(-0.037, 0.007, 0.007)],
+                points: vec![
+                    Vec3::new(-0.062, 0.017, 0.007),
+                    Vec3::new(-0.037, 0.007, 0.007),
+                ],
                 radius_m: 0.001,
                 density_kg_per_m3: 1060.0,
             },
@@ -174,7 +177,10 @@ pub struct Vessel {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum AnatomyError {
     #[error("anatomy.{field}: {message}")]
-    Bad { field: &'static str, message: String },
+    Bad {
+        field: &'static str,
+        message: String,
+    },
 }
 
 /// The generated anatomy.
@@ -310,7 +316,10 @@ fn check(a: &AnatomyParams) -> Result<(), AnatomyError> {
             return bad(field, "semi-axes must be positive lengths in metres");
         }
         if !(o.spacing_m > 0.0 && o.spacing_m < o.semi_axes_m.min_element()) {
-            return bad(field, "spacing must be positive and below the smallest semi-axis");
+            return bad(
+                field,
+                "spacing must be positive and below the smallest semi-axis",
+            );
         }
         if !(o.density_kg_per_m3 > 0.0 && o.density_kg_per_m3.is_finite()) {
             return bad(field, "density must be a positive number of kg/m^3");
@@ -425,6 +434,9 @@ fn distance_to_polyline(x: Vec3, pts: &[Vec3]) -> f32 {
         .fold(f32::INFINITY, f32::min)
 }
 
+/// The fascia's nodes, triangles and edge ties.
+type Sheet = (Vec<u32>, Vec<[u32; 3]>, Vec<(u32, u32)>);
+
 /// The fascia: a sheet from a line along the gallbladder's upper front (60 degrees up from
 /// its equator, towards +z) to the liver's surface above it, its two long edges tied to the
 /// nearest surface particle of each organ.
@@ -433,7 +445,7 @@ fn fascia_sheet(
     a: &AnatomyParams,
     gb: &Organ,
     liver: &Organ,
-) -> (Vec<u32>, Vec<[u32; 3]>, Vec<(u32, u32)>) {
+) -> Sheet {
     let [along, across] = a.fascia_nodes.map(|n| n as usize);
     let g = &a.gallbladder;
     let (sin, cos) = 60f32.to_radians().sin_cos();
@@ -443,12 +455,7 @@ fn fascia_sheet(
     for i in 0..along {
         let x = -span + 2.0 * span * i as f32 / (along - 1) as f32;
         let r = (1.0 - (x / g.semi_axes_m.x).powi(2)).max(0.0).sqrt();
-        let on_gb = g.centre_m
-            + Vec3::new(
-                x,
-                g.semi_axes_m.y * r * sin,
-                g.semi_axes_m.z * r * cos,
-            );
+        let on_gb = g.centre_m + Vec3::new(x, g.semi_axes_m.y * r * sin, g.semi_axes_m.z * r * cos);
         // Straight up to the liver's lower surface.
         let l = &a.liver;
         let d = (on_gb - l.centre_m) / l.semi_axes_m;
@@ -504,7 +511,9 @@ fn adhesions(p: &Particles, a: &AnatomyParams, gb: &Organ, liver: &Organ) -> Vec
         .surface
         .iter()
         .copied()
-        .filter(|&i| p.x[i as usize].y > a.gallbladder.centre_m.y + 0.5 * a.gallbladder.semi_axes_m.y)
+        .filter(|&i| {
+            p.x[i as usize].y > a.gallbladder.centre_m.y + 0.5 * a.gallbladder.semi_axes_m.y
+        })
         .collect();
     let lower: Vec<u32> = liver
         .surface

@@ -22,7 +22,10 @@ fn the_organs_hold_over_20000_particles_weighing_density_times_volume() {
         let per = shape.density_kg_per_m3 * shape.spacing_m.powi(3);
         for i in o.range.clone() {
             let w = a.particles.w[i as usize];
-            assert!(w == 0.0 || (1.0 / w - per).abs() < 1e-6 * per, "particle {i}");
+            assert!(
+                w == 0.0 || (1.0 / w - per).abs() < 1e-6 * per,
+                "particle {i}"
+            );
         }
         let counted = o.range.len() as f32 * per;
         let want = shape.density_kg_per_m3 * ellipsoid_volume(shape);
@@ -41,7 +44,9 @@ fn no_two_bodies_start_inside_each_other() {
     // Organs and vessels: particles of different bodies at least a lattice half-spacing
     // apart (ties and adhesions aside, which join them on purpose).
     let organ_or_vessel = |b: u16| b <= body::CYSTIC_ARTERY;
-    let idx: Vec<usize> = (0..p.len()).filter(|&i| organ_or_vessel(p.body[i])).collect();
+    let idx: Vec<usize> = (0..p.len())
+        .filter(|&i| organ_or_vessel(p.body[i]))
+        .collect();
     let mut closest = f32::INFINITY;
     let mut worst = (0, 0);
     for (n, &i) in idx.iter().enumerate() {
@@ -99,8 +104,14 @@ fn the_vessels_run_along_their_centrelines_and_meet_at_the_junction() {
         }
     }
     // Calot's triangle is (neck, junction, hilum), with the junction shared.
-    assert_eq!(a.calot[1], *params.cystic_duct.points.last().expect("points"));
-    assert_eq!(a.calot[1], *params.common_hepatic_duct.points.last().expect("points"));
+    assert_eq!(
+        a.calot[1],
+        *params.cystic_duct.points.last().expect("points")
+    );
+    assert_eq!(
+        a.calot[1],
+        *params.common_hepatic_duct.points.last().expect("points")
+    );
 }
 
 #[test]
@@ -127,7 +138,10 @@ fn adhesions_and_the_fascia_join_the_gallbladder_to_the_liver() {
     };
     for i in 0..along {
         assert_eq!(tied_to(a.fascia[i * across]), Some(body::GALLBLADDER));
-        assert_eq!(tied_to(a.fascia[i * across + across - 1]), Some(body::LIVER));
+        assert_eq!(
+            tied_to(a.fascia[i * across + across - 1]),
+            Some(body::LIVER)
+        );
     }
 }
 
