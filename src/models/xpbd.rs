@@ -12,6 +12,12 @@ pub struct Stretch {
     pub rest_m: f32,
 }
 
+impl AsRef<Stretch> for Stretch {
+    fn as_ref(&self) -> &Stretch {
+        self
+    }
+}
+
 /// A dihedral constraint over the hinge (a, b) with wings c and d (triangles (a, b, c) and
 /// (a, d, b)). Eq 12 writes it as C = acos(n1 . n2) - phi12; we measure the same angle signed,
 /// phi = atan2((n1 x n2) . e, n1 . n2) with e the hinge direction (0 when flat, positive when

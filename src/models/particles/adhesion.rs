@@ -3,7 +3,7 @@
 //! and the liver that break at random points and leave sticky halves dangling from the organs.
 //!
 //! Each pair of particles (one on the gallbladder, `a`, one on the liver, `b`) becomes a
-//! strand: `n = segments` distance constraints `C = |x1 - x2| - l0` (eq 5, [`xpbd::Stretch`])
+//! strand: `n = segments` distance constraints `C = |x1 - x2| - l0` (eq 5, [`Stretch`])
 //! in a chain through `n - 1` new particles placed evenly on the straight line from `a` to `b`,
 //! each of mass `strand_mass_kg / (n - 1)`. The strand's rest length `L` is the distance from
 //! `a` to `b` when it is built, each segment's `l0 = L / n`.
@@ -36,7 +36,8 @@
 //! inputs give the same bytes and the same breaks.
 
 use super::Particles;
-use crate::models::xpbd::{self, Stretch};
+use super::chain::{Row, solve_chain};
+use crate::models::xpbd::Stretch;
 use glam::Vec3;
 
 /// How the strands are built and break.
@@ -175,6 +176,12 @@ struct Segment {
     c: Stretch,
     breakable: bool,
     intact: bool,
+}
+
+impl AsRef<Stretch> for Segment {
+    fn as_ref(&self) -> &Stretch {
+        &self.c
+    }
 }
 
 /// Breakable strands of distance constraints between two organs.
@@ -529,80 +536,6 @@ impl Adhesion {
             + self.segments.capacity() * std::mem::size_of::<Segment>()
             + self.lambda.capacity() * 4
             + self.rows.capacity() * std::mem::size_of::<Row>()
-    }
-}
-
-/// One segment's row of a chain's linear system.
-#[derive(Debug, Clone, Copy, Default)]
-struct Row {
-    compliance: f32,
-    normal: Vec3,
-    diag: f32,
-    /// The coupling with the next segment.
-    off: f32,
-    rhs: f32,
-    /// The forward elimination's multipliers.
-    c: f32,
-    d: f32,
-}
-
-/// One projection of a run of consecutive segments (each one's second particle the next one's
-/// first) solved together: the XPBD step of the run, `(J W J^T + alpha~) dlambda = -C -
-/// alpha~ lambda`, is tridiagonal (neighbouring segments share one particle), and the Thomas
-/// algorithm solves it exactly in one pass. A strand's interior particles weigh a few
-/// micrograms and its ends are organ particles of grams: segment by segment (plain
-/// Gauss-Seidel) the pull on an end would reach the other end only over thousands of sweeps,
-/// and a strand meant to hold newtons would tear under a hundredth of one. One segment alone
-/// is [`xpbd::project_stretch`].
-fn solve_chain(p: &mut Particles, segs: &[Segment], lambda: &mut [f32], rows: &mut [Row], dt: f32) {
-    if let ([s], [l], [row]) = (segs, &mut *lambda, &*rows) {
-        *l += xpbd::project_stretch(&mut p.x, &p.w, &s.c, row.compliance, dt, *l);
-        return;
-    }
-    let (x, w) = (&mut p.x, &p.w);
-    let inv_dt2 = 1.0 / (dt * dt);
-    for ((row, s), &l) in rows.iter_mut().zip(segs).zip(&*lambda) {
-        let (a, b) = (s.c.a as usize, s.c.b as usize);
-        let d = x[a] - x[b];
-        let len = d.length();
-        let alpha = row.compliance * inv_dt2;
-        // A segment of no length has no direction: it takes no part this time.
-        let (normal, rhs) = if len > f32::EPSILON {
-            (d / len, -(len - s.c.rest_m) - alpha * l)
-        } else {
-            (Vec3::ZERO, 0.0)
-        };
-        row.normal = normal;
-        row.diag = (w[a] + w[b]) * normal.length_squared() + alpha;
-        row.rhs = rhs;
-    }
-    for j in 0..rows.len() {
-        rows[j].off = match rows.get(j + 1) {
-            Some(next) => -w[segs[j].c.b as usize] * rows[j].normal.dot(next.normal),
-            None => 0.0,
-        };
-    }
-    // Forward elimination; the matrix is symmetric, diagonally dominant and positive definite
-    // (alpha~ > 0), so no pivot vanishes.
-    let (mut c_prev, mut d_prev, mut off_prev) = (0.0f32, 0.0f32, 0.0f32);
-    for row in rows.iter_mut() {
-        let pivot = row.diag - off_prev * c_prev;
-        if pivot.is_nan() || pivot <= 0.0 {
-            return;
-        }
-        row.c = row.off / pivot;
-        row.d = (row.rhs - off_prev * d_prev) / pivot;
-        (c_prev, d_prev, off_prev) = (row.c, row.d, row.off);
-    }
-    // Back substitution, applying each segment's change as it comes.
-    let mut next = 0.0f32;
-    for ((row, s), l) in rows.iter().zip(segs).zip(lambda.iter_mut()).rev() {
-        let dl = row.d - row.c * next;
-        next = dl;
-        *l += dl;
-        let (a, b) = (s.c.a as usize, s.c.b as usize);
-        x[a] += row.normal * (w[a] * dl);
-        x[b] -= row.normal * (w[b] * dl);
     }
 }
 

@@ -13,6 +13,7 @@
 //! it stands for), seconds, newtons. A pinned particle has inverse mass 0.
 
 pub mod adhesion;
+pub mod chain;
 pub mod cloth;
 pub mod contacts;
 pub mod shape;

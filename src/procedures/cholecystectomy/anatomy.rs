@@ -440,12 +440,7 @@ type Sheet = (Vec<u32>, Vec<[u32; 3]>, Vec<(u32, u32)>);
 /// The fascia: a sheet from a line along the gallbladder's upper front (60 degrees up from
 /// its equator, towards +z) to the liver's surface above it, its two long edges tied to the
 /// nearest surface particle of each organ.
-fn fascia_sheet(
-    p: &mut Particles,
-    a: &AnatomyParams,
-    gb: &Organ,
-    liver: &Organ,
-) -> Sheet {
+fn fascia_sheet(p: &mut Particles, a: &AnatomyParams, gb: &Organ, liver: &Organ) -> Sheet {
     let [along, across] = a.fascia_nodes.map(|n| n as usize);
     let g = &a.gallbladder;
     let (sin, cos) = 60f32.to_radians().sin_cos();
