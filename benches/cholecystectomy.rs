@@ -1,11 +1,15 @@
 //! Criterion benchmarks of the cholecystectomy's particle models at the size: 20,736
 //! particles (a 48 x 27 x 16 block at 3 mm, the size of a liver) in overlapping
-//! shape-matching clusters, one 1 ms step (predict, iterations of every cluster, finish).
+//! shape-matching clusters, one 1 ms step (predict, iterations of every cluster, finish); and
+//! the whole scene's 1 ms step (21,000 organ particles, vessels, fascia, adhesions, contacts),
+//! every particle awake.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::Vec3;
 use vesalius::models::particles::Particles;
 use vesalius::models::particles::shape::{ShapeMatching, lattice_clusters};
+use vesalius::procedures::cholecystectomy::scene::{CholeScene, SceneParams};
+use vesalius::procedures::cholecystectomy::{Anatomy, AnatomyParams};
 
 fn liver_block() -> (Particles, ShapeMatching) {
     let h = 0.003;
@@ -58,5 +62,22 @@ fn cholecystectomy(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, cholecystectomy);
+fn scene(c: &mut Criterion) {
+    let mut g = c.benchmark_group("cholecystectomy");
+    g.sample_size(20);
+    let a = Anatomy::generate(&AnatomyParams::default()).expect("anatomy");
+    let organs = a.organ_particles();
+    let mut s = CholeScene::new(a, SceneParams::default()).expect("scene");
+    s.settle(0.2, 8, 60.0);
+    eprintln!(
+        "scene: {} particles, {organs} in {} clusters",
+        s.particles.len(),
+        s.shape.clusters()
+    );
+    g.bench_function("scene_step_1ms_all_awake", |b| {
+        b.iter(|| s.step(1e-3, &[None, None]))
+    });
+}
+
+criterion_group!(benches, cholecystectomy, scene);
 criterion_main!(benches);

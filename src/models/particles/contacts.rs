@@ -23,6 +23,8 @@ pub struct BodyContacts {
     /// The members' positions when the pairs were found.
     at_search: Vec<Vec3>,
     pairs: Vec<(u32, u32)>,
+    /// Pairs that never push (sorted): bodies built touching on purpose.
+    ignore: Vec<(u32, u32)>,
     /// Searches so far (for the profiler).
     pub searches: u64,
     /// Pairs in contact at the last projection.
@@ -39,6 +41,19 @@ impl BodyContacts {
             margin_m: margin_m.max(0.0),
             ..BodyContacts::default()
         }
+    }
+
+    /// From now on, the pairs closer than two radii now never push: bodies that are built
+    /// touching (a duct growing out of its organ, a tie) stay as built. Returns how many.
+    pub fn ignore_present_overlaps(&mut self, p: &Particles) -> usize {
+        let margin = self.margin_m;
+        self.margin_m = 0.0;
+        self.ignore.clear();
+        self.search(p);
+        self.ignore = std::mem::take(&mut self.pairs);
+        self.margin_m = margin;
+        self.at_search.clear();
+        self.ignore.len()
     }
 
     /// Candidate pairs now.
@@ -189,7 +204,9 @@ impl BodyContacts {
     }
 
     pub fn heap_bytes(&self) -> usize {
-        self.members.len() * 4 + self.at_search.len() * 12 + self.pairs.len() * 8
+        self.members.len() * 4
+            + self.at_search.len() * 12
+            + (self.pairs.len() + self.ignore.len()) * 8
     }
 }
 
@@ -197,7 +214,8 @@ impl BodyContacts {
 /// different bodies and lay within the reach at the search.
 fn pair(c: &BodyContacts, p: &Particles, k: usize, m: usize, r2: f32) -> Option<(u32, u32)> {
     let (i, j) = (c.members[k], c.members[m]);
-    if i >= j || p.body[i as usize] == p.body[j as usize] {
+    if i >= j || p.body[i as usize] == p.body[j as usize] || c.ignore.binary_search(&(i, j)).is_ok()
+    {
         return None;
     }
     (c.at_search[k].distance_squared(c.at_search[m]) <= r2).then_some((i, j))

@@ -189,3 +189,20 @@ fn a_grasp_holds_a_hanging_weight_and_feels_it() {
         "{sag}"
     );
 }
+
+#[test]
+fn pairs_built_touching_are_left_as_built() {
+    let mut p = Particles::new();
+    p.add(Vec3::ZERO, 1e-5, 0);
+    p.add(Vec3::new(0.001, 0.0, 0.0), 1e-5, 1);
+    p.add(Vec3::new(0.0, 0.01, 0.0), 1e-5, 2);
+    let mut c = BodyContacts::new(vec![0, 1, 2], 0.001, 0.0005);
+    assert_eq!(c.ignore_present_overlaps(&p), 1);
+    // The third comes down onto the first: it is pushed; the first two stay 1 mm apart.
+    p.x[2] = Vec3::new(0.0, 0.0015, 0.0);
+    c.refresh(&p);
+    assert_eq!(c.pairs(), &[(0, 2), (1, 2)]);
+    c.project(&mut p);
+    assert!((p.x[0].distance(p.x[1]) - 0.001).abs() < 2e-4, "{:?}", p.x);
+    assert!(p.x[2].distance(p.x[0]) > 0.0019, "{:?}", p.x);
+}

@@ -82,8 +82,10 @@ pub struct VesselShape {
 #[derive(Debug, Clone, PartialEq)]
 pub struct AnatomyParams {
     pub liver: OrganShape,
-    /// Liver particles above this height are pinned (it hangs from the diaphragm), m.
+    /// Liver particles above this height (it hangs from the diaphragm) or behind this depth
+    /// (its bare area, on the posterior wall) are pinned, m.
     pub liver_pinned_above_m: f32,
+    pub liver_pinned_behind_m: f32,
     pub gallbladder: OrganShape,
     pub fat: OrganShape,
     pub cystic_duct: VesselShape,
@@ -97,6 +99,10 @@ pub struct AnatomyParams {
     pub fascia_density_kg_per_m3: f32,
     /// Every how many of the gallbladder's upper surface particles an adhesion strand starts.
     pub adhesion_every: u32,
+    /// Every how many of the fat's surface particles a strand binds it to the nearest other
+    /// organ or vessel particle within `fat_bond_reach_m`.
+    pub fat_bond_every: u32,
+    pub fat_bond_reach_m: f32,
 }
 
 impl Default for AnatomyParams {
@@ -112,6 +118,7 @@ impl Default for AnatomyParams {
                 density_kg_per_m3: 1060.0,
             },
             liver_pinned_above_m: 0.072,
+            liver_pinned_behind_m: -0.045,
             gallbladder: OrganShape {
                 centre_m: Vec3::new(0.0, -0.001, 0.0),
                 semi_axes_m: Vec3::new(0.04, 0.014, 0.016),
@@ -150,7 +157,9 @@ impl Default for AnatomyParams {
             fascia_nodes: [24, 5],
             fascia_thickness_m: 0.0005,
             fascia_density_kg_per_m3: 1000.0,
-            adhesion_every: 6,
+            adhesion_every: 2,
+            fat_bond_every: 1,
+            fat_bond_reach_m: 0.008,
         }
     }
 }
@@ -199,6 +208,9 @@ pub struct Anatomy {
     pub ties: Vec<(u32, u32)>,
     /// Adhesion pairs: a gallbladder particle and a liver particle.
     pub adhesion_pairs: Vec<(u32, u32)>,
+    /// The fat's loose connective tissue: a fat surface particle and the nearest particle of
+    /// another organ or a vessel.
+    pub fat_pairs: Vec<(u32, u32)>,
     /// Calot's triangle: the cystic duct's start at the neck, the junction with the common
     /// hepatic duct, the hilum (the inferior border of the liver), m.
     pub calot: [Vec3; 3],
@@ -230,7 +242,8 @@ impl Anatomy {
             }),
         ];
         for i in organs[0].range.clone() {
-            if p.x[i as usize].y > a.liver_pinned_above_m {
+            let x = p.x[i as usize];
+            if x.y > a.liver_pinned_above_m || x.z < a.liver_pinned_behind_m {
                 p.pin(i as usize);
             }
         }
@@ -249,16 +262,7 @@ impl Anatomy {
         // The cystic duct starts at the gallbladder's neck; the artery ends on it; the common
         // hepatic duct comes out of the liver; the far ends run on out of the field.
         let nearest_in = |p: &Particles, o: &Organ, x: Vec3| {
-            o.surface
-                .iter()
-                .copied()
-                .min_by(|&i, &j| {
-                    p.x[i as usize]
-                        .distance_squared(x)
-                        .total_cmp(&p.x[j as usize].distance_squared(x))
-                        .then(i.cmp(&j))
-                })
-                .unwrap_or(o.range.start)
+            nearest_of(p, o.surface.iter().copied(), x).unwrap_or(o.range.start)
         };
         let (gb, liver) = (&organs[1], &organs[0]);
         let cd = &vessels[0];
@@ -277,6 +281,7 @@ impl Anatomy {
         let (fascia, fascia_triangles, fascia_ties) = fascia_sheet(&mut p, a, gb, liver);
         ties.extend(fascia_ties);
         let adhesion_pairs = adhesions(&p, a, gb, liver);
+        let fat_pairs = fat_bonds(&p, a, &organs, &vessels);
         let calot = [
             a.cystic_duct.points[0],
             *a.cystic_duct.points.last().unwrap_or(&Vec3::ZERO),
@@ -290,6 +295,7 @@ impl Anatomy {
             fascia_triangles,
             ties,
             adhesion_pairs,
+            fat_pairs,
             calot,
         })
     }
@@ -346,6 +352,12 @@ fn check(a: &AnatomyParams) -> Result<(), AnatomyError> {
     }
     if a.adhesion_every == 0 {
         return bad("adhesion_every", "must be at least 1");
+    }
+    if a.fat_bond_every == 0 {
+        return bad("fat_bond_every", "must be at least 1");
+    }
+    if !(a.fat_bond_reach_m > 0.0 && a.fat_bond_reach_m.is_finite()) {
+        return bad("fat_bond_reach_m", "must be a positive length in metres");
     }
     Ok(())
 }
@@ -478,18 +490,8 @@ fn fascia_sheet(p: &mut Particles, a: &AnatomyParams, gb: &Organ, liver: &Organ)
             tris.push([a1, b0, b1]);
         }
     }
-    let nearest = |o: &Organ, x: Vec3| {
-        o.surface
-            .iter()
-            .copied()
-            .min_by(|&i, &j| {
-                p.x[i as usize]
-                    .distance_squared(x)
-                    .total_cmp(&p.x[j as usize].distance_squared(x))
-                    .then(i.cmp(&j))
-            })
-            .unwrap_or(o.range.start)
-    };
+    let nearest =
+        |o: &Organ, x: Vec3| nearest_of(p, o.surface.iter().copied(), x).unwrap_or(o.range.start);
     let mut ties = Vec::new();
     for i in 0..along {
         let (lo, hi) = (ids[i * across], ids[i * across + across - 1]);
@@ -520,19 +522,48 @@ fn adhesions(p: &Particles, a: &AnatomyParams, gb: &Organ, liver: &Organ) -> Vec
         .step_by(a.adhesion_every as usize)
         .filter_map(|&g| {
             let x = p.x[g as usize];
-            lower
-                .iter()
-                .copied()
-                .filter(|&l| p.x[l as usize].y > x.y)
-                .min_by(|&i, &j| {
-                    p.x[i as usize]
-                        .distance_squared(x)
-                        .total_cmp(&p.x[j as usize].distance_squared(x))
-                        .then(i.cmp(&j))
-                })
-                .map(|l| (g, l))
+            let above = lower.iter().copied().filter(|&l| p.x[l as usize].y > x.y);
+            nearest_of(p, above, x).map(|l| (g, l))
         })
         .collect()
+}
+
+/// Every `fat_bond_every`-th fat surface particle with the nearest particle of the liver's or
+/// gallbladder's surface or of a vessel, if within `fat_bond_reach_m`.
+fn fat_bonds(
+    p: &Particles,
+    a: &AnatomyParams,
+    organs: &[Organ],
+    vessels: &[Vessel],
+) -> Vec<(u32, u32)> {
+    let others: Vec<u32> = organs[..2]
+        .iter()
+        .flat_map(|o| o.surface.iter().copied())
+        .chain(vessels.iter().flat_map(|v| v.chain.iter().copied()))
+        .collect();
+    let reach2 = a.fat_bond_reach_m * a.fat_bond_reach_m;
+    organs[2]
+        .surface
+        .iter()
+        .step_by(a.fat_bond_every as usize)
+        .filter_map(|&f| {
+            let x = p.x[f as usize];
+            let apart = others.iter().copied().filter(|&o| p.x[o as usize] != x);
+            nearest_of(p, apart, x)
+                .filter(|&o| p.x[o as usize].distance_squared(x) <= reach2)
+                .map(|o| (f, o))
+        })
+        .collect()
+}
+
+/// The particle of `among` nearest `x` (ties to the lower index).
+fn nearest_of(p: &Particles, among: impl Iterator<Item = u32>, x: Vec3) -> Option<u32> {
+    among.min_by(|&i, &j| {
+        p.x[i as usize]
+            .distance_squared(x)
+            .total_cmp(&p.x[j as usize].distance_squared(x))
+            .then(i.cmp(&j))
+    })
 }
 
 #[cfg(test)]

@@ -4,5 +4,6 @@
 //! follow.
 
 pub mod anatomy;
+pub mod scene;
 
 pub use anatomy::{Anatomy, AnatomyError, AnatomyParams};

@@ -1,0 +1,117 @@
+use super::*;
+use crate::procedures::cholecystectomy::AnatomyParams;
+use glam::Quat;
+
+/// The shipped anatomy, laid out (half a second of settling).
+fn scene() -> CholeScene {
+    let a = Anatomy::generate(&AnatomyParams::default()).expect("anatomy");
+    let mut s = CholeScene::new(a, SceneParams::default()).expect("scene");
+    let laid = s.settle(0.5, 8, 60.0);
+    assert!(laid < 0.015, "laying out moved {laid} m");
+    s
+}
+
+fn largest_move(s: &CholeScene, from: &[Vec3], bodies: std::ops::RangeInclusive<u16>) -> f32 {
+    s.particles
+        .x
+        .iter()
+        .zip(from)
+        .enumerate()
+        .filter(|(i, _)| bodies.contains(&s.particles.body[*i]))
+        .map(|(_, (a, b))| a.distance(*b))
+        .fold(0.0, f32::max)
+}
+
+#[test]
+fn laid_out_and_left_alone_the_scene_stays_put() {
+    let mut s = scene();
+    let start = s.particles.x.clone();
+    let none = [None, None];
+    for _ in 0..400 {
+        let out = s.step(1e-3, &none);
+        assert!(out.breaks.is_empty(), "a gallbladder strand tore by itself");
+    }
+    assert!(s.particles.is_finite());
+    // Organs, vessels and fascia stay within 3 mm; the fat's strands hold (a few may creep
+    // past their tear strain).
+    let moved = largest_move(&s, &start, body::LIVER..=body::FASCIA);
+    assert!(moved < 0.003, "{moved}");
+    assert!(
+        s.fat_bonds.torn_segments() * 20 < s.fat_bonds.strands(),
+        "{} of {}",
+        s.fat_bonds.torn_segments(),
+        s.fat_bonds.strands()
+    );
+}
+
+/// A grasper from above (forward -Z turned to point down), its jaw at `jaw`.
+fn grasper(jaw: Vec3, closed: bool) -> HandTool {
+    let q = Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2);
+    HandTool {
+        instrument: Instrument::grasper(jaw, q, 0.0).expect("grasper"),
+        jaw,
+        closed,
+    }
+}
+
+#[test]
+fn pulling_the_fundus_away_tears_the_adhesions_and_is_felt() {
+    let mut s = scene();
+    // The fundus: the gallbladder's surface particle furthest along +x.
+    let p = &s.particles;
+    let gb = &s.anatomy.organs[1];
+    let fundus = gb
+        .surface
+        .iter()
+        .copied()
+        .max_by(|&a, &b| p.x[a as usize].x.total_cmp(&p.x[b as usize].x))
+        .expect("fundus");
+    let start = p.x[fundus as usize];
+    // Closed on it, pulled down 1 mm: it holds, nothing tears, the grasper feels the pull.
+    let mut torn = 0;
+    let mut reaction = Vec3::ZERO;
+    for k in 0..200 {
+        let jaw = start - Vec3::Y * (0.001 * (k as f32 / 199.0));
+        let out = s.step(1e-3, &[None, Some(grasper(jaw, true))]);
+        torn += out.breaks.len();
+        reaction = out.reactions[1];
+        assert!(out.held[1] > 0, "the grasp holds particles");
+    }
+    assert_eq!(torn, 0);
+    assert!(
+        reaction.y > 0.0,
+        "the tissue pulls the grasper back up: {reaction}"
+    );
+    // Then down and out 4 cm over 2 s: the adhesions tear, one by one.
+    let mut steps_with_tears = 0;
+    for k in 0..2000 {
+        let t = k as f32 / 1999.0;
+        let jaw = start - Vec3::Y * (0.001 + 0.04 * t) + Vec3::X * 0.01 * t;
+        let out = s.step(1e-3, &[None, Some(grasper(jaw, true))]);
+        torn += out.breaks.len();
+        steps_with_tears += usize::from(!out.breaks.is_empty());
+    }
+    assert!(torn >= 10, "{torn}");
+    assert!(steps_with_tears >= 5, "not all at once: {steps_with_tears}");
+    assert!(s.particles.is_finite());
+}
+
+#[test]
+fn one_or_two_threads_give_the_same_bytes() {
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("pool");
+        pool.install(|| {
+            let a = Anatomy::generate(&AnatomyParams::default()).expect("anatomy");
+            let mut s = CholeScene::new(a, SceneParams::default()).expect("scene");
+            s.settle(0.05, 4, 60.0);
+            for _ in 0..50 {
+                s.step(1e-3, &[None, None]);
+            }
+            s.state_hash()
+        })
+    };
+    assert_eq!(run(1), run(2));
+}
