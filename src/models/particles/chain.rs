@@ -220,6 +220,30 @@ impl Chains {
             .min_by(|x, y| x.1.total_cmp(&y.1).then(x.0.cmp(&y.0)))
     }
 
+    /// The particles segment `k` of chain `c` joins.
+    pub fn segment_ends(&self, c: usize, k: usize) -> Option<(u32, u32)> {
+        let i = self.spans.get(c)?.segs.clone().nth(k)?;
+        Some((self.segs[i].a, self.segs[i].b))
+    }
+
+    /// Rest length of segment `k` of chain `c`, m (0 if there is none).
+    pub fn rest_length(&self, c: usize, k: usize) -> f32 {
+        self.spans
+            .get(c)
+            .and_then(|s| s.segs.clone().nth(k))
+            .map_or(0.0, |i| self.segs[i].rest_m)
+    }
+
+    /// Rest length of chain `c` before its segment `k`, m (the arc length of its start).
+    pub fn rest_length_before(&self, c: usize, k: usize) -> f32 {
+        self.spans.get(c).map_or(0.0, |s| {
+            self.segs[s.segs.start..s.segs.end.min(s.segs.start + k)]
+                .iter()
+                .map(|g| g.rest_m)
+                .sum()
+        })
+    }
+
     /// The tension segment `k` of chain `c` carried over the last step, N (positive pulls).
     pub fn tension_n(&self, c: usize, k: usize) -> f32 {
         let Some(i) = self.spans.get(c).and_then(|s| s.segs.clone().nth(k)) else {

@@ -4,6 +4,7 @@
 //! follow.
 
 pub mod anatomy;
+pub mod clips;
 pub mod scene;
 
 pub use anatomy::{Anatomy, AnatomyError, AnatomyParams};
