@@ -473,7 +473,11 @@ pub fn rotation_of(a: &Mat3, q: Quat, iterations: usize) -> Quat {
         if angle.is_nan() || angle <= ROTATION_TOLERANCE_RAD {
             break;
         }
-        q = (Quat::from_axis_angle(omega / angle, angle) * q).normalize();
+        // The turn by `omega` as the normalised quaternion `(omega / 2, 1)`: the exponential
+        // map to second order without its sine and cosine (a large turn, from a cold start,
+        // is under-taken and finished by the next iterations).
+        let turn = Quat::from_xyzw(0.5 * omega.x, 0.5 * omega.y, 0.5 * omega.z, 1.0).normalize();
+        q = (turn * q).normalize();
     }
     q
 }
