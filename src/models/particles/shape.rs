@@ -25,7 +25,7 @@
 //! one after another in cluster order, so the bytes do not depend on the thread count.
 
 use super::Particles;
-use glam::{Mat3, Quat, Vec3};
+use glam::{Mat3, Quat, Vec3, Vec3A};
 use rayon::prelude::*;
 
 /// Iterations of the rotation extraction per projection at most: from a cold start (the
@@ -85,8 +85,8 @@ struct Cluster {
     mw: Vec<f32>,
     mw_sum: f32,
     /// Rest offsets from the rest centre of mass, m, and the same times `mw`, kg m.
-    rest: Vec<Vec3>,
-    mw_rest: Vec<Vec3>,
+    rest: Vec<Vec3A>,
+    mw_rest: Vec<Vec3A>,
     /// The centre of mass at the last projection (the origin the sums are taken about, so
     /// that they stay small wherever the body is), m.
     centre: Vec3,
@@ -104,7 +104,7 @@ struct Cluster {
 pub struct ShapeMatching {
     clusters: Vec<Cluster>,
     /// Every cluster's goals of the last projection, cluster after cluster, m.
-    goals: Vec<Vec3>,
+    goals: Vec<Vec3A>,
     /// For each particle, its (cluster, slot) entries in cluster order: `entries[offsets[i]..
     /// offsets[i + 1]]`; `goal_of[e]` is entry `e`'s goal in `goals`.
     offsets: Vec<u32>,
@@ -114,7 +114,7 @@ pub struct ShapeMatching {
     /// particle).
     rate: Vec<f32>,
     /// Each entry's XPBD multiplier over the step times its particle's inverse mass, m.
-    mu: Vec<Vec3>,
+    mu: Vec<Vec3A>,
     /// For the step `coef_dt` (s): each entry's `beta = m / (k dt^2)` and `1 / (1 + beta)`.
     coef: Vec<[f32; 2]>,
     coef_dt: f32,
@@ -196,7 +196,11 @@ impl ShapeMatching {
                 .collect();
             let mw_sum: f32 = mw.iter().sum();
             let c0 = weighted_centre(&p.x, &s.members, &mw, mw_sum);
-            let rest: Vec<Vec3> = s.members.iter().map(|&i| p.x[i as usize] - c0).collect();
+            let rest: Vec<Vec3A> = s
+                .members
+                .iter()
+                .map(|&i| Vec3A::from(p.x[i as usize] - c0))
+                .collect();
             let mw_rest = rest.iter().zip(&mw).map(|(q, m)| *q * *m).collect();
             clusters.push(Cluster {
                 members: s.members,
@@ -248,7 +252,7 @@ impl ShapeMatching {
                 rate[e] = weight(&entries[e]) / total * c.omega2;
             }
         }
-        let mu = vec![Vec3::ZERO; entries.len()];
+        let mu = vec![Vec3A::ZERO; entries.len()];
         let mut runs: Vec<(usize, usize)> = Vec::new();
         let mut start = 0;
         while start < n {
@@ -265,7 +269,7 @@ impl ShapeMatching {
             .collect();
         Ok(ShapeMatching {
             clusters,
-            goals: vec![Vec3::ZERO; first_goal_at],
+            goals: vec![Vec3A::ZERO; first_goal_at],
             offsets,
             entries,
             goal_of,
@@ -298,12 +302,12 @@ impl ShapeMatching {
 
     /// Cluster `k`'s goal for its member `slot` after the last projection, m.
     pub fn goal(&self, k: usize, slot: usize) -> Vec3 {
-        self.goals[self.clusters[k].first_goal + slot]
+        self.goals[self.clusters[k].first_goal + slot].into()
     }
 
     /// Computes every cluster's rotation and goals from the present positions (steps 1-3).
     pub fn match_goals(&mut self, x: &[Vec3]) {
-        let mut slices: Vec<&mut [Vec3]> = Vec::with_capacity(self.clusters.len());
+        let mut slices: Vec<&mut [Vec3A]> = Vec::with_capacity(self.clusters.len());
         let mut rest = &mut self.goals[..];
         for c in &self.clusters {
             let (here, after) = std::mem::take(&mut rest).split_at_mut(c.members.len());
@@ -319,7 +323,7 @@ impl ShapeMatching {
 
     /// Starts a step: the springs' multipliers back to zero.
     pub fn begin_step(&mut self) {
-        self.mu.fill(Vec3::ZERO);
+        self.mu.fill(Vec3A::ZERO);
     }
 
     /// One iteration of a step of `dt_s`: goals, then every free particle through its
@@ -338,7 +342,7 @@ impl ShapeMatching {
             }
         }
         let mut xs: Vec<&mut [Vec3]> = Vec::with_capacity(self.runs.len());
-        let mut ms: Vec<&mut [Vec3]> = Vec::with_capacity(self.runs.len());
+        let mut ms: Vec<&mut [Vec3A]> = Vec::with_capacity(self.runs.len());
         let (mut xr, mut mr) = (&mut p.x[..], &mut self.mu[..]);
         for &(a, b) in &self.runs {
             let (x_here, x_rest) = std::mem::take(&mut xr).split_at_mut(b - a);
@@ -364,6 +368,9 @@ impl ShapeMatching {
                     if w[i] <= 0.0 {
                         continue;
                     }
+                    // Three lanes at once (the same operations, in the same order, as on
+                    // each coordinate alone).
+                    let mut xa = Vec3A::from(*x);
                     for e in offsets[i] as usize..offsets[i + 1] as usize {
                         let [beta, inv] = coef[e];
                         if inv <= 0.0 {
@@ -371,10 +378,11 @@ impl ShapeMatching {
                         }
                         let g = goals[goal_of[e] as usize];
                         let m = &mut ms[e - base];
-                        let d = (g - *x - beta * *m) * inv;
+                        let d = (g - xa - beta * *m) * inv;
                         *m += d;
-                        *x += d;
+                        xa += d;
                     }
+                    *x = xa.into();
                 }
             });
     }
@@ -387,7 +395,7 @@ impl ShapeMatching {
             .members
             .iter()
             .zip(&self.goals[c.first_goal..])
-            .map(|(&i, g)| (x[i as usize] - *g).length_squared())
+            .map(|(&i, g)| (Vec3A::from(x[i as usize]) - *g).length_squared())
             .sum();
         (s / c.members.len() as f32).sqrt()
     }
@@ -409,22 +417,23 @@ impl Cluster {
     /// Steps 1-3 in one pass over the members: about the last centre `o`, `sum m (x - o)`
     /// gives the centre and `sum (x - o) (m q)^T` is `A` (the rest offsets' weighted sum is
     /// zero, so the origin drops out of `A`).
-    fn match_goals(&mut self, x: &[Vec3], goals: &mut [Vec3]) {
+    fn match_goals(&mut self, x: &[Vec3], goals: &mut [Vec3A]) {
         if !self.warm {
             // The body may be anywhere now: the sums about where it is.
             self.centre = weighted_centre(x, &self.members, &self.mw, self.mw_sum);
         }
-        let o = self.centre;
-        let (mut sum, mut ax, mut ay, mut az) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
+        let o = Vec3A::from(self.centre);
+        let (mut sum, mut ax, mut ay, mut az) =
+            (Vec3A::ZERO, Vec3A::ZERO, Vec3A::ZERO, Vec3A::ZERO);
         for ((&i, &m), mq) in self.members.iter().zip(&self.mw).zip(&self.mw_rest) {
-            let d = x[i as usize] - o;
+            let d = Vec3A::from(x[i as usize]) - o;
             sum += d * m;
             ax += d * mq.x;
             ay += d * mq.y;
             az += d * mq.z;
         }
         let c = o + sum / self.mw_sum;
-        let a = Mat3::from_cols(ax, ay, az);
+        let a = Mat3::from_cols(ax.into(), ay.into(), az.into());
         let most = if self.warm {
             WARM_ROTATION_ITERATIONS
         } else {
@@ -432,8 +441,8 @@ impl Cluster {
         };
         self.q = rotation_of(&a, self.q, most);
         self.warm = true;
-        self.centre = c;
-        let r = Mat3::from_quat(self.q);
+        self.centre = c.into();
+        let r = glam::Mat3A::from_quat(self.q);
         for (g, q) in goals.iter_mut().zip(&self.rest) {
             *g = r * *q + c;
         }
