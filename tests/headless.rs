@@ -125,6 +125,35 @@ fn the_demo_removes_the_tumour_by_cutting_and_replays_byte_for_byte() {
         std::fs::read(out2.join("events.jsonl")).expect("events"),
         std::fs::read(dir.join("events.jsonl")).expect("events")
     );
+    // Replayed with frames: the same bytes, and two stereo frames of the size asked for.
+    let out3 = dir.join("replayed-frames");
+    let status = bin()
+        .args(["replay"])
+        .arg(dir.join("input.vtrace"))
+        .args(["--out"])
+        .arg(&out3)
+        .args(["--frames", "2", "--eye-size", "64x48"])
+        .status()
+        .expect("runs");
+    assert!(status.success());
+    assert_eq!(
+        std::fs::read(out3.join("report.json")).expect("replayed report"),
+        report
+    );
+    for f in [
+        "left_0000.png",
+        "right_0000.png",
+        "left_0001.png",
+        "right_0001.png",
+    ] {
+        let png = std::fs::read(out3.join("frames").join(f)).expect(f);
+        let reader = png::Decoder::new(std::io::Cursor::new(png))
+            .read_info()
+            .expect("png");
+        let info = reader.info();
+        assert_eq!((info.width, info.height), (64, 48), "{f}");
+    }
+    assert!(out3.join("profiler.csv").is_file());
 }
 
 fn run_cli(dir: &Path, threads: &str) -> Vec<u8> {

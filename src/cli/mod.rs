@@ -52,6 +52,13 @@ enum Command {
         /// Output folder (not the recording's own).
         #[arg(long, value_name = "DIR")]
         out: PathBuf,
+        /// Also render N evenly spaced stereo frames of the replayed session into
+        /// DIR/frames/ and DIR/profiler.csv (the session's bytes are the same either way).
+        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=10_000))]
+        frames: Option<u32>,
+        /// Eye size of those frames in pixels (default: the Vive's 1080x1200).
+        #[arg(long, value_name = "WxH", value_parser = parse_size, requires = "frames")]
+        eye_size: Option<(u32, u32)>,
     },
     /// Validate scenarios, keyframed traces, recordings, interaction profiles and simulated
     /// runtime settings; errors name the file, the key and what is expected.
@@ -422,7 +429,12 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Command::Demo { out } => session::demo(&out),
         Command::Run(args) => session::run(*args),
-        Command::Replay { recording, out } => session::replay(&recording, &out),
+        Command::Replay {
+            recording,
+            out,
+            frames,
+            eye_size,
+        } => session::replay(&recording, &out, frames, eye_size),
         Command::Check { files } => tools::check(&files),
         Command::Bench { procedure, json } => tools::bench(procedure.as_deref(), json),
         Command::Profile {

@@ -402,8 +402,14 @@ fn run_xr_sim(a: &RunArgs, trace: &Path) -> Result<(), CliError> {
     Ok(())
 }
 
-/// `replay`: the recorded session again into another folder.
-pub fn replay(recorded: &Path, out: &Path) -> Result<(), CliError> {
+/// `replay`: the recorded session again into another folder, with `frames` stereo frames of
+/// it rendered there if asked.
+pub fn replay(
+    recorded: &Path,
+    out: &Path,
+    frames: Option<u32>,
+    eye_size: Option<(u32, u32)>,
+) -> Result<(), CliError> {
     let rec = Recording::read(recorded)?;
     let own = recorded.parent().map(|p| {
         if p.as_os_str().is_empty() {
@@ -436,11 +442,16 @@ pub fn replay(recorded: &Path, out: &Path) -> Result<(), CliError> {
     let scenario = rec.scenario.clone();
     let opts = Options {
         out: Some(out),
+        frames_wanted: frames.unwrap_or(0),
         ..Options::default()
     };
     let outcome = session::run_with(&scenario, &file, Input::Recorded(rec), &opts)?;
     finish(&outcome, Some(out))?;
-    interrupted()
+    interrupted()?;
+    if frames.is_some() {
+        render_frames(&outcome, out, eye_size)?;
+    }
+    Ok(())
 }
 
 /// `demo`: every registered procedure's demo trace, headless, into DIR/<procedure>/.
