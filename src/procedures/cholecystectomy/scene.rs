@@ -16,6 +16,7 @@
 //! - the fascia's edges are springs `E t` (a square of sheet pulled along one side).
 
 use super::anatomy::{Anatomy, body};
+use super::clips::{Clippable, CutError, PatientEnd};
 use crate::collision::Instrument;
 use crate::models::particles::Particles;
 use crate::models::particles::adhesion::{Adhesion, AdhesionBreak, AdhesionParams};
@@ -120,6 +121,16 @@ pub struct HandTool {
     pub instrument: Instrument,
     pub jaw: Vec3,
     pub closed: bool,
+}
+
+/// What a cut of the hook or the scissors took.
+#[derive(Debug, Clone, Default)]
+pub struct Dissection {
+    /// Fascia constraints removed.
+    pub fascia: usize,
+    /// Adhesion strands and fat strands cut.
+    pub adhesions: Vec<AdhesionBreak>,
+    pub fat_strands: Vec<AdhesionBreak>,
 }
 
 /// What a step did.
@@ -269,6 +280,47 @@ impl CholeScene {
             .zip(&start)
             .map(|(a, b)| a.distance(*b))
             .fold(0.0, f32::max)
+    }
+
+    /// The hook's current (or the scissors) at `at`: cuts the fascia's constraints, the
+    /// adhesion strands and the fat's strands within `radius_m`.
+    pub fn dissect(&mut self, at: Vec3, radius_m: f32) -> Dissection {
+        Dissection {
+            fascia: self.fascia.cut_near(at, radius_m, &self.particles),
+            adhesions: self.adhesion.cut_near(at, radius_m, &self.particles),
+            fat_strands: self.fat_bonds.cut_near(at, radius_m, &self.particles),
+        }
+    }
+
+    /// Particles of body `b` within `radius_m` of `at` (the hook on the liver's capsule).
+    pub fn touching(&self, b: u16, at: Vec3, radius_m: f32) -> usize {
+        let r2 = radius_m * radius_m;
+        self.particles
+            .x
+            .iter()
+            .zip(&self.particles.body)
+            .filter(|(x, body)| **body == b && x.distance_squared(at) <= r2)
+            .count()
+    }
+
+    /// The vessels that take clips and cuts: the cystic duct (the patient towards the
+    /// junction, its chain's end) and the cystic artery (the patient at the hepatic artery,
+    /// its chain's start).
+    pub fn clippable(&self) -> [Clippable; 2] {
+        [
+            Clippable {
+                chain: 0,
+                name: "cystic_duct",
+                patient: PatientEnd::Last,
+                error: CutError::BileLeak,
+            },
+            Clippable {
+                chain: 3,
+                name: "cystic_artery",
+                patient: PatientEnd::First,
+                error: CutError::Bleeding,
+            },
+        ]
     }
 
     /// The particles hand `h`'s grasp holds.

@@ -115,3 +115,32 @@ fn one_or_two_threads_give_the_same_bytes() {
     };
     assert_eq!(run(1), run(2));
 }
+
+#[test]
+fn the_hook_cuts_what_is_near_it_and_knows_the_liver_when_it_touches_it() {
+    let mut s = scene();
+    // On a fascia node in the middle of the sheet: its constraints go, no strand far away.
+    let mid = s.anatomy.fascia[s.anatomy.fascia.len() / 2];
+    let at = s.particles.x[mid as usize];
+    let edges = s.fascia.edges();
+    let cut = s.dissect(at, 0.0015);
+    assert!(cut.fascia > 0);
+    assert!(s.fascia.edges() < edges && edges - s.fascia.edges() <= cut.fascia);
+    // At an adhesion strand's middle: that strand is cut.
+    let strand = s.adhesion.strand_particles(0);
+    let middle = s.particles.x[strand[strand.len() / 2] as usize];
+    let cut = s.dissect(middle, 0.0005);
+    assert!(cut.adhesions.iter().any(|b| b.strand == 0), "{cut:?}");
+    // The liver's capsule: a liver surface particle is touched, a point 2 cm below the
+    // gallbladder touches nothing of the liver.
+    let on_liver = s.particles.x[s.anatomy.organs[0].surface[0] as usize];
+    assert!(s.touching(body::LIVER, on_liver, 0.001) >= 1);
+    assert_eq!(
+        s.touching(body::LIVER, Vec3::new(0.0, -0.04, 0.0), 0.002),
+        0
+    );
+    // The clippable vessels are the chains the anatomy built in that order.
+    let [duct, artery] = s.clippable();
+    assert_eq!(s.anatomy.vessels[duct.chain].body, body::CYSTIC_DUCT);
+    assert_eq!(s.anatomy.vessels[artery.chain].body, body::CYSTIC_ARTERY);
+}
