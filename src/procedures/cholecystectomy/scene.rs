@@ -323,6 +323,40 @@ impl CholeScene {
         ]
     }
 
+    /// How much of Calot's triangle the laparoscope sees: the share of points on a
+    /// barycentric grid over the triangle (`n` per side) from which the ray towards the
+    /// camera (`towards_camera`, a direction) passes no fat particle closer than
+    /// `radius_m`. 1: cleared; the fat as built covers most of it.
+    pub fn calot_exposure(&self, towards_camera: Vec3, n: usize, radius_m: f32) -> f32 {
+        let Some(dir) = towards_camera.try_normalize() else {
+            return 0.0;
+        };
+        let [a, b, c] = self.anatomy.calot;
+        let fat: Vec<Vec3> = self
+            .particles
+            .x
+            .iter()
+            .zip(&self.particles.body)
+            .filter(|(_, b)| **b == body::FAT)
+            .map(|(x, _)| *x)
+            .collect();
+        let n = n.max(1);
+        let (mut seen, mut all) = (0u32, 0u32);
+        for i in 0..=n {
+            for j in 0..=n - i {
+                let (u, v) = (i as f32 / n as f32, j as f32 / n as f32);
+                let q = a + (b - a) * u + (c - a) * v;
+                all += 1;
+                let hidden = fat.iter().any(|f| {
+                    let t = (*f - q).dot(dir);
+                    t > 0.0 && (*f - q - dir * t).length_squared() < radius_m * radius_m
+                });
+                seen += u32::from(!hidden);
+            }
+        }
+        seen as f32 / all as f32
+    }
+
     /// The particles hand `h`'s grasp holds.
     pub fn held(&self, h: usize) -> Vec<u32> {
         self.grasps

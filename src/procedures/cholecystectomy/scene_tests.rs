@@ -144,3 +144,22 @@ fn the_hook_cuts_what_is_near_it_and_knows_the_liver_when_it_touches_it() {
     assert_eq!(s.anatomy.vessels[duct.chain].body, body::CYSTIC_DUCT);
     assert_eq!(s.anatomy.vessels[artery.chain].body, body::CYSTIC_ARTERY);
 }
+
+#[test]
+fn calots_triangle_is_hidden_by_its_fat_until_the_fat_is_cleared() {
+    let mut s = scene();
+    let towards_camera = Vec3::Z;
+    let covered = s.calot_exposure(towards_camera, 12, 0.002);
+    assert!(covered < 0.5, "{covered}");
+    // The fat taken away (moved 10 cm aside): all of it seen.
+    for (x, b) in s.particles.x.iter_mut().zip(&s.particles.body) {
+        if *b == body::FAT {
+            x.x += 0.1;
+        }
+    }
+    assert_eq!(s.calot_exposure(towards_camera, 12, 0.002), 1.0);
+    // Seen from behind, the fat in front does not hide it either.
+    let s = scene();
+    let behind = s.calot_exposure(-Vec3::Z, 12, 0.002);
+    assert!(behind > covered, "{behind} vs {covered}");
+}
