@@ -17,6 +17,7 @@ mod cosserat_cases;
 mod forces_cases;
 pub mod hertz_cases;
 pub(crate) mod membrane_cases;
+pub(crate) mod particle_cases;
 mod softbody_cases;
 pub mod softbody_contact_cases;
 mod xpbd_cases;
@@ -142,6 +143,7 @@ pub fn cases() -> Vec<Case> {
     all.extend(collision_cases::cases());
     all.extend(cosserat_cases::cases());
     all.extend(membrane_cases::cases());
+    all.extend(particle_cases::cases());
     all
 }
 

@@ -1,4 +1,4 @@
-use super::shape::{ClusterSpec, ShapeMatching, frequency_for, lattice_clusters, rotation_of};
+use super::shape::{ClusterSpec, ShapeMatching, lattice_clusters, rotation_of};
 use super::*;
 use glam::{Mat3, Quat};
 
@@ -196,61 +196,13 @@ fn one_or_two_threads_give_the_same_bytes() {
     assert_eq!(hash(1), hash(2));
 }
 
-/// A column of 10 x `ny` x 10 particles 3.5 mm apart (liver: 1060 kg/m^3, 5 kPa) in the
-/// scene's clusters (every 3 lattice steps, reaching 2.5), pinned along its top layer and
-/// hanging under gravity: the mean drop of its bottom layer at rest, m.
-fn column_sag(ny: usize, iterations: usize) -> f32 {
-    let (h, rho, e) = (0.0035, 1060.0, 5000.0);
-    let mut p = Particles::new();
-    for a in 0..10 {
-        for b in 0..ny {
-            for c in 0..10 {
-                p.add(
-                    Vec3::new(a as f32, -(b as f32), c as f32) * h,
-                    rho * h * h * h,
-                    0,
-                );
-            }
-        }
-    }
-    let all: Vec<u32> = (0..p.len() as u32).collect();
-    let r = 2.5 * h;
-    let specs = lattice_clusters(&p.x, &all, h, 3, r, frequency_for(e, rho, r));
-    let mut s = ShapeMatching::new(&p, specs).expect("clusters");
-    for i in 0..p.len() {
-        if p.x[i].y == 0.0 {
-            p.pin(i);
-        }
-    }
-    let bottom: Vec<usize> = (0..p.len())
-        .filter(|&i| p.x[i].y < -(ny as f32 - 1.5) * h)
-        .collect();
-    let mean = |p: &Particles| bottom.iter().map(|&i| p.x[i].y).sum::<f32>() / bottom.len() as f32;
-    let y0 = mean(&p);
-    run_damped(&mut p, &mut s, iterations, 3000);
-    y0 - mean(&p)
-}
-
-fn run_damped(p: &mut Particles, s: &mut ShapeMatching, iterations: usize, steps: usize) {
-    for _ in 0..steps {
-        p.predict(1e-3, Vec3::new(0.0, -9.81, 0.0));
-        s.begin_step();
-        for _ in 0..iterations {
-            s.project(p, 1e-3);
-        }
-        p.finish(1e-3, 20.0);
-    }
-}
-
 #[test]
 fn a_hanging_column_sags_as_the_continuum_does() {
     // The continuum: a bar of height H hanging from its top under its own weight stretches
     // by rho g H^2 / (2 E). With the calibrated modulus factor, columns of 20 and 30 lattice
     // steps (the liver's and gallbladder's sizes) agree within 10 %.
     for ny in [20usize, 30] {
-        let hh = (ny - 1) as f32 * 0.0035;
-        let continuum = 1060.0 * 9.81 * hh * hh / (2.0 * 5000.0);
-        let sag = column_sag(ny, 2);
+        let (sag, continuum) = crate::verify::particle_cases::column_sag(ny, 2).expect("clusters");
         assert!(
             (sag / continuum - 1.0).abs() < 0.1,
             "{ny} steps: {sag} m vs {continuum} m"
