@@ -397,33 +397,46 @@ mod hand_tests {
 
     #[test]
     fn the_right_button_is_the_primary_button_only_where_the_procedure_uses_it() {
-        let rectum = crate::procedures::find("rectum").expect("rectum");
-        let view = OrbitCamera::at(&rectum.view).view(16.0 / 9.0);
-        let mut h = DesktopHands::parked(rectum);
+        let reg = crate::procedures::REGISTRY;
+        // A procedure whose hands both use their primary buttons: one changes instrument,
+        // the other drives the laparoscope.
+        let info = reg
+            .iter()
+            .copied()
+            .find(|p| p.swap.is_some() && p.scope_hand.is_some())
+            .expect("a procedure with both");
+        let (swap, scope) = (info.swap.expect("swap"), info.scope_hand.expect("scope"));
+        let view = OrbitCamera::at(&info.view).view(16.0 / 9.0);
+        let mut h = DesktopHands::parked(info);
         let both = Pointer {
             ndc: Some(Vec2::new(0.1, 0.1)),
             primary_down: true,
             secondary_down: true,
             ..Pointer::default()
         };
-        // The hook's hand: the left button is its current, the right one changes it for the
-        // second grasper.
-        h.pointer(&view, both);
-        let b = h.frame.hands[1].buttons;
-        assert_eq!((b.trigger, b.mark), (1.0, true));
-        // The grasper's hand: the right button drives the laparoscope.
-        h.selected = Hand::Left;
-        h.pointer(&view, both);
-        let b = h.frame.hands[0].buttons;
-        assert_eq!((b.grip, b.mark), (1.0, true));
+        for hand in [swap.hand, scope] {
+            h.selected = hand;
+            h.pointer(&view, both);
+            let b = h.frame.hands[hand.index()].buttons;
+            assert!(b.mark, "{hand:?}");
+            assert_eq!(b.trigger.max(b.grip), 1.0, "the left button still works");
+        }
         let keys = h.key_map();
+        let change = format!("change it for the {}", swap.name);
         assert!(
             keys.iter()
-                .any(|(k, v)| k == "right button" && v.contains("change it for the right grasper")),
+                .any(|(k, v)| k == "right button" && v.contains(&change)),
             "{keys:?}"
         );
         // A procedure with neither: the right button does nothing to a grasper.
-        let mut h = DesktopHands::parked(crate::procedures::REGISTRY[0]);
+        let plain = reg
+            .iter()
+            .copied()
+            .find(|p| {
+                p.swap.is_none() && p.scope_hand.is_none() && p.tools[0].kind == ToolKind::Grasper
+            })
+            .expect("a plain procedure");
+        let mut h = DesktopHands::parked(plain);
         h.selected = Hand::Left;
         h.pointer(&view, both);
         assert!(!h.frame.hands[0].buttons.mark);

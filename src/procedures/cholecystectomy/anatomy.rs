@@ -203,6 +203,8 @@ pub struct Anatomy {
     /// The fascia's nodes (row-major, along then across) and its triangles.
     pub fascia: Vec<u32>,
     pub fascia_triangles: Vec<[u32; 3]>,
+    /// The fascia's thickness, m (its edges' stiffness is its modulus times this).
+    pub fascia_thickness_m: f32,
     /// Permanent stiff ties (rest length their present distance): vessel ends into their
     /// organs, the fascia's edges to the organs.
     pub ties: Vec<(u32, u32)>,
@@ -293,6 +295,7 @@ impl Anatomy {
             vessels,
             fascia,
             fascia_triangles,
+            fascia_thickness_m: a.fascia_thickness_m,
             ties,
             adhesion_pairs,
             fat_pairs,

@@ -31,7 +31,7 @@ pub enum CutError {
 }
 
 /// A vessel that can be clipped and cut: its chain in [`Chains`], its name, where the
-/// patient is, and what an unsafe cut does.
+/// patient is, and what a cut with too few clips does.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Clippable {
     pub chain: usize,

@@ -207,9 +207,7 @@ impl CholeScene {
             &p,
             &anatomy.fascia_triangles,
             ClothParams {
-                stretch_stiffness_n_per_m: params.fascia_modulus_pa
-                    * crate::procedures::cholecystectomy::anatomy::AnatomyParams::default()
-                        .fascia_thickness_m,
+                stretch_stiffness_n_per_m: params.fascia_modulus_pa * anatomy.fascia_thickness_m,
                 bend_stiffness_n_m_per_rad: 1e-5,
             },
         )?;
