@@ -124,10 +124,11 @@ pub struct ProcedureInfo {
     /// The hand whose primary button makes its device drive the laparoscope (its instrument
     /// waits meanwhile), if any.
     pub scope_hand: Option<crate::sim::Hand>,
-    /// The other instrument a hand can change to with its primary button (the scrub nurse
-    /// hands it over), if the procedure offers one; the snapshot's `ToolSnapshot::swapped`
-    /// says which of the two the hand holds.
-    pub swap: Option<ToolInfo>,
+    /// The other instruments one hand can change to with its primary button (the scrub
+    /// nurse hands the next over; after the last, the hand's own comes back), all for the
+    /// same hand; empty where the procedure offers none. The snapshot's
+    /// `ToolSnapshot::instrument` says which the hand holds.
+    pub swap: &'static [ToolInfo],
     /// The model that tunings in recordings of format versions 1 and 2 (which name no model)
     /// were made to; none for a procedure that had no such recordings.
     pub legacy_tuned_model: Option<&'static str>,
@@ -150,6 +151,23 @@ impl ProcedureInfo {
     /// The instrument `hand` holds.
     pub fn tool(&self, hand: Hand) -> &ToolInfo {
         &self.tools[hand.index()]
+    }
+
+    /// The hand whose primary button changes its instrument, if any.
+    pub fn swap_hand(&self) -> Option<Hand> {
+        self.swap.first().map(|t| t.hand)
+    }
+
+    /// The instrument `hand` holds when its snapshot says `instrument` (0: its own).
+    pub fn held_tool(&self, hand: Hand, instrument: u8) -> &ToolInfo {
+        match instrument {
+            0 => self.tool(hand),
+            k => self
+                .swap
+                .get(usize::from(k) - 1)
+                .filter(|t| t.hand == hand)
+                .unwrap_or(self.tool(hand)),
+        }
     }
 }
 

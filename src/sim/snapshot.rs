@@ -44,8 +44,9 @@ pub struct ToolSnapshot {
     /// Laser hit point, if the beam hits tissue.
     pub beam_end: Option<Vec3>,
     pub active: bool,
-    /// The hand holds the procedure's other instrument (`ProcedureInfo::swap`) now.
-    pub swapped: bool,
+    /// Which instrument the hand holds: 0 its own (`ProcedureInfo::tools`), `k` the
+    /// procedure's `swap[k - 1]`.
+    pub instrument: u8,
 }
 
 /// An immutable picture of the simulation, published for renderer and haptic threads.

@@ -127,8 +127,8 @@ pub struct DesktopHands {
     pub tools: [ToolInfo; 2],
     /// The hand whose primary button drives the laparoscope.
     pub scope_hand: Option<Hand>,
-    /// The other instrument a hand can change to with the right button.
-    pub swap: Option<ToolInfo>,
+    /// The other instruments a hand can change to with the right button, in turn.
+    pub swap: &'static [ToolInfo],
 }
 
 impl DesktopHands {
@@ -180,7 +180,7 @@ impl DesktopHands {
         // whichever instrument the hand holds).
         let primary = p.secondary_down
             && (self.scope_hand.is_some_and(|h| h.index() == k)
-                || self.swap.is_some_and(|s| s.hand.index() == k));
+                || self.swap.iter().any(|s| s.hand.index() == k));
         self.frame.hands[k] = match self.tools[k].kind {
             ToolKind::Grasper | ToolKind::Probe => HandInput {
                 pose: Pose::looking_at(eye + dir * self.depth_m[k], eye + dir * 1.0),
@@ -235,13 +235,14 @@ impl DesktopHands {
                 format!("mark the margin ({})", l.name),
             ));
         }
-        if let Some(s) = self.swap {
+        if let Some(s) = self.swap.first() {
+            let others: Vec<&str> = self.swap.iter().map(|t| t.name).collect();
             lines.push((
                 "right button".to_string(),
                 format!(
-                    "with the {} selected: change it for the {} (or back)",
+                    "with the {} selected: change it for the {} (in turn, then back)",
                     self.tools[s.hand.index()].name,
-                    s.name
+                    others.join(", then the ")
                 ),
             ));
         }
@@ -403,9 +404,9 @@ mod hand_tests {
         let info = reg
             .iter()
             .copied()
-            .find(|p| p.swap.is_some() && p.scope_hand.is_some())
+            .find(|p| !p.swap.is_empty() && p.scope_hand.is_some())
             .expect("a procedure with both");
-        let (swap, scope) = (info.swap.expect("swap"), info.scope_hand.expect("scope"));
+        let (swap, scope) = (info.swap[0], info.scope_hand.expect("scope"));
         let view = OrbitCamera::at(&info.view).view(16.0 / 9.0);
         let mut h = DesktopHands::parked(info);
         let both = Pointer {
@@ -433,7 +434,7 @@ mod hand_tests {
             .iter()
             .copied()
             .find(|p| {
-                p.swap.is_none() && p.scope_hand.is_none() && p.tools[0].kind == ToolKind::Grasper
+                p.swap.is_empty() && p.scope_hand.is_none() && p.tools[0].kind == ToolKind::Grasper
             })
             .expect("a plain procedure");
         let mut h = DesktopHands::parked(plain);

@@ -74,7 +74,7 @@ pub const INFO: super::ProcedureInfo = super::ProcedureInfo {
     param_tables: scenario::PARAM_TABLES,
     bench_all_awake_s: crate::bench::ALL_AWAKE_S,
     scope_hand: None,
-    swap: None,
+    swap: &[],
     legacy_tuned_model: Some(TUNED_MODEL),
     plan,
     build,
@@ -426,7 +426,7 @@ impl Nephrectomy {
             direction: dir,
             beam_end: hit.map(|(_, h)| h.point),
             active: cutting,
-            swapped: false,
+            instrument: 0,
         };
         let mut strokes: Vec<(ModelId, CutStroke, f32)> = Vec::new();
         let mut touching_vessel = [false; 2];
@@ -507,7 +507,7 @@ impl Nephrectomy {
             direction: grasper.pose.forward(),
             beam_end: None,
             active: grasper.buttons.grip >= tools.grip_threshold,
-            swapped: false,
+            instrument: 0,
         };
         if grasper.buttons.grip >= tools.grip_threshold {
             if self.grasp_model.is_none() {

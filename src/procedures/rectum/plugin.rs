@@ -53,12 +53,12 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
     // The paper: "The left haptic device can also be used as a navigation camera".
     scope_hand: Some(Hand::Left),
     // The paper's test: one L-hook and two graspers; the right hand changes between them.
-    swap: Some(ToolInfo {
+    swap: &[ToolInfo {
         hand: Hand::Right,
         name: "right grasper",
         kind: ToolKind::Grasper,
         full_scale_n: 5.0,
-    }),
+    }],
     legacy_tuned_model: None,
     plan,
     build,

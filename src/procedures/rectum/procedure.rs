@@ -277,14 +277,14 @@ impl Rectum {
                 direction: grasper.pose.forward(),
                 beam_end: None,
                 active: held,
-                swapped: false,
+                instrument: 0,
             },
             ToolSnapshot {
                 tip: end.unwrap_or(hook.pose.position),
                 direction: hook.pose.forward(),
                 beam_end: None,
                 active: if with_hook { cutting } else { held_right },
-                swapped: !with_hook,
+                instrument: u8::from(!with_hook),
             },
         ];
         // Smoke rises where the current cut springs this step, at the hook's end; its time is
@@ -642,21 +642,8 @@ fn grid_mesh(
             }
         }
     }
-    out.normals = vertex_normals(&out.positions, &out.indices);
+    out.normals = crate::mesh::vertex_normals(&out.positions, &out.indices);
     out
-}
-
-/// Area-weighted vertex normals of a triangle list.
-fn vertex_normals(positions: &[Vec3], indices: &[u32]) -> Vec<Vec3> {
-    let mut n = vec![Vec3::ZERO; positions.len()];
-    for t in indices.chunks_exact(3) {
-        let [a, b, c] = [t[0], t[1], t[2]].map(|k| k as usize);
-        let f = (positions[b] - positions[a]).cross(positions[c] - positions[a]);
-        for k in [a, b, c] {
-            n[k] += f;
-        }
-    }
-    n.iter().map(|v| v.normalize_or(Vec3::Y)).collect()
 }
 
 #[cfg(test)]

@@ -306,7 +306,7 @@ fn the_right_hand_changes_hook_for_grasper_and_instrument_selection_follows_the_
     }
     assert_eq!(changes(&events), ["right grasper"]);
     assert_eq!(r.right_tool(), RightTool::Grasper);
-    assert!(r.snapshot(3).tools[1].swapped);
+    assert_eq!(r.snapshot(3).tools[1].instrument, 1);
     // The grasper closes (trigger) on the top of the rectum and lifts it 6 mm: the exposure,
     // done with the instrument it calls for.
     input.hands[1].buttons.mark = false;
@@ -356,7 +356,7 @@ fn the_right_hand_changes_hook_for_grasper_and_instrument_selection_follows_the_
     assert_eq!(changes(&events), ["right grasper", "hook"]);
     assert_eq!(r.metrics.instrument_changes, 2);
     assert!(r.scene.rod.grip(1).is_none());
-    assert!(!r.snapshot(step + 1).tools[1].swapped);
+    assert_eq!(r.snapshot(step + 1).tools[1].instrument, 0);
     assert!(events.iter().any(|e| matches!(&e.kind,
         EventKind::Release { tool } if tool == "right grasper")));
 }

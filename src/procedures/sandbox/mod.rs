@@ -84,7 +84,7 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
     param_tables: scenario::PARAM_TABLES,
     bench_all_awake_s: crate::bench::ALL_AWAKE_S,
     scope_hand: None,
-    swap: None,
+    swap: &[],
     legacy_tuned_model: None,
     plan,
     build,
@@ -248,7 +248,7 @@ impl Sandbox {
             direction: probe_forward,
             beam_end: None,
             active: false,
-            swapped: false,
+            instrument: 0,
         };
         let r_probe = tools.probe_tip_radius_m;
         if let Some(c) = self.sphere(Hand::Right, probe.position, probe_forward, r_probe) {
@@ -264,7 +264,7 @@ impl Sandbox {
             direction: grasper.pose.forward(),
             beam_end: None,
             active: gripping,
-            swapped: false,
+            instrument: 0,
         };
         let mut let_go = None;
         if gripping {
