@@ -386,6 +386,18 @@ impl Adhesion {
             .unwrap_or(&[])
     }
 
+    /// The largest strain of an intact segment now (0 when none is intact).
+    pub fn max_segment_strain(&self, p: &Particles) -> f32 {
+        if p.len() < self.needs {
+            return 0.0;
+        }
+        self.segments
+            .iter()
+            .filter(|s| s.intact)
+            .map(|s| (p.x[s.c.a as usize].distance(p.x[s.c.b as usize]) - s.c.rest_m) / s.c.rest_m)
+            .fold(0.0, f32::max)
+    }
+
     /// The intact segments' particle pairs, to draw as lines.
     pub fn segments_for_drawing(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
         self.segments

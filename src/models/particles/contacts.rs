@@ -56,6 +56,11 @@ impl BodyContacts {
         self.ignore.len()
     }
 
+    /// The particles tested.
+    pub fn members(&self) -> usize {
+        self.members.len()
+    }
+
     /// Candidate pairs now.
     pub fn pairs(&self) -> &[(u32, u32)] {
         &self.pairs
@@ -95,10 +100,12 @@ impl BodyContacts {
         if !lo.is_finite() {
             return;
         }
-        // A dense grid over the members' box (at most about 4 cells a member).
+        // A dense grid over the members' box (at most about 64 cells a member: a surface's
+        // members fill a thin shell of their box, so a few cells a member is too few for the
+        // organs' surfaces, and the fallback is quadratic in a slab).
         let dims = ((hi - lo) / cell).floor().as_uvec3() + 1;
         let cells = dims.x as usize * dims.y as usize * dims.z as usize;
-        if cells > 4 * self.members.len() + 64 {
+        if cells > 64 * self.members.len() + 4096 {
             self.search_sorted(p, reach);
             return;
         }

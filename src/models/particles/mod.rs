@@ -63,6 +63,14 @@ impl Particles {
         self.x.len()
     }
 
+    /// Heap bytes.
+    pub fn heap_bytes(&self) -> usize {
+        let v3 = std::mem::size_of::<Vec3>();
+        (self.x.capacity() + self.x0.capacity() + self.v.capacity() + self.ext.capacity()) * v3
+            + self.w.capacity() * 4
+            + self.body.capacity() * 2
+    }
+
     pub fn is_empty(&self) -> bool {
         self.x.is_empty()
     }
