@@ -18,7 +18,12 @@ pub use procedure::{
 };
 
 /// Every procedure that runs today, in the order `vesalius demo` plays them.
-pub const REGISTRY: &[&ProcedureInfo] = &[&nephrectomy::INFO, &sandbox::INFO, &rectum::INFO];
+pub const REGISTRY: &[&ProcedureInfo] = &[
+    &nephrectomy::INFO,
+    &sandbox::INFO,
+    &rectum::INFO,
+    &cholecystectomy::INFO,
+];
 
 /// The registered procedure called `name`.
 pub fn find(name: &str) -> Option<&'static ProcedureInfo> {

@@ -1,10 +1,17 @@
-//! Laparoscopic cholecystectomy (the cholecystectomy paper): shape-matching organs, the cloth
-//! and adhesive fascia between gallbladder and liver, clips and cuts in Calot's triangle.
-//! Issue 16, in progress: the anatomy here; the scene, the procedure and its registry entry
-//! follow.
+//! Laparoscopic cholecystectomy (the cholecystectomy paper, issue 16): shape-matching organs,
+//! the cloth and adhesive fascia between gallbladder and liver, clips and cuts in Calot's
+//! triangle: the anatomy, the scene that steps its particle world, clips and cuts, the
+//! procedure (scenario, task, metrics, drawing) and its registry entry.
 
 pub mod anatomy;
 pub mod clips;
+mod drawing;
+mod plugin;
+mod procedure;
+pub mod scenario;
 pub mod scene;
 
 pub use anatomy::{Anatomy, AnatomyError, AnatomyParams};
+pub use plugin::{INFO, ScoreParts, build_procedure, score};
+pub use procedure::{Cholecystectomy, Metrics, RightTool, STEPS};
+pub use scenario::Scenario;

@@ -1,0 +1,247 @@
+use super::*;
+use crate::procedures::cholecystectomy::{INFO, Scenario, build_procedure};
+use crate::sim::{Buttons, Pose};
+
+/// The default scenario at a coarse lattice (some 3,000 particles), laid out.
+fn coarse() -> Cholecystectomy {
+    let text = INFO
+        .scenario
+        .replace("liver_spacing_m = 0.0035", "liver_spacing_m = 0.007")
+        .replace("organ_spacing_m = 0.0025", "organ_spacing_m = 0.004")
+        .replace("settle_s = 0.5", "settle_s = 0.2");
+    let s = Scenario::parse("coarse", &text).expect("coarse scenario");
+    build_procedure("coarse", s).expect("builds")
+}
+
+/// Both hands pointing into the field (-z); the left parked out of the way, open.
+fn frame(right: Vec3, trigger: f32, mark: bool) -> InputFrame {
+    let mut f = InputFrame::default();
+    let park = Vec3::new(0.05, -0.05, 0.08);
+    f.hands[0].pose = Pose::looking_at(park, park - Vec3::Z);
+    f.hands[1] = HandInput {
+        pose: Pose::looking_at(right, right - Vec3::Z),
+        buttons: Buttons {
+            trigger,
+            grip: 0.0,
+            mark,
+        },
+    };
+    f
+}
+
+struct Run {
+    c: Cholecystectomy,
+    step: u64,
+    events: Vec<SimEvent>,
+}
+
+impl Run {
+    fn go(&mut self, f: &InputFrame) {
+        self.c.step(f, self.step, &mut self.events);
+        self.step += 1;
+    }
+
+    /// A press of the right hand's primary button, at `at`.
+    fn next_instrument(&mut self, at: Vec3) {
+        self.go(&frame(at, 0.0, true));
+        self.go(&frame(at, 0.0, false));
+    }
+
+    /// A squeeze of the right trigger at `at`.
+    fn squeeze(&mut self, at: Vec3) {
+        self.go(&frame(at, 0.0, false));
+        self.go(&frame(at, 1.0, false));
+        self.go(&frame(at, 0.0, false));
+    }
+
+    /// A point a fraction of the way along vessel `v`'s chain now.
+    fn along(&self, v: usize, f: f32) -> Vec3 {
+        let s = &self.c.scene;
+        let chain = &s.anatomy.vessels[v].chain;
+        let k = ((f * (chain.len() - 1) as f32).round() as usize).min(chain.len() - 1);
+        s.particles.x[chain[k] as usize]
+    }
+
+    fn named(&self, name: &str) -> Vec<&crate::sim::ProcedureEvent> {
+        self.events
+            .iter()
+            .filter_map(|e| match &e.kind {
+                EventKind::Procedure(p) if p.name == name => Some(p),
+                _ => None,
+            })
+            .collect()
+    }
+}
+
+#[test]
+fn clips_and_cuts_land_in_the_report_and_an_unsafe_cut_is_an_error() {
+    let mut r = Run {
+        c: coarse(),
+        step: 0,
+        events: Vec::new(),
+    };
+    let away = Vec3::new(-0.03, -0.04, 0.08);
+    // The clip applier: two clips on the duct towards the junction (the patient's side), one
+    // on the artery near the hepatic artery (its patient's side).
+    r.next_instrument(away);
+    assert_eq!(r.c.right_tool(), RightTool::ClipApplier);
+    let duct = [r.along(0, 0.8), r.along(0, 0.6)];
+    for at in duct {
+        r.squeeze(at);
+    }
+    let artery_clip = r.along(3, 0.2);
+    r.squeeze(artery_clip);
+    // A squeeze far from any vessel places nothing.
+    r.squeeze(away);
+    let clips = r.named("clip");
+    assert_eq!(clips.len(), 3, "{clips:?}");
+    let m = &r.c.metrics;
+    assert_eq!(m.missed_clips, 1);
+    let vessels: Vec<&str> = m.clips.clips.iter().map(|c| c.vessel).collect();
+    assert_eq!(vessels, ["cystic_duct", "cystic_duct", "cystic_artery"]);
+    for (c, at) in m.clips.clips.iter().zip([duct[0], duct[1], artery_clip]) {
+        let d = Vec3::from(c.position).distance(at);
+        assert!(d < 0.002, "a clip {d} m from where the jaw closed");
+    }
+    // Along the duct from the gallbladder, the first clip lies further than the second.
+    assert!(m.clips.clips[0].at_m > m.clips.clips[1].at_m);
+    // The scissors: the duct cut on the gallbladder's side of both clips (safe), the artery
+    // on the gallbladder's side of its one clip (bleeding).
+    r.next_instrument(away);
+    assert_eq!(r.c.right_tool(), RightTool::Scissors);
+    let duct_cut = r.along(0, 0.3);
+    r.squeeze(duct_cut);
+    let artery_cut = r.along(3, 0.6);
+    r.squeeze(artery_cut);
+    let cuts = r.named("cut");
+    assert_eq!(cuts.len(), 2, "{cuts:?}");
+    let m = &r.c.metrics;
+    assert_eq!(m.clips.cuts[0].vessel, "cystic_duct");
+    assert_eq!(m.clips.cuts[0].clips_patient_side, 2);
+    assert_eq!(m.clips.cuts[0].error, None);
+    assert_eq!(m.clips.cuts[1].vessel, "cystic_artery");
+    assert_eq!(m.clips.cuts[1].clips_patient_side, 1);
+    assert_eq!(m.bleedings, 1);
+    assert_eq!(m.bile_leaks, 0);
+    assert_eq!(m.errors, 1);
+    assert_eq!(r.named("bleeding").len(), 1);
+    assert!(r.events.iter().any(|e| matches!(&e.kind,
+        EventKind::Alarm { message, .. } if message.contains("cystic artery"))));
+    // The cut vessels are checked off only after the earlier steps: nothing ticked yet.
+    assert!(r.c.metrics.steps_done.is_empty());
+    // The report carries the clips in order, with their places, and the cuts.
+    let rep = crate::procedures::Procedure::report(&r.c);
+    let clips = &rep.metrics["clips"]["clips"];
+    assert_eq!(clips.as_array().map(Vec::len), Some(3));
+    assert_eq!(clips[2]["vessel"], "cystic_artery");
+    assert_eq!(rep.metrics["clips"]["cuts"][1]["error"], "bleeding");
+    assert_eq!(rep.errors, 1);
+    // A duct cut with no clip on the patient's side leaks bile.
+    let leak_at = r.along(0, 0.9);
+    r.squeeze(leak_at);
+    assert_eq!(r.named("bile_leak").len(), 1);
+    assert_eq!(r.c.metrics.errors, 2);
+}
+
+#[test]
+fn the_live_hook_on_the_liver_is_an_injury_once_per_contact() {
+    let mut r = Run {
+        c: coarse(),
+        step: 0,
+        events: Vec::new(),
+    };
+    // The liver's surface particle nearest the laparoscope; the hook's end (6 mm along the
+    // hook from its corner, which is where the hand is) on it.
+    let s = &r.c.scene;
+    let front = s.anatomy.organs[0]
+        .surface
+        .iter()
+        .copied()
+        .filter(|&i| s.particles.w[i as usize] > 0.0)
+        .max_by(|&a, &b| {
+            s.particles.x[a as usize]
+                .z
+                .total_cmp(&s.particles.x[b as usize].z)
+        })
+        .expect("a free liver particle");
+    let target = s.particles.x[front as usize];
+    let pose = Pose::looking_at(target, target - Vec3::Z);
+    let hook = Instrument::l_hook(target, pose.orientation).expect("hook");
+    let end = hook.cylinders()[1].p1();
+    let on = target - (end - target);
+    let off = on + Vec3::Z * 0.02;
+    // In slowly with the current off (1 cm/s), pressing the capsule: nothing.
+    let approach = |r: &mut Run, trigger: f32| {
+        for k in 0..=200 {
+            r.go(&frame(off.lerp(on, k as f32 / 200.0), trigger, false));
+        }
+    };
+    approach(&mut r, 0.0);
+    assert!(r.named("injury").is_empty());
+    // The current on against it: one injury for the whole contact.
+    for _ in 0..5 {
+        r.go(&frame(on, 1.0, false));
+    }
+    assert_eq!(r.named("injury").len(), 1);
+    assert!(r.c.metrics.liver_burn_steps >= 4, "{:?}", r.c.metrics);
+    // Out, and in again with the current on: a second.
+    for _ in 0..3 {
+        r.go(&frame(off, 1.0, false));
+    }
+    approach(&mut r, 1.0);
+    assert_eq!(r.named("injury").len(), 2);
+    assert_eq!(r.c.metrics.injuries, 2);
+    assert_eq!(r.c.metrics.errors, 2);
+}
+
+#[test]
+fn the_primary_button_hands_over_the_instruments_in_turn() {
+    let mut r = Run {
+        c: coarse(),
+        step: 0,
+        events: Vec::new(),
+    };
+    let at = Vec3::new(-0.03, -0.04, 0.08);
+    let mut seen = vec![r.c.right_tool()];
+    for _ in 0..4 {
+        r.next_instrument(at);
+        seen.push(r.c.right_tool());
+    }
+    assert_eq!(
+        seen,
+        [
+            RightTool::Hook,
+            RightTool::ClipApplier,
+            RightTool::Scissors,
+            RightTool::Grasper,
+            RightTool::Hook
+        ]
+    );
+    assert_eq!(r.named("instrument_change").len(), 4);
+    // The snapshot says which: the registry's swap list names them in the same order.
+    r.next_instrument(at);
+    let k = r.c.snapshot(r.step).tools[1].instrument;
+    assert_eq!(k, 1);
+    assert_eq!(
+        INFO.held_tool(Hand::Right, k).name,
+        RightTool::ClipApplier.name()
+    );
+    // The snapshot draws every body.
+    let snap = r.c.snapshot(r.step);
+    let names: Vec<&str> = snap.models.iter().map(|m| m.name.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "liver",
+            "gallbladder",
+            "fat",
+            "vessels",
+            "fascia",
+            "strands"
+        ]
+    );
+    for m in &snap.models {
+        assert!(!m.indices.is_empty(), "{} is drawn", m.name);
+        assert!(m.positions.iter().all(|p| p.is_finite()));
+    }
+}

@@ -1,0 +1,500 @@
+//! The cholecystectomy's scenario file: timing, the anatomy's resolution, the tissues'
+//! moduli, the solver, the adhesive fascia, the instruments and the task. Every number has
+//! its entry in a parameter table; an error names the file, the key and the expected range.
+
+use super::anatomy::AnatomyParams;
+use super::scene::SceneParams;
+use crate::param_fields;
+use crate::params::{ParamSpec, Params, TOP_LEVEL};
+use crate::scenario::{InputError, Timing};
+use serde::Deserialize;
+
+/// The name scenarios and traces give this procedure.
+pub const NAME: &str = "cholecystectomy";
+
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// Always [`NAME`].
+    pub procedure: String,
+    pub dt_s: f32,
+    pub publish_hz: f32,
+    pub anatomy: AnatomyTable,
+    pub tissue: TissueTable,
+    pub solver: SolverTable,
+    pub adhesion: AdhesionTable,
+    pub tools: Tools,
+    pub task: Task,
+}
+
+/// The generated anatomy's resolution and attachments.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AnatomyTable {
+    pub liver_spacing_m: f32,
+    pub organ_spacing_m: f32,
+    pub adhesion_every: u32,
+    pub fat_bond_every: u32,
+}
+
+impl Params for AnatomyTable {
+    const SPECS: &'static [ParamSpec] = &[
+        ParamSpec::new(
+            "liver_spacing_m",
+            "m",
+            0.0035,
+            (0.002, 0.01),
+            "the liver's particle lattice spacing (each particle its cube of tissue)",
+        ),
+        ParamSpec::new(
+            "organ_spacing_m",
+            "m",
+            0.0025,
+            (0.0015, 0.006),
+            "the gallbladder's and the fat's lattice spacing (below the gallbladder's \
+             half-height of 14 mm)",
+        ),
+        ParamSpec::new(
+            "adhesion_every",
+            "particles",
+            2.0,
+            (1.0, 64.0),
+            "an adhesion strand starts at every this many of the gallbladder's upper surface \
+             particles",
+        )
+        .whole(),
+        ParamSpec::new(
+            "fat_bond_every",
+            "particles",
+            1.0,
+            (1.0, 64.0),
+            "a strand of loose tissue binds every this many of the fat's surface particles",
+        )
+        .whole(),
+    ];
+    param_fields!(
+        liver_spacing_m,
+        organ_spacing_m,
+        adhesion_every,
+        fat_bond_every
+    );
+}
+
+/// Young's moduli and damping.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TissueTable {
+    pub liver_modulus_pa: f32,
+    pub gallbladder_modulus_pa: f32,
+    pub fat_modulus_pa: f32,
+    pub vessel_modulus_pa: f32,
+    pub fascia_modulus_pa: f32,
+    pub damping_per_s: f32,
+}
+
+impl Params for TissueTable {
+    const SPECS: &'static [ParamSpec] = &[
+        ParamSpec::new(
+            "liver_modulus_pa",
+            "Pa",
+            5000.0,
+            (100.0, 1e6),
+            "Young's modulus of the liver (its clusters' stiffness)",
+        ),
+        ParamSpec::new(
+            "gallbladder_modulus_pa",
+            "Pa",
+            8000.0,
+            (100.0, 1e6),
+            "Young's modulus of the gallbladder",
+        ),
+        ParamSpec::new(
+            "fat_modulus_pa",
+            "Pa",
+            1000.0,
+            (100.0, 1e6),
+            "Young's modulus of the fat over Calot's triangle",
+        ),
+        ParamSpec::new(
+            "vessel_modulus_pa",
+            "Pa",
+            50_000.0,
+            (1000.0, 1e7),
+            "Young's modulus of the ducts' and the artery's walls (their chains' springs)",
+        ),
+        ParamSpec::new(
+            "fascia_modulus_pa",
+            "Pa",
+            20_000.0,
+            (100.0, 1e7),
+            "Young's modulus of the cloth fascia (its edges are springs of modulus x \
+             thickness)",
+        ),
+        ParamSpec::new(
+            "damping_per_s",
+            "1/s",
+            5.0,
+            (0.0, 100.0),
+            "point damping of every particle",
+        ),
+    ];
+    param_fields!(
+        liver_modulus_pa,
+        gallbladder_modulus_pa,
+        fat_modulus_pa,
+        vessel_modulus_pa,
+        fascia_modulus_pa,
+        damping_per_s
+    );
+}
+
+/// The position-based solver.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SolverTable {
+    pub substeps: u32,
+    pub iterations: u32,
+    pub settle_s: f32,
+}
+
+impl Params for SolverTable {
+    const SPECS: &'static [ParamSpec] = &[
+        ParamSpec::new(
+            "substeps",
+            "substeps",
+            2.0,
+            (1.0, 16.0),
+            "substeps per step (each a full predict, sweeps and velocity update)",
+        )
+        .whole(),
+        ParamSpec::new(
+            "iterations",
+            "sweeps",
+            2.0,
+            (1.0, 32.0),
+            "sweeps over every constraint per substep",
+        )
+        .whole(),
+        ParamSpec::new(
+            "settle_s",
+            "s",
+            0.5,
+            (0.0, 5.0),
+            "heavily damped settling before the session (the bodies come to rest where \
+             gravity and their attachments hold them)",
+        ),
+    ];
+    param_fields!(substeps, iterations, settle_s);
+}
+
+/// The adhesive fascia's strands and the fat's loose tissue.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AdhesionTable {
+    pub stiffness_n_per_m: f32,
+    pub break_stretch: f32,
+    pub tear_strain: f32,
+    pub fat_stiffness_n_per_m: f32,
+    pub seed: u32,
+}
+
+impl Params for AdhesionTable {
+    const SPECS: &'static [ParamSpec] = &[
+        ParamSpec::new(
+            "stiffness_n_per_m",
+            "N/m",
+            400.0,
+            (1.0, 1e5),
+            "each segment of an adhesion strand while intact (4 segments in series)",
+        ),
+        ParamSpec::new(
+            "break_stretch",
+            "ratio",
+            3.0,
+            (1.01, 20.0),
+            "a strand whose ends are further apart than this times its rest length is \
+             weakened (the paper's break threshold)",
+        ),
+        ParamSpec::new(
+            "tear_strain",
+            "strain",
+            0.5,
+            (0.01, 10.0),
+            "a segment stretched past this strain tears",
+        ),
+        ParamSpec::new(
+            "fat_stiffness_n_per_m",
+            "N/m",
+            15.0,
+            (0.1, 1e4),
+            "each segment of the fat's strands (3 in series; they tear at strain 1)",
+        ),
+        ParamSpec::new(
+            "seed",
+            "",
+            12_846_060.0,
+            (0.0, 1e9),
+            "the generator that scatters the breakable points along the strands",
+        )
+        .whole(),
+    ];
+    param_fields!(
+        stiffness_n_per_m,
+        break_stretch,
+        tear_strain,
+        fat_stiffness_n_per_m,
+        seed
+    );
+}
+
+/// The instruments.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Tools {
+    pub trigger_threshold: f32,
+    pub grip_threshold: f32,
+    pub clip_reach_m: f32,
+    pub cut_reach_m: f32,
+    pub dissect_radius_m: f32,
+    pub grasp_reach_m: f32,
+    pub grasp_stiffness_n_per_m: f32,
+}
+
+impl Params for Tools {
+    const SPECS: &'static [ParamSpec] = &[
+        ParamSpec::new(
+            "trigger_threshold",
+            "",
+            0.5,
+            (0.05, 1.0),
+            "trigger at or above this: the hook's current on, the clip applier or the \
+             scissors closing, the right grasper closed",
+        ),
+        ParamSpec::new(
+            "grip_threshold",
+            "",
+            0.5,
+            (0.05, 1.0),
+            "grip at or above this: a grasper closed",
+        ),
+        ParamSpec::new(
+            "clip_reach_m",
+            "m",
+            0.004,
+            (0.0005, 0.02),
+            "a clip lands on a vessel whose centreline passes this close to the applier's jaw",
+        ),
+        ParamSpec::new(
+            "cut_reach_m",
+            "m",
+            0.004,
+            (0.0005, 0.02),
+            "the scissors cut a vessel whose centreline passes this close to their jaw",
+        ),
+        ParamSpec::new(
+            "dissect_radius_m",
+            "m",
+            0.002,
+            (0.0002, 0.01),
+            "the hook's current and the scissors cut strands and fascia this close to them",
+        ),
+        ParamSpec::new(
+            "grasp_reach_m",
+            "m",
+            0.004,
+            (0.0005, 0.02),
+            "a closing grasper takes the particles this close to its jaw",
+        ),
+        ParamSpec::new(
+            "grasp_stiffness_n_per_m",
+            "N/m",
+            100.0,
+            (1.0, 1e5),
+            "each held particle's spring to the jaw",
+        ),
+    ];
+    param_fields!(
+        trigger_threshold,
+        grip_threshold,
+        clip_reach_m,
+        cut_reach_m,
+        dissect_radius_m,
+        grasp_reach_m,
+        grasp_stiffness_n_per_m
+    );
+}
+
+/// The task's thresholds.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Task {
+    pub retract_m: f32,
+    pub expose_fraction: f32,
+    pub duct_clips: u32,
+    pub artery_clips: u32,
+    pub separate_fraction: f32,
+    pub target_time_s: f32,
+}
+
+impl Params for Task {
+    const SPECS: &'static [ParamSpec] = &[
+        ParamSpec::new(
+            "retract_m",
+            "m",
+            0.006,
+            (0.0005, 0.05),
+            "the left grasper retracts the fundus: it holds the gallbladder and has moved it \
+             this far",
+        ),
+        ParamSpec::new(
+            "expose_fraction",
+            "fraction",
+            0.7,
+            (0.05, 1.0),
+            "Calot's triangle is exposed when this share of it is seen from the laparoscope \
+             past the fat",
+        ),
+        ParamSpec::new(
+            "duct_clips",
+            "clips",
+            3.0,
+            (1.0, 8.0),
+            "clips the cystic duct takes (the paper's three)",
+        )
+        .whole(),
+        ParamSpec::new(
+            "artery_clips",
+            "clips",
+            2.0,
+            (1.0, 8.0),
+            "clips the cystic artery takes",
+        )
+        .whole(),
+        ParamSpec::new(
+            "separate_fraction",
+            "fraction",
+            0.9,
+            (0.1, 1.0),
+            "the gallbladder is off its bed when this share of the adhesion strands is torn \
+             or cut",
+        ),
+        ParamSpec::new(
+            "target_time_s",
+            "s",
+            60.0,
+            (1.0, 7200.0),
+            "an expert's time for the whole task",
+        ),
+    ];
+    param_fields!(
+        retract_m,
+        expose_fraction,
+        duct_clips,
+        artery_clips,
+        separate_fraction,
+        target_time_s
+    );
+}
+
+/// The top level: 1 ms steps, the simulator's haptic rate.
+const TIMING: &[ParamSpec] = &[
+    Timing::dt_spec(
+        0.001,
+        "simulation step (0.001: the haptic rate; the solver's substeps divide it)",
+    ),
+    Timing::PUBLISH_HZ,
+];
+
+/// The scenario's tables with specs (file order).
+pub const PARAM_TABLES: &[(&str, &[ParamSpec])] = &[
+    (TOP_LEVEL, TIMING),
+    ("anatomy", AnatomyTable::SPECS),
+    ("tissue", TissueTable::SPECS),
+    ("solver", SolverTable::SPECS),
+    ("adhesion", AdhesionTable::SPECS),
+    ("tools", Tools::SPECS),
+    ("task", Task::SPECS),
+];
+
+impl Scenario {
+    /// Parses and checks scenario text; `file` names it in errors.
+    pub fn parse(file: &str, text: &str) -> Result<Self, InputError> {
+        crate::scenario::parse_checked(file, text, Scenario::validate)
+    }
+
+    pub fn timing(&self) -> Timing {
+        Timing {
+            dt_s: self.dt_s,
+            publish_hz: self.publish_hz,
+        }
+    }
+
+    /// The tables' ranges.
+    pub fn validate(&self, file: &str) -> Result<(), InputError> {
+        use crate::params::validate;
+        crate::scenario::expect_procedure(file, &self.procedure, NAME)?;
+        validate(file, TOP_LEVEL, &self.timing())?;
+        validate(file, "anatomy", &self.anatomy)?;
+        validate(file, "tissue", &self.tissue)?;
+        validate(file, "solver", &self.solver)?;
+        validate(file, "adhesion", &self.adhesion)?;
+        validate(file, "tools", &self.tools)?;
+        validate(file, "task", &self.task)
+    }
+
+    /// The anatomy generator's parameters.
+    pub fn anatomy_params(&self) -> AnatomyParams {
+        let mut a = AnatomyParams::default();
+        a.liver.spacing_m = self.anatomy.liver_spacing_m;
+        a.gallbladder.spacing_m = self.anatomy.organ_spacing_m;
+        a.fat.spacing_m = self.anatomy.organ_spacing_m;
+        a.adhesion_every = self.anatomy.adhesion_every;
+        a.fat_bond_every = self.anatomy.fat_bond_every;
+        a
+    }
+
+    /// The scene's parameters.
+    pub fn scene_params(&self) -> SceneParams {
+        let d = SceneParams::default();
+        let (t, s, a, k) = (&self.tissue, &self.solver, &self.adhesion, &self.tools);
+        SceneParams {
+            liver_modulus_pa: t.liver_modulus_pa,
+            gallbladder_modulus_pa: t.gallbladder_modulus_pa,
+            fat_modulus_pa: t.fat_modulus_pa,
+            vessel_modulus_pa: t.vessel_modulus_pa,
+            fascia_modulus_pa: t.fascia_modulus_pa,
+            damping_per_s: t.damping_per_s,
+            iterations: s.iterations,
+            substeps: s.substeps,
+            grasp_reach_m: k.grasp_reach_m,
+            grasp_stiffness_n_per_m: k.grasp_stiffness_n_per_m,
+            adhesion: crate::models::particles::adhesion::AdhesionParams {
+                stiffness_n_per_m: a.stiffness_n_per_m,
+                break_stretch: a.break_stretch,
+                tear_strain: a.tear_strain,
+                ..d.adhesion
+            },
+            fat_bonds: crate::models::particles::adhesion::AdhesionParams {
+                stiffness_n_per_m: a.fat_stiffness_n_per_m,
+                ..d.fat_bonds
+            },
+            adhesion_seed: u64::from(a.seed),
+            ..d
+        }
+    }
+
+    /// Particles the anatomy will have, roughly (the organs' ellipsoid volumes over their
+    /// cells), for the session's cost estimate.
+    pub fn particles(&self) -> u64 {
+        let a = self.anatomy_params();
+        let ellipsoid = |o: &super::anatomy::OrganShape| {
+            let v = 4.0 / 3.0
+                * std::f64::consts::PI
+                * f64::from(o.semi_axes_m.x)
+                * f64::from(o.semi_axes_m.y)
+                * f64::from(o.semi_axes_m.z);
+            v / f64::from(o.spacing_m).powi(3)
+        };
+        (ellipsoid(&a.liver) + ellipsoid(&a.gallbladder) + ellipsoid(&a.fat)) as u64
+    }
+}
