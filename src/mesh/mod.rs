@@ -3,11 +3,13 @@
 mod generate;
 pub mod gltf;
 pub mod obj;
+mod solid;
 mod trimesh;
 
 pub use generate::{KidneyShape, TubeSpec, icosphere, kidney, tube};
 pub use gltf::GltfError;
 pub use obj::ObjError;
+pub use solid::Solid;
 pub use trimesh::{MeshError, TriMesh};
 
 /// Area-weighted vertex normals of a triangle list (`indices` into `positions`); a vertex

@@ -9,6 +9,7 @@ pub mod nephrectomy;
 mod procedure;
 pub mod rectum;
 pub mod sandbox;
+pub mod scope;
 pub mod soft_tissue;
 
 pub use nephrectomy::Nephrectomy;

@@ -103,6 +103,10 @@ pub struct AnatomyParams {
     /// organ or vessel particle within `fat_bond_reach_m`.
     pub fat_bond_every: u32,
     pub fat_bond_reach_m: f32,
+    /// Closed surfaces (a user's OBJ or glTF, metres, in this frame) that replace the
+    /// liver's, the gallbladder's and the fat's ellipsoids: the lattice fills what they
+    /// enclose, and the organ's centre and semi-axes become its box's.
+    pub surfaces: [Option<crate::mesh::TriMesh>; 3],
 }
 
 impl Default for AnatomyParams {
@@ -160,6 +164,7 @@ impl Default for AnatomyParams {
             adhesion_every: 2,
             fat_bond_every: 1,
             fat_bond_reach_m: 0.008,
+            surfaces: [None, None, None],
         }
     }
 }
@@ -221,6 +226,53 @@ pub struct Anatomy {
 impl Anatomy {
     pub fn generate(a: &AnatomyParams) -> Result<Anatomy, AnatomyError> {
         check(a)?;
+        // Organs given as surfaces: their boxes stand for their ellipsoids in the figures
+        // the generator derives (where the adhesions start, how far the fat keeps off).
+        let mut boxed = a.clone();
+        let mut solids: [Option<crate::mesh::Solid>; 3] = [None, None, None];
+        for (k, (field, shape)) in [
+            ("liver", &mut boxed.liver),
+            ("gallbladder", &mut boxed.gallbladder),
+            ("fat", &mut boxed.fat),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let Some(mesh) = &a.surfaces[k] else {
+                continue;
+            };
+            let solid = crate::mesh::Solid::new(mesh.clone()).ok_or(AnatomyError::Bad {
+                field,
+                message: "the surface has no triangles or a point that is not finite".to_string(),
+            })?;
+            let (lo, hi) = solid.bounds();
+            shape.centre_m = 0.5 * (lo + hi);
+            shape.semi_axes_m = 0.5 * (hi - lo);
+            if shape.spacing_m >= shape.semi_axes_m.min_element() {
+                return Err(AnatomyError::Bad {
+                    field,
+                    message: format!(
+                        "the surface is thinner than two lattice spacings ({} m) somewhere \
+                         along an axis",
+                        2.0 * shape.spacing_m
+                    ),
+                });
+            }
+            solids[k] = Some(solid);
+        }
+        let a = &boxed;
+        let inside = [&a.liver, &a.gallbladder, &a.fat].map(|shape| Inside {
+            shape,
+            solid: None,
+            rows: Default::default(),
+        });
+        let [liver_in, gallbladder_in, fat_in] = {
+            let mut ins = inside;
+            for (k, s) in solids.iter().enumerate() {
+                ins[k].solid = s.as_ref();
+            }
+            ins
+        };
         let mut p = Particles::new();
         let vessels_shapes = [
             (body::CYSTIC_DUCT, &a.cystic_duct),
@@ -235,12 +287,15 @@ impl Anatomy {
             })
         };
         let organs = vec![
-            fill(&mut p, body::LIVER, &a.liver, |_| true),
-            fill(&mut p, body::GALLBLADDER, &a.gallbladder, |_| true),
+            fill(&mut p, body::LIVER, &a.liver, |x| liver_in.contains(x)),
+            fill(&mut p, body::GALLBLADDER, &a.gallbladder, |x| {
+                gallbladder_in.contains(x)
+            }),
             fill(&mut p, body::FAT, &a.fat, |x| {
-                clear_of_vessels(x)
-                    && !a.liver.inside(x + Vec3::Y * a.fat.spacing_m)
-                    && !a.gallbladder.inside(x)
+                fat_in.contains(x)
+                    && clear_of_vessels(x)
+                    && !liver_in.contains(x + Vec3::Y * a.fat.spacing_m)
+                    && !gallbladder_in.contains(x)
             }),
         ];
         for i in organs[0].range.clone() {
@@ -365,12 +420,36 @@ fn check(a: &AnatomyParams) -> Result<(), AnatomyError> {
     Ok(())
 }
 
-/// Lattice particles inside `shape` (and where `keep` says), body `b`.
-fn fill(p: &mut Particles, b: u16, shape: &OrganShape, keep: impl Fn(Vec3) -> bool) -> Organ {
+/// An organ's inside: its ellipsoid, or the closed surface given for it (the crossings of
+/// each lattice row found once).
+struct Inside<'a> {
+    shape: &'a OrganShape,
+    solid: Option<&'a crate::mesh::Solid>,
+    rows: std::cell::RefCell<std::collections::HashMap<(u32, u32), Vec<f32>>>,
+}
+
+impl Inside<'_> {
+    fn contains(&self, x: Vec3) -> bool {
+        let Some(solid) = self.solid else {
+            return self.shape.inside(x);
+        };
+        let (lo, hi) = solid.bounds();
+        if !(x.cmpge(lo).all() && x.cmple(hi).all()) {
+            return false;
+        }
+        let mut rows = self.rows.borrow_mut();
+        let row = rows
+            .entry((x.y.to_bits(), x.z.to_bits()))
+            .or_insert_with(|| solid.row(x.y, x.z));
+        crate::mesh::Solid::inside_row(row, x.x)
+    }
+}
+
+/// Lattice particles of `shape`'s box where `inside` holds, body `b`.
+fn fill(p: &mut Particles, b: u16, shape: &OrganShape, inside: impl Fn(Vec3) -> bool) -> Organ {
     let h = shape.spacing_m;
     let n = (shape.semi_axes_m / h).floor().as_ivec3();
     let at = |i: i32, j: i32, k: i32| shape.centre_m + Vec3::new(i as f32, j as f32, k as f32) * h;
-    let inside = |x: Vec3| shape.inside(x) && keep(x);
     let mass = shape.density_kg_per_m3 * h * h * h;
     let start = p.len() as u32;
     let mut surface = Vec::new();

@@ -71,7 +71,9 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
     profile_reference: None,
     param_tables: scenario::PARAM_TABLES,
     bench_all_awake_s: 1.0,
-    scope_hand: None,
+    // The paper's camera tool: the left device drives the laparoscope while its primary
+    // button is held (the grasper waits where it was).
+    scope_hand: Some(Hand::Left),
     swap: &RIGHT_CYCLE,
     legacy_tuned_model: None,
     plan,
@@ -95,7 +97,7 @@ fn build(file: &str, text: &str) -> Result<Box<dyn Procedure>, BuildError> {
 /// The procedure for a checked scenario (`file` names it in errors): the anatomy generated,
 /// the scene built and laid out.
 pub fn build_procedure(file: &str, s: Scenario) -> Result<Cholecystectomy, InputError> {
-    let anatomy = super::Anatomy::generate(&s.anatomy_params())
+    let anatomy = super::Anatomy::generate(&s.anatomy_with_surfaces(file)?)
         .map_err(|e| InputError::new(file, "anatomy", e.to_string()))?;
     let mut scene = CholeScene::new(anatomy, s.scene_params())
         .map_err(|e| InputError::new(file, "tissue", e.to_string()))?;

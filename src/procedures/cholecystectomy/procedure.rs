@@ -16,9 +16,10 @@ use crate::collision::Instrument;
 use crate::models::Fnv;
 use crate::models::particles::adhesion::AdhesionBreak;
 use crate::procedures::TaskStep;
+use crate::procedures::scope::Scope;
 use crate::sim::{
-    EmissionKind, EmissionLog, EventKind, Hand, HandInput, InputFrame, ProcedureEvent, SimEvent,
-    Snapshot, SurfaceRole, ToolSnapshot,
+    EmissionKind, EmissionLog, EventKind, Hand, HandInput, InputFrame, ProcedureEvent, ScopeView,
+    SimEvent, Snapshot, SurfaceRole, ToolSnapshot,
 };
 use glam::Vec3;
 use serde::Serialize;
@@ -148,8 +149,11 @@ pub struct Cholecystectomy {
     prev_tools: Option<[Vec3; 2]>,
     last: StepOutcome,
     smoke: EmissionLog,
-    /// From Calot's triangle towards the laparoscope.
+    /// From Calot's triangle towards the laparoscope's home (the exposure is judged from
+    /// the standard view, wherever the trainee has moved the camera).
     towards_camera: Vec3,
+    /// The laparoscope the left device drives while its primary button is held.
+    scope: Scope,
 }
 
 /// The scene's instrument for a pose: a grasper shape (hinge behind the jaws' middle at
@@ -214,6 +218,7 @@ impl Cholecystectomy {
             last: StepOutcome::default(),
             smoke: EmissionLog::smoke(),
             towards_camera,
+            scope: Scope::new(super::plugin::INFO.view),
         }
     }
 
@@ -242,7 +247,12 @@ impl Cholecystectomy {
     pub fn step(&mut self, input: &InputFrame, step: u64, events: &mut Vec<SimEvent>) {
         let dt = self.scenario.dt_s;
         let t = self.scenario.tools;
-        let left = input.hand(Hand::Left);
+        let device = input.hand(Hand::Left);
+        // The left device drives the camera while its button is held; the grasper waits.
+        let left = &HandInput {
+            pose: self.scope.update(&device.pose, device.buttons.mark),
+            buttons: device.buttons,
+        };
         let right = input.hand(Hand::Right);
         let mut ev: Vec<EventKind> = Vec::new();
         let places = [left.pose.position, right.pose.position];
@@ -579,7 +589,10 @@ impl Cholecystectomy {
             reactions: self.reactions(),
             target_found: true,
             emissions: self.smoke.at(time_s),
-            scope: None,
+            scope: self.scope.moved_view().map(|v| ScopeView {
+                eye: v.eye,
+                target: v.target,
+            }),
         }
     }
 

@@ -245,3 +245,116 @@ fn the_primary_button_hands_over_the_instruments_in_turn() {
         assert!(m.positions.iter().all(|p| p.is_finite()));
     }
 }
+
+#[test]
+fn the_left_device_drives_the_laparoscope_while_its_button_is_held() {
+    let mut r = Run {
+        c: coarse(),
+        step: 0,
+        events: Vec::new(),
+    };
+    let at = Vec3::new(0.05, -0.05, 0.08);
+    let mut f = frame(at, 0.0, false);
+    r.go(&f);
+    assert!(r.c.snapshot(r.step).scope.is_none());
+    let grasper = r.c.tool_tip(0);
+    // Button held, the device moved 1 cm: the camera moves with it, the grasper stays.
+    f.hands[0].buttons.mark = true;
+    r.go(&f);
+    f.hands[0].pose.position += Vec3::X * 0.01;
+    r.go(&f);
+    let view = r.c.snapshot(r.step).scope.expect("the camera moved");
+    assert!((view.eye - (INFO.view.eye + Vec3::X * 0.01)).length() < 1e-6);
+    assert!(r.c.tool_tip(0).distance(grasper) < 1e-6);
+    // Released: the grasper follows the device from where it was left.
+    f.hands[0].buttons.mark = false;
+    r.go(&f);
+    f.hands[0].pose.position += Vec3::Y * 0.01;
+    r.go(&f);
+    assert!(r.c.tool_tip(0).distance(grasper + Vec3::Y * 0.01) < 1e-5);
+}
+
+#[test]
+fn one_or_two_threads_play_the_same_bytes() {
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("pool");
+        pool.install(|| {
+            let mut r = Run {
+                c: coarse(),
+                step: 0,
+                events: Vec::new(),
+            };
+            // The clip applier, a clip on the duct, the left grasper pressing in.
+            r.next_instrument(Vec3::new(-0.03, -0.04, 0.08));
+            let at = r.along(0, 0.5);
+            r.squeeze(at);
+            for k in 0..40 {
+                let mut f = frame(at, 0.0, false);
+                let p = Vec3::new(0.02, 0.0, 0.02 - 0.0005 * k as f32);
+                f.hands[0].pose = Pose::looking_at(p, p - Vec3::Z);
+                r.go(&f);
+            }
+            (r.c.state_hash(), r.c.metrics.clips.clips.len())
+        })
+    };
+    let one = run(1);
+    assert_eq!(one.1, 1);
+    assert_eq!(one, run(2));
+}
+
+#[test]
+fn an_organ_read_from_an_obj_file_replaces_its_ellipsoid() {
+    let dir = std::env::temp_dir().join(format!("vesalius-chole-obj-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    // A round gallbladder 14 mm in radius where the generated one lies.
+    let (centre, radius) = (Vec3::new(0.0, -0.001, 0.0), 0.014);
+    let sphere = crate::mesh::icosphere(3);
+    let mut obj = String::new();
+    for p in &sphere.positions {
+        let q = centre + *p * radius;
+        obj += &format!("v {} {} {}\n", q.x, q.y, q.z);
+    }
+    for t in &sphere.triangles {
+        obj += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+    }
+    std::fs::write(dir.join("gallbladder.obj"), obj).expect("obj written");
+    let text = INFO
+        .scenario
+        .replace("liver_spacing_m = 0.0035", "liver_spacing_m = 0.007")
+        .replace("organ_spacing_m = 0.0025", "organ_spacing_m = 0.002")
+        .replace("settle_s = 0.5", "settle_s = 0.0")
+        + "\n[surfaces]\ngallbladder = \"gallbladder.obj\"\n";
+    let file = dir.join("scenario.toml").display().to_string();
+    let s = Scenario::parse(&file, &text).expect("parses");
+    let c = build_procedure(&file, s.clone()).expect("builds");
+    let a = &c.scene.anatomy;
+    let gb = &a.organs[1];
+    // Its particles fill the sphere: their count is its volume over the cell's, and none
+    // lies outside it.
+    let h = 0.002f32;
+    let expected = sphere.volume() * radius.powi(3) / (h * h * h);
+    let n = gb.range.len() as f32;
+    assert!(
+        (n / expected - 1.0).abs() < 0.1,
+        "{n} particles, {expected} expected"
+    );
+    for i in gb.range.clone() {
+        let d = a.particles.x[i as usize].distance(centre);
+        assert!(d <= radius + 1e-6, "a particle {d} m from the centre");
+    }
+    // A file of another kind is refused, naming the key.
+    let bad = text.replace("gallbladder.obj", "gallbladder.stl");
+    let s = Scenario::parse(&file, &bad).expect("parses");
+    let e = build_procedure(&file, s).err().expect("refused");
+    assert_eq!(e.key, "surfaces.gallbladder");
+    // A missing file names the key and the file.
+    let missing = text.replace("gallbladder.obj", "nowhere.obj");
+    let s = Scenario::parse(&file, &missing).expect("parses");
+    let e = build_procedure(&file, s).err().expect("refused");
+    assert_eq!(e.key, "surfaces.gallbladder");
+    assert!(e.message.contains("nowhere.obj"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -25,6 +25,20 @@ pub struct Scenario {
     pub adhesion: AdhesionTable,
     pub tools: Tools,
     pub task: Task,
+    /// Optional: the organs' closed surfaces from files (OBJ, glTF or GLB; metres, in the
+    /// anatomy's frame), replacing the generated ellipsoids.
+    #[serde(default)]
+    pub surfaces: Surfaces,
+}
+
+/// The `[surfaces]` table: a file for any of the three organs; a relative path is read from
+/// the scenario file's folder.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Surfaces {
+    pub liver: Option<String>,
+    pub gallbladder: Option<String>,
+    pub fat: Option<String>,
 }
 
 /// The generated anatomy's resolution and attachments.
@@ -451,6 +465,40 @@ impl Scenario {
         a.adhesion_every = self.anatomy.adhesion_every;
         a.fat_bond_every = self.anatomy.fat_bond_every;
         a
+    }
+
+    /// The anatomy's parameters with the `[surfaces]` files read (`file`, the scenario's
+    /// path, locates relative ones; errors name `surfaces.<organ>`).
+    pub fn anatomy_with_surfaces(&self, file: &str) -> Result<AnatomyParams, InputError> {
+        let mut a = self.anatomy_params();
+        let folder = std::path::Path::new(file)
+            .parent()
+            .unwrap_or(std::path::Path::new(""));
+        let s = &self.surfaces;
+        for (k, (organ, path)) in [
+            ("liver", &s.liver),
+            ("gallbladder", &s.gallbladder),
+            ("fat", &s.fat),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let Some(path) = path else { continue };
+            let key = format!("surfaces.{organ}");
+            let full = folder.join(path);
+            let lower = path.to_ascii_lowercase();
+            let mesh = if lower.ends_with(".obj") {
+                crate::mesh::obj::load(&full, 1.0).map_err(|e| e.to_string())
+            } else if lower.ends_with(".gltf") || lower.ends_with(".glb") {
+                crate::mesh::gltf::load(&full, 1.0).map_err(|e| e.to_string())
+            } else {
+                Err(format!(
+                    "expected an .obj, .gltf or .glb file, got \"{path}\""
+                ))
+            };
+            a.surfaces[k] = Some(mesh.map_err(|m| InputError::new(file, &key, m))?);
+        }
+        Ok(a)
     }
 
     /// The scene's parameters.

@@ -10,7 +10,6 @@ pub mod regions;
 pub mod rod;
 pub mod scenario;
 pub mod scene;
-mod scope;
 pub mod skin;
 #[cfg(test)]
 mod tests;

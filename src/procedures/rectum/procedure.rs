@@ -8,9 +8,9 @@
 use super::regions::{self, RegionKind};
 use super::scenario::Scenario;
 use super::scene::{ALARM_RECTAL_WALL, RectumScene, StepOutcome, ToolState};
-use super::scope::Scope;
 use crate::models::Fnv;
 use crate::models::membrane::{LAYERS, Membrane};
+use crate::procedures::scope::Scope;
 use crate::sim::{
     EmissionKind, EmissionLog, EventKind, Hand, HandInput, InputFrame, ModelSnapshot,
     ProcedureEvent, ScopeView, SimEvent, Snapshot, SurfaceRole, TissueModel, ToolSnapshot,

@@ -1,8 +1,9 @@
-//! The laparoscope the left device can drive (the paper: "The left haptic device can also be
-//! used as a navigation camera"). While the left hand's primary button is held the device
-//! carries the camera as if it held the scope: every motion of the device since the button
-//! went down moves the camera's eye and target rigidly with it, and the grasper stays where
-//! it was. When the button comes up the grasper follows the device again from where it was
+//! The laparoscope a hand's device can drive (`ProcedureInfo::scope_hand`; the rectum paper:
+//! "The left haptic device can also be used as a navigation camera"; the cholecystectomy
+//! paper's camera tool). While that hand's primary button is held the device carries the
+//! camera as if it held the scope: every motion of the device since the button went down
+//! moves the camera's eye and target rigidly with it, and the hand's instrument stays where it
+//! was. When the button comes up the instrument follows the device again from where it was
 //! left (a clutch: the device's later motions move it, so nothing jumps).
 //!
 //! The camera is the procedure's state, driven by the recorded input: a replay shows the
