@@ -491,7 +491,7 @@ impl Cholecystectomy {
             };
             ev.push(EventKind::Procedure(ProcedureEvent::new(
                 name,
-                Unsafe {
+                UncoveredCut {
                     vessel: c.vessel,
                     clips_patient_side: c.clips_patient_side,
                     position: c.position,
@@ -645,7 +645,7 @@ struct ClipEvent {
 }
 
 #[derive(Serialize)]
-struct Unsafe {
+struct UncoveredCut {
     vessel: &'static str,
     clips_patient_side: u32,
     position: [f32; 3],

@@ -74,7 +74,7 @@ impl Run {
 }
 
 #[test]
-fn clips_and_cuts_land_in_the_report_and_an_unsafe_cut_is_an_error() {
+fn clips_and_cuts_land_in_the_report_and_a_cut_short_of_two_clips_is_an_error() {
     let mut r = Run {
         c: coarse(),
         step: 0,
