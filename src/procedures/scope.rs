@@ -131,6 +131,14 @@ impl Scope {
     }
 
     /// The camera, once it has left the procedure's viewpoint.
+    /// [`Scope::moved_view`] as the snapshot carries it.
+    pub fn snapshot_view(&self) -> Option<crate::sim::ScopeView> {
+        self.moved_view().map(|v| crate::sim::ScopeView {
+            eye: v.eye,
+            target: v.target,
+        })
+    }
+
     pub fn moved_view(&self) -> Option<Viewpoint> {
         (self.view != self.home).then_some(self.view)
     }

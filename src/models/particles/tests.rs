@@ -183,11 +183,7 @@ fn one_or_two_threads_give_the_same_bytes() {
         (p, s)
     };
     let hash = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .expect("pool");
-        pool.install(|| {
+        crate::sim::on_threads(threads, || {
             let (mut p, mut s) = make();
             run(&mut p, &mut s, 1e-3, 3, 50);
             p.state_hash()

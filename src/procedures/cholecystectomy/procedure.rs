@@ -18,8 +18,8 @@ use crate::models::particles::adhesion::AdhesionBreak;
 use crate::procedures::TaskStep;
 use crate::procedures::scope::Scope;
 use crate::sim::{
-    EmissionKind, EmissionLog, EventKind, Hand, HandInput, InputFrame, ProcedureEvent, ScopeView,
-    SimEvent, Snapshot, SurfaceRole, ToolSnapshot,
+    EmissionKind, EmissionLog, EventKind, Hand, HandInput, InputFrame, ProcedureEvent, SimEvent,
+    Snapshot, SurfaceRole, ToolSnapshot,
 };
 use glam::Vec3;
 use serde::Serialize;
@@ -589,10 +589,7 @@ impl Cholecystectomy {
             reactions: self.reactions(),
             target_found: true,
             emissions: self.smoke.at(time_s),
-            scope: self.scope.moved_view().map(|v| ScopeView {
-                eye: v.eye,
-                target: v.target,
-            }),
+            scope: self.scope.snapshot_view(),
         }
     }
 

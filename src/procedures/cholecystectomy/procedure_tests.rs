@@ -277,11 +277,7 @@ fn the_left_device_drives_the_laparoscope_while_its_button_is_held() {
 #[test]
 fn one_or_two_threads_play_the_same_bytes() {
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .expect("pool");
-        pool.install(|| {
+        crate::sim::on_threads(threads, || {
             let mut r = Run {
                 c: coarse(),
                 step: 0,

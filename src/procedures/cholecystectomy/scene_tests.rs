@@ -99,11 +99,7 @@ fn pulling_the_fundus_away_tears_the_adhesions_and_is_felt() {
 #[test]
 fn one_or_two_threads_give_the_same_bytes() {
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .expect("pool");
-        pool.install(|| {
+        crate::sim::on_threads(threads, || {
             let a = Anatomy::generate(&AnatomyParams::default()).expect("anatomy");
             let mut s = CholeScene::new(a, SceneParams::default()).expect("scene");
             s.settle(0.05, 4, 60.0);

@@ -13,7 +13,7 @@ use crate::models::membrane::{LAYERS, Membrane};
 use crate::procedures::scope::Scope;
 use crate::sim::{
     EmissionKind, EmissionLog, EventKind, Hand, HandInput, InputFrame, ModelSnapshot,
-    ProcedureEvent, ScopeView, SimEvent, Snapshot, SurfaceRole, TissueModel, ToolSnapshot,
+    ProcedureEvent, SimEvent, Snapshot, SurfaceRole, TissueModel, ToolSnapshot,
 };
 use glam::Vec3;
 use serde::Serialize;
@@ -510,10 +510,7 @@ impl Rectum {
             reactions: self.reactions(),
             target_found: true,
             emissions: self.smoke.at(time_s),
-            scope: self.scope.moved_view().map(|v| ScopeView {
-                eye: v.eye,
-                target: v.target,
-            }),
+            scope: self.scope.snapshot_view(),
         }
     }
 
