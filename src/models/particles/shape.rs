@@ -25,7 +25,7 @@
 //! one after another in cluster order, so the bytes do not depend on the thread count.
 
 use super::Particles;
-use glam::{Mat3, Quat, Vec3, Vec3A};
+use glam::{Mat3, Mat3A, Quat, Vec3, Vec3A};
 use rayon::prelude::*;
 
 /// Iterations of the rotation extraction per projection at most: from a cold start (the
@@ -95,21 +95,21 @@ struct Cluster {
     /// The last rotation (warm start), and whether there was one.
     q: Quat,
     warm: bool,
-    /// Where its goals start in [`ShapeMatching::goals`].
-    first_goal: usize,
 }
 
 /// Clusters over a [`Particles`] world.
 #[derive(Debug, Clone)]
 pub struct ShapeMatching {
     clusters: Vec<Cluster>,
-    /// Every cluster's goals of the last projection, cluster after cluster, m.
-    goals: Vec<Vec3A>,
-    /// For each particle, its (cluster, slot) entries in cluster order: `entries[offsets[i]..
-    /// offsets[i + 1]]`; `goal_of[e]` is entry `e`'s goal in `goals`.
+    /// Every cluster's rotation matrix and centre of mass of the last projection: its goals
+    /// are `R q + c` (kept per cluster, so that the particles' pass reads its rest offsets in
+    /// order rather than gathering goals written cluster by cluster).
+    frames: Vec<(Mat3A, Vec3A)>,
+    /// For each particle, its entries in cluster order: `offsets[i]..offsets[i + 1]`; entry
+    /// `e` is a membership of cluster `entry_cluster[e]` with rest offset `entry_rest[e]`, m.
     offsets: Vec<u32>,
-    entries: Vec<(u32, u32)>,
-    goal_of: Vec<u32>,
+    entry_cluster: Vec<u32>,
+    entry_rest: Vec<Vec3A>,
     /// Each entry's spring stiffness over its particle's mass, `k / m`, 1/s^2 (0 for a pinned
     /// particle).
     rate: Vec<f32>,
@@ -136,7 +136,6 @@ impl ShapeMatching {
                 }
             }
         }
-        let mut first_goal_at = 0;
         for (k, s) in specs.into_iter().enumerate() {
             if s.members.len() != s.weights.len() {
                 return Err(ShapeError::Lengths {
@@ -213,9 +212,7 @@ impl ShapeMatching {
                 omega2: (std::f32::consts::TAU * s.frequency_hz).powi(2),
                 q: Quat::IDENTITY,
                 warm: false,
-                first_goal: first_goal_at,
             });
-            first_goal_at += clusters[k].members.len();
         }
         // Each particle's entries, in cluster order.
         let mut count = vec![0u32; n + 1];
@@ -263,16 +260,16 @@ impl ShapeMatching {
             runs.push((start, end));
             start = end;
         }
-        let goal_of = entries
+        let entry_rest = entries
             .iter()
-            .map(|&(k, slot)| (clusters[k as usize].first_goal + slot as usize) as u32)
+            .map(|&(k, slot)| clusters[k as usize].rest[slot as usize])
             .collect();
         Ok(ShapeMatching {
+            frames: vec![(Mat3A::IDENTITY, Vec3A::ZERO); clusters.len()],
             clusters,
-            goals: vec![Vec3A::ZERO; first_goal_at],
             offsets,
-            entries,
-            goal_of,
+            entry_cluster: entries.iter().map(|&(k, _)| k).collect(),
+            entry_rest,
             coef: vec![[0.0; 2]; rate.len()],
             rate,
             mu,
@@ -287,7 +284,7 @@ impl ShapeMatching {
 
     /// Memberships over all clusters.
     pub fn memberships(&self) -> usize {
-        self.entries.len()
+        self.entry_cluster.len()
     }
 
     /// Particles that belong to at least one cluster.
@@ -302,23 +299,18 @@ impl ShapeMatching {
 
     /// Cluster `k`'s goal for its member `slot` after the last projection, m.
     pub fn goal(&self, k: usize, slot: usize) -> Vec3 {
-        self.goals[self.clusters[k].first_goal + slot].into()
+        let (r, c) = self.frames[k];
+        (r * self.clusters[k].rest[slot] + c).into()
     }
 
-    /// Computes every cluster's rotation and goals from the present positions (steps 1-3).
+    /// Computes every cluster's rotation and centre, its goals' frame, from the present
+    /// positions (steps 1-3).
     pub fn match_goals(&mut self, x: &[Vec3]) {
-        let mut slices: Vec<&mut [Vec3A]> = Vec::with_capacity(self.clusters.len());
-        let mut rest = &mut self.goals[..];
-        for c in &self.clusters {
-            let (here, after) = std::mem::take(&mut rest).split_at_mut(c.members.len());
-            slices.push(here);
-            rest = after;
-        }
         self.clusters
             .par_iter_mut()
-            .zip(slices)
+            .zip(&mut self.frames)
             .with_min_len(16)
-            .for_each(|(c, goals)| c.match_goals(x, goals));
+            .for_each(|(c, frame)| *frame = c.match_goals(x));
     }
 
     /// Starts a step: the springs' multipliers back to zero.
@@ -353,8 +345,14 @@ impl ShapeMatching {
             xr = x_rest;
             mr = m_rest;
         }
-        let (goals, offsets, goal_of, coef, w) =
-            (&self.goals, &self.offsets, &self.goal_of, &self.coef, &p.w);
+        let (frames, offsets, entry_cluster, entry_rest, coef, w) = (
+            &self.frames,
+            &self.offsets,
+            &self.entry_cluster,
+            &self.entry_rest,
+            &self.coef,
+            &p.w,
+        );
         // XPBD for `C = x - g` with compliance `1 / k`, `k = m r`: in `mu = w lambda` the
         // update is `d_mu = (g - x - beta mu) / (1 + beta)`, `beta = 1 / (r dt^2)`, and
         // `x += d_mu` (the particle's mass drops out).
@@ -376,7 +374,8 @@ impl ShapeMatching {
                         if inv <= 0.0 {
                             continue;
                         }
-                        let g = goals[goal_of[e] as usize];
+                        let (r, c) = &frames[entry_cluster[e] as usize];
+                        let g = *r * entry_rest[e] + *c;
                         let m = &mut ms[e - base];
                         let d = (g - xa - beta * *m) * inv;
                         *m += d;
@@ -391,11 +390,12 @@ impl ShapeMatching {
     /// goals of the last projection).
     pub fn deviation(&self, x: &[Vec3], k: usize) -> f32 {
         let c = &self.clusters[k];
+        let (r, centre) = self.frames[k];
         let s: f32 = c
             .members
             .iter()
-            .zip(&self.goals[c.first_goal..])
-            .map(|(&i, g)| (Vec3A::from(x[i as usize]) - *g).length_squared())
+            .zip(&c.rest)
+            .map(|(&i, q)| (Vec3A::from(x[i as usize]) - (r * *q + centre)).length_squared())
             .sum();
         (s / c.members.len() as f32).sqrt()
     }
@@ -407,9 +407,9 @@ impl ShapeMatching {
             .iter()
             .map(|c| c.members.len() * (4 + 4 + 4 + 12 + 12))
             .sum();
-        per + self.goals.len() * 12
+        per + self.frames.len() * 64
             + self.offsets.len() * 4
-            + self.entries.len() * (8 + 4 + 4 + 12 + 8)
+            + self.entry_cluster.len() * (4 + 16 + 4 + 16 + 8)
     }
 }
 
@@ -417,7 +417,7 @@ impl Cluster {
     /// Steps 1-3 in one pass over the members: about the last centre `o`, `sum m (x - o)`
     /// gives the centre and `sum (x - o) (m q)^T` is `A` (the rest offsets' weighted sum is
     /// zero, so the origin drops out of `A`).
-    fn match_goals(&mut self, x: &[Vec3], goals: &mut [Vec3A]) {
+    fn match_goals(&mut self, x: &[Vec3]) -> (Mat3A, Vec3A) {
         if !self.warm {
             // The body may be anywhere now: the sums about where it is.
             self.centre = weighted_centre(x, &self.members, &self.mw, self.mw_sum);
@@ -442,10 +442,7 @@ impl Cluster {
         self.q = rotation_of(&a, self.q, most);
         self.warm = true;
         self.centre = c.into();
-        let r = glam::Mat3A::from_quat(self.q);
-        for (g, q) in goals.iter_mut().zip(&self.rest) {
-            *g = r * *q + c;
-        }
+        (Mat3A::from_quat(self.q), c)
     }
 }
 

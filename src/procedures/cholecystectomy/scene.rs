@@ -443,6 +443,8 @@ impl CholeScene {
             times[k] += now.duration_since(clock).as_secs_f64();
             clock = now;
         };
+        // The contacts' refresh and the multipliers' reset are the contacts' part.
+        lap(&mut self.times, 4);
         for _ in 0..params.iterations.max(1) {
             self.shape.project(p, dt_s);
             lap(&mut self.times, 0);
