@@ -5,6 +5,8 @@
 #[macro_use]
 mod output;
 mod haptics;
+mod precompute;
+mod progress;
 mod session;
 mod tools;
 
@@ -119,6 +121,20 @@ enum Command {
         #[arg(long, value_name = "S", value_parser = positive_seconds, default_value_t = 3.0,
               allow_negative_numbers = true)]
         seconds: f64,
+        /// Print one JSON object.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Build a procedure's precomputed model into the cache, with a progress bar (the
+    /// myotomy's boundary-element responses; sessions build it on first use otherwise). A
+    /// cache made from other inputs, of another format or failing its checksum is rebuilt.
+    Precompute {
+        #[arg(value_parser = precompute::PRECOMPUTABLE)]
+        procedure: String,
+        /// The cache file (default: $VESALIUS_CACHE_DIR, $XDG_CACHE_HOME/vesalius or
+        /// ~/.cache/vesalius, then <procedure>.bem).
+        #[arg(long, value_name = "FILE")]
+        cache: Option<PathBuf>,
         /// Print one JSON object.
         #[arg(long)]
         json: bool,
@@ -459,6 +475,11 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
             seconds,
             json,
         } => haptics::haptics(device, hd_name.as_deref(), &procedure, seconds, json),
+        Command::Precompute {
+            procedure,
+            cache,
+            json,
+        } => precompute::precompute(&procedure, cache, json),
         Command::XrSim(XrSimCommand::Manifest { out }) => {
             let path = tools::xr_sim_manifest(out)?;
             say!("{}", path.display());

@@ -1,5 +1,6 @@
 //! Tissue models. Each implements [`crate::sim::TissueModel`].
 
+pub mod bem;
 pub mod cosserat;
 pub mod forces;
 pub mod membrane;

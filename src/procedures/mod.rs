@@ -5,6 +5,7 @@
 use crate::scenario::InputError;
 
 pub mod cholecystectomy;
+pub mod myotomy;
 pub mod nephrectomy;
 mod procedure;
 pub mod rectum;

@@ -12,6 +12,7 @@
 
 use std::time::Instant;
 
+mod bem_cases;
 mod collision_cases;
 mod cosserat_cases;
 mod forces_cases;
@@ -144,6 +145,7 @@ pub fn cases() -> Vec<Case> {
     all.extend(cosserat_cases::cases());
     all.extend(membrane_cases::cases());
     all.extend(particle_cases::cases());
+    all.extend(bem_cases::cases());
     all
 }
 

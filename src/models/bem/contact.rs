@@ -1,0 +1,257 @@
+//! Contacts at haptic rate from a precomputation (James and Pai's capacitance method).
+//!
+//! An instrument holds a set `S` of field elements at displacements it prescribes. Their
+//! contact tractions `q_S` (on top of the conditions the problem was precomputed with) follow
+//! from the precomputed responses `R` (every unknown's change per pascal on a field element):
+//! the contact elements' own rows give the capacitance system `R_SS q_S = target_S - u0_S`
+//! (`3|S|` square, at most 192 for 64 contacts), factorised once per contact set and solved
+//! every update; the force the tissue takes is `sum_s q_s a_s`, and the whole surface's
+//! displacement, for drawing, `Y0 + R_S q_S`.
+//!
+//! Viscoelasticity (the myotomy paper's Prony parameters): with a Poisson's ratio constant in
+//! time, a displacement-controlled contact keeps its displacements and its tractions relax as
+//! the relaxation modulus does, `E(t) / E0 = 1 - g1 (1 - exp(-t / tau))`. For any history the
+//! contact tractions are `(1 - g1) q_el + g1 h`, where `q_el` is the elastic solution above
+//! and `h` its exponentially fading memory, `h' = q_el' - h / tau`, advanced exactly for a
+//! `q_el` linear over each step. The surface's displacement under the pressure is kept elastic.
+
+use super::Precomputed;
+use super::surface::Element;
+use super::system::{Condition, Known};
+use faer::Mat;
+use faer::linalg::solvers::{PartialPivLu, Solve};
+use glam::DVec3;
+
+/// The one-term Prony series of the relaxation modulus.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Prony {
+    pub g1: f64,
+    pub tau_s: f64,
+}
+
+impl Prony {
+    /// `E(t) / E0` after a step strain held for `t_s`.
+    pub fn relaxation(&self, t_s: f64) -> f64 {
+        1.0 - self.g1 * (1.0 - (-t_s / self.tau_s).exp())
+    }
+}
+
+/// Why a contact set was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ContactError {
+    #[error("element {element} is not in the precomputed field")]
+    NotInField { element: usize },
+    #[error("{count} contact elements: at most {most}")]
+    TooMany { count: usize, most: usize },
+    #[error("{targets} targets for {contacts} contact elements")]
+    Targets { targets: usize, contacts: usize },
+    #[error("contact element {element} appears twice")]
+    Repeated { element: usize },
+}
+
+/// The most contact elements at once.
+pub const MOST_CONTACTS: usize = 64;
+
+/// Contacts against one precomputation.
+pub struct Contacts {
+    pre: Precomputed,
+    /// Each element's slot in the field, if it has one.
+    slot: Vec<Option<usize>>,
+    areas: Vec<f64>,
+    /// The field's own rows of the responses, `3F x 3F` column-major (the capacitance
+    /// matrices are gathered from it, not from the whole `N`-row columns).
+    rff: Vec<f64>,
+    set: Vec<usize>,
+    lu: Option<PartialPivLu<f64>>,
+    /// The elastic contact tractions of the last update, Pa (3 per contact), and the fading
+    /// memory `h`.
+    q_el: Vec<f64>,
+    memory: Vec<f64>,
+    /// The contact tractions with the relaxation, Pa.
+    q: Vec<f64>,
+    prony: Option<Prony>,
+}
+
+impl Contacts {
+    pub fn new(pre: Precomputed, elements: &[Element], prony: Option<Prony>) -> Contacts {
+        let mut slot = vec![None; elements.len()];
+        for (s, &e) in pre.field.iter().enumerate() {
+            if let Some(x) = slot.get_mut(e) {
+                *x = Some(s);
+            }
+        }
+        let f3 = 3 * pre.field.len();
+        let mut rff = vec![0.0; f3 * f3];
+        for col in 0..f3 {
+            let column = &pre.response[col * pre.n..(col + 1) * pre.n];
+            for (s, &e) in pre.field.iter().enumerate() {
+                for c in 0..3 {
+                    rff[col * f3 + 3 * s + c] = column.get(3 * e + c).copied().unwrap_or(0.0);
+                }
+            }
+        }
+        Contacts {
+            pre,
+            slot,
+            areas: elements.iter().map(|e| e.area_m2).collect(),
+            rff,
+            set: Vec::new(),
+            lu: None,
+            q_el: Vec::new(),
+            memory: Vec::new(),
+            q: Vec::new(),
+            prony,
+        }
+    }
+
+    pub fn precomputed(&self) -> &Precomputed {
+        &self.pre
+    }
+
+    /// Whether element `e` can be touched.
+    pub fn in_field(&self, e: usize) -> bool {
+        self.slot.get(e).is_some_and(Option::is_some)
+    }
+
+    /// The elements in contact now.
+    pub fn set(&self) -> &[usize] {
+        &self.set
+    }
+
+    /// The displacement along `rc` of field slot `rs` per pascal along `c` on field slot `s`.
+    fn r(&self, rs: usize, rc: usize, s: usize, c: usize) -> f64 {
+        self.rff[(3 * s + c) * 3 * self.pre.field.len() + 3 * rs + rc]
+    }
+
+    /// Makes `elements` the contact set (factorising its capacitance matrix when it changed;
+    /// the relaxation's memory is kept for the elements that stay).
+    pub fn set_contacts(&mut self, elements: &[usize]) -> Result<(), ContactError> {
+        if elements == self.set.as_slice() {
+            return Ok(());
+        }
+        if elements.len() > MOST_CONTACTS {
+            return Err(ContactError::TooMany {
+                count: elements.len(),
+                most: MOST_CONTACTS,
+            });
+        }
+        let mut slots = Vec::with_capacity(elements.len());
+        for (k, &e) in elements.iter().enumerate() {
+            if elements[..k].contains(&e) {
+                return Err(ContactError::Repeated { element: e });
+            }
+            match self.slot.get(e).copied().flatten() {
+                Some(s) => slots.push(s),
+                None => return Err(ContactError::NotInField { element: e }),
+            }
+        }
+        let m = 3 * elements.len();
+        let cap = Mat::<f64>::from_fn(m, m, |i, j| {
+            self.r(slots[i / 3], i % 3, slots[j / 3], j % 3)
+        });
+        let mut q_el = vec![0.0; m];
+        let mut memory = vec![0.0; m];
+        for (k, &e) in elements.iter().enumerate() {
+            if let Some(old) = self.set.iter().position(|&x| x == e) {
+                q_el[3 * k..3 * k + 3].copy_from_slice(&self.q_el[3 * old..3 * old + 3]);
+                memory[3 * k..3 * k + 3].copy_from_slice(&self.memory[3 * old..3 * old + 3]);
+            }
+        }
+        self.lu = (m > 0).then(|| cap.partial_piv_lu());
+        self.set = elements.to_vec();
+        self.q_el = q_el;
+        self.memory = memory;
+        self.q = vec![0.0; m];
+        Ok(())
+    }
+
+    /// Holds the contact elements at `targets` (displacements, m) for a step of `dt_s`:
+    /// their contact tractions, and the force the tissue takes from the instrument, N.
+    pub fn update(&mut self, targets: &[DVec3], dt_s: f64) -> Result<DVec3, ContactError> {
+        if targets.len() != self.set.len() {
+            return Err(ContactError::Targets {
+                targets: targets.len(),
+                contacts: self.set.len(),
+            });
+        }
+        let m = 3 * self.set.len();
+        let Some(lu) = &self.lu else {
+            return Ok(DVec3::ZERO);
+        };
+        let mut rhs = Mat::<f64>::zeros(m, 1);
+        for (k, (&e, t)) in self.set.iter().zip(targets).enumerate() {
+            for c in 0..3 {
+                rhs[(3 * k + c, 0)] = t[c] - self.pre.y0[3 * e + c];
+            }
+        }
+        let q_new = lu.solve(&rhs);
+        match self.prony {
+            Some(p) if dt_s > 0.0 => {
+                let x = dt_s / p.tau_s;
+                let decay = (-x).exp();
+                // For q_el linear over the step: h += (1 - e^-x) / x * dq - (1 - e^-x) h.
+                let ramp = if x > 1e-12 { (1.0 - decay) / x } else { 1.0 };
+                for i in 0..m {
+                    let dq = q_new[(i, 0)] - self.q_el[i];
+                    self.memory[i] = decay * self.memory[i] + ramp * dq;
+                    self.q_el[i] = q_new[(i, 0)];
+                    self.q[i] = (1.0 - p.g1) * self.q_el[i] + p.g1 * self.memory[i];
+                }
+            }
+            _ => {
+                for i in 0..m {
+                    self.q_el[i] = q_new[(i, 0)];
+                    self.memory[i] = q_new[(i, 0)];
+                    self.q[i] = q_new[(i, 0)];
+                }
+            }
+        }
+        Ok(self.force_n())
+    }
+
+    /// The force the tissue takes from the instrument now, N (the instrument feels minus it).
+    pub fn force_n(&self) -> DVec3 {
+        let mut f = DVec3::ZERO;
+        for (k, &e) in self.set.iter().enumerate() {
+            let q = DVec3::new(self.q[3 * k], self.q[3 * k + 1], self.q[3 * k + 2]);
+            f += q * self.areas[e];
+        }
+        f
+    }
+
+    /// Every element's displacement now, m (the elastic field: under displacement control
+    /// the relaxation changes the forces, not the shape), given the conditions the
+    /// precomputation was made with.
+    pub fn displacements(&self, conditions: &[Condition], out: &mut Vec<DVec3>) {
+        let n = self.pre.n;
+        let mut y = self.pre.y0.clone();
+        for (k, &e) in self.set.iter().enumerate() {
+            let Some(s) = self.slot[e] else { continue };
+            for c in 0..3 {
+                let q = self.q_el[3 * k + c];
+                if q == 0.0 {
+                    continue;
+                }
+                let col = &self.pre.response[(3 * s + c) * n..(3 * s + c + 1) * n];
+                for (yi, ri) in y.iter_mut().zip(col) {
+                    *yi += ri * q;
+                }
+            }
+        }
+        out.clear();
+        out.extend(y.chunks_exact(3).zip(conditions).map(|(v, cond)| {
+            let mut u = DVec3::ZERO;
+            for c in 0..3 {
+                u[c] = match cond.known[c] {
+                    Known::Displacement => cond.value[c],
+                    Known::Traction => v[c],
+                };
+            }
+            u
+        }));
+    }
+}
+
+#[cfg(test)]
+#[path = "contact_tests.rs"]
+mod tests;

@@ -1,0 +1,4 @@
+//! Esophageal Heller myotomy (the myotomy paper): a boundary-element esophagus precomputed
+//! once, palpated and incised. Not yet a registered procedure: its model comes first.
+
+pub mod anatomy;
