@@ -16,6 +16,7 @@
 
 pub mod cache;
 pub mod contact;
+pub mod incision;
 pub mod kelvin;
 pub mod reference;
 pub mod surface;

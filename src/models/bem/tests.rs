@@ -223,7 +223,10 @@ fn far_integrals_are_the_kernels_at_the_centroid_times_the_area() {
     let (ku, kp) = kelvin::kernels(&TISSUE, xi, e.centroid, e.normal);
     for (a, b) in [(u, ku * e.area_m2), (p, kp * e.area_m2)] {
         let scale = b.to_cols_array().iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        let err = (a - b).to_cols_array().iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let err = (a - b)
+            .to_cols_array()
+            .iter()
+            .fold(0.0f64, |m, v| m.max(v.abs()));
         assert!(err <= 1e-12 * scale, "{a:?} vs {b:?}");
     }
 }
