@@ -209,6 +209,11 @@ impl Contacts {
         Ok(self.force_n())
     }
 
+    /// Contact `k`'s traction now (on top of the precomputed conditions), Pa.
+    pub fn traction(&self, k: usize) -> DVec3 {
+        DVec3::new(self.q[3 * k], self.q[3 * k + 1], self.q[3 * k + 2])
+    }
+
     /// The force the tissue takes from the instrument now, N (the instrument feels minus it).
     pub fn force_n(&self) -> DVec3 {
         let mut f = DVec3::ZERO;

@@ -2,3 +2,4 @@
 //! once, palpated and incised. Not yet a registered procedure: its model comes first.
 
 pub mod anatomy;
+pub mod palpation;
