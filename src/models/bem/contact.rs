@@ -17,10 +17,11 @@
 
 use super::Precomputed;
 use super::surface::Element;
+use super::system::Factored;
 use super::system::{Condition, Known};
-use faer::Mat;
-use faer::linalg::solvers::{PartialPivLu, Solve};
+use faer::Par;
 use glam::DVec3;
+use rayon::prelude::*;
 
 /// The one-term Prony series of the relaxation modulus.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -47,6 +48,8 @@ pub enum ContactError {
     Targets { targets: usize, contacts: usize },
     #[error("contact element {element} appears twice")]
     Repeated { element: usize },
+    #[error("the contact set's capacitance matrix is singular")]
+    Singular,
 }
 
 /// The most contact elements at once.
@@ -62,7 +65,9 @@ pub struct Contacts {
     /// matrices are gathered from it, not from the whole `N`-row columns).
     rff: Vec<f64>,
     set: Vec<usize>,
-    lu: Option<PartialPivLu<f64>>,
+    /// The capacitance matrix's factors (of its transpose, as the system keeps them),
+    /// factorised on this thread: it is small, and the same bytes on any machine.
+    lu: Option<Factored>,
     /// The elastic contact tractions of the last update, Pa (3 per contact), and the fading
     /// memory `h`.
     q_el: Vec<f64>,
@@ -146,9 +151,13 @@ impl Contacts {
             }
         }
         let m = 3 * elements.len();
-        let cap = Mat::<f64>::from_fn(m, m, |i, j| {
-            self.r(slots[i / 3], i % 3, slots[j / 3], j % 3)
-        });
+        // The transpose, column-major: column i holds row i of the capacitance matrix.
+        let mut cap_t = vec![0.0; m * m];
+        for i in 0..m {
+            for j in 0..m {
+                cap_t[i * m + j] = self.r(slots[i / 3], i % 3, slots[j / 3], j % 3);
+            }
+        }
         let mut q_el = vec![0.0; m];
         let mut memory = vec![0.0; m];
         for (k, &e) in elements.iter().enumerate() {
@@ -157,7 +166,11 @@ impl Contacts {
                 memory[3 * k..3 * k + 3].copy_from_slice(&self.memory[3 * old..3 * old + 3]);
             }
         }
-        self.lu = (m > 0).then(|| cap.partial_piv_lu());
+        self.lu = if m > 0 {
+            Some(Factored::new(m, cap_t, Par::Seq).map_err(|_| ContactError::Singular)?)
+        } else {
+            None
+        };
         self.set = elements.to_vec();
         self.q_el = q_el;
         self.memory = memory;
@@ -178,13 +191,13 @@ impl Contacts {
         let Some(lu) = &self.lu else {
             return Ok(DVec3::ZERO);
         };
-        let mut rhs = Mat::<f64>::zeros(m, 1);
+        let mut q_new = vec![0.0; m];
         for (k, (&e, t)) in self.set.iter().zip(targets).enumerate() {
             for c in 0..3 {
-                rhs[(3 * k + c, 0)] = t[c] - self.pre.y0[3 * e + c];
+                q_new[3 * k + c] = t[c] - self.pre.y0[3 * e + c];
             }
         }
-        let q_new = lu.solve(&rhs);
+        lu.solve(&mut q_new, 1, Par::Seq);
         match self.prony {
             Some(p) if dt_s > 0.0 => {
                 let x = dt_s / p.tau_s;
@@ -192,18 +205,16 @@ impl Contacts {
                 // For q_el linear over the step: h += (1 - e^-x) / x * dq - (1 - e^-x) h.
                 let ramp = if x > 1e-12 { (1.0 - decay) / x } else { 1.0 };
                 for i in 0..m {
-                    let dq = q_new[(i, 0)] - self.q_el[i];
+                    let dq = q_new[i] - self.q_el[i];
                     self.memory[i] = decay * self.memory[i] + ramp * dq;
-                    self.q_el[i] = q_new[(i, 0)];
+                    self.q_el[i] = q_new[i];
                     self.q[i] = (1.0 - p.g1) * self.q_el[i] + p.g1 * self.memory[i];
                 }
             }
             _ => {
-                for i in 0..m {
-                    self.q_el[i] = q_new[(i, 0)];
-                    self.memory[i] = q_new[(i, 0)];
-                    self.q[i] = q_new[(i, 0)];
-                }
+                self.q_el.copy_from_slice(&q_new);
+                self.memory.copy_from_slice(&q_new);
+                self.q.copy_from_slice(&q_new);
             }
         }
         Ok(self.force_n())
@@ -230,19 +241,30 @@ impl Contacts {
     pub fn displacements(&self, conditions: &[Condition], out: &mut Vec<DVec3>) {
         let n = self.pre.n;
         let mut y = self.pre.y0.clone();
-        for (k, &e) in self.set.iter().enumerate() {
-            let Some(s) = self.slot[e] else { continue };
-            for c in 0..3 {
-                let q = self.q_el[3 * k + c];
-                if q == 0.0 {
-                    continue;
-                }
-                let col = &self.pre.response[(3 * s + c) * n..(3 * s + c + 1) * n];
-                for (yi, ri) in y.iter_mut().zip(col) {
+        // (response column, traction) of every held element's components, in order.
+        let terms: Vec<(usize, f64)> = self
+            .set
+            .iter()
+            .enumerate()
+            .flat_map(|(k, &e)| {
+                let s = self.slot[e];
+                (0..3).filter_map(move |c| s.map(|s| (3 * s + c, k, c)))
+            })
+            .map(|(col, k, c)| (col, self.q_el[3 * k + c]))
+            .filter(|&(_, q)| q != 0.0)
+            .collect();
+        // Rows in parallel, each summing the terms in the same order: the same bytes on any
+        // number of threads.
+        let response = &self.pre.response;
+        y.par_chunks_mut(1024).enumerate().for_each(|(b, rows)| {
+            let from = b * 1024;
+            for &(col, q) in &terms {
+                let column = &response[col * n + from..col * n + from + rows.len()];
+                for (yi, ri) in rows.iter_mut().zip(column) {
                     *yi += ri * q;
                 }
             }
-        }
+        });
         out.clear();
         out.extend(y.chunks_exact(3).zip(conditions).map(|(v, cond)| {
             let mut u = DVec3::ZERO;

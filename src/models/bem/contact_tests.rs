@@ -92,3 +92,28 @@ fn contact_sets_outside_the_field_repeated_or_too_large_are_refused() {
         Err(ContactError::Targets { .. })
     ));
 }
+
+#[test]
+fn the_surface_displacements_are_the_same_bytes_on_one_and_two_threads() {
+    let (p, field) = setup();
+    let pre = p.precompute(&field, Par::Seq, &quiet).expect("solves");
+    let base = pre.solution(&p);
+    let mut contacts = Contacts::new(pre, &p.elements, None);
+    let held = [field[2], field[9], field[20]];
+    contacts.set_contacts(&held).expect("in field");
+    let targets: Vec<DVec3> = held
+        .iter()
+        .map(|&e| base.displacement[e] + DVec3::new(0.0, -0.001, 0.0))
+        .collect();
+    contacts.update(&targets, 0.001).expect("targets");
+    let run = |threads| {
+        crate::sim::on_threads(threads, || {
+            let mut u = Vec::new();
+            contacts.displacements(&p.conditions, &mut u);
+            u
+        })
+    };
+    let (one, two) = (run(1), run(2));
+    assert_eq!(one, two);
+    assert!(one.iter().zip(&base.displacement).any(|(a, b)| a != b));
+}

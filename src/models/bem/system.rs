@@ -67,6 +67,8 @@ pub enum BemError {
         "material: Young's modulus {young_pa} Pa must be positive and Poisson's ratio {poisson} in [0, 0.5)"
     )]
     Material { young_pa: f64, poisson: f64 },
+    #[error("field element {element} is out of range or listed twice ({elements} elements)")]
+    Field { element: usize, elements: usize },
     #[error(
         "the system is singular (pivot {pivot} is zero): the body is not held against rigid motion"
     )]
@@ -137,6 +139,18 @@ pub fn assemble(
 ) -> Result<Assembled, BemError> {
     validate(elements, material, conditions)?;
     let ne = elements.len();
+    let mut seen = vec![false; ne];
+    for &e in g_elements {
+        match seen.get_mut(e) {
+            Some(s) if !*s => *s = true,
+            _ => {
+                return Err(BemError::Field {
+                    element: e,
+                    elements: ne,
+                });
+            }
+        }
+    }
     let n = 3 * ne;
     let k = 3 * g_elements.len();
     // Where each element's G columns go, if anywhere.

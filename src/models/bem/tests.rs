@@ -204,6 +204,14 @@ fn bad_inputs_are_refused_with_what_is_wrong() {
         p.solve(par(), &quiet),
         Err(BemError::Lengths { .. })
     ));
+    let p = small_problem();
+    let n = p.elements.len();
+    for field in [vec![n], vec![2, 2]] {
+        assert!(matches!(
+            p.precompute(&field, par(), &quiet),
+            Err(BemError::Field { .. })
+        ));
+    }
     let mut p = small_problem();
     p.material.poisson = 0.5;
     assert!(matches!(
