@@ -129,7 +129,7 @@ enum Command {
     /// myotomy's boundary-element responses; sessions build it on first use otherwise). A
     /// cache made from other inputs, of another format or failing its checksum is rebuilt.
     Precompute {
-        #[arg(value_parser = precompute::PRECOMPUTABLE)]
+        #[arg(value_parser = PossibleValuesParser::new(precompute::names()))]
         procedure: String,
         /// The cache file (default: $VESALIUS_CACHE_DIR, $XDG_CACHE_HOME/vesalius or
         /// ~/.cache/vesalius, then <procedure>.bem).

@@ -7,6 +7,7 @@ use crate::scenario::InputError;
 pub mod cholecystectomy;
 pub mod myotomy;
 pub mod nephrectomy;
+pub mod precompute;
 mod procedure;
 pub mod rectum;
 pub mod sandbox;

@@ -27,6 +27,15 @@ fn closest(inc: &Incision, p: DVec3) -> usize {
         .unwrap_or(0)
 }
 
+/// The incised surface as a [`Surface`] (for its watertightness check).
+fn as_surface(inc: &Incision) -> Surface {
+    Surface {
+        vertices: inc.vertices.clone(),
+        triangles: inc.triangles.clone(),
+        faces: vec![Face::Outer; inc.triangles.len()],
+    }
+}
+
 fn area(inc: &Incision, t: usize) -> f64 {
     let [a, b, c] = inc.triangles[t].map(|i| inc.vertices[i as usize]);
     0.5 * (b - a).cross(c - a).length()
@@ -80,12 +89,7 @@ fn a_cut_along_the_anterior_wall_keeps_the_surface_watertight_and_the_hierarchy_
         let t = closest(&inc, p);
         inc.advance(t, p);
     }
-    let surface = Surface {
-        vertices: inc.vertices.clone(),
-        triangles: inc.triangles.clone(),
-        faces: vec![Face::Outer; inc.triangles.len()],
-    };
-    assert!(surface.is_watertight());
+    assert!(as_surface(&inc).is_watertight());
     check_hierarchy(&inc, &originals);
     // The path's length on the cylinder, from its start to where it was last divided
     // (within the last triangle it has not crossed yet).
@@ -131,12 +135,7 @@ fn a_second_path_after_lifting_the_tool_keeps_it_watertight() {
         }
         inc.lift();
     }
-    let surface = Surface {
-        vertices: inc.vertices.clone(),
-        triangles: inc.triangles.clone(),
-        faces: vec![Face::Outer; inc.triangles.len()],
-    };
-    assert!(surface.is_watertight());
+    assert!(as_surface(&inc).is_watertight());
     check_hierarchy(&inc, &originals);
     assert!(inc.cut_length_m() > 0.015);
 }

@@ -3,3 +3,6 @@
 
 pub mod anatomy;
 pub mod palpation;
+mod precompute;
+
+pub use precompute::PRECOMPUTE;

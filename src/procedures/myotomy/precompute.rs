@@ -1,0 +1,43 @@
+//! The myotomy's precomputation: the esophagus's boundary-element responses, in the cache.
+
+use super::anatomy::{Esophagus, EsophagusParams};
+use crate::models::bem::Progress;
+use crate::models::bem::system::lu_flops;
+use crate::procedures::precompute::{Precomputable, PrecomputeReport};
+use std::path::{Path, PathBuf};
+
+/// The entry in [`crate::procedures::precompute::PRECOMPUTABLE`].
+pub const PRECOMPUTE: Precomputable = Precomputable {
+    name: "myotomy",
+    default_file,
+    run,
+};
+
+fn default_file(dir: &Path) -> PathBuf {
+    dir.join("myotomy.bem")
+}
+
+fn run(path: &Path, progress: Progress) -> Result<PrecomputeReport, String> {
+    let e = Esophagus::new(&EsophagusParams::default());
+    let par = faer::Par::rayon(rayon::current_num_threads());
+    let (pre, why) = e
+        .problem
+        .precompute_cached(&e.field, path, par, progress)
+        .map_err(|err| err.to_string())?;
+    let report = PrecomputeReport {
+        procedure: "myotomy",
+        cache: path.to_path_buf(),
+        from_cache: pre.from_cache,
+        rebuilt_because: why.map(|w| w.to_string()),
+        elements: e.problem.elements.len(),
+        n: pre.n,
+        field_elements: pre.field.len(),
+        assembly_s: 0.0,
+        factor_s: 0.0,
+        factor_gflops: 0.0,
+        solve_s: 0.0,
+        total_s: 0.0,
+        bytes: std::fs::metadata(path).map(|m| m.len()).unwrap_or(0),
+    };
+    Ok(report.timed(pre.timings, lu_flops(pre.n)))
+}
