@@ -25,7 +25,7 @@ pub fn precompute(
     let path = cache_file.unwrap_or_else(|| (p.default_file)(&cache::default_dir()));
     let bar = Bar::new();
     let progress = |stage: &str, f: f64| bar.show(stage, f);
-    let r = (p.run)(&path, &progress).map_err(CliError::Failed)?;
+    let r = (p.run)(&path, &progress).map_err(|e| CliError::Failed(e.to_string()))?;
     if json {
         let line = serde_json::to_string(&r).map_err(|e| CliError::Failed(e.to_string()))?;
         say!("{line}");

@@ -49,7 +49,10 @@ impl PrecomputeReport {
 pub struct Precomputable {
     pub name: &'static str,
     pub default_file: fn(&Path) -> PathBuf,
-    pub run: fn(&Path, crate::models::bem::Progress) -> Result<PrecomputeReport, String>,
+    pub run: fn(
+        &Path,
+        crate::models::bem::Progress,
+    ) -> Result<PrecomputeReport, crate::models::bem::PrecomputeError>,
 }
 
 /// Every procedure with a precomputation.

@@ -1,8 +1,8 @@
 //! The myotomy's precomputation: the esophagus's boundary-element responses, in the cache.
 
 use super::anatomy::{Esophagus, EsophagusParams};
-use crate::models::bem::Progress;
 use crate::models::bem::system::lu_flops;
+use crate::models::bem::{PrecomputeError, Progress};
 use crate::procedures::precompute::{Precomputable, PrecomputeReport};
 use std::path::{Path, PathBuf};
 
@@ -17,13 +17,10 @@ fn default_file(dir: &Path) -> PathBuf {
     dir.join("myotomy.bem")
 }
 
-fn run(path: &Path, progress: Progress) -> Result<PrecomputeReport, String> {
+fn run(path: &Path, progress: Progress) -> Result<PrecomputeReport, PrecomputeError> {
     let e = Esophagus::new(&EsophagusParams::default());
     let par = faer::Par::rayon(rayon::current_num_threads());
-    let (pre, why) = e
-        .problem
-        .precompute_cached(&e.field, path, par, progress)
-        .map_err(|err| err.to_string())?;
+    let (pre, why) = e.problem.precompute_cached(&e.field, path, par, progress)?;
     let report = PrecomputeReport {
         procedure: "myotomy",
         cache: path.to_path_buf(),
