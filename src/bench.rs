@@ -31,6 +31,86 @@ pub struct BenchLine {
     /// A mass-spring model's particulars.
     #[serde(flatten)]
     pub mass_spring: crate::procedures::MassSpring,
+    /// A one-off computation's particulars (a precomputation's stages).
+    #[serde(flatten)]
+    pub once: Once,
+}
+
+/// A one-off computation's seconds, size and rate, beside the machine's peak (each left out
+/// of the JSON when absent).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct Once {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub seconds: Option<f64>,
+    /// The dense system's unknowns.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub n: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gflops: Option<f64>,
+    /// The machine's double-precision peak, GFLOP/s (see [`peak_gflops`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub peak_gflops: Option<f64>,
+}
+
+/// A procedure's own benchmarks, beyond stepping its demo.
+pub type ExtraBench = fn() -> Result<Vec<BenchLine>, BenchError>;
+
+impl BenchLine {
+    /// A line for `count` repetitions of something that took `seconds` in all (`steps` are
+    /// the repetitions, `steps_per_s` their rate; no time step).
+    pub fn repeated(model: &str, count: u64, seconds: f64) -> BenchLine {
+        BenchLine {
+            model: model.to_string(),
+            steps: count,
+            steps_per_s: count as f64 / seconds.max(1e-12),
+            dt_s: 0.0,
+            realtime_factor: 0.0,
+            vertices: 0,
+            triangles: 0,
+            constraints: 0,
+            threads: rayon::current_num_threads(),
+            awake_fraction: 1.0,
+            all_awake: true,
+            mass_spring: Default::default(),
+            once: Once::default(),
+        }
+    }
+}
+
+/// The machine's double-precision peak, GFLOP/s: the cores rayon uses times their clock
+/// (`cpu MHz` of `/proc/cpuinfo`, the highest listed) times the flops one core retires a
+/// cycle with the widest fused multiply-add it has (AVX-512: 32, AVX2 with FMA: 16, else 4).
+/// An estimate of the ceiling, not a measurement; none where the clock cannot be read.
+pub fn peak_gflops() -> Option<f64> {
+    let text = std::fs::read_to_string("/proc/cpuinfo").ok()?;
+    let mhz = text
+        .lines()
+        .filter(|l| l.starts_with("cpu MHz"))
+        .filter_map(|l| l.split(':').nth(1)?.trim().parse::<f64>().ok())
+        .fold(0.0, f64::max);
+    if mhz <= 0.0 {
+        return None;
+    }
+    Some(rayon::current_num_threads() as f64 * mhz * 1e-3 * flops_per_cycle())
+}
+
+#[cfg(target_arch = "x86_64")]
+fn flops_per_cycle() -> f64 {
+    if std::arch::is_x86_feature_detected!("avx512f") {
+        32.0
+    } else if std::arch::is_x86_feature_detected!("avx2")
+        && std::arch::is_x86_feature_detected!("fma")
+    {
+        16.0
+    } else {
+        4.0
+    }
+}
+
+/// Elsewhere: two-wide fused multiply-adds (NEON), a conservative figure.
+#[cfg(not(target_arch = "x86_64"))]
+fn flops_per_cycle() -> f64 {
+    4.0
 }
 
 /// Simulated seconds of the all-awake pass (the whole demo all awake would take minutes) by
@@ -47,6 +127,8 @@ pub enum BenchError {
     Input(#[from] InputError),
     #[error(transparent)]
     Build(#[from] BuildError),
+    #[error("a contact update: {0}")]
+    Contact(#[from] crate::models::bem::contact::ContactError),
 }
 
 /// Runs the procedure's demo trace once on its default scenario, timing every model and the
@@ -63,6 +145,9 @@ pub fn run(procedure: &str) -> Result<Vec<BenchLine>, BenchError> {
         info.bench_all_awake_s.min(trace.duration_s()),
         true,
     )?);
+    if let Some(extra) = info.bench_extra {
+        out.extend(extra()?);
+    }
     Ok(out)
 }
 
@@ -110,6 +195,7 @@ fn pass(
             awake_fraction,
             all_awake,
             mass_spring: Default::default(),
+            once: Once::default(),
         }
     };
     let models = p.model_reports();

@@ -12,6 +12,7 @@ pub mod models;
 pub mod params;
 pub mod procedures;
 pub mod profiler;
+pub mod progress;
 pub mod render;
 pub mod scenario;
 pub mod session;

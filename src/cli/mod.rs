@@ -6,7 +6,6 @@
 mod output;
 mod haptics;
 mod precompute;
-mod progress;
 mod session;
 mod tools;
 

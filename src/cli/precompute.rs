@@ -1,10 +1,10 @@
 //! `vesalius precompute`: builds a procedure's precomputed model data into the cache.
 
 use super::CliError;
-use super::progress::Bar;
 use std::path::PathBuf;
 use vesalius::models::bem::cache;
 use vesalius::procedures::precompute::{PRECOMPUTABLE, find};
+use vesalius::progress::Bar;
 
 /// The procedures that have something to precompute, for the command line.
 pub fn names() -> Vec<&'static str> {

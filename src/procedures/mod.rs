@@ -26,6 +26,7 @@ pub const REGISTRY: &[&ProcedureInfo] = &[
     &sandbox::INFO,
     &rectum::INFO,
     &cholecystectomy::INFO,
+    &myotomy::INFO,
 ];
 
 /// The registered procedure called `name`.

@@ -86,6 +86,8 @@ pub enum BuildError {
     Input(#[from] InputError),
     #[error("building the anatomy: {0}")]
     Mesh(#[from] crate::mesh::MeshError),
+    #[error("precomputing the tissue's responses: {0}")]
+    Precompute(#[from] crate::models::bem::PrecomputeError),
 }
 
 /// Builds a procedure from a scenario (`file` names it in errors).
@@ -132,6 +134,9 @@ pub struct ProcedureInfo {
     /// The model that tunings in recordings of format versions 1 and 2 (which name no model)
     /// were made to; none for a procedure that had no such recordings.
     pub legacy_tuned_model: Option<&'static str>,
+    /// Benchmarks of its own beyond the stepping (a precomputation, a haptic-rate update at
+    /// its largest), appended to `vesalius bench`'s lines; none for most.
+    pub bench_extra: Option<crate::bench::ExtraBench>,
     /// Reads and checks a scenario for planning (`file` names it in errors).
     pub plan: fn(file: &str, text: &str) -> Result<Plan, InputError>,
     /// Builds the procedure from a scenario.

@@ -5,8 +5,18 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+/// The binary, its precomputation caches in one folder of the build's scratch space that
+/// every integration test shares (the myotomy's esophagus is built once per build, not
+/// once per test or into the user's own cache).
 pub fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_vesalius"))
+    let mut c = Command::new(env!("CARGO_BIN_EXE_vesalius"));
+    c.env("VESALIUS_CACHE_DIR", cache_dir());
+    c
+}
+
+/// The shared precomputation cache folder.
+pub fn cache_dir() -> PathBuf {
+    Path::new(env!("CARGO_TARGET_TMPDIR")).join("vesalius-cache")
 }
 
 /// A finished command's stdout and stderr, one after the other.

@@ -52,6 +52,25 @@ pub enum ContactError {
     Singular,
 }
 
+/// A contact update worked out but not yet taken: the elastic tractions, the relaxation's
+/// memory and the tractions with the relaxation, Pa (3 per contact).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Pending {
+    q_el: Vec<f64>,
+    memory: Vec<f64>,
+    q: Vec<f64>,
+}
+
+impl Pending {
+    /// Contact `k`'s traction, Pa.
+    pub fn traction(&self, k: usize) -> DVec3 {
+        match self.q.get(3 * k..3 * k + 3) {
+            Some(q) => DVec3::new(q[0], q[1], q[2]),
+            None => DVec3::ZERO,
+        }
+    }
+}
+
 /// The most contact elements at once.
 pub const MOST_CONTACTS: usize = 64;
 
@@ -181,6 +200,13 @@ impl Contacts {
     /// Holds the contact elements at `targets` (displacements, m) for a step of `dt_s`:
     /// their contact tractions, and the force the tissue takes from the instrument, N.
     pub fn update(&mut self, targets: &[DVec3], dt_s: f64) -> Result<DVec3, ContactError> {
+        let pending = self.preview(targets, dt_s)?;
+        Ok(self.commit(pending))
+    }
+
+    /// What [`Contacts::update`] would give, the relaxation's memory left as it is (a trial
+    /// of a contact set that may change before the step is taken).
+    pub fn preview(&self, targets: &[DVec3], dt_s: f64) -> Result<Pending, ContactError> {
         if targets.len() != self.set.len() {
             return Err(ContactError::Targets {
                 targets: targets.len(),
@@ -189,7 +215,7 @@ impl Contacts {
         }
         let m = 3 * self.set.len();
         let Some(lu) = &self.lu else {
-            return Ok(DVec3::ZERO);
+            return Ok(Pending::default());
         };
         let mut q_new = vec![0.0; m];
         for (k, (&e, t)) in self.set.iter().zip(targets).enumerate() {
@@ -198,31 +224,52 @@ impl Contacts {
             }
         }
         lu.solve(&mut q_new, 1, Par::Seq);
-        match self.prony {
+        let mut memory = self.memory.clone();
+        let q = match self.prony {
             Some(p) if dt_s > 0.0 => {
                 let x = dt_s / p.tau_s;
                 let decay = (-x).exp();
                 // For q_el linear over the step: h += (1 - e^-x) / x * dq - (1 - e^-x) h.
                 let ramp = if x > 1e-12 { (1.0 - decay) / x } else { 1.0 };
-                for i in 0..m {
-                    let dq = q_new[i] - self.q_el[i];
-                    self.memory[i] = decay * self.memory[i] + ramp * dq;
-                    self.q_el[i] = q_new[i];
-                    self.q[i] = (1.0 - p.g1) * self.q_el[i] + p.g1 * self.memory[i];
-                }
+                (0..m)
+                    .map(|i| {
+                        let dq = q_new[i] - self.q_el[i];
+                        memory[i] = decay * memory[i] + ramp * dq;
+                        (1.0 - p.g1) * q_new[i] + p.g1 * memory[i]
+                    })
+                    .collect()
             }
             _ => {
-                self.q_el.copy_from_slice(&q_new);
-                self.memory.copy_from_slice(&q_new);
-                self.q.copy_from_slice(&q_new);
+                memory.copy_from_slice(&q_new);
+                q_new.clone()
             }
+        };
+        Ok(Pending {
+            q_el: q_new,
+            memory,
+            q,
+        })
+    }
+
+    /// Takes the step [`Contacts::preview`] gave (for the contact set it was made with):
+    /// the force the tissue takes from the instrument, N.
+    pub fn commit(&mut self, pending: Pending) -> DVec3 {
+        if pending.q.len() == 3 * self.set.len() {
+            self.q_el = pending.q_el;
+            self.memory = pending.memory;
+            self.q = pending.q;
         }
-        Ok(self.force_n())
+        self.force_n()
     }
 
     /// Contact `k`'s traction now (on top of the precomputed conditions), Pa.
     pub fn traction(&self, k: usize) -> DVec3 {
         DVec3::new(self.q[3 * k], self.q[3 * k + 1], self.q[3 * k + 2])
+    }
+
+    /// Element `e`'s area, m^2.
+    pub fn area(&self, e: usize) -> f64 {
+        self.areas.get(e).copied().unwrap_or(0.0)
     }
 
     /// The force the tissue takes from the instrument now, N (the instrument feels minus it).

@@ -61,6 +61,27 @@ impl Incision {
             .collect()
     }
 
+    /// The piece of original `o` that `p` projects into (the nearest by centroid when it
+    /// projects into none); `o` itself when out of range.
+    pub fn piece_at(&self, o: usize, p: DVec3) -> usize {
+        let pieces = self.pieces(o);
+        if let Some(&t) = pieces.iter().find(|&&t| self.inside(t, p)) {
+            return t;
+        }
+        let centroid = |t: usize| {
+            let [a, b, c] = self.corners(t);
+            (a + b + c) / 3.0
+        };
+        pieces
+            .into_iter()
+            .min_by(|&a, &b| {
+                (centroid(a) - p)
+                    .length_squared()
+                    .total_cmp(&(centroid(b) - p).length_squared())
+            })
+            .unwrap_or(o)
+    }
+
     /// Whether the tool passed over triangle `t`.
     pub fn passed(&self, t: usize) -> bool {
         self.passed[t]
@@ -76,7 +97,7 @@ impl Incision {
         self.cuts
             .iter()
             .map(|&[a, b]| (self.vertices[a as usize] - self.vertices[b as usize]).length())
-            .sum()
+            .fold(0.0, |sum, l| sum + l)
     }
 
     /// Lifts the tool: the next contact starts a new path.

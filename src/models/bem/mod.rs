@@ -172,6 +172,9 @@ pub enum PrecomputeError {
     Bem(#[from] BemError),
     #[error(transparent)]
     Cache(#[from] cache::CacheError),
+    /// The scenario the precomputation's inputs come from.
+    #[error(transparent)]
+    Input(#[from] crate::scenario::InputError),
 }
 
 /// A problem's solution as given and its field elements' responses.

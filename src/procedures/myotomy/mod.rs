@@ -1,8 +1,18 @@
-//! Esophageal Heller myotomy (the myotomy paper): a boundary-element esophagus precomputed
-//! once, palpated and incised. Not yet a registered procedure: its model comes first.
+//! Laparoscopic Heller myotomy (the esophageal myotomy paper, issue 17): a boundary-element
+//! esophagus precomputed once, palpated and grasped at haptic rate, and incised by dividing
+//! its surface along the hook's path: the anatomy, palpation, the scenario, the procedure
+//! (task, metrics, drawing) and its registry entry.
 
 pub mod anatomy;
+mod bench;
+mod drawing;
 pub mod palpation;
+mod plugin;
 mod precompute;
+mod procedure;
+pub mod scenario;
 
+pub use plugin::{INFO, ScoreParts, build_procedure, cache_file, score};
 pub use precompute::PRECOMPUTE;
+pub use procedure::{BAND_M, Metrics, Myotomy, STEPS};
+pub use scenario::Scenario;

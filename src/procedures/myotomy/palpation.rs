@@ -31,7 +31,7 @@ pub struct Touch {
     pub held: Vec<usize>,
     /// The force the tissue takes from the tip, N.
     pub force_n: DVec3,
-    /// How far the tip reaches past the resting surface, m (the deepest candidate's).
+    /// How far the tip pushes the wall in, m (the furthest pushed resting centroid).
     pub depth_m: f64,
 }
 
@@ -41,6 +41,14 @@ pub struct Palpation {
     /// The resting centroids (under the pressure), m.
     rest: Vec<DVec3>,
     normals: Vec<DVec3>,
+    /// Each tip's grasp: the elements its closed jaws took and where each sits from the
+    /// tip's centre, m.
+    grasped: Vec<Vec<(usize, DVec3)>>,
+    /// Every element held after the last update: its owner tip and target position, m.
+    held_at: Vec<(usize, usize, DVec3)>,
+    /// Last update's pressing candidates (element, tip) and those it let go.
+    last_candidates: Vec<(usize, usize)>,
+    last_released: Vec<usize>,
 }
 
 impl Palpation {
@@ -54,62 +62,147 @@ impl Palpation {
             contacts,
             rest,
             normals: elements.iter().map(|e| e.normal).collect(),
+            grasped: Vec::new(),
+            held_at: Vec::new(),
+            last_candidates: Vec::new(),
+            last_released: Vec::new(),
         }
     }
 
-    /// One update: the tip where it is now, a step of `dt_s`.
+    /// Element `e`'s centroid at rest (under the pressure alone), m.
+    pub fn rest(&self, e: usize) -> DVec3 {
+        self.rest[e]
+    }
+
+    /// One update with one tip that presses (never grasps).
     pub fn update(&mut self, tip: &Tip, dt_s: f64) -> Result<Touch, ContactError> {
-        let mut candidates: Vec<(f64, usize)> = Vec::new();
+        let mut touches = self.update_tips(&[*tip], &[false], dt_s)?;
+        Ok(touches.pop().unwrap_or_default())
+    }
+
+    /// One update with every tip where it is now, a step of `dt_s`. A tip whose `grasp` is
+    /// set holds what it touched when it closed (those elements follow it and are never let
+    /// go until it opens); the others press. An element inside two tips belongs to the one
+    /// it lies deeper in; at most [`MOST_CONTACTS`] are held in all, grasped ones first, then
+    /// the deepest.
+    pub fn update_tips(
+        &mut self,
+        tips: &[Tip],
+        grasp: &[bool],
+        dt_s: f64,
+    ) -> Result<Vec<Touch>, ContactError> {
+        self.grasped.resize(tips.len(), Vec::new());
+        for (k, g) in self.grasped.iter_mut().enumerate() {
+            if !grasp.get(k).copied().unwrap_or(false) {
+                g.clear();
+            } else if g.is_empty() {
+                // Closing: it takes what it holds now.
+                let centre = tips[k].centre_m;
+                *g = self
+                    .held_at
+                    .iter()
+                    .filter(|&&(_, owner, _)| owner == k)
+                    .map(|&(e, _, at)| (e, at - centre))
+                    .collect();
+            }
+        }
+        // (owner, element, target position) of the grasped elements.
+        let mut fixed: Vec<(usize, usize, DVec3)> = Vec::new();
+        for (k, g) in self.grasped.iter().enumerate() {
+            for &(e, off) in g {
+                if fixed.len() < MOST_CONTACTS {
+                    fixed.push((k, e, tips[k].centre_m + off));
+                }
+            }
+        }
+        let mut candidates: Vec<(f64, usize, usize)> = Vec::new();
         for e in 0..self.rest.len() {
-            if !self.contacts.in_field(e) {
+            if !self.contacts.in_field(e) || fixed.iter().any(|f| f.1 == e) {
                 continue;
             }
-            let depth = tip.radius_m - (self.rest[e] - tip.centre_m).length();
-            if depth > 0.0 {
-                candidates.push((depth, e));
+            let (k, depth) = deepest_push(tips, self.rest[e], self.normals[e]);
+            if depth > 0.0 && !grasp.get(k).copied().unwrap_or(false) {
+                candidates.push((depth, e, k));
             }
         }
         // Deepest first; ties by element number (the same set on every machine).
         candidates.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-        candidates.truncate(MOST_CONTACTS);
-        let depth_m = candidates.first().map_or(0.0, |c| c.0);
-        let mut held: Vec<usize> = candidates.iter().map(|c| c.1).collect();
-        held.sort_unstable();
-        let base_u = |e: usize| self.rest[e];
-        for _ in 0..=MOST_RELEASES {
+        candidates.truncate(MOST_CONTACTS - fixed.len());
+        let mut depth_m = vec![0.0f64; tips.len()];
+        for &(d, _, k) in &candidates {
+            depth_m[k] = depth_m[k].max(d);
+        }
+        let mut pressed: Vec<(usize, usize)> = candidates.iter().map(|c| (c.1, c.2)).collect();
+        // The same candidates as last step start without the ones let go then (a contact set
+        // that settled is not factorised again every step).
+        let all_pressed = pressed.clone();
+        if all_pressed == self.last_candidates {
+            pressed.retain(|(e, _)| !self.last_released.contains(e));
+        }
+        for round in 0..=MOST_RELEASES {
+            // The held set in element order, each with its owner and target position.
+            let mut held: Vec<(usize, usize, DVec3)> = fixed
+                .iter()
+                .map(|&(k, e, at)| (e, k, at))
+                .chain(
+                    pressed
+                        .iter()
+                        .map(|&(e, k)| (e, k, self.on_sphere(e, &tips[k]))),
+                )
+                .collect();
+            held.sort_unstable_by_key(|h| h.0);
+            let elements: Vec<usize> = held.iter().map(|h| h.0).collect();
             let targets: Vec<DVec3> = held
                 .iter()
-                .map(|&e| {
-                    // Pushed in along its normal until it is on the sphere: `s` solves
-                    // `|w - n s| = r`, `w` the centroid from the centre (the positive root).
-                    let (w, n) = (base_u(e) - tip.centre_m, self.normals[e]);
-                    let wn = w.dot(n);
-                    let s = wn
-                        + (wn * wn + tip.radius_m * tip.radius_m - w.length_squared())
-                            .max(0.0)
-                            .sqrt();
-                    // The target displacement from the element's undeformed centroid.
-                    self.contacts_target(e, base_u(e) - n * s)
-                })
+                .map(|&(e, _, at)| self.contacts_target(e, at))
                 .collect();
-            self.contacts.set_contacts(&held)?;
-            self.contacts.update(&targets, dt_s)?;
+            self.contacts.set_contacts(&elements)?;
+            // A trial: only the set finally held advances the relaxation's memory.
+            let pending = self.contacts.preview(&targets, dt_s)?;
             let pulling: Vec<usize> = held
                 .iter()
                 .enumerate()
-                .filter(|&(k, &e)| self.contacts.traction(k).dot(self.normals[e]) > 0.0)
-                .map(|(_, &e)| e)
+                .filter(|&(i, &(e, k, _))| {
+                    !grasp.get(k).copied().unwrap_or(false)
+                        && pending.traction(i).dot(self.normals[e]) > 0.0
+                })
+                .map(|(_, h)| h.0)
                 .collect();
-            if pulling.is_empty() {
+            if pulling.is_empty() || round == MOST_RELEASES {
+                self.contacts.commit(pending);
+                self.held_at = held;
                 break;
             }
-            held.retain(|e| !pulling.contains(e));
+            pressed.retain(|(e, _)| !pulling.contains(e));
         }
-        Ok(Touch {
-            held,
-            force_n: self.contacts.force_n(),
-            depth_m,
-        })
+        self.last_released = all_pressed
+            .iter()
+            .map(|p| p.0)
+            .filter(|e| !pressed.iter().any(|p| p.0 == *e))
+            .collect();
+        self.last_candidates = all_pressed;
+        let mut touches = vec![Touch::default(); tips.len()];
+        for (i, &(e, k, _)) in self.held_at.iter().enumerate() {
+            let t = &mut touches[k];
+            t.held.push(e);
+            t.force_n += self.contacts.traction(i) * self.contacts.area(e);
+        }
+        for (t, d) in touches.iter_mut().zip(depth_m) {
+            t.depth_m = d;
+        }
+        Ok(touches)
+    }
+
+    /// Element `e`'s resting centroid pushed in along its normal onto the sphere of `tip`:
+    /// `s` solves `|w - n s| = r`, `w` the centroid from the centre (the positive root).
+    fn on_sphere(&self, e: usize, tip: &Tip) -> DVec3 {
+        let (w, n) = (self.rest[e] - tip.centre_m, self.normals[e]);
+        let wn = w.dot(n);
+        let s = wn
+            + (wn * wn + tip.radius_m * tip.radius_m - w.length_squared())
+                .max(0.0)
+                .sqrt();
+        self.rest[e] - n * s
     }
 
     /// The displacement that puts element `e`'s centroid at `at`.
@@ -118,6 +211,41 @@ impl Palpation {
         let rest_u = DVec3::new(pre.y0[3 * e], pre.y0[3 * e + 1], pre.y0[3 * e + 2]);
         at - (self.rest[e] - rest_u)
     }
+}
+
+/// The most an instrument travels into the wall, m (the 20 mm of palpation).
+pub const MOST_TRAVEL_M: f64 = 0.020;
+
+/// Of the tips, the one that pushes a resting point `p` of outward normal `n` in furthest,
+/// and how far (negative: none touches it). A tip touches the point when the line through
+/// it along `n` crosses the sphere, the sphere reaching past the point into the tissue but
+/// starting no more than [`MOST_TRAVEL_M`] inside it: the point is pushed to the sphere's
+/// far side (a tip sunk below the resting surface has pushed the tissue ahead of it).
+fn deepest_push(tips: &[Tip], p: DVec3, n: DVec3) -> (usize, f64) {
+    tips.iter()
+        .enumerate()
+        .map(|(k, t)| {
+            let w = p - t.centre_m;
+            let wn = w.dot(n);
+            let lateral2 = w.length_squared() - wn * wn;
+            let r2 = t.radius_m * t.radius_m;
+            if lateral2 >= r2 {
+                return (k, -1.0);
+            }
+            let h = (r2 - lateral2).sqrt();
+            let push = wn + h;
+            if push <= 0.0 || wn - h > MOST_TRAVEL_M {
+                (k, -1.0)
+            } else {
+                (k, push)
+            }
+        })
+        .fold(
+            (0, f64::NEG_INFINITY),
+            |best, x| {
+                if x.1 > best.1 { x } else { best }
+            },
+        )
 }
 
 #[cfg(test)]

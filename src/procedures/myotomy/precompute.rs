@@ -1,6 +1,9 @@
-//! The myotomy's precomputation: the esophagus's boundary-element responses, in the cache.
+//! The myotomy's precomputation: the default scenario's esophagus's boundary-element
+//! responses, in the cache file its sessions read.
 
-use super::anatomy::{Esophagus, EsophagusParams};
+use super::anatomy::Esophagus;
+use super::plugin::{INFO, cache_file};
+use super::scenario::Scenario;
 use crate::models::bem::system::lu_flops;
 use crate::models::bem::{PrecomputeError, Progress};
 use crate::procedures::precompute::{Precomputable, PrecomputeReport};
@@ -13,12 +16,21 @@ pub const PRECOMPUTE: Precomputable = Precomputable {
     run,
 };
 
+/// The default scenario's esophagus.
+fn esophagus() -> Result<Esophagus, PrecomputeError> {
+    let s = Scenario::parse("builtin myotomy scenario", INFO.scenario)?;
+    Ok(Esophagus::new(&s.esophagus_params()))
+}
+
 fn default_file(dir: &Path) -> PathBuf {
-    dir.join("myotomy.bem")
+    match esophagus() {
+        Ok(e) => cache_file(dir, &e),
+        Err(_) => dir.join("myotomy.bem"),
+    }
 }
 
 fn run(path: &Path, progress: Progress) -> Result<PrecomputeReport, PrecomputeError> {
-    let e = Esophagus::new(&EsophagusParams::default());
+    let e = esophagus()?;
     let par = faer::Par::rayon(rayon::current_num_threads());
     let (pre, why) = e.problem.precompute_cached(&e.field, path, par, progress)?;
     let report = PrecomputeReport {

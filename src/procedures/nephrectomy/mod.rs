@@ -76,6 +76,7 @@ pub const INFO: super::ProcedureInfo = super::ProcedureInfo {
     scope_hand: None,
     swap: &[],
     legacy_tuned_model: Some(TUNED_MODEL),
+    bench_extra: None,
     plan,
     build,
 };

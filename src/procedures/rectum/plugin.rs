@@ -60,6 +60,7 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
         full_scale_n: 5.0,
     }],
     legacy_tuned_model: None,
+    bench_extra: None,
     plan,
     build,
 };

@@ -10,6 +10,12 @@ pub struct Bar {
     terminal: bool,
 }
 
+impl Default for Bar {
+    fn default() -> Self {
+        Bar::new()
+    }
+}
+
 impl Bar {
     pub fn new() -> Bar {
         Bar {
