@@ -95,7 +95,7 @@ fn unknown_and_unbuilt_procedures_are_named() {
             && e.contains("nephrectomy"),
         "{e}"
     );
-    let e = trace_error(&TRACE.replace("nephrectomy", "myotomy"));
+    let e = trace_error(&TRACE.replace("nephrectomy", "catheter"));
     assert!(e.contains("not implemented yet"), "{e}");
 }
 

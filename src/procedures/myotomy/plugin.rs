@@ -22,7 +22,7 @@ use std::path::{Path, PathBuf};
 /// The registry's entry.
 pub const INFO: ProcedureInfo = ProcedureInfo {
     name: NAME,
-    title: "Laparoscopic Heller myotomy (the muscle divided across the esophagogastric junction)",
+    title: "Laparoscopic Heller myotomy (esophagogastric junction)",
     paper: "esophageal-myotomy.txt",
     scenario: include_str!("../../../assets/scenarios/myotomy.toml"),
     demo_trace: include_str!("../../../assets/traces/myotomy-demo.toml"),
