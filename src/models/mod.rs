@@ -6,6 +6,7 @@ pub mod forces;
 pub mod membrane;
 pub mod particles;
 mod simplex;
+pub mod skeleton;
 mod softbody;
 pub mod xpbd;
 
