@@ -4,6 +4,7 @@
 
 use crate::scenario::InputError;
 
+pub mod catheter;
 pub mod cholecystectomy;
 pub mod myotomy;
 pub mod nephrectomy;
@@ -27,6 +28,7 @@ pub const REGISTRY: &[&ProcedureInfo] = &[
     &rectum::INFO,
     &cholecystectomy::INFO,
     &myotomy::INFO,
+    &catheter::INFO,
 ];
 
 /// The registered procedure called `name`.

@@ -19,6 +19,7 @@ mod forces_cases;
 pub mod hertz_cases;
 pub(crate) mod membrane_cases;
 pub(crate) mod particle_cases;
+mod skeleton_cases;
 mod softbody_cases;
 pub mod softbody_contact_cases;
 mod xpbd_cases;
@@ -146,6 +147,7 @@ pub fn cases() -> Vec<Case> {
     all.extend(membrane_cases::cases());
     all.extend(particle_cases::cases());
     all.extend(bem_cases::cases());
+    all.extend(skeleton_cases::cases());
     all
 }
 

@@ -160,7 +160,16 @@ impl Catheter {
         self.params.length_m / (self.balls.len() - 1) as f64
     }
 
-    /// One sub-step of `dt_s` under the device's drive and the contact forces on each ball.
+    /// Brings each ball's "up" and the bending part's rest turns up to date with the drive:
+    /// once a step (they follow the twist and the trigger, which change at the step's rate).
+    pub fn orient(&mut self, drive: &Drive) {
+        self.twist[0] = drive.twist_rad;
+        self.frames();
+        self.set_bend(drive.bend.clamp(0.0, 1.0));
+    }
+
+    /// One sub-step of `dt_s` under the device's drive and the contact forces on each ball
+    /// (after [`Catheter::orient`] for the step).
     pub fn step(&mut self, drive: &Drive, contact: &[DVec3], dt_s: f64) {
         let n = self.balls.len();
         let p = self.params;
@@ -173,8 +182,6 @@ impl Catheter {
         let v0 = (handle - self.balls.x[0]) / dt_s.max(1e-12);
         self.balls.x[0] = handle;
         self.twist[0] = drive.twist_rad;
-        self.frames();
-        self.set_bend(drive.bend.clamp(0.0, 1.0));
         self.balls.start_forces(DVec3::ZERO);
         for (f, c) in self.balls.f.iter_mut().zip(contact) {
             *f += *c;

@@ -33,6 +33,19 @@ pub fn detect(
     holes: &[bool],
     out: &mut Vec<Hit>,
 ) -> u64 {
+    detect_within(catheter, from, vessel, holes, 0.0, out)
+}
+
+/// [`detect`] for pairs within `margin_m` of touching too (their depth down to `-margin_m`):
+/// the candidates a step's sub-steps test again as the balls move.
+pub fn detect_within(
+    catheter: &Balls,
+    from: usize,
+    vessel: &Vessel,
+    holes: &[bool],
+    margin_m: f64,
+    out: &mut Vec<Hit>,
+) -> u64 {
     out.clear();
     let mut tests = 0u64;
     let section = vessel.params.section_m;
@@ -44,7 +57,7 @@ pub fn detect(
         .enumerate()
         .skip(from)
     {
-        let reach = r + wall_r;
+        let reach = r + wall_r + margin_m;
         for tube in &vessel.tubes {
             let t = tube.along(p);
             if t < -reach - section || t > tube.length_m + reach + section {
@@ -64,8 +77,8 @@ pub fn detect(
                     tests += 1;
                     let d = p - vessel.balls.x[b as usize];
                     let dist = d.length();
-                    let depth = reach - dist;
-                    if depth > 0.0 && dist > 0.0 {
+                    let depth = reach - margin_m - dist;
+                    if depth > -margin_m && dist > 0.0 {
                         out.push(Hit {
                             catheter: i as u32,
                             wall: b,
@@ -78,6 +91,25 @@ pub fn detect(
         }
     }
     tests
+}
+
+/// The candidates that touch where the balls are now, their depth and normal brought up to
+/// date, in the candidates' order.
+pub fn narrow(candidates: &[Hit], catheter: &Balls, vessel: &Vessel, out: &mut Vec<Hit>) {
+    out.clear();
+    for c in candidates {
+        let (i, b) = (c.catheter as usize, c.wall as usize);
+        let d = catheter.x[i] - vessel.balls.x[b];
+        let dist = d.length();
+        let depth = catheter.radius_m[i] + vessel.balls.radius_m[b] - dist;
+        if depth > 0.0 && dist > 0.0 {
+            out.push(Hit {
+                depth_m: depth,
+                normal: d / dist,
+                ..*c
+            });
+        }
+    }
 }
 
 /// The hits' forces: added to `on_catheter` (per catheter ball) and, with the opposite sign,

@@ -224,6 +224,7 @@ fn twisting_transmits_and_the_tip_bends_along_the_arc() {
             twist_rad: quarter * (k as f64 / 2000.0).min(1.0),
             bend: (k as f64 / 5000.0).min(1.0),
         };
+        c.orient(&drive);
         c.step(&drive, &zero, dt);
     }
     let tip_twist = c.twist[c.balls.len() - 1];

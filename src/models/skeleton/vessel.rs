@@ -11,6 +11,7 @@
 
 use super::{Balls, LinearSpring};
 use glam::DVec3;
+use rayon::prelude::*;
 
 /// The vessel's shape, resolution and materials.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -59,6 +60,9 @@ pub struct Tube {
     pub dir: DVec3,
     pub length_m: f64,
     pub sections: Vec<Vec<u32>>,
+    /// Its rings of balls, `around` to a ring (none where a ball was left out), from the
+    /// start: the wall's mesh for drawing.
+    pub rings: Vec<Vec<Option<u32>>>,
 }
 
 impl Tube {
@@ -84,6 +88,12 @@ pub struct Vessel {
     /// The wall's mid-radius, m.
     pub mid_radius_m: f64,
     pub params: VesselParams,
+    /// Each ball's springs (`ball_springs[ball_start[i]..ball_start[i + 1]]`), with the sign
+    /// of the spring's force on it: the forces are gathered per ball in a fixed order.
+    ball_start: Vec<u32>,
+    ball_springs: Vec<(u32, f64)>,
+    /// Each spring's force on its first ball this step (scratch).
+    spring_f: Vec<DVec3>,
 }
 
 impl Vessel {
@@ -97,29 +107,35 @@ impl Vessel {
                 dir: DVec3::X,
                 length_m: p.trunk_m,
                 sections: Vec::new(),
+                rings: Vec::new(),
             },
             Tube {
                 start: end,
                 dir: DVec3::new(a.cos(), a.sin(), 0.0),
                 length_m: p.branch_m,
                 sections: Vec::new(),
+                rings: Vec::new(),
             },
             Tube {
                 start: end,
                 dir: DVec3::new(a.cos(), -a.sin(), 0.0),
                 length_m: p.branch_m,
                 sections: Vec::new(),
+                rings: Vec::new(),
             },
         ];
         let around = p.around.max(3);
         let spacing = std::f64::consts::TAU * mid / around as f64;
         let mut balls = Balls::default();
         let mut owner: Vec<usize> = Vec::new();
+        let mut all_rings: Vec<Vec<Vec<Option<u32>>>> = Vec::new();
         for (ti, tube) in tubes.iter().enumerate() {
             let rings = (tube.length_m / spacing).round().max(1.0) as usize;
+            let mut grid = Vec::with_capacity(rings + 1);
             // A frame across the tube: z, and the in-plane normal.
             let side = DVec3::Z.cross(tube.dir).normalize_or(DVec3::Y);
             for k in 0..=rings {
+                let mut ring = Vec::with_capacity(around);
                 let t = tube.length_m * k as f64 / rings as f64;
                 for j in 0..around {
                     let phi = std::f64::consts::TAU * j as f64 / around as f64;
@@ -139,9 +155,17 @@ impl Vessel {
                             balls.fixed[b as usize] = true;
                         }
                         owner.push(ti);
+                        ring.push(Some(b));
+                    } else {
+                        ring.push(None);
                     }
                 }
+                grid.push(ring);
             }
+            all_rings.push(grid);
+        }
+        for (tube, grid) in tubes.iter_mut().zip(all_rings) {
+            tube.rings = grid;
         }
         // Springs to every ball within reach of the lattice's diagonal.
         let reach = 1.5 * spacing;
@@ -170,6 +194,19 @@ impl Vessel {
             }
         }
         let rest = balls.x.clone();
+        let mut per_ball: Vec<Vec<(u32, f64)>> = vec![Vec::new(); balls.len()];
+        for (k, sp) in springs.iter().enumerate() {
+            per_ball[sp.a as usize].push((k as u32, 1.0));
+            per_ball[sp.b as usize].push((k as u32, -1.0));
+        }
+        let mut ball_start = Vec::with_capacity(balls.len() + 1);
+        let mut ball_springs = Vec::new();
+        for list in per_ball {
+            ball_start.push(ball_springs.len() as u32);
+            ball_springs.extend(list);
+        }
+        ball_start.push(ball_springs.len() as u32);
+        let spring_f = vec![DVec3::ZERO; springs.len()];
         Vessel {
             balls,
             springs,
@@ -177,22 +214,79 @@ impl Vessel {
             tubes,
             mid_radius_m: mid,
             params: *p,
+            ball_start,
+            ball_springs,
+            spring_f,
         }
     }
 
-    /// Gathers the wall's forces (springs, tethers, damping of each ball against its rest)
-    /// on top of `external` (the contacts' reaction), then steps it by `dt_s`.
+    /// Gathers the wall's forces (springs, tethers) on top of `external` (the contacts'
+    /// reaction), then steps it by `dt_s`. The springs' forces are worked out in parallel,
+    /// then each ball sums its own in a fixed order and moves (the same bytes on any number
+    /// of threads).
     pub fn step(&mut self, external: &[DVec3], dt_s: f64) {
-        self.balls.start_forces(DVec3::ZERO);
-        for (f, e) in self.balls.f.iter_mut().zip(external) {
-            *f += *e;
-        }
-        super::add_spring_forces(&mut self.balls, &self.springs);
+        const CHUNK: usize = 256;
+        let balls = &self.balls;
+        let springs = &self.springs;
+        self.spring_f
+            .par_chunks_mut(CHUNK)
+            .enumerate()
+            .for_each(|(c, out)| {
+                for (k, f) in out.iter_mut().enumerate() {
+                    *f = springs[c * CHUNK + k].force_on_a(balls);
+                }
+            });
         let k = self.params.tether_n_per_m;
-        for i in 0..self.balls.len() {
-            self.balls.f[i] += (self.rest[i] - self.balls.x[i]) * k;
+        let (start, list, spring_f, rest) = (
+            &self.ball_start,
+            &self.ball_springs,
+            &self.spring_f,
+            &self.rest,
+        );
+        let b = &mut self.balls;
+        let (x, v) = (&mut b.x, &mut b.v);
+        let (mass, fixed, forces) = (&b.mass_kg, &b.fixed, &mut b.f);
+        x.par_chunks_mut(CHUNK)
+            .zip(v.par_chunks_mut(CHUNK))
+            .zip(forces.par_chunks_mut(CHUNK))
+            .enumerate()
+            .for_each(|(c, ((xs, vs), fs))| {
+                for j in 0..xs.len() {
+                    let i = c * CHUNK + j;
+                    let mut f =
+                        external.get(i).copied().unwrap_or_default() + (rest[i] - xs[j]) * k;
+                    for &(s, sign) in &list[start[i] as usize..start[i + 1] as usize] {
+                        f += spring_f[s as usize] * sign;
+                    }
+                    fs[j] = f;
+                    if fixed[i] {
+                        vs[j] = DVec3::ZERO;
+                        continue;
+                    }
+                    vs[j] += f * (dt_s / mass[i]);
+                    xs[j] += vs[j] * dt_s;
+                }
+            });
+    }
+
+    /// The wall as triangles between neighbouring rings (wound outwards), where all four
+    /// balls of a quad are present: its surface for drawing.
+    pub fn triangles(&self) -> Vec<[u32; 3]> {
+        let mut out = Vec::new();
+        for tube in &self.tubes {
+            for k in 0..tube.rings.len().saturating_sub(1) {
+                let (r0, r1) = (&tube.rings[k], &tube.rings[k + 1]);
+                let n = r0.len();
+                for j in 0..n {
+                    let jn = (j + 1) % n;
+                    if let (Some(a), Some(b), Some(c), Some(d)) = (r0[j], r0[jn], r1[j], r1[jn]) {
+                        out.push([a, b, c]);
+                        out.push([b, d, c]);
+                    }
+                }
+            }
         }
-        self.balls.integrate(dt_s);
+        out
     }
 
     /// The largest distance of a ball from where it rests, m.

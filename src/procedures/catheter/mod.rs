@@ -1,0 +1,13 @@
+//! Interventional catheterisation (the catheter paper, issue 18): the skeleton-spring
+//! catheter and bifurcating vessel of [`crate::models::skeleton`] under a force-feedback
+//! handle: the scenario, the procedure (task, metrics, events, drawing) and its registry
+//! entry.
+
+mod bench;
+mod plugin;
+mod procedure;
+pub mod scenario;
+
+pub use plugin::{INFO, ScoreParts, build_procedure, build_scene, score};
+pub use procedure::{Catheterisation, Metrics, STEPS};
+pub use scenario::Scenario;

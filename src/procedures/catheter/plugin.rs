@@ -1,0 +1,274 @@
+//! The catheterisation as the session, window and headset see every procedure: its registry
+//! entry, its build from a scenario, its score and its own benchmark lines.
+
+use super::procedure::{Catheterisation, Metrics, STEPS};
+use super::scenario::{self, NAME, Scenario};
+use crate::models::skeleton::catheter::Catheter;
+use crate::models::skeleton::scene::CatheterScene;
+use crate::models::skeleton::vessel::Vessel;
+use crate::params::TuneError;
+use crate::procedures::{
+    BuildError, MassSpring, ModelReport, Plan, Procedure, ProcedureInfo, ProcedureReport,
+    TaskStatus, ToolInfo, ToolKind, Tunable, Viewpoint,
+};
+use crate::scenario::InputError;
+use crate::sim::{Hand, InputFrame, SimEvent, Snapshot};
+use glam::{DVec3, Vec3};
+use serde::Serialize;
+
+/// The registry's entry.
+pub const INFO: ProcedureInfo = ProcedureInfo {
+    name: NAME,
+    title: "Interventional catheterisation (a bifurcating vessel)",
+    paper: "interventional-catheter.txt",
+    scenario: include_str!("../../../assets/scenarios/catheter.toml"),
+    demo_trace: include_str!("../../../assets/traces/catheter-demo.toml"),
+    steps: &STEPS,
+    tools: [
+        ToolInfo {
+            hand: Hand::Left,
+            name: "introducer",
+            kind: ToolKind::Probe,
+            full_scale_n: 9.0,
+        },
+        ToolInfo {
+            hand: Hand::Right,
+            name: "catheter",
+            kind: ToolKind::Catheter,
+            // The Novint Falcon's largest force.
+            full_scale_n: 9.0,
+        },
+    ],
+    // The paper's view: the vessel from the side (+z), the bifurcation in the middle.
+    view: Viewpoint {
+        eye: Vec3::new(0.055, 0.0, 0.16),
+        target: Vec3::new(0.055, 0.0, 0.0),
+    },
+    // The handle's hand at the catheter's end, the other aside.
+    desk_park: [Vec3::new(-0.05, -0.04, 0.03), Vec3::new(-0.1, 0.0, 0.0)],
+    profile_reference: None,
+    param_tables: scenario::PARAM_TABLES,
+    bench_all_awake_s: 1.0,
+    scope_hand: None,
+    swap: &[],
+    legacy_tuned_model: None,
+    bench_extra: Some(super::bench::extra),
+    plan,
+    build,
+};
+
+fn plan(file: &str, text: &str) -> Result<Plan, InputError> {
+    let s = Scenario::parse(file, text)?;
+    Ok(Plan {
+        dt_s: s.dt_s,
+        publish_hz: s.publish_hz,
+        nodes: s.balls(),
+    })
+}
+
+fn build(file: &str, text: &str) -> Result<Box<dyn Procedure>, BuildError> {
+    let s = Scenario::parse(file, text)?;
+    Ok(Box::new(build_procedure(s)))
+}
+
+/// The scene for a checked scenario: the vessel, the catheter straight in its introducer
+/// with its tip at the inlet, pointing along the trunk.
+pub fn build_scene(s: &Scenario) -> CatheterScene {
+    let vessel = Vessel::new(&s.vessel_params());
+    let catheter = Catheter::new(&s.catheter_params(), DVec3::ZERO, DVec3::X);
+    CatheterScene::new(
+        catheter,
+        vessel,
+        s.law(),
+        s.contact.puncture_n,
+        s.catheter.substeps,
+    )
+}
+
+/// The procedure for a checked scenario.
+pub fn build_procedure(s: Scenario) -> Catheterisation {
+    let scene = build_scene(&s);
+    Catheterisation::new(s, scene)
+}
+
+/// Weight of the checklist done, of the speed and of a light touch, points.
+const COMPLETION_POINTS: f32 = 60.0;
+const EFFICIENCY_POINTS: f32 = 20.0;
+const GENTLENESS_POINTS: f32 = 20.0;
+/// Points taken off per puncture and per entry into the wrong branch.
+const PUNCTURE_PENALTY: f32 = 30.0;
+const WRONG_BRANCH_PENALTY: f32 = 5.0;
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ScoreParts {
+    /// Fraction of the checklist done.
+    pub completion: f32,
+    /// Target time / completion time, at most 1; zero until completed.
+    pub efficiency: f32,
+    /// 1 while the largest force stays within the paper's 3.5 N, falling to 0 at the device's
+    /// largest.
+    pub gentleness: f32,
+    pub penalty: f32,
+}
+
+/// The score, 0-100: 60 x completion + 20 x efficiency + 20 x gentleness, less 30 per
+/// puncture and 5 per wrong branch (a flat score until the assessment trees of #12).
+pub fn score(s: &Scenario, m: &Metrics) -> (f32, ScoreParts) {
+    let most = s.device.max_force_n.max(3.5 + 1e-9);
+    let parts = ScoreParts {
+        completion: m.steps_done.len().min(STEPS.len()) as f32 / STEPS.len() as f32,
+        efficiency: m.completion_time_s.map_or(0.0, |t| {
+            (s.task.target_time_s / t.max(1e-9)).min(1.0) as f32
+        }),
+        gentleness: (1.0 - ((m.peak_force_n - 3.5) / (most - 3.5)).clamp(0.0, 1.0)) as f32,
+        penalty: PUNCTURE_PENALTY * m.punctures as f32
+            + WRONG_BRANCH_PENALTY * m.wrong_branch as f32,
+    };
+    let total = COMPLETION_POINTS * parts.completion
+        + EFFICIENCY_POINTS * parts.efficiency
+        + GENTLENESS_POINTS * parts.gentleness
+        - parts.penalty;
+    (total.clamp(0.0, 100.0), parts)
+}
+
+impl Procedure for Catheterisation {
+    fn info(&self) -> &'static ProcedureInfo {
+        &INFO
+    }
+
+    fn dt_s(&self) -> f32 {
+        self.scenario.dt_s
+    }
+
+    fn step(&mut self, input: &InputFrame, step: u64, events: &mut Vec<SimEvent>) {
+        Catheterisation::step(self, input, step, events);
+    }
+
+    fn snapshot(&mut self, step: u64) -> Snapshot {
+        Catheterisation::snapshot(self, step)
+    }
+
+    fn status(&self, _near_m: f32) -> TaskStatus {
+        let m = &self.metrics;
+        let (score, _) = score(&self.scenario, m);
+        TaskStatus {
+            steps_done: m.steps_done.clone(),
+            completed: self.is_completed(),
+            score,
+            errors: m.errors,
+            path_m: [0.0, m.handle_path_m as f32],
+            figures: vec![
+                (
+                    "force".to_string(),
+                    format!("{:.2} N", self.reaction().length()),
+                ),
+                ("peak force".to_string(), format!("{:.2} N", m.peak_force_n)),
+                ("wall contacts".to_string(), m.wall_contacts.to_string()),
+                (
+                    "into the branch".to_string(),
+                    format!("{:.0} mm", 1e3 * m.reach_m),
+                ),
+            ],
+            touching: [false; 2],
+            near: [None, None],
+        }
+    }
+
+    fn report(&self) -> ProcedureReport {
+        let (score, parts) = score(&self.scenario, &self.metrics);
+        ProcedureReport {
+            completed: self.is_completed(),
+            errors: self.metrics.errors,
+            metrics: serde_json::to_value(&self.metrics).unwrap_or_default(),
+            score_parts: serde_json::to_value(&parts).unwrap_or_default(),
+            score,
+        }
+    }
+
+    fn reactions(&self) -> [Vec3; 2] {
+        [Vec3::ZERO, self.reaction().as_vec3()]
+    }
+
+    fn contacts_now(&self) -> [Option<(Vec3, Vec3)>; 2] {
+        let r = self.reaction();
+        let tip = self.scene.catheter.tip().as_vec3();
+        [
+            None,
+            (r.length() > 0.0).then(|| (tip, r.normalize_or(DVec3::Y).as_vec3())),
+        ]
+    }
+
+    fn model_reports(&self) -> Vec<ModelReport> {
+        let s = &self.scene;
+        let report = |name: &str, kind: &str, vertices: usize, constraints: usize| ModelReport {
+            name: name.to_string(),
+            kind: kind.to_string(),
+            vertices,
+            triangles: 0,
+            constraints,
+            mass_spring: MassSpring {
+                nodes: Some(vertices),
+                springs: Some(constraints),
+                integrator: Some("semi_implicit_euler"),
+            },
+        };
+        vec![
+            report(
+                "catheter",
+                "skeleton_springs",
+                s.catheter.balls.len(),
+                s.catheter.springs.len() + s.catheter.angles.len(),
+            ),
+            ModelReport {
+                triangles: self.scene.vessel.triangles().len(),
+                ..report(
+                    "vessel",
+                    "skeleton_springs",
+                    s.vessel.balls.len(),
+                    s.vessel.springs.len(),
+                )
+            },
+            ModelReport {
+                mass_spring: MassSpring::default(),
+                ..report("collision", "sphere_sections", 0, 0)
+            },
+        ]
+    }
+
+    fn model_times(&self) -> Vec<f64> {
+        self.scene.times.to_vec()
+    }
+
+    fn awake_fractions(&self) -> Vec<f64> {
+        vec![1.0; 3]
+    }
+
+    fn stay_awake(&mut self) {}
+
+    fn memory(&self) -> Vec<(&'static str, usize)> {
+        let s = &self.scene;
+        vec![
+            ("catheter", s.catheter.balls.heap_bytes()),
+            (
+                "vessel",
+                s.vessel.balls.heap_bytes() + s.vessel.springs.capacity() * 40,
+            ),
+        ]
+    }
+
+    fn state_hash(&self) -> u64 {
+        Catheterisation::state_hash(self)
+    }
+
+    fn tunables(&self) -> Vec<Tunable> {
+        Vec::new()
+    }
+
+    fn tune(&mut self, model: &str, _values: &[(String, f32)]) -> Result<(), TuneError> {
+        Err(TuneError::NoSuchModel(model.to_string()))
+    }
+
+    fn is_completed(&self) -> bool {
+        Catheterisation::is_completed(self)
+    }
+}
