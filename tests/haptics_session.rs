@@ -247,3 +247,34 @@ fn bad_device_lists_are_usage_errors() {
         assert!(!text(&o).contains("panicked"), "{args:?}");
     }
 }
+
+/// `--haptics default` opens the procedure's own device: for the catheterisation the
+/// paper's Novint Falcon (here the fake DHD library), bound to the hand that holds the
+/// catheter, whose travel pushes it in.
+#[test]
+fn the_catheters_default_device_is_a_falcon_on_the_catheters_hand() {
+    let d = tmp("haptics-session", "catheter-falcon");
+    let o = bin()
+        .args(["run", "catheter", "--no-window", "--haptics", "default"])
+        .args(["--seconds", "1"])
+        .arg("--out")
+        .arg(&*d)
+        .env("LD_LIBRARY_PATH", xr_bindings::haptics::fake_library_dir())
+        .env_remove("VESALIUS_LIBDHD")
+        .env("FAKE_DHD_POSITION_M", "0.02,0,0")
+        .output()
+        .expect("runs");
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let all = text(&o);
+    assert!(
+        all.contains("Falcon") && all.contains("right hand"),
+        "{all}"
+    );
+    let r = report(&d);
+    assert_eq!(r["procedure"], "catheter", "{r}");
+    assert_eq!(r["ended"], "time_up", "{r}");
+    assert!(
+        r["metrics"]["tip_path_m"].as_f64().unwrap_or(0.0) > 0.01,
+        "{r}"
+    );
+}

@@ -17,6 +17,20 @@ pub enum DeviceArg {
     Phantom,
     /// A Novint Falcon (Force Dimension DHD, libdhd.so).
     Falcon,
+    /// The procedure's own device: the catheterisation's Falcon, the others' Phantom.
+    Default,
+}
+
+impl DeviceArg {
+    /// `Default` made the procedure's own device.
+    fn resolved(self, info: &vesalius::procedures::ProcedureInfo) -> DeviceArg {
+        match (self, info.haptic_device) {
+            (DeviceArg::Default, DeviceChoice::Sim) => DeviceArg::Sim,
+            (DeviceArg::Default, DeviceChoice::Phantom) => DeviceArg::Phantom,
+            (DeviceArg::Default, DeviceChoice::Falcon) => DeviceArg::Falcon,
+            (d, _) => d,
+        }
+    }
 }
 
 impl From<DeviceArg> for DeviceChoice {
@@ -25,6 +39,8 @@ impl From<DeviceArg> for DeviceChoice {
             DeviceArg::Sim => DeviceChoice::Sim,
             DeviceArg::Phantom => DeviceChoice::Phantom,
             DeviceArg::Falcon => DeviceChoice::Falcon,
+            // Resolved against the procedure before it gets here; a Phantom otherwise.
+            DeviceArg::Default => DeviceChoice::Phantom,
         }
     }
 }
@@ -40,6 +56,7 @@ pub fn haptics(
 ) -> Result<(), CliError> {
     let info = vesalius::procedures::find(procedure)
         .ok_or_else(|| CliError::Usage(format!("unknown procedure '{procedure}'")))?;
+    let device = device.resolved(info);
     if hd_name.is_some() && device != DeviceArg::Phantom {
         return Err(CliError::Usage(
             "--hd-name names a Phantom: it goes with --device phantom".into(),
@@ -96,7 +113,10 @@ pub fn run_with_devices(a: &RunArgs) -> Result<(), CliError> {
             a.haptics.len()
         )));
     }
-    let names = hd_names(&a.haptics, &a.hd_names)?;
+    let info = vesalius::procedures::find(&a.procedure)
+        .ok_or_else(|| CliError::Usage(format!("no procedure '{}'", a.procedure)))?;
+    let chosen: Vec<DeviceArg> = a.haptics.iter().map(|d| d.resolved(info)).collect();
+    let names = hd_names(&chosen, &a.hd_names)?;
     let windowed = !a.no_window && super::session::display_available();
     if !windowed && a.screenshot.is_some() {
         return Err(CliError::Usage(
@@ -108,7 +128,7 @@ pub fn run_with_devices(a: &RunArgs) -> Result<(), CliError> {
         vesalius::session::prepare(dir)?;
     }
     let mut devices = Vec::new();
-    for (d, name) in a.haptics.iter().zip(&names) {
+    for (d, name) in chosen.iter().zip(&names) {
         devices.push(open_device((*d).into(), name.as_deref())?);
     }
     if windowed {

@@ -81,9 +81,9 @@ pub fn sim_pool(servos: usize) -> Result<rayon::ThreadPool, HapticsError> {
 
 /// The hand a single device drives: the procedure's probe, else the right.
 pub fn device_hand(info: &ProcedureInfo) -> Hand {
-    info.tools
-        .iter()
-        .find(|t| t.kind == ToolKind::Probe)
+    let held = |kind: ToolKind| info.tools.iter().find(|t| t.kind == kind);
+    held(ToolKind::Catheter)
+        .or_else(|| held(ToolKind::Probe))
         .map_or(Hand::Right, |t| t.hand)
 }
 

@@ -137,6 +137,8 @@ pub struct ProcedureInfo {
     /// The model that tunings in recordings of format versions 1 and 2 (which name no model)
     /// were made to; none for a procedure that had no such recordings.
     pub legacy_tuned_model: Option<&'static str>,
+    /// The force-feedback device `--haptics default` opens for it (the paper's own).
+    pub haptic_device: crate::haptics::DeviceChoice,
     /// Benchmarks of its own beyond the stepping (a precomputation, a haptic-rate update at
     /// its largest), appended to `vesalius bench`'s lines; none for most.
     pub bench_extra: Option<crate::bench::ExtraBench>,

@@ -52,6 +52,8 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
     scope_hand: None,
     swap: &[],
     legacy_tuned_model: None,
+    // The paper's Novint Falcon (9 N, 1 kHz).
+    haptic_device: crate::haptics::DeviceChoice::Falcon,
     bench_extra: Some(super::bench::extra),
     plan,
     build,

@@ -76,6 +76,7 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
     scope_hand: Some(Hand::Left),
     swap: &RIGHT_CYCLE,
     legacy_tuned_model: None,
+    haptic_device: crate::haptics::DeviceChoice::Phantom,
     bench_extra: None,
     plan,
     build,

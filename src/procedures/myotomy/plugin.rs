@@ -56,6 +56,7 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
     scope_hand: None,
     swap: &[],
     legacy_tuned_model: None,
+    haptic_device: crate::haptics::DeviceChoice::Phantom,
     bench_extra: Some(super::bench::extra),
     plan,
     build,

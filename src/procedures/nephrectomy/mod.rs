@@ -76,6 +76,7 @@ pub const INFO: super::ProcedureInfo = super::ProcedureInfo {
     scope_hand: None,
     swap: &[],
     legacy_tuned_model: Some(TUNED_MODEL),
+    haptic_device: crate::haptics::DeviceChoice::Phantom,
     bench_extra: None,
     plan,
     build,

@@ -60,6 +60,7 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
         full_scale_n: 5.0,
     }],
     legacy_tuned_model: None,
+    haptic_device: crate::haptics::DeviceChoice::Phantom,
     bench_extra: None,
     plan,
     build,

@@ -86,6 +86,7 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
     scope_hand: None,
     swap: &[],
     legacy_tuned_model: None,
+    haptic_device: crate::haptics::DeviceChoice::Phantom,
     bench_extra: None,
     plan,
     build,
