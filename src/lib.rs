@@ -13,6 +13,7 @@ pub mod params;
 pub mod procedures;
 pub mod profiler;
 pub mod progress;
+pub mod records;
 pub mod render;
 pub mod scenario;
 pub mod session;

@@ -4,22 +4,12 @@
 //! registered procedure.
 
 mod common;
-use common::{Scratch, bin, report};
+use common::{Scratch, bin, ok, report};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
 fn trace() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/traces/sandbox-demo.toml")
-}
-
-fn ok(o: &Output) -> String {
-    let out = String::from_utf8_lossy(&o.stdout).to_string();
-    assert!(
-        o.status.success(),
-        "{out}\n{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    out
 }
 
 /// The task done in order, as the report's metrics and events say.
@@ -122,6 +112,27 @@ fn demo_plays_every_registered_procedure() {
             "{out}"
         );
     }
+    // Every session is in the demo's records, for trainee 'demo', with its level.
+    let list = ok(&bin()
+        .args(["records", "list", "--db"])
+        .arg(dir.join("records.sqlite"))
+        .output()
+        .expect("runs"));
+    for p in vesalius::procedures::REGISTRY {
+        let r = report(&dir.join(p.name));
+        let id = r["session_id"].as_str().unwrap_or("?");
+        let line = list.lines().find(|l| l.starts_with(id)).unwrap_or_default();
+        let level = r["level"].as_str().unwrap_or("?");
+        assert!(
+            line.contains("demo") && line.contains(p.name) && line.contains(level),
+            "{}: {list}",
+            p.name
+        );
+    }
+    assert_eq!(
+        list.lines().count(),
+        1 + vesalius::procedures::REGISTRY.len()
+    );
 }
 
 #[test]

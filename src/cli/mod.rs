@@ -6,6 +6,7 @@
 mod output;
 mod haptics;
 mod precompute;
+mod records;
 mod session;
 mod tools;
 
@@ -43,6 +44,10 @@ enum Command {
         /// Output folder.
         #[arg(long, value_name = "DIR", default_value = "vesalius-demo")]
         out: PathBuf,
+        /// Store every session, as trainee 'demo', in this records file (default:
+        /// DIR/records.sqlite).
+        #[arg(long, value_name = "FILE")]
+        records: Option<PathBuf>,
     },
     /// A session: in a desktop window (default), headless with a trace, or in a headset.
     Run(Box<RunArgs>),
@@ -60,9 +65,14 @@ enum Command {
         /// Eye size of those frames in pixels (default: the Vive's 1080x1200).
         #[arg(long, value_name = "WxH", value_parser = parse_size, requires = "frames")]
         eye_size: Option<(u32, u32)>,
+        /// Score the replayed session with this assessment tree instead of the procedure's
+        /// own (assets/assessment/*.toml): an old session scored again.
+        #[arg(long, value_name = "FILE")]
+        assessment: Option<PathBuf>,
     },
-    /// Validate scenarios, keyframed traces, recordings, interaction profiles and simulated
-    /// runtime settings; errors name the file, the key and what is expected.
+    /// Validate scenarios, keyframed traces, recordings, interaction profiles, simulated
+    /// runtime settings, assessment trees and questionnaires; errors name the file, the key
+    /// and what is expected.
     Check {
         #[arg(required = true, value_name = "FILE")]
         files: Vec<PathBuf>,
@@ -138,6 +148,10 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// The learning centre's records: trainees and their scored sessions (an SQLite file,
+    /// owner-only; --db or $VESALIUS_RECORDS, default vesalius-demo/records.sqlite).
+    #[command(subcommand)]
+    Records(records::RecordsCommand),
     /// The simulated OpenXR runtime.
     #[command(name = "xr-sim", subcommand)]
     XrSim(XrSimCommand),
@@ -189,6 +203,17 @@ struct RunArgs {
     /// Pace the headless session against the wall clock.
     #[arg(long, requires = "headless")]
     realtime: bool,
+    /// Score the headless session with this assessment tree instead of the procedure's own
+    /// (assets/assessment/*.toml).
+    #[arg(long, value_name = "FILE", requires = "headless")]
+    assessment: Option<PathBuf>,
+    /// Store the headless session in the learning centre's records (this SQLite file) for
+    /// --trainee.
+    #[arg(long, value_name = "FILE", requires_all = ["headless", "out", "trainee"])]
+    records: Option<PathBuf>,
+    /// The trainee's pseudonymous id (letters, digits, '-', '_', '.').
+    #[arg(long, value_name = "ID", requires = "records")]
+    trainee: Option<String>,
     /// Also render N evenly spaced stereo frames into DIR/frames/ and DIR/profiler.csv.
     #[arg(long, value_name = "N", requires_all = ["headless", "out"],
           value_parser = clap::value_parser!(u32).range(1..=10_000))]
@@ -284,6 +309,9 @@ pub enum CliError {
     /// A force-feedback device or the servo loop.
     #[error(transparent)]
     Haptics(#[from] vesalius::haptics::HapticsError),
+    /// The learning centre's records.
+    #[error(transparent)]
+    Records(#[from] vesalius::records::RecordsError),
     /// A failure of the command itself (a file it writes, a child process), in words.
     #[error("{0}")]
     Failed(String),
@@ -442,14 +470,15 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
     vesalius::session::interrupt::install()
         .map_err(|e| CliError::Failed(format!("cannot install signal handlers: {e}")))?;
     match cli.command {
-        Command::Demo { out } => session::demo(&out),
+        Command::Demo { out, records } => session::demo(&out, records.as_deref()),
         Command::Run(args) => session::run(*args),
         Command::Replay {
             recording,
             out,
             frames,
             eye_size,
-        } => session::replay(&recording, &out, frames, eye_size),
+            assessment,
+        } => session::replay(&recording, &out, frames, eye_size, assessment.as_deref()),
         Command::Check { files } => tools::check(&files),
         Command::Bench { procedure, json } => tools::bench(procedure.as_deref(), json),
         Command::Profile {
@@ -479,6 +508,7 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
             cache,
             json,
         } => precompute::precompute(&procedure, cache, json),
+        Command::Records(c) => records::run(c),
         Command::XrSim(XrSimCommand::Manifest { out }) => {
             let path = tools::xr_sim_manifest(out)?;
             say!("{}", path.display());

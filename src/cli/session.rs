@@ -50,6 +50,26 @@ pub(super) fn interrupted() -> Result<(), CliError> {
     }
 }
 
+/// An assessment tree given on the command line, checked to be for `procedure` before the
+/// session is built.
+fn load_tree(
+    path: Option<&Path>,
+    procedure: &str,
+) -> Result<Option<(String, vesalius::assess::Tree)>, CliError> {
+    let Some(path) = path else {
+        return Ok(None);
+    };
+    let tree = vesalius::assess::load_file(path)?;
+    if tree.procedure != procedure {
+        return Err(CliError::Failed(format!(
+            "{}: procedure: the tree is for '{}', not '{procedure}'",
+            path.display(),
+            tree.procedure
+        )));
+    }
+    Ok(Some((path.display().to_string(), tree)))
+}
+
 /// Prints the outcome and writes the output set.
 pub(super) fn finish(outcome: &session::Outcome, out: Option<&Path>) -> Result<(), CliError> {
     if let Some(dir) = out {
@@ -57,13 +77,14 @@ pub(super) fn finish(outcome: &session::Outcome, out: Option<&Path>) -> Result<(
     }
     let r = &outcome.report;
     say!(
-        "{}: completed={} ended={} steps={} simulated={:.2}s score={:.1} cuts={} wall={:.2}s ({:.2}x real time)",
+        "{}: completed={} ended={} steps={} simulated={:.2}s score={:.1} level={} cuts={} wall={:.2}s ({:.2}x real time)",
         r.procedure,
         r.completed,
         r.ended,
         r.steps,
         r.simulated_s,
         r.score,
+        r.level,
         r.events.get("cut").copied().unwrap_or(0),
         outcome.wall_s,
         r.simulated_s / outcome.wall_s.max(1e-9)
@@ -108,8 +129,10 @@ pub fn run(a: RunArgs) -> Result<(), CliError> {
     };
     let (file, text) = scenario_text(&a.procedure, a.scenario.as_deref())?;
     let keys = load_trace(trace, &a.procedure, a.max_session)?;
+    let tree = load_tree(a.assessment.as_deref(), &a.procedure)?;
     let frames = a.frames.unwrap_or(0);
     let opts = Options {
+        assessment: tree.as_ref().map(|(f, t)| (f.as_str(), t)),
         pacing: if a.realtime {
             Pacing::RealTime
         } else {
@@ -121,6 +144,9 @@ pub fn run(a: RunArgs) -> Result<(), CliError> {
     };
     let outcome = session::run_with(&text, &file, Input::Keys(keys), &opts)?;
     finish(&outcome, a.out.as_deref())?;
+    if let (Some(db), Some(dir), Some(trainee)) = (&a.records, &a.out, &a.trainee) {
+        super::records::store(db, dir, trainee)?;
+    }
     interrupted()?;
     if let (Some(dir), true) = (&a.out, frames > 0) {
         render_frames(&outcome, dir, a.eye_size)?;
@@ -409,8 +435,10 @@ pub fn replay(
     out: &Path,
     frames: Option<u32>,
     eye_size: Option<(u32, u32)>,
+    assessment: Option<&Path>,
 ) -> Result<(), CliError> {
     let rec = Recording::read(recorded)?;
+    let tree = load_tree(assessment, &rec.procedure)?;
     let own = recorded.parent().map(|p| {
         if p.as_os_str().is_empty() {
             Path::new(".")
@@ -443,6 +471,7 @@ pub fn replay(
     let opts = Options {
         out: Some(out),
         frames_wanted: frames.unwrap_or(0),
+        assessment: tree.as_ref().map(|(f, t)| (f.as_str(), t)),
         ..Options::default()
     };
     let outcome = session::run_with(&scenario, &file, Input::Recorded(rec), &opts)?;
@@ -454,8 +483,10 @@ pub fn replay(
     Ok(())
 }
 
-/// `demo`: every registered procedure's demo trace, headless, into DIR/<procedure>/.
-pub fn demo(out: &Path) -> Result<(), CliError> {
+/// `demo`: every registered procedure's demo trace, headless, into DIR/<procedure>/, each
+/// session stored for trainee 'demo' in the records (`records`, default DIR/records.sqlite).
+pub fn demo(out: &Path, records: Option<&Path>) -> Result<(), CliError> {
+    let db = records.map_or_else(|| out.join("records.sqlite"), Path::to_path_buf);
     for p in vesalius::procedures::REGISTRY {
         let keys = KeyTrace::parse(&format!("builtin {} demo trace", p.name), p.demo_trace)?;
         let dir = out.join(p.name);
@@ -467,6 +498,7 @@ pub fn demo(out: &Path) -> Result<(), CliError> {
         let outcome = session::run_with(p.scenario, &file, Input::Keys(keys), &opts)?;
         finish(&outcome, Some(&dir))?;
         interrupted()?;
+        super::records::store(&db, &dir, "demo")?;
     }
     Ok(())
 }

@@ -81,6 +81,12 @@ fn check_one(path: &Path) -> Result<&'static str, InputError> {
     if has("left") || has("right") {
         KeyTrace::parse(&file, &text)?;
         Ok("keyframed trace")
+    } else if has("items") && has("rating") {
+        vesalius::assess::questionnaire::Questionnaire::parse(&file, &text)?;
+        Ok("questionnaire")
+    } else if has("node") && has("version") {
+        vesalius::assess::load(&file, &text)?;
+        Ok("assessment tree")
     } else if has("profile") && has("bindings") {
         xr_bindings::profiles::Profile::parse(&file, &text)
             .map_err(|e| InputError::new(&file, "profile", e.to_string()))?;

@@ -137,6 +137,12 @@ pub struct ProcedureInfo {
     /// The model that tunings in recordings of format versions 1 and 2 (which name no model)
     /// were made to; none for a procedure that had no such recordings.
     pub legacy_tuned_model: Option<&'static str>,
+    /// Its assessment tree (TOML text, `assets/assessment/<name>.toml`): how its measures
+    /// are weighed into the score and the level of expertise.
+    pub assessment: &'static str,
+    /// Its metrics before anything happened (a JSON object): the measures it reports, by
+    /// which trees are checked.
+    pub blank_metrics: fn() -> serde_json::Value,
     /// The force-feedback device `--haptics default` opens for it (the paper's own).
     pub haptic_device: crate::haptics::DeviceChoice,
     /// Benchmarks of its own beyond the stepping (a precomputation, a haptic-rate update at

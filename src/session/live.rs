@@ -3,12 +3,14 @@
 
 use super::output::{io, new_session_id};
 use super::{Outcome, Recorded, Report, SessionError, Status, ended};
+use crate::assess::{Assessment, Tree};
 use crate::params::TuneError;
 use crate::procedures::{Plan, Procedure, ProcedureInfo, Tunable};
 use crate::sim::{
     Clock, HapticFrame, HapticSlot, InputFrame, Pacing, SimEvent, Snapshot, ToolHaptics,
 };
 use crate::trace::{Recording, RecordingHeader, RecordingWriter, Tail, TuningRecord};
+use std::cell::Cell;
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::Arc;
@@ -36,7 +38,23 @@ pub struct Live {
     /// Raises an alarm event when a condition begins (a tool near or on a vulnerable
     /// structure, a holding tool pressing too hard).
     alarms: crate::assess::alarms::AlarmWatch,
+    /// The tree that scores the session (the procedure's own unless one was given).
+    tree: Tree,
+    /// The live score and the step it was taken at (the tree is evaluated at most every
+    /// [`LIVE_SCORE_EVERY`] steps).
+    live_score: Cell<(u64, f32)>,
+    /// The tree's rules as last evaluated, and the instructions they gave (time, words).
+    rule_state: Vec<crate::assess::rules::RuleState>,
+    instructions: Vec<(f64, String)>,
 }
+
+/// Simulated seconds between two evaluations of the dynamic assessment's rules.
+const RULES_EVERY_S: f64 = 0.1;
+/// Instructions the panels show (the newest).
+const INSTRUCTIONS_SHOWN: usize = 5;
+
+/// Steps between two evaluations of the tree for the panels' live score.
+const LIVE_SCORE_EVERY: u64 = 50;
 
 /// Weight of the newest estimate in the smoothed stiffness.
 const STIFFNESS_SMOOTHING: f32 = 0.1;
@@ -95,6 +113,10 @@ impl Live {
         session_id: &str,
     ) -> Result<Live, SessionError> {
         let (info, plan) = crate::procedures::plan(scenario_file, scenario_text)?;
+        let tree = Tree::parse(
+            &format!("builtin {} assessment", info.name),
+            info.assessment,
+        )?;
         let proc_ = (info.build)(scenario_file, scenario_text)?;
         Ok(Live {
             clock: Clock::new(plan.dt_s, pacing),
@@ -118,7 +140,46 @@ impl Live {
             alarms: crate::assess::alarms::AlarmWatch::new(
                 crate::assess::alarms::AlarmRules::for_procedure(info),
             ),
+            tree,
+            live_score: Cell::new((u64::MAX, 0.0)),
+            rule_state: Vec::new(),
+            instructions: Vec::new(),
         })
+    }
+
+    /// Scores the session with `tree` instead of the procedure's own (`file` names it in
+    /// errors): it must be for this procedure and bind only measures it reports.
+    pub fn set_assessment(&mut self, file: &str, tree: Tree) -> Result<(), SessionError> {
+        crate::assess::check_for(self.info, file, &tree)?;
+        self.tree = tree;
+        self.live_score.set((u64::MAX, 0.0));
+        self.rule_state.clear();
+        Ok(())
+    }
+
+    /// The session's measures in a report of it.
+    fn measures(
+        &self,
+        report: &crate::procedures::ProcedureReport,
+    ) -> std::collections::BTreeMap<String, Option<f64>> {
+        let steps_done = report
+            .metrics
+            .get("steps_done")
+            .and_then(serde_json::Value::as_array)
+            .map_or(0, Vec::len);
+        crate::assess::tree::measures(
+            &report.metrics,
+            report.completed,
+            report.errors,
+            steps_done,
+            self.info.steps.len(),
+            self.clock.time_s(),
+        )
+    }
+
+    /// The session's measures now, scored by its tree.
+    fn assess(&self, report: &crate::procedures::ProcedureReport) -> Assessment {
+        self.tree.score(&self.measures(report))
     }
 
     /// Streams the recording to `path` from now on (call before the first step).
@@ -214,7 +275,32 @@ impl Live {
         };
         self.haptics.publish(&self.last_haptics);
         self.raise_alarms(step);
+        self.instruct(step);
         Ok(&self.events[before..])
+    }
+
+    /// The dynamic assessment: every [`RULES_EVERY_S`] of simulated time, the tree's rules
+    /// on the measures now; an `instruction` event for each whose condition began.
+    fn instruct(&mut self, step: u64) {
+        let every = ((RULES_EVERY_S / f64::from(self.plan.dt_s)).round() as u64).max(1);
+        if self.tree.rules.is_empty() || !(step + 1).is_multiple_of(every) {
+            return;
+        }
+        let report = self.proc_.report();
+        let measures = self.measures(&report);
+        let time_s = self.clock.time_s();
+        let spoke =
+            crate::assess::rules::evaluate(&self.tree.rules, &mut self.rule_state, &measures);
+        for r in spoke {
+            self.instructions.push((time_s, r.say.clone()));
+            self.events.push(SimEvent {
+                step,
+                kind: crate::sim::EventKind::Instruction {
+                    rule: r.id.clone(),
+                    message: r.say.clone(),
+                },
+            });
+        }
     }
 
     /// Alarm events for the conditions that began with this step.
@@ -319,6 +405,19 @@ impl Live {
         self.proc_.reactions()
     }
 
+    /// The tree's score of the session so far (evaluated again every
+    /// [`LIVE_SCORE_EVERY`] steps).
+    pub fn live_score(&self) -> f32 {
+        let step = self.clock.step();
+        let (at, score) = self.live_score.get();
+        if at != u64::MAX && step < at + LIVE_SCORE_EVERY {
+            return score;
+        }
+        let score = self.assess(&self.proc_.report()).score as f32;
+        self.live_score.set((step, score));
+        score
+    }
+
     /// How the session stands now, for the supervisor's panels; vulnerable structures are
     /// looked for within `near_m` of the tools.
     pub fn status(&self, near_m: f32) -> Status {
@@ -329,7 +428,14 @@ impl Live {
             time_s: self.clock.time_s(),
             path_m: t.path_m,
             errors: t.errors,
-            score: t.score,
+            score: self.live_score(),
+            instructions: self
+                .instructions
+                .iter()
+                .rev()
+                .take(INSTRUCTIONS_SHOWN)
+                .map(|(t, m)| format!("{t:.1} s: {m}"))
+                .collect(),
             steps_done: t.steps_done,
             completed: t.completed,
             force_n: [f[0].length(), f[1].length()],
@@ -343,6 +449,14 @@ impl Live {
     /// Ends the session: the recording is finished (end block, synced) and the report made.
     pub fn finish(self, captured: Vec<Snapshot>) -> Result<Outcome, SessionError> {
         let wall_s = self.start.elapsed().as_secs_f64();
+        let mut done = self.proc_.report();
+        crate::sim::shortest_f32(&mut done.metrics);
+        crate::sim::shortest_f32(&mut done.score_parts);
+        let assessment = self.assess(&done);
+        let scenario_digest = format!(
+            "{:016x}",
+            crate::assess::tree::fnv1a(self.scenario_text.as_bytes())
+        );
         let recording = match self.writer {
             Some(w) => {
                 let path = w.path().to_path_buf();
@@ -371,12 +485,10 @@ impl Live {
         for e in &self.events {
             *counts.entry(e.kind.name().to_string()).or_default() += 1;
         }
-        let mut done = self.proc_.report();
-        crate::sim::shortest_f32(&mut done.metrics);
-        crate::sim::shortest_f32(&mut done.score_parts);
         let report = Report {
             procedure: self.info.name.to_string(),
             session_id: self.session_id,
+            scenario_digest,
             completed: done.completed,
             ended: self.ended,
             dt_s: self.plan.dt_s,
@@ -387,7 +499,9 @@ impl Live {
             errors: done.errors,
             metrics: done.metrics,
             score_parts: done.score_parts,
-            score: done.score,
+            score: assessment.score as f32,
+            level: assessment.level.clone(),
+            assessment,
             state_hash: format!("{:016x}", self.proc_.state_hash()),
         };
         Ok(Outcome {

@@ -64,6 +64,8 @@ pub struct Status {
     pub near: [Option<(String, f32)>; 2],
     /// The procedure's live figures: a label and a formatted value.
     pub figures: Vec<(String, String)>,
+    /// The dynamic assessment's newest instructions to the trainee, newest first.
+    pub instructions: Vec<String>,
     /// The values the supervisor may tune, as they are now.
     pub tunables: Vec<Tunable>,
 }
@@ -79,6 +81,8 @@ pub struct Report {
     pub procedure: String,
     /// The id every file of this output set carries (a replay keeps the recording's).
     pub session_id: String,
+    /// FNV-1a of the scenario's text, so records name the exact scenario a session ran.
+    pub scenario_digest: String,
     /// Whether the procedure's task was completed.
     pub completed: bool,
     /// How the session ended (see [`ended`]).
@@ -92,9 +96,13 @@ pub struct Report {
     pub errors: u32,
     /// The procedure's own metrics.
     pub metrics: serde_json::Value,
-    /// The score's components.
+    /// The procedure's own task components (completion, efficiency, ...).
     pub score_parts: serde_json::Value,
+    /// The assessment tree's weighted score, 0-100, and the level of expertise it gives.
     pub score: f32,
+    pub level: String,
+    /// The whole assessment: the tree scored node by node, the fuzzy memberships.
+    pub assessment: crate::assess::Assessment,
     /// FNV-1a digest of the final simulation state.
     pub state_hash: String,
 }
@@ -151,6 +159,9 @@ pub struct Options<'a> {
     pub frames_wanted: u32,
     /// Stream the recording into this folder (made and tested first, see [`prepare`]).
     pub out: Option<&'a Path>,
+    /// Score with this tree (its file's name for errors, the tree) instead of the
+    /// procedure's own.
+    pub assessment: Option<(&'a str, &'a crate::assess::Tree)>,
 }
 
 /// Runs a session to the end of its input.
@@ -183,6 +194,7 @@ pub fn run_capturing(
         bus,
         frames_wanted,
         out: None,
+        assessment: None,
     };
     run_with(scenario_text, scenario_file, input, &opts)
 }
@@ -220,6 +232,9 @@ pub fn run_with(
         }
         Input::Keys(_) => Live::new(scenario_text, scenario_file, opts.pacing)?,
     };
+    if let Some((file, tree)) = opts.assessment {
+        live.set_assessment(file, tree.clone())?;
+    }
     if let Some(dir) = opts.out {
         live.stream_to(&dir.join(RECORDING))?;
     }

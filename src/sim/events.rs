@@ -127,6 +127,12 @@ pub enum EventKind {
         tool: String,
         message: String,
     },
+    /// A dynamic-assessment rule of the session's tree gave the trainee an instruction
+    /// (raised once each time its condition begins).
+    Instruction {
+        rule: String,
+        message: String,
+    },
     /// A task step was completed.
     TaskStep {
         name: String,
@@ -202,6 +208,7 @@ impl EventKind {
             EventKind::Grasp { .. } => "grasp",
             EventKind::Release { .. } => "release",
             EventKind::Alarm { .. } => "alarm",
+            EventKind::Instruction { .. } => "instruction",
             EventKind::TaskStep { .. } => "task_step",
             EventKind::Quarantined { .. } => "quarantined",
             EventKind::ControllerLost { .. } => "controller_lost",

@@ -28,6 +28,8 @@ pub struct FrameTimes {
 pub struct Summary {
     pub completed: bool,
     pub score: f32,
+    /// The level of expertise the score gives (novice ... expert).
+    pub level: String,
     pub simulated_s: f64,
     pub cuts: u64,
     pub errors: u32,
@@ -39,6 +41,7 @@ impl Summary {
         Summary {
             completed: r.completed,
             score: r.score,
+            level: r.level.clone(),
             simulated_s: r.simulated_s,
             cuts: r.events.get("cut").copied().unwrap_or(0),
             errors: r.errors,
@@ -186,6 +189,8 @@ impl Dashboard {
                 self.metrics(ui);
                 ui.separator();
                 self.alarm_log(ui);
+                ui.separator();
+                self.instructions(ui);
             });
         egui::Panel::right("profiler")
             .default_size(300.0)
@@ -352,6 +357,19 @@ impl Dashboard {
     }
 }
 
+impl Dashboard {
+    /// The dynamic assessment's newest instructions to the trainee.
+    fn instructions(&self, ui: &mut egui::Ui) {
+        ui.heading("Instructions");
+        if self.status.instructions.is_empty() {
+            ui.label("None so far");
+        }
+        for line in &self.status.instructions {
+            ui.label(line);
+        }
+    }
+}
+
 fn summary(ui: &mut egui::Ui, s: &Summary) {
     ui.heading("Session report");
     ui.label(if s.completed {
@@ -359,7 +377,7 @@ fn summary(ui: &mut egui::Ui, s: &Summary) {
     } else {
         "Procedure not completed"
     });
-    ui.label(format!("Score {:.1} / 100", s.score));
+    ui.label(format!("Score {:.1} / 100: {}", s.score, s.level));
     ui.label(format!(
         "{:.2} s simulated, {} cuts, {} errors",
         s.simulated_s, s.cuts, s.errors
@@ -420,6 +438,29 @@ mod tests {
     }
 
     #[test]
+    fn the_dynamic_assessments_instructions_are_shown_newest_first() {
+        let mut d = dashboard();
+        let harness = Harness::new_ui(|ui| {
+            d.show(ui, |_| {});
+        });
+        harness.get_by_label("None so far");
+        drop(harness);
+        d.update(Status {
+            instructions: vec![
+                "4.2 s: Keep clear of the renal artery and vein".into(),
+                "1.0 s: Grip more gently".into(),
+            ],
+            ..Status::default()
+        });
+        let harness = Harness::new_ui(|ui| {
+            d.show(ui, |_| {});
+        });
+        harness.get_by_label("4.2 s: Keep clear of the renal artery and vein");
+        harness.get_by_label("1.0 s: Grip more gently");
+        assert!(harness.query_by_label("None so far").is_none());
+    }
+
+    #[test]
     fn the_end_of_a_session_shows_its_report_and_where_it_went() {
         let mut d = dashboard();
         let steps = info().steps;
@@ -431,6 +472,7 @@ mod tests {
         d.summary = Some(Summary {
             completed: true,
             score: 95.2,
+            level: "expert".into(),
             simulated_s: 22.95,
             cuts: 199,
             errors: 0,
@@ -442,7 +484,7 @@ mod tests {
         });
         harness.get_by_label("No alarm");
         harness.get_by_label("Procedure completed");
-        harness.get_by_label("Score 95.2 / 100");
+        harness.get_by_label("Score 95.2 / 100: expert");
         harness.get_by_label("22.95 s simulated, 199 cuts, 0 errors");
         harness.get_by_label("Written to /tmp/session");
         harness.get_by_label(&format!("[x] {}", steps[steps.len() - 1].text));

@@ -19,6 +19,17 @@ pub fn cache_dir() -> PathBuf {
     Path::new(env!("CARGO_TARGET_TMPDIR")).join("vesalius-cache")
 }
 
+/// A finished command's stdout, which must have succeeded (else its output is shown).
+pub fn ok(o: &Output) -> String {
+    let out = String::from_utf8_lossy(&o.stdout).to_string();
+    assert!(
+        o.status.success(),
+        "{out}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    out
+}
+
 /// A finished command's stdout and stderr, one after the other.
 pub fn text(o: &Output) -> String {
     format!(

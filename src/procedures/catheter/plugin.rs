@@ -52,6 +52,8 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
     scope_hand: None,
     swap: &[],
     legacy_tuned_model: None,
+    assessment: include_str!("../../../assets/assessment/catheter.toml"),
+    blank_metrics: || serde_json::to_value(Metrics::default()).unwrap_or_default(),
     // The paper's Novint Falcon (9 N, 1 kHz).
     haptic_device: crate::haptics::DeviceChoice::Falcon,
     bench_extra: Some(super::bench::extra),

@@ -76,6 +76,8 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
     scope_hand: Some(Hand::Left),
     swap: &RIGHT_CYCLE,
     legacy_tuned_model: None,
+    assessment: include_str!("../../../assets/assessment/cholecystectomy.toml"),
+    blank_metrics: || serde_json::to_value(Metrics::default()).unwrap_or_default(),
     haptic_device: crate::haptics::DeviceChoice::Phantom,
     bench_extra: None,
     plan,

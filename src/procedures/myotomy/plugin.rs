@@ -56,6 +56,8 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
     scope_hand: None,
     swap: &[],
     legacy_tuned_model: None,
+    assessment: include_str!("../../../assets/assessment/myotomy.toml"),
+    blank_metrics: || serde_json::to_value(Metrics::default()).unwrap_or_default(),
     haptic_device: crate::haptics::DeviceChoice::Phantom,
     bench_extra: Some(super::bench::extra),
     plan,

@@ -70,6 +70,8 @@ pub struct Metrics {
     /// How much of the myotomy's span has its muscle divided, m, of how much.
     pub divided_m: f64,
     pub required_m: f64,
+    /// `divided_m` over `required_m`, at most 1.
+    pub divided_fraction: f64,
     /// The deepest cut, m.
     pub deepest_cut_m: f64,
     /// The surface's triangles now (divided along the incision), and at the start.
@@ -322,6 +324,11 @@ impl Myotomy {
                 if d >= k.muscle_m { overlap } else { 0.0 }
             })
             .sum();
+        m.divided_fraction = if m.required_m > 0.0 {
+            (m.divided_m / m.required_m).min(1.0)
+        } else {
+            0.0
+        };
         // Where the hook is in the field.
         let position = c.as_vec3().to_array();
         if first {

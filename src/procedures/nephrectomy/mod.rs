@@ -76,6 +76,8 @@ pub const INFO: super::ProcedureInfo = super::ProcedureInfo {
     scope_hand: None,
     swap: &[],
     legacy_tuned_model: Some(TUNED_MODEL),
+    assessment: include_str!("../../../assets/assessment/nephrectomy.toml"),
+    blank_metrics: || serde_json::to_value(Metrics::default()).unwrap_or_default(),
     haptic_device: crate::haptics::DeviceChoice::Phantom,
     bench_extra: None,
     plan,

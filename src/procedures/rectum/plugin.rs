@@ -60,6 +60,8 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
         full_scale_n: 5.0,
     }],
     legacy_tuned_model: None,
+    assessment: include_str!("../../../assets/assessment/rectum.toml"),
+    blank_metrics: || serde_json::to_value(Metrics::default()).unwrap_or_default(),
     haptic_device: crate::haptics::DeviceChoice::Phantom,
     bench_extra: None,
     plan,

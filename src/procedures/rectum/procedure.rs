@@ -73,6 +73,19 @@ pub struct Metrics {
     pub correct_cut_ratio: f32,
     /// Target springs cut over all of them.
     pub target_cut_fraction: f32,
+    /// Plane springs cut outside the target over the target's springs (Table 1's
+    /// "redundant fabric used": tissue divided beyond what the task needs).
+    pub redundant_cut_fraction: f32,
+    /// Table 1's exposure, as shares of the cutting steps: directly exposed (the grasper
+    /// holding the rectum lifted within `expose_lift_m`-`overexposed_lift_m`), indirectly
+    /// (cutting without that traction on a plane once exposed), overexposed (lifted past
+    /// `overexposed_lift_m`). Cutting a plane never exposed counts in none of them.
+    pub exposure_direct_share: f32,
+    pub exposure_indirect_share: f32,
+    pub exposure_over_share: f32,
+    /// Steps the hook's current was on against the rectal wall (each an alarm): cutting
+    /// where no cut belongs.
+    pub wall_cuts: u32,
     /// Share of the cutting steps with the grasper holding the rectum (counter-traction).
     pub counter_traction_share: f32,
     pub max_hook_force_n: f32,
@@ -92,6 +105,8 @@ pub struct Metrics {
 struct Sums {
     cut_steps: u32,
     held_cut_steps: u32,
+    /// Cutting steps directly exposed, indirectly exposed and overexposed.
+    exposure: [u32; 3],
     depth: f64,
     angle: f64,
     /// Where the last cut ended, and whether the last step cut.
@@ -118,6 +133,8 @@ pub struct Rectum {
     /// Where each hand's grasp took the rectum, and how far a grasp has lifted it at most, m.
     grasp_from: [Option<Vec3>; 2],
     max_lift_m: f32,
+    /// How far the left grasper holds the rectum lifted now, m (none: not holding).
+    lift_now_m: Option<f32>,
     last: StepOutcome,
     on_wall: bool,
     sums: Sums,
@@ -145,6 +162,7 @@ impl Rectum {
             prev_hook_end: None,
             grasp_from: [None; 2],
             max_lift_m: 0.0,
+            lift_now_m: None,
             last: StepOutcome::default(),
             on_wall: false,
             sums: Sums::default(),
@@ -245,6 +263,7 @@ impl Rectum {
         let was_held = [0, 1].map(|h| self.scene.rod.grip(h).is_some());
         let out = self.scene.step(dt, &tools);
         let held = [0, 1].map(|h| self.scene.rod.grip(h).is_some());
+        self.lift_now_m = None;
         for hand in 0..2 {
             let name = ["grasper", "right grasper"][hand];
             if held[hand] && !was_held[hand] {
@@ -263,7 +282,11 @@ impl Rectum {
             if let (Some(from), Some(now)) =
                 (self.grasp_from[hand], self.scene.rod.held_point(hand))
             {
-                self.max_lift_m = self.max_lift_m.max(now.distance(from));
+                let lift = now.distance(from);
+                self.max_lift_m = self.max_lift_m.max(lift);
+                if hand == 0 {
+                    self.lift_now_m = Some(lift);
+                }
             }
         }
         self.select(&out, held[1]);
@@ -394,6 +417,7 @@ impl Rectum {
         }
         if out.alarms & ALARM_RECTAL_WALL != 0 {
             m.alarms += 1;
+            m.wall_cuts += 1;
             ev.push(EventKind::Alarm {
                 tool: "hook".to_string(),
                 message: "the hook's current is on against the rectal wall".to_string(),
@@ -430,12 +454,26 @@ impl Rectum {
             }
             self.sums.cut_steps += 1;
             self.sums.held_cut_steps += u32::from(held);
+            let task = &self.scenario.task;
+            let exposed = match self.lift_now_m.filter(|_| held) {
+                Some(l) if l > task.overexposed_lift_m => Some(2),
+                Some(l) if l >= task.expose_lift_m => Some(0),
+                _ if self.max_lift_m >= task.expose_lift_m => Some(1),
+                _ => None,
+            };
+            if let Some(k) = exposed {
+                self.sums.exposure[k] += 1;
+            }
         }
         self.sums.cutting = out.cut > 0;
         let n = self.sums.cut_steps.max(1) as f64;
         m.mean_cut_depth_error_m = (self.sums.depth / n) as f32;
         m.mean_cut_angle_deg = (self.sums.angle / n) as f32;
         m.counter_traction_share = (f64::from(self.sums.held_cut_steps) / n) as f32;
+        let share = |k: usize| (f64::from(self.sums.exposure[k]) / n) as f32;
+        m.exposure_direct_share = share(0);
+        m.exposure_indirect_share = share(1);
+        m.exposure_over_share = share(2);
         let all = m.correct_cuts + m.incorrect_cuts;
         m.correct_cut_ratio = if all > 0 {
             m.correct_cuts as f32 / all as f32
@@ -443,10 +481,13 @@ impl Rectum {
             0.0
         };
         let (cut, total) = self.scene.target_progress();
-        m.target_cut_fraction = if total > 0 {
-            cut as f32 / total as f32
+        (m.target_cut_fraction, m.redundant_cut_fraction) = if total > 0 {
+            (
+                cut as f32 / total as f32,
+                m.incorrect_cuts as f32 / total as f32,
+            )
         } else {
-            0.0
+            (0.0, 0.0)
         };
     }
 

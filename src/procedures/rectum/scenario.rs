@@ -81,6 +81,8 @@ pub struct Task {
     pub target_arc_to_deg: f32,
     /// How far the grasper must lift the rectum to expose the plane, m.
     pub expose_lift_m: f32,
+    /// A lift past this overexposes the plane (the rectum pulled off its bed), m.
+    pub overexposed_lift_m: f32,
     /// A vulnerable structure is "near" an instrument within this distance, m.
     pub near_m: f32,
     /// Time an expert needs, s.
@@ -327,6 +329,13 @@ impl Params for Task {
             "how far the grasper must lift the rectum to expose the plane",
         ),
         ParamSpec::new(
+            "overexposed_lift_m",
+            "m",
+            0.008,
+            (1e-3, 0.05),
+            "a lift past this overexposes the plane (cutting then counts as overexposed)",
+        ),
+        ParamSpec::new(
             "near_m",
             "m",
             0.005,
@@ -349,6 +358,7 @@ impl Params for Task {
         target_arc_from_deg,
         target_arc_to_deg,
         expose_lift_m,
+        overexposed_lift_m,
         near_m,
         target_time_s
     );
@@ -482,6 +492,12 @@ impl Scenario {
             return Err(err(
                 "task.target_to",
                 format!("must be after target_from ({})", k.target_from),
+            ));
+        }
+        if k.overexposed_lift_m <= k.expose_lift_m {
+            return Err(err(
+                "task.overexposed_lift_m",
+                format!("must exceed expose_lift_m ({})", k.expose_lift_m),
             ));
         }
         let arc = k.target_arc_to_deg - k.target_arc_from_deg;
