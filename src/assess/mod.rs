@@ -5,6 +5,7 @@
 
 pub mod alarms;
 pub mod fuzzy;
+pub mod html;
 pub mod rules;
 pub mod tree;
 

@@ -342,6 +342,8 @@ impl Tree {
                     weight: share(&self.nodes, i, &scores),
                     metric: n.leaf.as_ref().map(|l| l.metric.clone()),
                     value: values[i],
+                    expert: n.leaf.as_ref().map(|l| l.expert),
+                    novice: n.leaf.as_ref().map(|l| l.novice),
                     score: scores[i],
                 })
                 .collect(),
@@ -478,6 +480,11 @@ pub struct Scored {
     /// The measure's value (leaves; none when not taken).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub value: Option<f64>,
+    /// The leaf's expert and novice references (100 and 0 points).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub expert: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub novice: Option<f64>,
     /// 0-100; none when left out.
     pub score: Option<f64>,
 }

@@ -148,6 +148,20 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// A session's report as one self-contained HTML page: score tree, level, metrics
+    /// against the references, plots over time, key frames.
+    Report {
+        /// An output folder (report.json, events.jsonl, frames/), or a session id in the
+        /// records.
+        session: String,
+        /// The page to write.
+        #[arg(long, value_name = "FILE")]
+        html: PathBuf,
+        /// The records to look a session id up in (default: $VESALIUS_RECORDS, else
+        /// vesalius-demo/records.sqlite).
+        #[arg(long, value_name = "FILE")]
+        db: Option<PathBuf>,
+    },
     /// The learning centre's records: trainees and their scored sessions (an SQLite file,
     /// owner-only; --db or $VESALIUS_RECORDS, default vesalius-demo/records.sqlite).
     #[command(subcommand)]
@@ -509,6 +523,7 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
             json,
         } => precompute::precompute(&procedure, cache, json),
         Command::Records(c) => records::run(c),
+        Command::Report { session, html, db } => records::report(&session, &html, db),
         Command::XrSim(XrSimCommand::Manifest { out }) => {
             let path = tools::xr_sim_manifest(out)?;
             say!("{}", path.display());

@@ -332,3 +332,70 @@ pub fn run(c: RecordsCommand) -> Result<(), CliError> {
         }
     }
 }
+
+/// `report SESSION --html FILE`: the page for an output folder, or for a session in the
+/// records (its files found beside its recording).
+pub fn report(session: &str, html: &Path, db: Option<PathBuf>) -> Result<(), CliError> {
+    let given = Path::new(session);
+    let (report, dir) = if given.join(vesalius::session::REPORT).is_file() {
+        let file = given.join(vesalius::session::REPORT);
+        let text = std::fs::read_to_string(&file)
+            .map_err(|e| CliError::Failed(format!("{}: cannot read: {e}", file.display())))?;
+        let report: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
+            CliError::Failed(format!("{}: not a session report: {e}", file.display()))
+        })?;
+        (report, Some(given.to_path_buf()))
+    } else {
+        let r = open(db)?;
+        let Some(d) = r.session(session)? else {
+            return Err(CliError::Failed(format!(
+                "{session}: neither an output folder (with report.json) nor a session in the records"
+            )));
+        };
+        let dir = Path::new(&d.recording).parent().map(Path::to_path_buf);
+        (d.report, dir)
+    };
+    let mut events = Vec::new();
+    let mut frames = Vec::new();
+    if let Some(dir) = &dir {
+        if let Ok(text) = std::fs::read_to_string(dir.join(vesalius::session::EVENTS)) {
+            events = text
+                .lines()
+                .filter_map(|l| serde_json::from_str(l).ok())
+                .collect();
+        }
+        let mut lefts: Vec<PathBuf> = std::fs::read_dir(dir.join("frames"))
+            .map(|d| {
+                d.filter_map(|e| e.ok().map(|e| e.path()))
+                    .filter(|p| {
+                        p.file_name()
+                            .and_then(|n| n.to_str())
+                            .is_some_and(|n| n.starts_with("left_") && n.ends_with(".png"))
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+        lefts.sort();
+        let step = lefts.len().div_ceil(KEY_FRAMES).max(1);
+        frames = lefts
+            .iter()
+            .step_by(step)
+            .filter_map(|p| std::fs::read(p).ok())
+            .collect();
+    }
+    let page = vesalius::assess::html::page(&report, &events, &frames);
+    let tmp = html.with_extension("html.partial");
+    std::fs::write(&tmp, page)
+        .and_then(|()| std::fs::rename(&tmp, html))
+        .map_err(|e| CliError::Failed(format!("{}: cannot write: {e}", html.display())))?;
+    say!(
+        "wrote {} ({} events marked, {} key frames)",
+        html.display(),
+        events.len(),
+        frames.len()
+    );
+    Ok(())
+}
+
+/// Key frames a page shows at most.
+const KEY_FRAMES: usize = 4;

@@ -46,6 +46,10 @@ pub struct Live {
     /// The tree's rules as last evaluated, and the instructions they gave (time, words).
     rule_state: Vec<crate::assess::rules::RuleState>,
     instructions: Vec<(f64, String)>,
+    /// The session over time for reports' plots, a sample every [`RULES_EVERY_S`].
+    timeline: Vec<super::Sample>,
+    /// The instruments' path lengths at the last sample (for their speeds), m.
+    last_path_m: [f32; 2],
 }
 
 /// Simulated seconds between two evaluations of the dynamic assessment's rules.
@@ -144,6 +148,8 @@ impl Live {
             live_score: Cell::new((u64::MAX, 0.0)),
             rule_state: Vec::new(),
             instructions: Vec::new(),
+            timeline: Vec::new(),
+            last_path_m: [0.0; 2],
         })
     }
 
@@ -279,16 +285,27 @@ impl Live {
         Ok(&self.events[before..])
     }
 
-    /// The dynamic assessment: every [`RULES_EVERY_S`] of simulated time, the tree's rules
-    /// on the measures now; an `instruction` event for each whose condition began.
+    /// Every [`RULES_EVERY_S`] of simulated time: the dynamic assessment (the tree's rules on
+    /// the measures now; an `instruction` event for each whose condition began) and a sample
+    /// of the timeline (the instruments' speeds and forces, the score so far).
     fn instruct(&mut self, step: u64) {
         let every = ((RULES_EVERY_S / f64::from(self.plan.dt_s)).round() as u64).max(1);
-        if self.tree.rules.is_empty() || !(step + 1).is_multiple_of(every) {
+        if !(step + 1).is_multiple_of(every) {
             return;
         }
         let report = self.proc_.report();
         let measures = self.measures(&report);
         let time_s = self.clock.time_s();
+        let path = self.proc_.status(0.0).path_m;
+        let span = (every as f64 * f64::from(self.plan.dt_s)) as f32;
+        let forces = self.proc_.reactions();
+        self.timeline.push(super::Sample {
+            t_s: time_s as f32,
+            speed_m_per_s: [0, 1].map(|k| (path[k] - self.last_path_m[k]).max(0.0) / span),
+            force_n: forces.map(|f| f.length()),
+            score: self.tree.score(&measures).score as f32,
+        });
+        self.last_path_m = path;
         let spoke =
             crate::assess::rules::evaluate(&self.tree.rules, &mut self.rule_state, &measures);
         for r in spoke {
@@ -502,6 +519,7 @@ impl Live {
             score: assessment.score as f32,
             level: assessment.level.clone(),
             assessment,
+            timeline: self.timeline,
             state_hash: format!("{:016x}", self.proc_.state_hash()),
         };
         Ok(Outcome {

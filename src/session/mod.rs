@@ -103,8 +103,23 @@ pub struct Report {
     pub level: String,
     /// The whole assessment: the tree scored node by node, the fuzzy memberships.
     pub assessment: crate::assess::Assessment,
+    /// The session over time, a sample every 0.1 s simulated (for reports' plots).
+    pub timeline: Vec<Sample>,
     /// FNV-1a digest of the final simulation state.
     pub state_hash: String,
+}
+
+/// One sample of a session's timeline.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Sample {
+    /// Simulated time, s.
+    pub t_s: f32,
+    /// Each instrument's (left, right) mean speed since the last sample, m/s.
+    pub speed_m_per_s: [f32; 2],
+    /// Each instrument's reaction force now, N.
+    pub force_n: [f32; 2],
+    /// The assessment tree's score so far, 0-100.
+    pub score: f32,
 }
 
 /// Where a session's recording is.
