@@ -275,6 +275,9 @@ fn a_stylus_drives_the_probe_in_the_window_and_the_session_replays() {
         .arg(dir.join("shot.png"))
         .arg("--out")
         .arg(dir.join("out"))
+        .arg("--records")
+        .arg(dir.join("records.sqlite"))
+        .args(["--trainee", "res-03"])
         .output()
         .expect("xvfb-run (apt-get install xvfb xauth)");
     let stdout = succeeded(&o);
@@ -307,5 +310,20 @@ fn a_stylus_drives_the_probe_in_the_window_and_the_session_replays() {
     let again = read_report(&dir.join("replay"));
     assert_eq!(again["state_hash"], report["state_hash"]);
     assert_eq!(again["steps"], report["steps"]);
+    // The window stored the session in the records it was given (its Learning Centre
+    // panel shows them).
+    let list = succeeded(
+        &Command::new(env!("CARGO_BIN_EXE_vesalius"))
+            .args(["records", "list", "--trainee", "res-03", "--db"])
+            .arg(dir.join("records.sqlite"))
+            .output()
+            .expect("runs"),
+    );
+    let id = report["session_id"].as_str().unwrap_or("?");
+    assert!(
+        list.lines()
+            .any(|l| l.starts_with(id) && l.contains("res-03")),
+        "{list}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

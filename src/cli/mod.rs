@@ -221,9 +221,9 @@ struct RunArgs {
     /// (assets/assessment/*.toml).
     #[arg(long, value_name = "FILE", requires = "headless")]
     assessment: Option<PathBuf>,
-    /// Store the headless session in the learning centre's records (this SQLite file) for
-    /// --trainee.
-    #[arg(long, value_name = "FILE", requires_all = ["headless", "out", "trainee"])]
+    /// Store the session (headless or in the window) in the learning centre's records (this
+    /// SQLite file) for --trainee; the window's Learning Centre panel shows them.
+    #[arg(long, value_name = "FILE", requires_all = ["out", "trainee"])]
     records: Option<PathBuf>,
     /// The trainee's pseudonymous id (letters, digits, '-', '_', '.').
     #[arg(long, value_name = "ID", requires = "records")]

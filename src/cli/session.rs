@@ -100,6 +100,13 @@ pub fn run(a: RunArgs) -> Result<(), CliError> {
     if !a.haptics.is_empty() {
         return super::haptics::run_with_devices(&a);
     }
+    if a.records.is_some() && (a.xr_sim.is_some() || a.no_window) {
+        return Err(CliError::Usage(
+            "--records: headless and window sessions are stored; not --xr-sim or --no-window \
+             (store their output folder with `vesalius records import`)"
+                .into(),
+        ));
+    }
     if a.xr || a.xr_sim.is_some() {
         return match &a.xr_sim {
             Some(trace) => run_xr_sim(&a, trace),
@@ -244,6 +251,7 @@ pub(super) fn run_window(
         save_tuning_to,
         xr,
         devices,
+        records: a.records.clone().zip(a.trainee.clone()),
     })?;
     if let Some((runtime, frames, sessions, (w, h))) = &run.xr {
         say!(

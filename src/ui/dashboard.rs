@@ -74,6 +74,8 @@ pub struct Dashboard {
     pub edit: Option<Vec<Tunable>>,
     /// Where the tuned scenario was last written, or why it was not.
     pub saved: Option<String>,
+    /// The Learning Centre panel, when the window has records.
+    pub learning: Option<super::learning::LearningCentre>,
 }
 
 /// What the supervisor asked for this frame.
@@ -102,6 +104,7 @@ impl Dashboard {
             viewing: None,
             edit: None,
             saved: None,
+            learning: None,
         }
     }
 
@@ -202,6 +205,10 @@ impl Dashboard {
                     if let Some(s) = &self.summary {
                         ui.separator();
                         summary(ui, s);
+                    }
+                    if let Some(l) = &mut self.learning {
+                        ui.separator();
+                        l.show(ui);
                     }
                 });
             });

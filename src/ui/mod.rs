@@ -3,5 +3,6 @@
 
 pub mod dashboard;
 pub mod desktop;
+pub mod learning;
 pub mod runner;
 pub mod window;

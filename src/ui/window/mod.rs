@@ -6,6 +6,7 @@
 
 use super::dashboard::{Dashboard, FrameTimes, Summary};
 use super::desktop::{DesktopHands, OrbitCamera, Pointer};
+use super::learning::LearningCentre;
 use super::runner::{SimThread, Source};
 use crate::assess::alarms::AlarmRules;
 use crate::haptics::{DeviceRun, HapticDevice, HapticsError, Rig, RigOptions};
@@ -52,6 +53,9 @@ pub struct WindowOptions {
     pub xr: Option<XrOptions>,
     /// Force-feedback devices driving the instruments instead of the mouse.
     pub devices: Option<WindowDevices>,
+    /// The learning centre's records (file, trainee): the session is stored there when it
+    /// ends (with `out`), and the Learning Centre panel shows them.
+    pub records: Option<(PathBuf, String)>,
 }
 
 /// Force-feedback devices for a window session.
@@ -88,6 +92,9 @@ pub enum WindowError {
     /// A force-feedback device or its servo loop.
     #[error(transparent)]
     Haptics(#[from] HapticsError),
+    /// The learning centre's records the session is stored in.
+    #[error(transparent)]
+    Records(#[from] crate::records::RecordsError),
     #[error("cannot open a window ({0}); is DISPLAY set? (headless: xvfb-run, or --headless)")]
     NoDisplay(#[source] EventLoopError),
     /// The event loop failed while the window was open.
@@ -231,6 +238,10 @@ pub fn run(mut opts: WindowOptions) -> Result<WindowRun, WindowError> {
         (None, None) => "mouse and keyboard".to_string(),
     };
     let mut dashboard = Dashboard::new(info, &source, AlarmRules::for_procedure(info));
+    if let Some((file, _)) = &opts.records {
+        let r = crate::records::Records::open(file)?;
+        dashboard.learning = Some(LearningCentre::read(&file.display().to_string(), &r)?);
+    }
     let desktop = (opts.trace.is_none() && xr.is_none() && rig.is_none()).then(|| {
         dashboard.key_map = hands.key_map();
         (hands, desk)
@@ -406,6 +417,15 @@ impl App {
             }
             None => None,
         };
+        if let (Some((file, trainee)), Some(dir)) = (&self.opts.records, &self.opts.out) {
+            let mut r = crate::records::Records::open(file)?;
+            r.store_dir(dir, trainee)?;
+            let selected = Some(trainee.clone());
+            self.dashboard.learning = Some(LearningCentre {
+                selected,
+                ..LearningCentre::read(&file.display().to_string(), &r)?
+            });
+        }
         self.dashboard.summary = Some(Summary::from_report(&outcome.report, written));
         self.outcome = Some(outcome);
         // A device's failure, once the session's record is safe.
