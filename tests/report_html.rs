@@ -4,7 +4,7 @@
 //! level and the plots, and its screenshot shows the plots' lines and the score bars.
 
 mod common;
-use common::{bin, ok, report, tmp};
+use common::{bin, ok, report, run_sandbox, tmp};
 use std::path::Path;
 use std::process::{Command, Stdio};
 use vesalius::assess::html::{LEFT, RIGHT, SCORE};
@@ -52,17 +52,11 @@ fn the_html_report_renders_in_chromium_with_its_tree_and_plots() {
     let d = tmp("report_html", "page");
     let out = d.join("out");
     let db = d.join("records.sqlite");
-    let trace = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/traces/sandbox-demo.toml");
-    ok(&bin()
-        .args(["run", "sandbox", "--headless", "--trace"])
-        .arg(&trace)
-        .arg("--out")
-        .arg(&out)
-        .args(["--frames", "2", "--eye-size", "160x120", "--records"])
-        .arg(&db)
-        .args(["--trainee", "res-07"])
-        .output()
-        .expect("runs"));
+    let more = ["--frames", "2", "--eye-size", "160x120", "--records"];
+    let mut args: Vec<&std::ffi::OsStr> = more.iter().map(|a| std::ffi::OsStr::new(*a)).collect();
+    args.push(db.as_os_str());
+    args.extend(["--trainee", "res-07"].map(std::ffi::OsStr::new));
+    run_sandbox(&out, &args);
     let r = report(&out);
     let id = r["session_id"].as_str().unwrap_or("?").to_string();
     let by_dir = d.join("by-folder.html");

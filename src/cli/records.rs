@@ -6,7 +6,7 @@ use super::CliError;
 use clap::{Subcommand, ValueEnum};
 use std::path::{Path, PathBuf};
 use vesalius::assess::questionnaire::{Answers, Questionnaire};
-use vesalius::records::{Records, default_path};
+use vesalius::records::{Db, default_path, spool};
 
 #[derive(Debug, Subcommand)]
 pub enum RecordsCommand {
@@ -80,6 +80,13 @@ pub enum RecordsCommand {
         #[arg(long)]
         json: bool,
     },
+    /// Stores the sessions the spool lists (those a server could not take when they ended;
+    /// $VESALIUS_SPOOL, else $XDG_DATA_HOME/vesalius/pending-records.txt); what still fails
+    /// stays listed.
+    Sync {
+        #[arg(long, value_name = "FILE")]
+        db: Option<PathBuf>,
+    },
     /// How many trainees are at each level by their latest session (of one procedure, or of
     /// any), and the trainees with their session counts.
     Levels {
@@ -97,16 +104,35 @@ pub enum Format {
     Json,
 }
 
-fn open(db: Option<PathBuf>) -> Result<Records, CliError> {
-    Ok(Records::open(&db.unwrap_or_else(default_path))?)
+fn open(db: Option<PathBuf>) -> Result<Db, CliError> {
+    Ok(Db::open(&db.unwrap_or_else(default_path))?)
 }
 
-/// Stores one session folder (after `run --records` or in `demo`).
+/// Stores one session folder (after `run --records` or in `demo`). When a server cannot be
+/// reached (its retries spent), the folder is listed in the spool for `records sync` and the
+/// command goes on: the session is whole in its folder.
 pub fn store(db: &Path, dir: &Path, trainee: &str) -> Result<(), CliError> {
-    let mut r = Records::open(db)?;
-    let id = r.store_dir(dir, trainee)?;
-    say!("stored session {id} for {trainee} in {}", db.display());
-    Ok(())
+    let stored = Db::open(db).and_then(|mut r| {
+        let id = r.store_dir(dir, trainee)?;
+        Ok((id, r.shown()))
+    });
+    match stored {
+        Ok((id, shown)) => {
+            say!("stored session {id} for {trainee} in {shown}");
+            Ok(())
+        }
+        Err(e @ vesalius::records::RecordsError::Postgres { .. }) => {
+            let list = spool::path();
+            spool::add(&list, dir, trainee)?;
+            tell!(
+                "{e}\nthe session is kept in {} and listed in {}: `vesalius records sync --db URL` stores it",
+                dir.display(),
+                list.display()
+            );
+            Ok(())
+        }
+        Err(e) => Err(e.into()),
+    }
 }
 
 /// A CSV field, quoted when it needs to be.
@@ -121,7 +147,7 @@ fn csv(s: &str) -> String {
 pub fn run(c: RecordsCommand) -> Result<(), CliError> {
     match c {
         RecordsCommand::List { db, trainee, json } => {
-            let r = open(db)?;
+            let mut r = open(db)?;
             let rows = r.sessions(trainee.as_deref())?;
             if !json {
                 say!(
@@ -153,7 +179,7 @@ pub fn run(c: RecordsCommand) -> Result<(), CliError> {
             Ok(())
         }
         RecordsCommand::Show { session, db, json } => {
-            let r = open(db)?;
+            let mut r = open(db)?;
             let Some(d) = r.session(&session)? else {
                 return Err(CliError::Failed(format!(
                     "session {session}: not in the records"
@@ -191,7 +217,7 @@ pub fn run(c: RecordsCommand) -> Result<(), CliError> {
             Ok(())
         }
         RecordsCommand::Export { format, db } => {
-            let r = open(db)?;
+            let mut r = open(db)?;
             let rows = r.sessions(None)?;
             if format == Format::Csv {
                 say!(
@@ -222,7 +248,7 @@ pub fn run(c: RecordsCommand) -> Result<(), CliError> {
         }
         RecordsCommand::Import { dirs, trainee, db } => {
             let path = db.unwrap_or_else(default_path);
-            let mut r = Records::open(&path)?;
+            let mut r = Db::open(&path)?;
             for d in &dirs {
                 let id = r.store_dir(d, &trainee)?;
                 say!("stored session {id} ({}) for {trainee}", d.display());
@@ -310,8 +336,33 @@ pub fn run(c: RecordsCommand) -> Result<(), CliError> {
             }
             Ok(())
         }
+        RecordsCommand::Sync { db } => {
+            let mut r = open(db)?;
+            let list = spool::path();
+            let (stored, failed) = spool::sync(&list, &mut r)?;
+            for id in &stored {
+                say!("stored session {id} in {}", r.shown());
+            }
+            for (dir, why) in &failed {
+                tell!("{}: still not stored: {why}", dir.display());
+            }
+            say!(
+                "{} stored, {} still listed in {}",
+                stored.len(),
+                failed.len(),
+                list.display()
+            );
+            if failed.is_empty() {
+                Ok(())
+            } else {
+                Err(CliError::Failed(format!(
+                    "{} sessions could not be stored",
+                    failed.len()
+                )))
+            }
+        }
         RecordsCommand::Levels { procedure, db } => {
-            let r = open(db)?;
+            let mut r = open(db)?;
             let dist = r.level_distribution(procedure.as_deref())?;
             let total: u64 = dist.iter().map(|(_, n)| n).sum();
             for (level, n) in dist {
@@ -346,7 +397,7 @@ pub fn report(session: &str, html: &Path, db: Option<PathBuf>) -> Result<(), Cli
         })?;
         (report, Some(given.to_path_buf()))
     } else {
-        let r = open(db)?;
+        let mut r = open(db)?;
         let Some(d) = r.session(session)? else {
             return Err(CliError::Failed(format!(
                 "{session}: neither an output folder (with report.json) nor a session in the records"

@@ -66,30 +66,43 @@ impl Records {
             .map_err(self.sql())?
             .collect::<Result<Vec<_>, _>>()
             .map_err(self.sql())?;
-        let mut by: BTreeMap<String, Answers> = BTreeMap::new();
-        for (participant, group, item, score) in rows {
-            by.entry(participant.clone())
-                .or_insert_with(|| Answers {
-                    participant,
-                    group,
-                    scores: BTreeMap::new(),
-                })
-                .scores
-                .insert(item, score);
-        }
-        Ok(by.into_values().collect())
+        Ok(grouped(rows))
     }
 
     /// The statistics of the stored answers to `q`, per group and item.
     pub fn questionnaire_report(&self, q: &Questionnaire) -> Result<Report, RecordsError> {
-        let answers = self.answers(&q.id)?;
-        q.report(&self.path, &answers)
-            .map_err(|e| RecordsError::Invalid {
-                path: self.path.clone(),
-                message: format!(
-                    "the stored answers to {} no longer fit its file ({}: {}); store them again",
-                    q.id, e.key, e.message
-                ),
-            })
+        report_of(&self.path, q, &self.answers(&q.id)?)
     }
+}
+
+/// The statistics of answers read back from records at `shown`.
+pub(super) fn report_of(
+    shown: &str,
+    q: &Questionnaire,
+    answers: &[Answers],
+) -> Result<Report, RecordsError> {
+    q.report(shown, answers).map_err(|e| RecordsError::Invalid {
+        path: shown.to_string(),
+        message: format!(
+            "the stored answers to {} no longer fit its file ({}: {}); store them again",
+            q.id, e.key, e.message
+        ),
+    })
+}
+
+/// Answers from rows of (participant, group, item, score), one set a participant, by
+/// participant.
+pub(super) fn grouped(rows: Vec<(String, String, String, f64)>) -> Vec<Answers> {
+    let mut by: BTreeMap<String, Answers> = BTreeMap::new();
+    for (participant, group, item, score) in rows {
+        by.entry(participant.clone())
+            .or_insert_with(|| Answers {
+                participant,
+                group,
+                scores: BTreeMap::new(),
+            })
+            .scores
+            .insert(item, score);
+    }
+    by.into_values().collect()
 }

@@ -7,7 +7,10 @@
 //! where it was, so it can be stored again later (`vesalius records import DIR`).
 
 mod answers;
+mod db;
+pub mod postgres;
 mod schema;
+pub mod spool;
 #[cfg(test)]
 mod tests;
 
@@ -15,6 +18,7 @@ use rusqlite::{Connection, OptionalExtension, params};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
+pub use db::Db;
 pub use schema::SCHEMA_VERSION;
 
 /// Where records go when no `--db` is given: `$VESALIUS_RECORDS`, else the demo's file.
@@ -30,6 +34,11 @@ pub enum RecordsError {
     Sqlite {
         path: String,
         source: rusqlite::Error,
+    },
+    #[error("{path}: {source}")]
+    Postgres {
+        path: String,
+        source: ::postgres::Error,
     },
     #[error("{path}: {message}")]
     Invalid { path: String, message: String },
@@ -168,33 +177,12 @@ impl Records {
     /// id: a replay, a re-scoring) is replaced. Returns the session's id.
     pub fn store_dir(&mut self, dir: &Path, trainee: &str) -> Result<String, RecordsError> {
         check_pseudonym(&self.path, trainee)?;
-        let report_path = dir.join(crate::session::REPORT);
-        let shown = report_path.display().to_string();
-        let text = std::fs::read_to_string(&report_path).map_err(|source| RecordsError::Io {
-            path: shown.clone(),
-            source,
-        })?;
-        let report: serde_json::Value =
-            serde_json::from_str(&text).map_err(|e| RecordsError::Invalid {
-                path: shown.clone(),
-                message: format!("not a session report: {e}"),
-            })?;
-        let s = Stored::from_report(&shown, &report)?;
-        let recording = dir.join(crate::session::RECORDING);
-        let crc = match std::fs::read(&recording) {
-            Ok(bytes) => format!("{:08x}", crc32fast::hash(&bytes)),
-            Err(source) => {
-                return Err(RecordsError::Io {
-                    path: recording.display().to_string(),
-                    source,
-                });
-            }
-        };
-        let recording = recording
-            .canonicalize()
-            .unwrap_or(recording)
-            .display()
-            .to_string();
+        let Folder {
+            text,
+            stored: s,
+            recording,
+            crc,
+        } = Folder::read(dir)?;
         let path = self.path.clone();
         let sql = |source| RecordsError::Sqlite {
             path: path.clone(),
@@ -521,6 +509,53 @@ impl Stored {
                 .to_string(),
             nodes,
             levels,
+        })
+    }
+}
+
+/// A session's output folder as the records take it: the report's text, what it gives, the
+/// recording's path and CRC-32.
+pub(crate) struct Folder {
+    text: String,
+    stored: Stored,
+    recording: String,
+    crc: String,
+}
+
+impl Folder {
+    fn read(dir: &Path) -> Result<Folder, RecordsError> {
+        let report_path = dir.join(crate::session::REPORT);
+        let shown = report_path.display().to_string();
+        let text = std::fs::read_to_string(&report_path).map_err(|source| RecordsError::Io {
+            path: shown.clone(),
+            source,
+        })?;
+        let report: serde_json::Value =
+            serde_json::from_str(&text).map_err(|e| RecordsError::Invalid {
+                path: shown.clone(),
+                message: format!("not a session report: {e}"),
+            })?;
+        let stored = Stored::from_report(&shown, &report)?;
+        let recording = dir.join(crate::session::RECORDING);
+        let crc = match std::fs::read(&recording) {
+            Ok(bytes) => format!("{:08x}", crc32fast::hash(&bytes)),
+            Err(source) => {
+                return Err(RecordsError::Io {
+                    path: recording.display().to_string(),
+                    source,
+                });
+            }
+        };
+        let recording = recording
+            .canonicalize()
+            .unwrap_or(recording)
+            .display()
+            .to_string();
+        Ok(Folder {
+            text,
+            stored,
+            recording,
+            crc,
         })
     }
 }

@@ -3,7 +3,7 @@
 //! trainees are at each level of expertise by their latest session, as a bar chart. It reads
 //! the records file the window was given and again after each session is stored.
 
-use crate::records::{Records, RecordsError, SessionRow, Trainee};
+use crate::records::{Db, RecordsError, SessionRow, Trainee};
 
 /// What the panel shows, read from the records.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -24,7 +24,7 @@ const LISTED: usize = 12;
 
 impl LearningCentre {
     /// Reads what the panel shows from open records.
-    pub fn read(file: &str, r: &Records) -> Result<LearningCentre, RecordsError> {
+    pub fn read(file: &str, r: &mut Db) -> Result<LearningCentre, RecordsError> {
         Ok(LearningCentre {
             file: file.to_string(),
             trainees: r.trainees()?,
@@ -146,7 +146,7 @@ mod tests {
         let d = std::env::temp_dir().join(format!("vesalius-learning-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&d);
         std::fs::create_dir_all(&d).expect("dir");
-        let mut r = Records::open(&d.join("records.sqlite")).expect("records");
+        let mut r = Db::open(&d.join("records.sqlite")).expect("records");
         r.put_trainee("res-01", "A. Resident", "residents")
             .expect("trainee");
         let info = crate::procedures::find("sandbox").expect("sandbox");
@@ -174,7 +174,7 @@ mod tests {
             std::fs::write(s.join("input.vtrace"), b"rec").expect("rec");
             r.store_dir(&s, who).expect("stored");
         }
-        LearningCentre::read("records.sqlite", &r).expect("read")
+        LearningCentre::read("records.sqlite", &mut r).expect("read")
     }
 
     #[test]

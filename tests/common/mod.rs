@@ -30,6 +30,19 @@ pub fn ok(o: &Output) -> String {
     out
 }
 
+/// Runs the sandbox's demo trace headless into `out`, with `more` arguments.
+pub fn run_sandbox(out: &Path, more: &[&std::ffi::OsStr]) -> String {
+    let trace = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/traces/sandbox-demo.toml");
+    ok(&bin()
+        .args(["run", "sandbox", "--headless", "--trace"])
+        .arg(&trace)
+        .arg("--out")
+        .arg(out)
+        .args(more)
+        .output()
+        .expect("runs"))
+}
+
 /// A finished command's stdout and stderr, one after the other.
 pub fn text(o: &Output) -> String {
     format!(

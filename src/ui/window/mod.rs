@@ -239,8 +239,8 @@ pub fn run(mut opts: WindowOptions) -> Result<WindowRun, WindowError> {
     };
     let mut dashboard = Dashboard::new(info, &source, AlarmRules::for_procedure(info));
     if let Some((file, _)) = &opts.records {
-        let r = crate::records::Records::open(file)?;
-        dashboard.learning = Some(LearningCentre::read(&file.display().to_string(), &r)?);
+        let mut r = crate::records::Db::open(file)?;
+        dashboard.learning = Some(LearningCentre::read(&r.shown(), &mut r)?);
     }
     let desktop = (opts.trace.is_none() && xr.is_none() && rig.is_none()).then(|| {
         dashboard.key_map = hands.key_map();
@@ -418,12 +418,12 @@ impl App {
             None => None,
         };
         if let (Some((file, trainee)), Some(dir)) = (&self.opts.records, &self.opts.out) {
-            let mut r = crate::records::Records::open(file)?;
+            let mut r = crate::records::Db::open(file)?;
             r.store_dir(dir, trainee)?;
             let selected = Some(trainee.clone());
             self.dashboard.learning = Some(LearningCentre {
                 selected,
-                ..LearningCentre::read(&file.display().to_string(), &r)?
+                ..LearningCentre::read(&r.shown(), &mut r)?
             });
         }
         self.dashboard.summary = Some(Summary::from_report(&outcome.report, written));
