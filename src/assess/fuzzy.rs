@@ -21,6 +21,26 @@
 use crate::scenario::InputError;
 use serde::Serialize;
 
+/// Why levels are not a partition of the scores.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum LevelsError {
+    #[error("{level}: [a, b, c, d] must rise (a <= b <= c <= d) within 0-100, not {corners:?}")]
+    NotRising {
+        level: &'static str,
+        corners: [f64; 4],
+    },
+    #[error("the novice's plateau must start at 0 and the expert's end at 100")]
+    Ends,
+    #[error(
+        "{upper} must rise where {lower} falls ({upper}'s a, b = {lower}'s c, d, with c < d), \
+         so the memberships sum to one"
+    )]
+    NoPartition {
+        lower: &'static str,
+        upper: &'static str,
+    },
+}
+
 /// The levels' names, lowest first.
 pub const LEVELS: [&str; 4] = ["novice", "intermediate", "proficient", "expert"];
 
@@ -104,36 +124,33 @@ impl Levels {
             out[k] = [nums[0], nums[1], nums[2], nums[3]];
         }
         let l = Levels(out);
-        l.check().map_err(|m| InputError::new(file, "levels", m))?;
+        l.check()
+            .map_err(|e| InputError::new(file, "levels", e.to_string()))?;
         Ok(l)
     }
 
     /// That the trapezoids are ordered within 0-100, start at 0, end at 100 and cross their
     /// neighbours so the memberships sum to one.
-    pub fn check(&self) -> Result<(), String> {
+    pub fn check(&self) -> Result<(), LevelsError> {
         for (k, t) in self.0.iter().enumerate() {
             let ordered = t.windows(2).all(|w| w[0] <= w[1]);
             if !ordered || t[0] < 0.0 || t[3] > 100.0 || t.iter().any(|x| !x.is_finite()) {
-                return Err(format!(
-                    "{}: [a, b, c, d] must rise (a <= b <= c <= d) within 0-100, not {t:?}",
-                    LEVELS[k]
-                ));
+                return Err(LevelsError::NotRising {
+                    level: LEVELS[k],
+                    corners: *t,
+                });
             }
         }
         if self.0[0][0] != 0.0 || self.0[0][1] != 0.0 || self.0[3][2] != 100.0 {
-            return Err("the novice's plateau must start at 0 and the expert's end at 100".into());
+            return Err(LevelsError::Ends);
         }
         for k in 0..3 {
             let (lo, hi) = (self.0[k], self.0[k + 1]);
             if hi[0] != lo[2] || hi[1] != lo[3] || lo[2] == lo[3] {
-                return Err(format!(
-                    "{} must rise where {} falls ({}'s a, b = {}'s c, d, with c < d), so the \
-                     memberships sum to one",
-                    LEVELS[k + 1],
-                    LEVELS[k],
-                    LEVELS[k + 1],
-                    LEVELS[k]
-                ));
+                return Err(LevelsError::NoPartition {
+                    lower: LEVELS[k],
+                    upper: LEVELS[k + 1],
+                });
             }
         }
         Ok(())

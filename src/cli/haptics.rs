@@ -17,7 +17,7 @@ pub enum DeviceArg {
     Phantom,
     /// A Novint Falcon (Force Dimension DHD, libdhd.so).
     Falcon,
-    /// The procedure's own device: the catheterisation's Falcon, the others' Phantom.
+    /// The procedure's own device, the one its paper used (a Falcon or a Phantom).
     Default,
 }
 

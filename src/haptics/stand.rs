@@ -82,7 +82,7 @@ pub fn sim_pool(servos: usize) -> Result<rayon::ThreadPool, HapticsError> {
 /// The hand a single device drives: the procedure's probe, else the right.
 pub fn device_hand(info: &ProcedureInfo) -> Hand {
     let held = |kind: ToolKind| info.tools.iter().find(|t| t.kind == kind);
-    held(ToolKind::Catheter)
+    held(ToolKind::Steerable)
         .or_else(|| held(ToolKind::Probe))
         .map_or(Hand::Right, |t| t.hand)
 }

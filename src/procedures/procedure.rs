@@ -47,9 +47,9 @@ pub enum ToolKind {
     /// An electrosurgical L-hook: it presses tissue along its whole shape, and its current
     /// (the trigger) cuts what its end touches.
     Hook,
-    /// A catheter held at its handle: the handle's travel pushes it in, the trigger bends its
-    /// tip, the grip twists it.
-    Catheter,
+    /// A steerable flexible instrument held at its handle (an interventional catheter): the
+    /// handle's travel pushes it in, the trigger bends its tip, the grip twists it.
+    Steerable,
 }
 
 /// The instrument one hand holds.

@@ -198,9 +198,9 @@ impl DesktopHands {
                     ..Buttons::default()
                 },
             },
-            // The handle where the pointer is (its travel along the vessel pushes the
-            // catheter in); the left button bends the tip, the right button twists it.
-            ToolKind::Catheter => HandInput {
+            // The handle where the pointer is (its travel along the entry pushes the
+            // instrument in); the left button bends the tip, the right button twists it.
+            ToolKind::Steerable => HandInput {
                 pose: Pose::looking_at(eye + dir * self.depth_m[k], eye + dir * 1.0),
                 buttons: Buttons {
                     trigger: if p.primary_down { 1.0 } else { 0.0 },
@@ -229,7 +229,7 @@ impl DesktopHands {
             ToolKind::Grasper => format!("grip ({})", t.name),
             ToolKind::Laser | ToolKind::Hook => format!("cut ({})", t.name),
             ToolKind::Probe => format!("press ({})", t.name),
-            ToolKind::Catheter => format!("bend ({})", t.name),
+            ToolKind::Steerable => format!("bend ({})", t.name),
         };
         let mut lines = vec![
             ("1 / 2".to_string(), format!("{left} / {right}")),
@@ -246,7 +246,7 @@ impl DesktopHands {
                 format!("mark the margin ({})", l.name),
             ));
         }
-        if let Some(c) = self.tools.iter().find(|t| t.kind == ToolKind::Catheter) {
+        if let Some(c) = self.tools.iter().find(|t| t.kind == ToolKind::Steerable) {
             lines.push((
                 "right button".to_string(),
                 format!("twist ({}): half a turn while held", c.name),

@@ -51,7 +51,7 @@ impl HapticProfile {
     pub fn for_tool(tool: &ToolInfo) -> HapticProfile {
         let frequency_hz = match tool.kind {
             ToolKind::Laser | ToolKind::Hook => 250.0,
-            ToolKind::Grasper | ToolKind::Probe | ToolKind::Catheter => 160.0,
+            ToolKind::Grasper | ToolKind::Probe | ToolKind::Steerable => 160.0,
         };
         HapticProfile {
             full_force_n: tool.full_scale_n.max(2.0 * FORCE_FLOOR_N),

@@ -34,7 +34,7 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
         ToolInfo {
             hand: Hand::Right,
             name: "catheter",
-            kind: ToolKind::Catheter,
+            kind: ToolKind::Steerable,
             // The Novint Falcon's largest force.
             full_scale_n: 9.0,
         },
