@@ -17,10 +17,7 @@ impl Records {
         file: &str,
         answers: &[Answers],
     ) -> Result<(), RecordsError> {
-        q.report(file, answers).map_err(|e| RecordsError::Invalid {
-            path: e.file.clone(),
-            message: format!("{}: {}", e.key, e.message),
-        })?;
+        check(q, file, answers)?;
         let path = self.path.clone();
         let sql = |source| RecordsError::Sqlite {
             path: path.clone(),
@@ -105,4 +102,18 @@ pub(super) fn grouped(rows: Vec<(String, String, String, f64)>) -> Vec<Answers> 
             .insert(item, score);
     }
     by.into_values().collect()
+}
+
+/// Checks every participant's answers to `q` before anything is written (`file` names them).
+pub(super) fn check(
+    q: &Questionnaire,
+    file: &str,
+    answers: &[Answers],
+) -> Result<(), RecordsError> {
+    q.report(file, answers)
+        .map(|_| ())
+        .map_err(|e| RecordsError::Invalid {
+            path: e.file.clone(),
+            message: format!("{}: {}", e.key, e.message),
+        })
 }

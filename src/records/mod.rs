@@ -369,8 +369,7 @@ impl Records {
             .map_err(self.sql())?
             .collect::<Result<Vec<_>, _>>()
             .map_err(self.sql())?;
-        Ok(crate::assess::fuzzy::LEVELS
-            .map(|l| (l, levels.iter().filter(|x| *x == l).count() as u64)))
+        Ok(count_levels(&levels))
     }
 
     /// `PRAGMA integrity_check`'s answer ("ok" when the file is sound).
@@ -558,4 +557,9 @@ impl Folder {
             crc,
         })
     }
+}
+
+/// How many of `levels` are each level of expertise, novice first.
+fn count_levels(levels: &[String]) -> [(&'static str, u64); 4] {
+    crate::assess::fuzzy::LEVELS.map(|l| (l, levels.iter().filter(|x| *x == l).count() as u64))
 }

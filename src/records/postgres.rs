@@ -402,8 +402,7 @@ impl PgRecords {
             .map(|r| r.try_get::<_, String>(0))
             .collect::<Result<Vec<_>, _>>()
             .map_err(self.err())?;
-        Ok(crate::assess::fuzzy::LEVELS
-            .map(|l| (l, levels.iter().filter(|x| *x == l).count() as u64)))
+        Ok(super::count_levels(&levels))
     }
 
     /// See [`super::Records::store_answers`].
@@ -413,10 +412,7 @@ impl PgRecords {
         file: &str,
         answers: &[Answers],
     ) -> Result<(), RecordsError> {
-        q.report(file, answers).map_err(|e| RecordsError::Invalid {
-            path: e.file.clone(),
-            message: format!("{}: {}", e.key, e.message),
-        })?;
+        super::answers::check(q, file, answers)?;
         self.with_retry(|tx| {
             for a in answers {
                 tx.execute(
