@@ -1,9 +1,11 @@
 // The frame's uniform, shared by every shader of the renderer (prepended to each): both
-// eyes' view-projections and positions, and flags.
+// eyes' view-projections, positions and lines of sight, flags and the optics.
 
 struct Eye {
     view_proj: mat4x4<f32>,
     position: vec4<f32>,
+    // The line of sight: the scope light's axis.
+    forward: vec4<f32>,
 };
 
 struct Frame {
@@ -11,6 +13,21 @@ struct Frame {
     // x: 1 when the target has been found (highlight), y: time in seconds, z: the
     // membranes' alpha.
     flags: vec4<f32>,
+    // x: the light's working distance in metres (0: a headlight without falloff), y: the
+    // image circle's radius in pixels (0: none), z, w: the image's width and height.
+    optics: vec4<f32>,
 };
 
 @group(0) @binding(0) var<uniform> frame: Frame;
+
+// The share of light left at a fragment by the image circle's rim (src/render/optics.rs:
+// RIM_FADE = 0.06 of the radius), 1 without a circle.
+fn rim(frag: vec2<f32>) -> f32 {
+    let radius = frame.optics.y;
+    if (radius <= 0.0) {
+        return 1.0;
+    }
+    let r = length(frag - 0.5 * frame.optics.zw);
+    let inner = radius * (1.0 - 0.06);
+    return 1.0 - smoothstep(inner, radius, r);
+}

@@ -59,5 +59,6 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
     let soft = (1.0 - r2) * (1.0 - r2);
     // Grey-white, a shade cool.
     let colour = in.look.y * vec3<f32>(0.96, 0.97, 1.0);
-    return vec4<f32>(colour, in.look.x * soft);
+    // Nothing outside a monitor image's circle.
+    return vec4<f32>(colour, in.look.x * soft * rim(in.clip.xy));
 }

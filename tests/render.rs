@@ -352,9 +352,10 @@ fn shows_its_scene(name: &str, snap: &Snapshot, eye: &EyeView, size: (u32, u32),
             );
         }
         "cut" => {
-            // Raw tissue's albedo is (0.45, 0.04, 0.05) against intact (0.50, 0.13, 0.10): in
-            // sRGB its green is under 0.4 of its red, intact tissue's over half.
-            let raw = |p: [u8; 3]| p[0] > 60 && f32::from(p[1]) < 0.4 * f32::from(p[0]);
+            // Raw tissue's albedo is (0.20, 0.006, 0.008) in linear light against intact
+            // tissue's sRGB (0.58, 0.18, 0.14), a hue drift of 15 % at most: in sRGB raw
+            // tissue's green is about 0.12 of its red, intact tissue's over 0.26.
+            let raw = |p: [u8; 3]| p[0] > 60 && f32::from(p[1]) < 0.2 * f32::from(p[0]);
             // The ring of cut edge lies 15-20 mm around the hole's centre on the 50 mm ball:
             // a box 14 px around the centre holds it; the intact side is 55 mm away.
             let cut = project(Vec3::new(0.0, 0.02, 0.045));
@@ -476,9 +477,10 @@ fn a_gpu_validation_error_is_returned_not_a_panic() {
     assert!(gpu.check_eye_size((max, 16)).is_ok());
 }
 
-/// `vesalius profile nephrectomy --json` at full size against the nephrectomy paper's budget
-/// (Tables 2 and 3): at least 50,000 triangles, at most 9 draw calls for both eyes, total
-/// memory (heap + GPU) at most the 38.9 MB of its CPU case.
+/// `vesalius profile nephrectomy --json` at full size, with the whole operative field around
+/// the models, against the nephrectomy paper's budget (Tables 2 and 3): at least 50,000
+/// triangles, at most 9 draw calls for both eyes (its GPU case; the CPU case allows 19), total
+/// memory (heap + GPU) at most the 49.9 MB of its GPU case.
 #[test]
 fn the_full_size_scene_profiles_within_the_papers_budget() {
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_vesalius"))
@@ -498,7 +500,9 @@ fn the_full_size_scene_profiles_within_the_papers_budget() {
     assert!(n("batches") <= n("draw_calls"));
     assert!(v["heap_measured"].as_bool() == Some(true));
     let total = n("total_memory_bytes");
-    assert!(total <= 38_900_000, "total memory {total} bytes");
+    assert!(total <= 49_900_000, "total memory {total} bytes");
+    // The field is drawn: one more object than the models, instruments, beams and rig.
+    assert!(n("objects") >= 10, "{} objects", n("objects"));
     // The GPU share is the textures and meshes the counters list.
     let bytes = |k: &str| ours[k]["bytes"].as_u64().unwrap_or(0);
     assert!(n("vram_bytes") >= bytes("textures") + bytes("meshes"));
@@ -534,7 +538,7 @@ fn frames_show_the_field_from_a_laparoscope_the_trainee_moved() {
     let dir = std::env::temp_dir().join(format!("vesalius-scope-{}", std::process::id()));
     render_snapshots(
         &gpu,
-        &view,
+        &vesalius::render::frames::Look::bare(view),
         &[still, at_home, moved],
         1,
         SIZE,

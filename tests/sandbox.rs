@@ -111,6 +111,25 @@ fn demo_plays_every_registered_procedure() {
             out.contains(&format!("{}: completed=true", p.name)),
             "{out}"
         );
+        // Six stereo frames and their contact sheet (3 x 2 thumbnails at half size), showing
+        // the field: no one colour covers half the sheet (the black outside the image
+        // circles is 29 % of it).
+        let frames = dir.join(p.name).join("frames");
+        assert!(frames.join("left_0005.png").exists() && frames.join("right_0005.png").exists());
+        let (size, px) =
+            vesalius::render::gpu::read_png(&dir.join(p.name).join("contact_sheet.png"))
+                .expect("contact sheet");
+        assert_eq!(size, (3 * 270, 2 * 300), "{}", p.name);
+        let mut counts = std::collections::HashMap::new();
+        for q in px.chunks_exact(4) {
+            *counts.entry([q[0], q[1], q[2]]).or_insert(0usize) += 1;
+        }
+        let top = counts.values().max().copied().unwrap_or(0);
+        assert!(
+            top * 2 < px.len() / 4,
+            "{}: one colour covers {top} pixels",
+            p.name
+        );
     }
     // Every session is in the demo's records, for trainee 'demo', with its level.
     let list = ok(&bin()

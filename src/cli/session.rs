@@ -170,11 +170,13 @@ fn render_frames(
     let eye_size = eye_size.unwrap_or(vesalius::render::camera::VIVE_EYE_SIZE);
     let gpu = vesalius::render::Gpu::headless(true)?;
     let sim_ms = outcome.wall_s * 1e3 / outcome.report.steps.max(1) as f64;
-    let view = vesalius::procedures::find(&outcome.report.procedure)
-        .map_or(vesalius::procedures::REGISTRY[0].view, |p| p.view);
+    let info = vesalius::procedures::find(&outcome.report.procedure)
+        .unwrap_or(vesalius::procedures::REGISTRY[0]);
+    // The frames show what the procedure's laparoscope shows on its monitor.
+    let look = vesalius::render::frames::Look::monitor(info);
     let done = vesalius::render::frames::render_snapshots(
         &gpu,
-        &view,
+        &look,
         &outcome.captured,
         1,
         eye_size,
@@ -491,6 +493,11 @@ pub fn replay(
     Ok(())
 }
 
+/// Stereo frames `vesalius demo` renders of each procedure, evenly spaced over its session.
+const DEMO_FRAMES: u32 = 6;
+/// Their size per eye: half the Vive's.
+const DEMO_EYE_SIZE: (u32, u32) = (540, 600);
+
 /// `demo`: every registered procedure's demo trace, headless, into DIR/<procedure>/, each
 /// session stored for trainee 'demo' in the records (`records`, default DIR/records.sqlite).
 pub fn demo(out: &Path, records: Option<&Path>) -> Result<(), CliError> {
@@ -500,12 +507,18 @@ pub fn demo(out: &Path, records: Option<&Path>) -> Result<(), CliError> {
         let dir = out.join(p.name);
         let opts = Options {
             out: Some(&dir),
+            frames_wanted: DEMO_FRAMES,
             ..Options::default()
         };
         let file = format!("builtin {} scenario", p.name);
         let outcome = session::run_with(p.scenario, &file, Input::Keys(keys), &opts)?;
         finish(&outcome, Some(&dir))?;
         interrupted()?;
+        // A few stereo frames of the monitor image, and a contact sheet of them for people.
+        render_frames(&outcome, &dir, Some(DEMO_EYE_SIZE))?;
+        let sheet = dir.join("contact_sheet.png");
+        vesalius::render::frames::contact_sheet(&dir.join("frames"), &sheet, 3)?;
+        say!("contact sheet: {}", sheet.display());
         super::records::store(&db, &dir, "demo")?;
     }
     Ok(())

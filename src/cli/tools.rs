@@ -168,8 +168,9 @@ pub fn profile(
     let gpu = vesalius::render::Gpu::headless(!two_pass)?;
     // Five frames of the same instant: the first pays for pipeline warm-up.
     let snap = sim.snapshot(steps.saturating_sub(1));
-    let done =
-        vesalius::render::frames::render_repeated(&gpu, &info.view, &snap, 5, eye_size, sim_ms)?;
+    // The headset's frame: both eyes, the full operative field, the scope light.
+    let look = vesalius::render::frames::Look::headset(info);
+    let done = vesalius::render::frames::render_repeated(&gpu, &look, &snap, 5, eye_size, sim_ms)?;
     // Total memory as the last frame measured it: heap (simulation, snapshot, renderer) plus
     // every GPU buffer and texture, while all of them were alive.
     let ours = done.counters.last().cloned().unwrap_or_default();

@@ -140,6 +140,9 @@ pub struct ProcedureInfo {
     /// Its assessment tree (TOML text, `assets/assessment/<name>.toml`): how its measures
     /// are weighed into the score and the level of expertise.
     pub assessment: &'static str,
+    /// What surrounds its models in the picture (cavity, neighbouring anatomy) and the
+    /// laparoscope that sees them: built once per renderer.
+    pub field: fn() -> crate::render::field::OperativeField,
     /// Its metrics before anything happened (a JSON object): the measures it reports, by
     /// which trees are checked.
     pub blank_metrics: fn() -> serde_json::Value,

@@ -2,9 +2,11 @@
 //! row of profiler counters per frame.
 
 use super::Renderer;
-use super::camera::{DEFAULT_IPD_M, field_eyes};
+use super::camera::{DEFAULT_IPD_M, EyeView, field_eyes};
+use super::field::OperativeField;
 use super::gpu::{EYE_FORMAT, EyeTarget, Gpu, RenderError, write_png};
-use crate::procedures::Viewpoint;
+use super::optics::{Optics, scope_eyes};
+use crate::procedures::{ProcedureInfo, Viewpoint};
 use crate::profiler::FrameCounters;
 use crate::sim::Snapshot;
 use std::io::Write;
@@ -19,11 +21,75 @@ pub struct FramesOut {
     pub device: String,
 }
 
+/// How a set of frames looks at the field.
+#[derive(Debug, Clone)]
+pub struct Look {
+    pub view: Viewpoint,
+    /// The field around the models, with its scope (`None`: the models alone).
+    pub field: Option<OperativeField>,
+    /// A laparoscope's monitor image (its angle of view and image circle) rather than a
+    /// headset's eyes.
+    pub monitor: bool,
+}
+
+impl Look {
+    /// The procedure's field as its laparoscope's monitor shows it.
+    pub fn monitor(info: &ProcedureInfo) -> Self {
+        Look {
+            view: info.view,
+            field: Some((info.field)()),
+            monitor: true,
+        }
+    }
+
+    /// The procedure's field in a headset's eyes at its viewpoint.
+    pub fn headset(info: &ProcedureInfo) -> Self {
+        Look {
+            monitor: false,
+            ..Self::monitor(info)
+        }
+    }
+
+    /// The models alone from `view`, lit by a plain headlight, in a headset's eyes.
+    pub fn bare(view: Viewpoint) -> Self {
+        Look {
+            view,
+            field: None,
+            monitor: false,
+        }
+    }
+
+    /// The optics: the scope light over a field (and a monitor's circle), a headlight without.
+    pub fn optics(&self) -> Optics {
+        match (&self.field, self.monitor) {
+            (None, _) => Optics::default(),
+            (Some(_), true) => Optics::monitor(&self.view),
+            (Some(_), false) => Optics::headset(&self.view),
+        }
+    }
+
+    /// Both eyes looking from `view` in an image of `size`.
+    pub fn eyes(&self, view: &Viewpoint, size: (u32, u32)) -> [EyeView; 2] {
+        match (&self.field, self.monitor) {
+            (Some(f), true) => scope_eyes(view, f.scope.fov_deg, size, DEFAULT_IPD_M),
+            _ => field_eyes(view, DEFAULT_IPD_M),
+        }
+    }
+
+    /// A renderer for these frames: the field uploaded, the optics set.
+    pub fn renderer(&self, gpu: &Gpu) -> Renderer {
+        let mut renderer = Renderer::new(gpu, EYE_FORMAT);
+        renderer.set_field(self.field.as_ref().map(|f| f.mesh()).as_ref());
+        renderer.set_optics(self.optics());
+        renderer
+    }
+}
+
 /// Renders every snapshot, waits for the GPU, and returns the counters. `save` names the
 /// folder that gets `left_NNNN.png`, `right_NNNN.png` (and nothing is read back without it).
 pub fn render_snapshots(
     gpu: &Gpu,
-    view: &Viewpoint,
+    look: &Look,
     snaps: &[Snapshot],
     repeat: usize,
     eye_size: (u32, u32),
@@ -31,10 +97,10 @@ pub fn render_snapshots(
     save: Option<&Path>,
 ) -> Result<FramesOut, RenderError> {
     gpu.check_eye_size(eye_size)?;
-    let mut renderer = Renderer::new(gpu, EYE_FORMAT);
+    let mut renderer = look.renderer(gpu);
     let target = EyeTarget::new(gpu, eye_size);
     gpu.check()?;
-    let eyes = field_eyes(view, DEFAULT_IPD_M);
+    let eyes = look.eyes(&look.view, eye_size);
     let mut counters = Vec::with_capacity(snaps.len());
     let mut frame_ms = Vec::with_capacity(snaps.len());
     if let Some(dir) = save {
@@ -51,12 +117,12 @@ pub fn render_snapshots(
         renderer.update(snap);
         // A laparoscope the trainee moved shows the field from its place.
         let eyes = match snap.scope {
-            Some(s) => field_eyes(
+            Some(s) => look.eyes(
                 &Viewpoint {
                     eye: s.eye,
                     target: s.target,
                 },
-                DEFAULT_IPD_M,
+                eye_size,
             ),
             None => eyes,
         };
@@ -85,7 +151,7 @@ pub fn render_snapshots(
 /// Renders one snapshot `times` times (no readback): for timing and counters.
 pub fn render_repeated(
     gpu: &Gpu,
-    view: &Viewpoint,
+    look: &Look,
     snap: &Snapshot,
     times: usize,
     eye_size: (u32, u32),
@@ -93,7 +159,7 @@ pub fn render_repeated(
 ) -> Result<FramesOut, RenderError> {
     render_snapshots(
         gpu,
-        view,
+        look,
         std::slice::from_ref(snap),
         times,
         eye_size,
@@ -118,4 +184,54 @@ pub fn write_profiler_csv(path: &Path, counters: &[FrameCounters]) -> Result<(),
     let mut f = std::fs::File::create(&tmp).map_err(err)?;
     f.write_all(text.as_bytes()).map_err(err)?;
     std::fs::rename(&tmp, path).map_err(err)
+}
+
+/// Tiles the left-eye frames of `frames_dir` (`left_0000.png` on, all one size) at half size,
+/// `cols` across, into one PNG at `out`; returns its size. A frame folder with none is an
+/// error naming it.
+pub fn contact_sheet(
+    frames_dir: &Path,
+    out: &Path,
+    cols: usize,
+) -> Result<(u32, u32), RenderError> {
+    let mut frames = Vec::new();
+    while let Ok((size, px)) =
+        super::gpu::read_png(&frames_dir.join(format!("left_{:04}.png", frames.len())))
+    {
+        frames.push((size, px));
+    }
+    let Some(((w, h), _)) = frames.first() else {
+        return Err(RenderError::Write {
+            path: frames_dir.display().to_string(),
+            message: "no left_0000.png to put on a contact sheet".into(),
+        });
+    };
+    let (tw, th) = ((w / 2) as usize, (h / 2) as usize);
+    let cols = cols.clamp(1, frames.len());
+    let rows = frames.len().div_ceil(cols);
+    let (sw, sh) = (tw * cols, th * rows);
+    let mut sheet = vec![0u8; sw * sh * 4];
+    for (k, ((fw, fh), px)) in frames.iter().enumerate() {
+        if (fw, fh) != (w, h) {
+            continue;
+        }
+        let (ox, oy) = ((k % cols) * tw, (k / cols) * th);
+        for y in 0..th {
+            for x in 0..tw {
+                // The mean of the 2 x 2 pixels the thumbnail's pixel stands for.
+                let at = |dx: usize, dy: usize| 4 * ((2 * y + dy) * *w as usize + 2 * x + dx);
+                let o = 4 * ((oy + y) * sw + ox + x);
+                for c in 0..4 {
+                    let sum: u32 = [at(0, 0), at(1, 0), at(0, 1), at(1, 1)]
+                        .iter()
+                        .map(|&i| u32::from(px[i + c]))
+                        .sum();
+                    sheet[o + c] = (sum / 4) as u8;
+                }
+            }
+        }
+    }
+    let size = (sw as u32, sh as u32);
+    write_png(out, size, &sheet)?;
+    Ok(size)
 }

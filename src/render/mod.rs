@@ -8,10 +8,18 @@
 //! smoke (`pipelines`, `smoke`).
 
 pub mod camera;
+pub mod field;
 pub mod frames;
 pub mod gpu;
+mod meshes;
+pub mod optics;
 mod pipelines;
 pub mod smoke;
+
+use meshes::{
+    clip_to_eyes, cylinder, draw_range, empty_mesh, ensure_capacity, instrument_segments,
+    tracked_buffer, upload,
+};
 
 pub use camera::{EyeView, Fov};
 pub use gpu::{EyeTarget, Gpu, RenderError};
@@ -47,9 +55,11 @@ pub mod material {
     pub const LASER_IDLE: u32 = 7;
     pub const FAT: u32 = 8;
     pub const MEMBRANE: u32 = 9;
+    pub const WALL: u32 = 10;
+    pub const VISCUS: u32 = 11;
     /// Set on vertices at the edge of a cut.
     pub const CUT_FLAG: u32 = 256;
-    pub const COUNT: usize = 10;
+    pub const COUNT: usize = 12;
     /// The shader's table length.
     pub const SLOTS: usize = 16;
 }
@@ -67,6 +77,8 @@ struct Vertex {
 struct EyeUniform {
     view_proj: [[f32; 4]; 4],
     position: [f32; 4],
+    /// The eye's line of sight (the scope light's axis).
+    forward: [f32; 4],
 }
 
 #[repr(C)]
@@ -74,6 +86,8 @@ struct EyeUniform {
 struct FrameUniform {
     eyes: [EyeUniform; 2],
     flags: [f32; 4],
+    /// [`optics::Optics::uniform`].
+    optics: [f32; 4],
 }
 
 #[repr(C)]
@@ -81,31 +95,89 @@ struct FrameUniform {
 struct MaterialUniform {
     albedo: [f32; 4],
     shading: [f32; 4],
+    surface: [f32; 4],
 }
 
 fn material_table() -> [MaterialUniform; material::SLOTS] {
-    // albedo rgb; specular strength, shininess, emissive, rim.
-    let m = |r: f32, g: f32, b: f32, spec: f32, shin: f32, emit: f32, rim: f32| MaterialUniform {
-        albedo: [r, g, b, 1.0],
-        shading: [spec, shin, emit, rim],
+    // Colour as it looks on screen (sRGB), shaded in linear light; specular strength,
+    // shininess, emissive, rim (wet sheen at grazing angles); mottle (albedo variation),
+    // vessels (a fine red network), bump (relief of the normal), scale (noise features per
+    // metre).
+    let linear = |c: f32| {
+        if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }
     };
+    let m = |[r, g, b]: [f32; 3], [spec, shin, emit, rim]: [f32; 4], surface: [f32; 4]| {
+        MaterialUniform {
+            albedo: [linear(r), linear(g), linear(b), 1.0],
+            shading: [spec, shin, emit, rim],
+            surface,
+        }
+    };
+    let none = [0.0, 0.0, 0.0, 1.0];
+    let unused = m([0.0; 3], [0.0, 1.0, 0.0, 0.0], none);
     [
-        m(0.50, 0.13, 0.10, 0.35, 40.0, 0.0, 0.10), // tissue (parenchyma)
-        m(0.78, 0.62, 0.36, 0.30, 30.0, 0.0, 0.08), // target (a pale mass)
-        m(0.80, 0.08, 0.08, 0.50, 60.0, 0.0, 0.12), // artery
-        m(0.20, 0.18, 0.62, 0.50, 60.0, 0.0, 0.12), // vein
-        m(0.88, 0.80, 0.58, 0.35, 40.0, 0.0, 0.08), // duct
-        m(0.55, 0.57, 0.60, 0.90, 80.0, 0.0, 0.20), // instrument steel
-        m(0.20, 1.00, 0.30, 0.00, 1.0, 2.0, 0.00),  // laser, cutting
-        m(0.10, 0.50, 0.15, 0.00, 1.0, 0.8, 0.00),  // laser, aiming
-        m(0.92, 0.80, 0.42, 0.25, 20.0, 0.0, 0.06), // fat
-        m(0.85, 0.72, 0.68, 0.60, 50.0, 0.0, 0.25), // membrane (thin, glossy)
-        m(0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0),
-        m(0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0),
-        m(0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0),
-        m(0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0),
-        m(0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0),
-        m(0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0),
+        // tissue (parenchyma)
+        m(
+            [0.58, 0.18, 0.14],
+            [0.35, 60.0, 0.0, 0.10],
+            [0.30, 0.25, 0.35, 250.0],
+        ),
+        // target (a pale, firm mass)
+        m(
+            [0.86, 0.72, 0.50],
+            [0.30, 50.0, 0.0, 0.08],
+            [0.35, 0.15, 0.60, 300.0],
+        ),
+        m(
+            [0.74, 0.13, 0.10],
+            [0.50, 80.0, 0.0, 0.12],
+            [0.15, 0.0, 0.10, 400.0],
+        ), // artery
+        m(
+            [0.36, 0.24, 0.48],
+            [0.50, 80.0, 0.0, 0.12],
+            [0.15, 0.0, 0.10, 400.0],
+        ), // vein
+        m(
+            [0.88, 0.78, 0.64],
+            [0.35, 60.0, 0.0, 0.08],
+            [0.15, 0.20, 0.15, 400.0],
+        ), // duct
+        m([0.66, 0.68, 0.71], [0.90, 90.0, 0.0, 0.20], none), // instrument steel
+        m([0.50, 1.00, 0.58], [0.00, 1.0, 2.0, 0.00], none),  // laser, cutting
+        m([0.35, 0.74, 0.42], [0.00, 1.0, 0.8, 0.00], none),  // laser, aiming
+        // fat: lobules
+        m(
+            [0.94, 0.80, 0.42],
+            [0.30, 40.0, 0.0, 0.06],
+            [0.30, 0.10, 0.70, 350.0],
+        ),
+        // membrane (thin, glossy)
+        m(
+            [0.90, 0.78, 0.74],
+            [0.60, 70.0, 0.0, 0.25],
+            [0.20, 0.30, 0.15, 300.0],
+        ),
+        // wall: peritoneum over the body wall, pale pink with fine vessels
+        m(
+            [0.82, 0.55, 0.52],
+            [0.45, 60.0, 0.0, 0.15],
+            [0.35, 0.45, 0.30, 200.0],
+        ),
+        // viscus: serosa of bowel or stomach, salmon pink, glossy
+        m(
+            [0.88, 0.58, 0.50],
+            [0.55, 70.0, 0.0, 0.18],
+            [0.25, 0.40, 0.25, 160.0],
+        ),
+        unused,
+        unused,
+        unused,
+        unused,
     ]
 }
 
@@ -125,6 +197,8 @@ fn role_material(role: SurfaceRole) -> u32 {
         SurfaceRole::Duct => material::DUCT,
         SurfaceRole::Fat => material::FAT,
         SurfaceRole::Membrane => material::MEMBRANE,
+        SurfaceRole::Wall => material::WALL,
+        SurfaceRole::Viscus => material::VISCUS,
     }
 }
 
@@ -162,6 +236,9 @@ pub struct Renderer {
     bind_groups: Vec<wgpu::BindGroup>,
     _materials: Tracked<wgpu::Buffer>,
     meshes: Vec<GpuMesh>,
+    /// The operative field around the models: static, drawn first.
+    field: Option<GpuMesh>,
+    optics: optics::Optics,
     instruments: GpuMesh,
     depth: Option<Depth>,
     format: wgpu::TextureFormat,
@@ -249,6 +326,8 @@ impl Renderer {
             bind_groups,
             _materials: materials,
             meshes: Vec::new(),
+            field: None,
+            optics: optics::Optics::default(),
             instruments,
             depth: None,
             format,
@@ -270,6 +349,51 @@ impl Renderer {
 
     pub fn format(&self) -> wgpu::TextureFormat {
         self.format
+    }
+
+    /// The static operative field drawn around the snapshot's models (`None`: none), uploaded
+    /// once; only its opaque triangles are drawn.
+    pub fn set_field(&mut self, field: Option<&crate::sim::ModelSnapshot>) {
+        self.field = field.map(|m| {
+            let mut mesh = empty_mesh(&self.device, &self.ledger, 0, 0);
+            let verts: Vec<Vertex> = m
+                .positions
+                .iter()
+                .enumerate()
+                .map(|(i, p)| Vertex {
+                    position: p.to_array(),
+                    normal: m.normals.get(i).copied().unwrap_or(Vec3::Y).to_array(),
+                    material: material::TISSUE,
+                })
+                .collect();
+            let mut verts = verts;
+            for (t, tri) in m.indices.chunks_exact(3).enumerate() {
+                let mat = role_material(triangle_role(m, t));
+                for &i in tri {
+                    if let Some(v) = verts.get_mut(i as usize) {
+                        v.material = mat;
+                    }
+                }
+            }
+            upload(
+                &self.device,
+                &self.queue,
+                &self.ledger,
+                &mut mesh,
+                &verts,
+                &m.indices,
+            );
+            mesh
+        });
+    }
+
+    /// How the picture is formed from the next frame on: the light and the image circle.
+    pub fn set_optics(&mut self, optics: optics::Optics) {
+        self.optics = optics;
+    }
+
+    pub fn optics(&self) -> optics::Optics {
+        self.optics
     }
 
     /// Copies a snapshot's geometry into the GPU buffers (in place while it fits).
@@ -360,7 +484,8 @@ impl Renderer {
             .count() as u64;
         // Organs, instruments, beams, the headlight and the eye rig (and the smoke, counted
         // when it is drawn).
-        self.objects = snap.models.len() as u64 + tools + beams + 2;
+        self.objects =
+            snap.models.len() as u64 + u64::from(self.field.is_some()) + tools + beams + 2;
         let flags = [
             if snap.target_found { 1.0 } else { 0.0 },
             snap.time_s as f32,
@@ -455,12 +580,15 @@ impl Renderer {
         let eye_uniform = |e: &EyeView| EyeUniform {
             view_proj: e.view_proj().to_cols_array_2d(),
             position: e.position.extend(1.0).to_array(),
+            forward: (e.orientation * Vec3::NEG_Z).extend(0.0).to_array(),
         };
+        let optics = self.optics.uniform(size);
         let both = [eye_uniform(&eyes[0]), eye_uniform(&eyes[1])];
         if self.multiview {
             let u = FrameUniform {
                 eyes: both,
                 flags: self.flags,
+                optics,
             };
             self.queue
                 .write_buffer(&self.frame_buffers[0], 0, bytemuck::bytes_of(&u));
@@ -469,6 +597,7 @@ impl Renderer {
                 let u = FrameUniform {
                     eyes: [both[k], both[k]],
                     flags: self.flags,
+                    optics,
                 };
                 self.queue.write_buffer(fb, 0, bytemuck::bytes_of(&u));
             }
@@ -496,6 +625,13 @@ impl Renderer {
                 (RenderTarget::Single(v), false) => vec![(*v, &depth.layers[0], None)],
                 (RenderTarget::Array(_), false) | (RenderTarget::Single(_), true) => Vec::new(),
             };
+        // Outside a monitor image's circle the picture is black; without a circle the void
+        // shows the cavity's dim colour (scenes with no field).
+        let clear = if self.optics.circle.is_some() {
+            [0.0; 3]
+        } else {
+            BACKGROUND
+        };
         for (k, (colour, depth_view, mask)) in passes.iter().enumerate() {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("eyes"),
@@ -505,9 +641,9 @@ impl Renderer {
                     resolve_target: None,
                     ops: wgpu::Operations {
                         load: wgpu::LoadOp::Clear(wgpu::Color {
-                            r: BACKGROUND[0],
-                            g: BACKGROUND[1],
-                            b: BACKGROUND[2],
+                            r: clear[0],
+                            g: clear[1],
+                            b: clear[2],
                             a: 1.0,
                         }),
                         store: wgpu::StoreOp::Store,
@@ -531,7 +667,12 @@ impl Renderer {
             c.passes += 1;
             // Opaque surfaces write depth; then membranes and smoke blend over them, tested
             // against that depth and writing none.
-            let meshes = || self.meshes.iter().chain(std::iter::once(&self.instruments));
+            let meshes = || {
+                self.field
+                    .iter()
+                    .chain(self.meshes.iter())
+                    .chain(std::iter::once(&self.instruments))
+            };
             for mesh in meshes() {
                 draw_range(&mut pass, mesh, 0..mesh.opaque_count, true, &mut c);
             }
@@ -563,184 +704,6 @@ impl Renderer {
         self.frame += 1;
         c
     }
-}
-
-fn tracked_buffer(
-    device: &wgpu::Device,
-    ledger: &Arc<Ledger>,
-    label: &str,
-    bytes: u64,
-    usage: wgpu::BufferUsages,
-    category: Category,
-) -> Tracked<wgpu::Buffer> {
-    // wgpu wants copy sizes in multiples of 4 and no zero-sized bindings.
-    let size = bytes.max(16).next_multiple_of(4);
-    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some(label),
-        size,
-        usage,
-        mapped_at_creation: false,
-    });
-    Tracked::new(buffer, size, category, ledger)
-}
-
-/// Draws indices `range` of a mesh (nothing when it is empty) and counts it, with its
-/// vertices if `vertices`.
-fn draw_range(
-    pass: &mut wgpu::RenderPass<'_>,
-    mesh: &GpuMesh,
-    range: std::ops::Range<u32>,
-    vertices: bool,
-    c: &mut FrameCounters,
-) {
-    if range.is_empty() {
-        return;
-    }
-    pass.set_vertex_buffer(0, mesh.vertex.inner.slice(..));
-    pass.set_index_buffer(mesh.index.inner.slice(..), wgpu::IndexFormat::Uint32);
-    c.triangles += (range.end - range.start) as u64 / 3;
-    pass.draw_indexed(range, 0, 0..1);
-    c.draw_calls += 1;
-    if vertices {
-        c.vertices += mesh.vertex_count as u64;
-    }
-}
-
-fn empty_mesh(device: &wgpu::Device, ledger: &Arc<Ledger>, verts: u64, indices: u64) -> GpuMesh {
-    GpuMesh {
-        vertex: tracked_buffer(
-            device,
-            ledger,
-            "vertices",
-            verts * std::mem::size_of::<Vertex>() as u64,
-            wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
-            Category::Mesh,
-        ),
-        index: tracked_buffer(
-            device,
-            ledger,
-            "indices",
-            indices * 4,
-            wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST,
-            Category::Mesh,
-        ),
-        vertex_count: 0,
-        index_count: 0,
-        opaque_count: 0,
-    }
-}
-
-/// Writes vertices and indices into a mesh's buffers, growing them (by a quarter more than
-/// needed) only when they do not fit.
-fn upload(
-    device: &wgpu::Device,
-    queue: &wgpu::Queue,
-    ledger: &Arc<Ledger>,
-    mesh: &mut GpuMesh,
-    verts: &[Vertex],
-    indices: &[u32],
-) {
-    let vbytes = std::mem::size_of_val(verts) as u64;
-    let ibytes = std::mem::size_of_val(indices) as u64;
-    ensure_capacity(device, ledger, mesh, vbytes, ibytes);
-    if vbytes > 0 {
-        queue.write_buffer(&mesh.vertex, 0, bytemuck::cast_slice(verts));
-    }
-    if ibytes > 0 {
-        queue.write_buffer(&mesh.index, 0, bytemuck::cast_slice(indices));
-    }
-    mesh.vertex_count = verts.len() as u32;
-    mesh.index_count = indices.len() as u32;
-    mesh.opaque_count = mesh.index_count;
-}
-
-/// Grows a mesh's buffers (by a quarter more than asked) when they are too small.
-fn ensure_capacity(
-    device: &wgpu::Device,
-    ledger: &Arc<Ledger>,
-    mesh: &mut GpuMesh,
-    vbytes: u64,
-    ibytes: u64,
-) {
-    if vbytes > mesh.vertex.bytes() {
-        mesh.vertex = tracked_buffer(
-            device,
-            ledger,
-            "vertices",
-            vbytes + vbytes / 4,
-            wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
-            Category::Mesh,
-        );
-    }
-    if ibytes > mesh.index.bytes() {
-        mesh.index = tracked_buffer(
-            device,
-            ledger,
-            "indices",
-            ibytes + ibytes / 4,
-            wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST,
-            Category::Mesh,
-        );
-    }
-}
-
-/// An open cylinder of 8 sides from `a` to `b`.
-fn cylinder(a: Vec3, b: Vec3, radius: f32, mat: u32, v: &mut Vec<Vertex>, idx: &mut Vec<u32>) {
-    let axis = (b - a).normalize_or(Vec3::Z);
-    let side = axis.any_orthonormal_vector();
-    let up = axis.cross(side);
-    let base = v.len() as u32;
-    const SIDES: u32 = 8;
-    for k in 0..SIDES {
-        let t = k as f32 / SIDES as f32 * std::f32::consts::TAU;
-        let n = side * t.cos() + up * t.sin();
-        for end in [a, b] {
-            v.push(Vertex {
-                position: (end + n * radius).to_array(),
-                normal: n.to_array(),
-                material: mat,
-            });
-        }
-    }
-    for k in 0..SIDES {
-        let (i0, i1) = (base + 2 * k, base + 2 * ((k + 1) % SIDES));
-        idx.extend_from_slice(&[i0, i1, i0 + 1, i1, i1 + 1, i0 + 1]);
-    }
-}
-
-/// A laparoscopic instrument: a 5 mm shaft ending at the tip, with two short jaws.
-/// Shaft and two jaws of an instrument as (from, to, radius, material) cylinders.
-fn instrument_segments(t: &ToolSnapshot, out: &mut Vec<(Vec3, Vec3, f32, u32)>) {
-    let d = t.direction.normalize_or(Vec3::NEG_Z);
-    let jaw_base = t.tip - d * 0.012;
-    out.push((t.tip - d * 0.30, jaw_base, 0.0025, material::INSTRUMENT));
-    let side = d.any_orthonormal_vector() * 0.0015;
-    for s in [side, -side] {
-        out.push((jaw_base + s, t.tip + s * 0.5, 0.0008, material::INSTRUMENT));
-    }
-}
-
-/// The part of segment a-b (a cylinder of `radius`) in front of both eyes' near planes, kept
-/// a cylinder radius clear of them; None when nothing is left.
-fn clip_to_eyes(a: Vec3, b: Vec3, radius: f32, eyes: &[EyeView; 2]) -> Option<(Vec3, Vec3)> {
-    let (mut t0, mut t1) = (0.0f32, 1.0f32);
-    for e in eyes {
-        let forward = e.orientation * Vec3::NEG_Z;
-        let clear = 2.0 * camera::NEAR_M + radius;
-        let (da, db) = (
-            (a - e.position).dot(forward) - clear,
-            (b - e.position).dot(forward) - clear,
-        );
-        if da < 0.0 && db < 0.0 {
-            return None;
-        }
-        if da < 0.0 {
-            t0 = t0.max(da / (da - db));
-        } else if db < 0.0 {
-            t1 = t1.min(da / (da - db));
-        }
-    }
-    (t1 > t0).then(|| (a.lerp(b, t0), a.lerp(b, t1)))
 }
 
 /// The view-projection a renderer uses for an eye (for tests that project known points).

@@ -20,6 +20,10 @@ pub enum SurfaceRole {
     Fat,
     /// A membrane, fascia or peritoneum.
     Membrane,
+    /// The cavity's lining: the body wall under its peritoneum (the operative field).
+    Wall,
+    /// A hollow organ's outer surface (serosa) seen beside the task (the operative field).
+    Viscus,
 }
 
 /// What a renderer needs of one model at one instant.

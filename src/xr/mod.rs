@@ -207,10 +207,14 @@ impl XrLoop {
     ) -> Result<XrLoop, XrRunError> {
         let (app, xg) = XrApp::open("vesalius")?;
         let gpu = Gpu::from_parts(xg.instance, xg.adapter, xg.device, xg.queue, xg.multiview);
-        let renderer = Renderer::new(&gpu, EYE_FORMAT);
+        let mut renderer = Renderer::new(&gpu, EYE_FORMAT);
         let eye = opts.eye_size.unwrap_or(app.eye_size);
         gpu.check_eye_size(eye)?;
         let mut live = Live::new(scenario_text, scenario_file, Pacing::AsFastAsPossible)?;
+        // In the headset: the operative field in the scope's light (no image circle).
+        let info = live.info();
+        renderer.set_field(Some(&(info.field)().mesh()));
+        renderer.set_optics(crate::render::optics::Optics::headset(&info.view));
         if let Some(dir) = out {
             crate::session::prepare(dir)?;
             live.stream_to(&dir.join(crate::session::RECORDING))?;

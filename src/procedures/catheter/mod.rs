@@ -4,6 +4,7 @@
 //! entry.
 
 mod bench;
+mod field;
 mod plugin;
 mod procedure;
 pub mod scenario;

@@ -53,6 +53,7 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
     swap: &[],
     legacy_tuned_model: None,
     assessment: include_str!("../../../assets/assessment/catheter.toml"),
+    field: super::field::field,
     blank_metrics: || serde_json::to_value(Metrics::default()).unwrap_or_default(),
     // The paper's Novint Falcon (9 N, 1 kHz).
     haptic_device: crate::haptics::DeviceChoice::Falcon,

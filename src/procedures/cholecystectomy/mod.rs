@@ -6,6 +6,7 @@
 pub mod anatomy;
 pub mod clips;
 mod drawing;
+mod field;
 mod plugin;
 mod procedure;
 pub mod scenario;

@@ -6,6 +6,7 @@
 pub mod anatomy;
 mod bench;
 mod drawing;
+mod field;
 pub mod palpation;
 mod plugin;
 mod precompute;

@@ -11,6 +11,7 @@ use crate::sim::{
 use glam::Vec3;
 use serde::Serialize;
 
+mod field;
 mod plugin;
 mod scenario;
 mod score;
@@ -77,6 +78,7 @@ pub const INFO: super::ProcedureInfo = super::ProcedureInfo {
     swap: &[],
     legacy_tuned_model: Some(TUNED_MODEL),
     assessment: include_str!("../../../assets/assessment/nephrectomy.toml"),
+    field: field::field,
     blank_metrics: || serde_json::to_value(Metrics::default()).unwrap_or_default(),
     haptic_device: crate::haptics::DeviceChoice::Phantom,
     bench_extra: None,

@@ -61,6 +61,7 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
     }],
     legacy_tuned_model: None,
     assessment: include_str!("../../../assets/assessment/rectum.toml"),
+    field: super::field::field,
     blank_metrics: || serde_json::to_value(Metrics::default()).unwrap_or_default(),
     haptic_device: crate::haptics::DeviceChoice::Phantom,
     bench_extra: None,

@@ -18,6 +18,7 @@ use glam::Vec3;
 use serde::Serialize;
 
 mod block;
+mod field;
 mod plugin;
 mod scenario;
 #[cfg(test)]
@@ -87,6 +88,7 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
     swap: &[],
     legacy_tuned_model: None,
     assessment: include_str!("../../../assets/assessment/sandbox.toml"),
+    field: field::field,
     blank_metrics: || serde_json::to_value(Metrics::default()).unwrap_or_default(),
     haptic_device: crate::haptics::DeviceChoice::Phantom,
     bench_extra: None,

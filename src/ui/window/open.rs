@@ -20,7 +20,14 @@ impl App {
             }
             None => own_gpu(el, &window)?,
         };
-        finish_open(window, gpu, surface)
+        let mut view = finish_open(window, gpu, surface)?;
+        // The monitor of a laparoscopic tower: the operative field in the scope's light, in
+        // its image circle.
+        let info = self.dashboard.info;
+        view.renderer.set_field(Some(&(info.field)().mesh()));
+        view.renderer
+            .set_optics(crate::render::optics::Optics::monitor(&info.view));
+        Ok(view)
     }
 }
 
