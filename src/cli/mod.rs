@@ -217,8 +217,8 @@ struct RunArgs {
     /// Pace the headless session against the wall clock.
     #[arg(long, requires = "headless")]
     realtime: bool,
-    /// Score the headless session with this assessment tree instead of the procedure's own
-    /// (assets/assessment/*.toml).
+    /// Score the session (headless or in a headset) with this assessment tree instead of the
+    /// procedure's own (assets/assessment/*.toml); its rules give the instructions
     #[arg(long, value_name = "FILE", requires = "headless")]
     assessment: Option<PathBuf>,
     /// Store the session (headless or in the window) in the learning centre's records (this

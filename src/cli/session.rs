@@ -300,6 +300,7 @@ fn run_xr(a: &RunArgs) -> Result<(), CliError> {
         coupling: a
             .xr_coupling
             .map_or(vesalius::xr::Coupling::Paced, Into::into),
+        assessment: load_tree(a.assessment.as_deref(), &a.procedure)?,
     };
     // The supervisor's mirror opens beside the headset wherever there is a display.
     if !a.no_window && display_available() {
@@ -394,6 +395,11 @@ fn run_xr_sim(a: &RunArgs, trace: &Path) -> Result<(), CliError> {
         .env(vesalius_sim_runtime::CONFIG_ENV, &config);
     if let Some(f) = &a.scenario {
         cmd.arg("--scenario").arg(f);
+    }
+    if let Some(f) = &a.assessment {
+        // Checked here, so a bad tree is named before the runtime starts.
+        load_tree(Some(f), &a.procedure)?;
+        cmd.arg("--assessment").arg(f);
     }
     if let Some((w, h)) = a.eye_size {
         cmd.args(["--eye-size", &format!("{w}x{h}")]);

@@ -13,6 +13,7 @@ pub mod frames;
 pub mod gpu;
 mod meshes;
 pub mod optics;
+pub mod overlay;
 mod pipelines;
 pub mod smoke;
 
@@ -239,6 +240,8 @@ pub struct Renderer {
     /// The operative field around the models: static, drawn first.
     field: Option<GpuMesh>,
     optics: optics::Optics,
+    /// The headset's text panel, made when first asked to show words.
+    overlay: Option<overlay::Overlay>,
     instruments: GpuMesh,
     depth: Option<Depth>,
     format: wgpu::TextureFormat,
@@ -328,6 +331,7 @@ impl Renderer {
             meshes: Vec::new(),
             field: None,
             optics: optics::Optics::default(),
+            overlay: None,
             instruments,
             depth: None,
             format,
@@ -394,6 +398,19 @@ impl Renderer {
 
     pub fn optics(&self) -> optics::Optics {
         self.optics
+    }
+
+    /// Words to show in a panel before the eyes from the next frame on (the newest first;
+    /// none: no panel). The panel is painted again only when they change.
+    pub fn show_lines(&mut self, lines: &[String]) {
+        if lines.is_empty() && self.overlay.is_none() {
+            return;
+        }
+        let (device, ledger) = (&self.device, &self.ledger);
+        let layout = &self.pipelines.overlay_layout;
+        self.overlay
+            .get_or_insert_with(|| overlay::Overlay::new(device, ledger, layout))
+            .set_lines(&self.device, &self.queue, lines);
     }
 
     /// Copies a snapshot's geometry into the GPU buffers (in place while it fits).
@@ -583,6 +600,10 @@ impl Renderer {
             forward: (e.orientation * Vec3::NEG_Z).extend(0.0).to_array(),
         };
         let optics = self.optics.uniform(size);
+        let overlay = self.overlay.as_ref().filter(|o| o.visible());
+        if let Some(o) = overlay {
+            o.place(&self.queue, eyes);
+        }
         let both = [eye_uniform(&eyes[0]), eye_uniform(&eyes[1])];
         if self.multiview {
             let u = FrameUniform {
@@ -687,6 +708,10 @@ impl Renderer {
                 }
             }
             self.smoke.draw(&mut pass, &self.pipelines.smoke, &mut c);
+            if let Some(o) = overlay {
+                let frame = &self.bind_groups[k.min(self.bind_groups.len() - 1)];
+                o.draw(&mut pass, &self.pipelines.overlay, frame, &mut c);
+            }
         }
         c.batches = c.draw_calls;
         let t1 = Instant::now();

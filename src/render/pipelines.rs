@@ -9,6 +9,7 @@ use std::num::NonZeroU32;
 const FRAME: &str = include_str!("../../shaders/frame.wgsl");
 const TISSUE: &str = include_str!("../../shaders/tissue.wgsl");
 const SMOKE: &str = include_str!("../../shaders/smoke.wgsl");
+const OVERLAY: &str = include_str!("../../shaders/overlay.wgsl");
 
 /// The byte size of one smoke particle's instance data (centre, then radius, alpha, grey).
 pub(super) const PARTICLE_BYTES: u64 = 24;
@@ -17,8 +18,12 @@ pub(super) struct Pipelines {
     pub opaque: wgpu::RenderPipeline,
     pub membrane: wgpu::RenderPipeline,
     pub smoke: wgpu::RenderPipeline,
+    /// The headset's text panel, over everything (`overlay`).
+    pub overlay: wgpu::RenderPipeline,
     /// The frame uniform and the material table (the smoke reads only the frame).
     pub layout: wgpu::BindGroupLayout,
+    /// The panel's placement, texture and sampler (group 1 of the overlay pipeline).
+    pub overlay_layout: wgpu::BindGroupLayout,
 }
 
 /// A shader's source for a multiview pass (the eye is the view index) or for one eye a pass
@@ -64,7 +69,45 @@ impl Pipelines {
                 ),
             })
         };
+        let overlay_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("panel"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::VERTEX,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+            ],
+        });
+        let overlay_pipeline_layout =
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("panel"),
+                bind_group_layouts: &[Some(&layout), Some(&overlay_layout)],
+                immediate_size: 0,
+            });
         let tissue = module("tissue.wgsl", TISSUE);
+        let overlay_module = module("overlay.wgsl", OVERLAY);
         let smoke = module("smoke.wgsl", SMOKE);
         let surface_attributes =
             wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Uint32];
@@ -79,14 +122,16 @@ impl Pipelines {
             step_mode: wgpu::VertexStepMode::Instance,
             attributes: &particle_attributes,
         })];
-        let make = |label: &str,
-                    module: &wgpu::ShaderModule,
-                    buffers: &[Option<wgpu::VertexBufferLayout<'_>>],
-                    fragment: &str,
-                    blend: Option<wgpu::BlendState>| {
+        let make_with = |label: &str,
+                         layout: &wgpu::PipelineLayout,
+                         module: &wgpu::ShaderModule,
+                         buffers: &[Option<wgpu::VertexBufferLayout<'_>>],
+                         fragment: &str,
+                         blend: Option<wgpu::BlendState>,
+                         depth_compare: wgpu::CompareFunction| {
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(label),
-                layout: Some(&pipeline_layout),
+                layout: Some(layout),
                 vertex: wgpu::VertexState {
                     module,
                     entry_point: Some("vs_main"),
@@ -103,7 +148,7 @@ impl Pipelines {
                     // Only opaque surfaces write depth: a blended one that did would hide what
                     // lies behind it and is drawn after it.
                     depth_write_enabled: Some(blend.is_none()),
-                    depth_compare: Some(wgpu::CompareFunction::Less),
+                    depth_compare: Some(depth_compare),
                     stencil: Default::default(),
                     bias: Default::default(),
                 }),
@@ -126,7 +171,31 @@ impl Pipelines {
                 cache: None,
             })
         };
+        let make = |label: &str,
+                    module: &wgpu::ShaderModule,
+                    buffers: &[Option<wgpu::VertexBufferLayout<'_>>],
+                    fragment: &str,
+                    blend: Option<wgpu::BlendState>| {
+            make_with(
+                label,
+                &pipeline_layout,
+                module,
+                buffers,
+                fragment,
+                blend,
+                wgpu::CompareFunction::Less,
+            )
+        };
         Pipelines {
+            overlay: make_with(
+                "panel",
+                &overlay_pipeline_layout,
+                &overlay_module,
+                &[],
+                "fs_main",
+                Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING),
+                wgpu::CompareFunction::Always,
+            ),
             opaque: make("tissue", &tissue, &surface_buffers, "fs_main", None),
             membrane: make(
                 "membrane",
@@ -137,6 +206,7 @@ impl Pipelines {
             ),
             smoke: make("smoke", &smoke, &particle_buffers, "fs_main", Some(OVER)),
             layout,
+            overlay_layout,
         }
     }
 }
@@ -149,7 +219,7 @@ mod tests {
     fn both_shaders_name_the_eye_the_same_way() {
         // The rewrite must find its marks in each shader, or one of them would fail to
         // compile on one of the paths (only the device would say so).
-        for source in [TISSUE, SMOKE] {
+        for source in [TISSUE, SMOKE, OVERLAY] {
             assert_eq!(source.matches("let eye = VIEW;").count(), 1);
             assert_eq!(source.matches("/*VIEW_INDEX*/").count(), 1);
             let both = specialise(source, true);

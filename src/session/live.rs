@@ -453,6 +453,13 @@ impl Live {
                 .take(INSTRUCTIONS_SHOWN)
                 .map(|(t, m)| format!("{t:.1} s: {m}"))
                 .collect(),
+            current_instructions: self
+                .instructions
+                .iter()
+                .rev()
+                .take_while(|(t, _)| self.clock.time_s() - t <= super::INSTRUCTION_CURRENT_S)
+                .map(|(_, m)| m.clone())
+                .collect(),
             steps_done: t.steps_done,
             completed: t.completed,
             force_n: [f[0].length(), f[1].length()],

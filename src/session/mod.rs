@@ -66,9 +66,15 @@ pub struct Status {
     pub figures: Vec<(String, String)>,
     /// The dynamic assessment's newest instructions to the trainee, newest first.
     pub instructions: Vec<String>,
+    /// The instructions given in the last [`INSTRUCTION_CURRENT_S`] simulated seconds, newest
+    /// first, words only: what the headset's panel shows.
+    pub current_instructions: Vec<String>,
     /// The values the supervisor may tune, as they are now.
     pub tunables: Vec<Tunable>,
 }
+
+/// How long an instruction stays in the headset's panel, simulated seconds.
+pub const INSTRUCTION_CURRENT_S: f64 = 8.0;
 
 /// Extra simulated time after the trace ends, seconds, so that motion settles.
 pub const SETTLE_S: f64 = 0.25;

@@ -43,7 +43,7 @@ pub struct XrRun {
 }
 
 /// How long to run, and at what eye size.
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Default)]
 pub struct XrOptions {
     /// Stop after this much simulated time, seconds (the trace's length under the simulated
     /// runtime); none: until the trainee presses the menu button.
@@ -52,6 +52,9 @@ pub struct XrOptions {
     pub eye_size: Option<(u32, u32)>,
     /// Whether frames wait for the simulation (see [`Coupling`]).
     pub coupling: Coupling,
+    /// An assessment tree to score the session with instead of the procedure's own (its
+    /// file's name, for errors, and the tree): its rules give the instructions.
+    pub assessment: Option<(String, crate::assess::Tree)>,
 }
 
 /// Why a run in the headset stopped with an error.
@@ -211,6 +214,9 @@ impl XrLoop {
         let eye = opts.eye_size.unwrap_or(app.eye_size);
         gpu.check_eye_size(eye)?;
         let mut live = Live::new(scenario_text, scenario_file, Pacing::AsFastAsPossible)?;
+        if let Some((file, tree)) = &opts.assessment {
+            live.set_assessment(file, tree.clone())?;
+        }
         // In the headset: the operative field in the scope's light (no image circle).
         let info = live.info();
         renderer.set_field(Some(&(info.field)().mesh()));
@@ -431,6 +437,8 @@ impl XrLoop {
                 return Err(XrRunError::TooFewViews);
             }
             let eyes = [eye_view(&views[0]), eye_view(&views[1])];
+            // The dynamic assessment's current instructions, in a panel before the eyes.
+            self.renderer.show_lines(&sim.status().current_instructions);
             self.renderer.update(&sim.snapshot());
             let multiview = self.gpu.multiview;
             let copy = self.mirror.as_ref().map(|m| (m, &self.gpu));

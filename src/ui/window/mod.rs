@@ -189,7 +189,7 @@ pub fn run(mut opts: WindowOptions) -> Result<WindowRun, WindowError> {
     // Devices get their servo threads, and the simulation the cores those leave.
     let mut rig = None;
     let mut device_names = Vec::new();
-    let (sim, xr) = match (opts.xr, opts.devices.take()) {
+    let (sim, xr) = match (opts.xr.clone(), opts.devices.take()) {
         (None, Some(d)) => {
             let live = super::runner::open_live(
                 &opts.scenario_text,
