@@ -8,8 +8,7 @@
 // the eye, a cos^SPOT spread about its line of sight, a little ambient light bounced around
 // the cavity. Surfaces: a diffuse albedo varied by value noise of the world position (mottle,
 // a fine vessel network, relief of the normal), an energy-normalised Blinn-Phong lobe with
-// Schlick's Fresnel for the film of fluid that makes tissue look wet, and a sharper clear-coat
-// glint on top.
+// Schlick's Fresnel, and the sharp glint of the film of fluid that makes tissue look wet.
 
 struct Material {
     albedo: vec4<f32>,
@@ -153,12 +152,15 @@ fn shade(in: VertexOut) -> vec3<f32> {
         let cos_a = max(dot(axis, -to_eye), 0.0);
         e_light = min((reference / r) * (reference / r), MAX_GAIN) * cos_i * pow(cos_a, SPOT);
     }
-    // Wet film: light and eye coincide, so the half vector is the view direction.
+    // Wet film: light and eye coincide, so the half vector is the view direction. Schlick's
+    // Fresnel from water's 2 % at normal incidence; a normalised Blinn-Phong lobe of the
+    // material's shininess and, for the film of fluid, a far sharper glint (exponent 2000:
+    // a spot of about a degree and a half, where the film mirrors the scope's light).
     let shininess = m.shading.y;
     let fresnel = 0.02 + 0.98 * pow(1.0 - cos_i, 5.0);
-    let lobe = (shininess + 8.0) / 25.13 * pow(cos_i, shininess);
-    let glint = 6.0 * pow(cos_i, shininess * 6.0);
-    let spec = specular * (0.25 * lobe + 0.6 * glint) * (0.5 + fresnel);
+    let lobe = (shininess + 2.0) / 6.283 * pow(cos_i, shininess);
+    let glint = 2002.0 / 6.283 * pow(cos_i, 2000.0);
+    let spec = specular * fresnel * (lobe + 0.5 * glint);
     let sheen = m.shading.w * pow(1.0 - cos_i, 3.0);
     var colour = albedo * (AMBIENT + DIFFUSE_GAIN * e_light) + vec3<f32>((spec + sheen) * e_light);
     colour = colour + albedo * m.shading.z;

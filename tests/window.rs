@@ -118,9 +118,9 @@ fn the_demo_plays_in_a_window_and_the_screenshot_shows_the_kidney_and_the_panels
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// Desktop mode, driven like a trainee would: xdotool moves the mouse onto the kidney and
-/// holds the left button, so the laser (the mouse's instrument at start) finds the tumour and
-/// cuts; the screenshot at 12 s ends the session.
+/// Desktop mode, driven like a trainee would (begun at once with --start): xdotool moves the
+/// mouse onto the tumour, clicks the right button there (the laser identifies it), and holds
+/// the left button, so the laser cuts; the screenshot at 12 s ends the session.
 #[test]
 fn desktop_mode_the_mouse_points_the_laser_and_the_button_cuts() {
     let dir = std::env::temp_dir().join(format!("vesalius-desktop-{}", std::process::id()));
@@ -129,12 +129,14 @@ fn desktop_mode_the_mouse_points_the_laser_and_the_button_cuts() {
     // The window opens at the top left of the virtual screen: its 3D view spans about 270 to
     // 1300 pixels across, and the kidney and tumour sit in its middle.
     let script = r#"
-"$0" run nephrectomy --screenshot "$1/shot.png" --screenshot-at 12 --out "$1/out" &
+"$0" run nephrectomy --start --screenshot "$1/shot.png" --screenshot-at 12 --out "$1/out" &
 app=$!
 xdotool search --sync --name "Vesalius" > /dev/null
 sleep 1
 xdotool mousemove 760 420
-sleep 0.5
+sleep 0.3
+xdotool click 3
+sleep 0.3
 xdotool mousedown 1
 for x in 765 770 775 780 785 790 795 800; do xdotool mousemove $x 430; sleep 0.2; done
 xdotool mouseup 1

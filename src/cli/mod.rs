@@ -260,6 +260,10 @@ struct RunArgs {
     #[arg(long, value_name = "S", requires = "screenshot", value_parser = seconds,
           allow_negative_numbers = true)]
     screenshot_at: Option<f64>,
+
+    /// Desktop mode: begin at once, without the start screen (scripted sessions)
+    #[arg(long)]
+    start: bool,
     /// Window size in points.
     #[arg(long, value_name = "WxH", value_parser = parse_size, default_value = "1600x900")]
     window_size: (u32, u32),

@@ -254,6 +254,7 @@ pub(super) fn run_window(
         xr,
         devices,
         records: a.records.clone().zip(a.trainee.clone()),
+        start_now: a.start,
     })?;
     if let Some((runtime, frames, sessions, (w, h))) = &run.xr {
         say!(

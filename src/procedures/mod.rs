@@ -18,7 +18,7 @@ pub mod soft_tissue;
 pub use nephrectomy::Nephrectomy;
 pub use procedure::{
     BuildError, MassSpring, ModelReport, Plan, Procedure, ProcedureInfo, ProcedureReport,
-    TaskStatus, TaskStep, ToolInfo, ToolKind, Tunable, Viewpoint, tick_off,
+    TaskStatus, TaskStep, ToolInfo, ToolKind, Tunable, Viewpoint, out_of_order, tick_off,
 };
 
 /// Every procedure that runs today, in the order `vesalius demo` plays them.

@@ -35,6 +35,24 @@ pub fn tick_off(
     }
 }
 
+/// The `out_of_order` event for an action of task step `step` taken while an earlier step
+/// of `steps` is still to do (`steps_done` are the ids done, in order); none when every step
+/// before it is done, or `step` is not one of them.
+pub fn out_of_order(
+    steps: &[TaskStep],
+    steps_done: &[String],
+    step: &str,
+) -> Option<crate::sim::EventKind> {
+    let at = steps.iter().position(|s| s.id == step)?;
+    let next = steps
+        .iter()
+        .position(|s| !steps_done.iter().any(|d| d == s.id))?;
+    (next < at).then(|| crate::sim::EventKind::OutOfOrder {
+        step: step.to_string(),
+        expected: steps[next].id.to_string(),
+    })
+}
+
 /// What an instrument does, so input devices and feedback know how to drive it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ToolKind {

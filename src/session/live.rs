@@ -153,6 +153,11 @@ impl Live {
         })
     }
 
+    /// After a pause: real-time pacing goes on from now.
+    pub fn resume_pacing(&mut self) {
+        self.clock.resume();
+    }
+
     /// Scores the session with `tree` instead of the procedure's own (`file` names it in
     /// errors): it must be for this procedure and bind only measures it reports.
     pub fn set_assessment(&mut self, file: &str, tree: Tree) -> Result<(), SessionError> {

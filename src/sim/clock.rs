@@ -42,6 +42,14 @@ impl Clock {
         self.step as f64 * self.dt_s as f64
     }
 
+    /// After a pause: real-time pacing goes on from now (it does not race to catch up the
+    /// wall time spent paused).
+    pub fn resume(&mut self) {
+        if self.start.is_some() {
+            self.start = Instant::now().checked_sub(Duration::from_secs_f64(self.time_s()));
+        }
+    }
+
     /// Advances one step; in real-time mode waits until the wall clock has caught up.
     pub fn tick(&mut self) {
         self.step += 1;

@@ -137,6 +137,12 @@ pub enum EventKind {
     TaskStep {
         name: String,
     },
+    /// An action of task step `step` was taken while `expected`, a step before it, was still
+    /// to do (the procedure's order was not kept; assessment counts these).
+    OutOfOrder {
+        step: String,
+        expected: String,
+    },
     /// A model's state went non-finite; it was rolled back to `restored_step` and frozen.
     Quarantined {
         model: String,
@@ -210,6 +216,7 @@ impl EventKind {
             EventKind::Alarm { .. } => "alarm",
             EventKind::Instruction { .. } => "instruction",
             EventKind::TaskStep { .. } => "task_step",
+            EventKind::OutOfOrder { .. } => "out_of_order",
             EventKind::Quarantined { .. } => "quarantined",
             EventKind::ControllerLost { .. } => "controller_lost",
             EventKind::ControllerRegained { .. } => "controller_regained",

@@ -5,4 +5,5 @@ pub mod dashboard;
 pub mod desktop;
 pub mod learning;
 pub mod runner;
+pub mod screens;
 pub mod window;

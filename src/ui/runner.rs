@@ -42,6 +42,8 @@ pub struct SimThread {
     pub status: Arc<ArcSwap<Status>>,
     stop: Arc<AtomicBool>,
     done: Arc<AtomicBool>,
+    /// While set, the session takes no steps (a start screen, a pause).
+    paused: Arc<AtomicBool>,
     handle: Option<JoinHandle<Result<Live, SessionError>>>,
 }
 
@@ -51,37 +53,41 @@ pub const LOOK_M: f32 = 0.01;
 
 impl SimThread {
     /// Builds the procedure (here, so a bad scenario is reported before any window opens)
-    /// and starts stepping it.
+    /// and starts stepping it (`paused`: once [`SimThread::set_paused`] lets it go).
     pub fn start(
         scenario_text: &str,
         scenario_file: &str,
         source: Source,
         pacing: Pacing,
         out: Option<&Path>,
+        paused: bool,
     ) -> Result<SimThread, SessionError> {
         let live = open_live(scenario_text, scenario_file, pacing, out)?;
-        SimThread::start_live(live, source, None)
+        SimThread::start_live(live, source, None, paused)
     }
 
     /// Starts stepping a session already built, on `pool`'s threads when given (else on
-    /// the global pool's).
+    /// the global pool's); `paused`: it waits for [`SimThread::set_paused`] (false) first.
     pub fn start_live(
         mut live: Live,
         mut source: Source,
         pool: Option<rayon::ThreadPool>,
+        paused: bool,
     ) -> Result<SimThread, SessionError> {
         let bus = Arc::new(SnapshotBus::new());
         bus.publish(live.snapshot());
         let status = Arc::new(ArcSwap::from_pointee(live.status(LOOK_M)));
         let stop = Arc::new(AtomicBool::new(false));
         let done = Arc::new(AtomicBool::new(false));
+        let paused = Arc::new(AtomicBool::new(paused));
         let (b, st, s, d) = (bus.clone(), status.clone(), stop.clone(), done.clone());
+        let p = paused.clone();
         let (commands, inbox): (Sender<Command>, Receiver<Command>) = channel();
         let handle = std::thread::Builder::new()
             .name("simulation".into())
             .spawn(move || {
                 let work = move || {
-                    let stepped = play(&mut live, &mut source, &inbox, (&b, &st, &s));
+                    let stepped = play(&mut live, &mut source, &inbox, (&b, &st, &s, &p));
                     b.publish(live.snapshot());
                     st.store(Arc::new(live.status(LOOK_M)));
                     d.store(true, Ordering::Release);
@@ -102,8 +108,19 @@ impl SimThread {
             status,
             stop,
             done,
+            paused,
             handle: Some(handle),
         })
+    }
+
+    /// Holds the session (it takes no steps, and real-time pacing resumes from the moment
+    /// it goes on) or lets it go on.
+    pub fn set_paused(&self, paused: bool) {
+        self.paused.store(paused, Ordering::Release);
+    }
+
+    pub fn is_paused(&self) -> bool {
+        self.paused.load(Ordering::Acquire)
     }
 
     /// Whether the session has ended (its trace played out, or stopped).
@@ -155,8 +172,9 @@ fn play(
     live: &mut Live,
     source: &mut Source,
     inbox: &Receiver<Command>,
-    (bus, status, stop): (&SnapshotBus, &ArcSwap<Status>, &AtomicBool),
+    (bus, status, stop, paused): (&SnapshotBus, &ArcSwap<Status>, &AtomicBool, &AtomicBool),
 ) -> Result<(), SessionError> {
+    let mut was_paused = false;
     let publish_every = live.publish_every();
     // A trace plays for as many steps as it would headless, so the report is the same.
     let end = match source {
@@ -178,6 +196,15 @@ fn play(
                 live.set_ended(ended::TIME_UP);
             }
             return Ok(());
+        }
+        if paused.load(Ordering::Acquire) {
+            was_paused = true;
+            std::thread::sleep(std::time::Duration::from_millis(5));
+            continue;
+        }
+        if was_paused {
+            live.resume_pacing();
+            was_paused = false;
         }
         while let Ok(Command::Tune(model, values)) = inbox.try_recv() {
             // The sliders stay inside the allowed ranges; a value outside them is refused by

@@ -19,6 +19,13 @@ mod score;
 pub use scenario::{Anatomy, Scenario, Task, Tools, Vulnerable, Weights};
 pub use score::{ScoreParts, score};
 
+/// How long the laser's beam must rest on the tumour to identify it without a click, s.
+const IDENTIFY_DWELL_S: f32 = 1.0;
+/// How far the laser must have moved (origin, metres; or turned, radians) from its first pose
+/// before a dwell counts.
+const LASER_MOVED_M: f32 = 0.005;
+const LASER_TURNED_RAD: f32 = 0.05;
+
 /// The registry's entry.
 pub const INFO: super::ProcedureInfo = super::ProcedureInfo {
     name: "nephrectomy",
@@ -144,6 +151,9 @@ pub struct Metrics {
     pub ties_torn: u32,
     pub marks: u32,
     pub marks_on_margin: u32,
+    /// Actions taken before the step they follow was done (a mark before the tumour was
+    /// identified, a cut before the margin was marked).
+    pub out_of_order: u32,
     pub steps_done: Vec<String>,
 }
 
@@ -158,6 +168,11 @@ pub struct Nephrectomy {
     pub metrics: Metrics,
     cut_deviation_sum: f64,
     identified: bool,
+    /// The laser's first pose (origin, direction), whether it has moved from it since, and
+    /// how long its beam has now rested on the tumour: identification is deliberate.
+    laser_start: Option<(Vec3, Vec3)>,
+    laser_moved: bool,
+    dwell_s: f32,
     freed: bool,
     removed: bool,
     last_cut_point: Option<Vec3>,
@@ -334,6 +349,9 @@ impl Nephrectomy {
             tumour_radius: r_t,
             cut_deviation_sum: 0.0,
             identified: false,
+            laser_start: None,
+            laser_moved: false,
+            dwell_s: 0.0,
             freed: false,
             removed: false,
             last_cut_point: None,
@@ -401,6 +419,14 @@ impl Nephrectomy {
         });
     }
 
+    /// Counts and raises an action of `step` taken before the steps it follows were done.
+    fn out_of_order(&mut self, step: &str, events: &mut Vec<EventKind>) {
+        if let Some(e) = super::out_of_order(INFO.steps, &self.metrics.steps_done, step) {
+            self.metrics.out_of_order += 1;
+            events.push(e);
+        }
+    }
+
     /// Advances the procedure one step.
     pub fn step(&mut self, input: &InputFrame, step: u64, events: &mut Vec<SimEvent>) {
         let dt = self.scenario.dt_s;
@@ -436,14 +462,31 @@ impl Nephrectomy {
         };
         let mut strokes: Vec<(ModelId, CutStroke, f32)> = Vec::new();
         let mut touching_vessel = [false; 2];
-        if let Some((m, h)) = hit {
-            let region = self.world.model(m).regions()[h.feature as usize];
-            if m == KIDNEY && region == REGION_TUMOUR && !self.identified {
+        let on_tumour = hit.is_some_and(|(m, h)| {
+            m == KIDNEY && self.world.model(m).regions()[h.feature as usize] == REGION_TUMOUR
+        });
+        if !self.identified {
+            // Identified by a deliberate act: a click (the mark button) with the beam on the
+            // tumour, or the beam held on it for IDENTIFY_DWELL_S once the laser has left
+            // its first pose (so the start pose never identifies it by accident).
+            let (o, d) = *self.laser_start.get_or_insert((origin, dir));
+            self.laser_moved |=
+                origin.distance(o) > LASER_MOVED_M || dir.angle_between(d) > LASER_TURNED_RAD;
+            self.dwell_s = if on_tumour && self.laser_moved {
+                self.dwell_s + dt
+            } else {
+                0.0
+            };
+            if on_tumour && (mark_pressed || self.dwell_s >= IDENTIFY_DWELL_S) {
                 self.identified = true;
                 ev.push(event("tumour_identified", ()));
                 self.task_step("identify", &mut ev);
             }
+        }
+        if let Some((m, h)) = hit {
+            let region = self.world.model(m).regions()[h.feature as usize];
             if mark_pressed && m == KIDNEY && region == REGION_PARENCHYMA {
+                self.out_of_order("mark", &mut ev);
                 let rest = self.kidney().mesh().rest[h.feature as usize];
                 let err = self.margin_error(rest);
                 self.metrics.marks += 1;
@@ -465,6 +508,10 @@ impl Nephrectomy {
                 if self.vulnerable[m.index()] {
                     touching_vessel[1] = true;
                 } else if m == KIDNEY {
+                    if self.last_cut_point.is_none() {
+                        // A stroke begins: before the margin is marked, out of order.
+                        self.out_of_order("cut", &mut ev);
+                    }
                     self.world.contact(
                         m,
                         Contact {

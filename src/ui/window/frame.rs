@@ -71,6 +71,8 @@ impl App {
         });
         let dashboard = &mut self.dashboard;
         let mut actions = Default::default();
+        let trainer = self.trainer;
+        let mut screen = super::super::screens::ScreenActions::default();
         let ui_start = Instant::now();
         let out = v.egui.egui_ctx().clone().run_ui(input, |ui| {
             actions = dashboard.show(ui, |ui| {
@@ -99,9 +101,13 @@ impl App {
                     pointer = read_pointer(ui, &r, rect);
                 }
             });
+            if let Some(t) = trainer {
+                screen = trainee_screen(ui, t, dashboard);
+            }
         });
         let ui_ms = ui_start.elapsed().as_secs_f32() * 1e3;
         self.act(actions);
+        self.on_screens(el, screen);
         let Some(v) = self.view.as_mut() else {
             return Ok(());
         };
@@ -159,6 +165,11 @@ impl App {
         }
         // The screenshot: the same frame, painted again into a texture that is read back.
         let due = match (self.opts.screenshot_at_s, &self.outcome) {
+            // A desktop trainee's session ends at that time first (below), and the shot, the
+            // frame after, shows its results.
+            (Some(_), None) if self.trainer.is_some() => false,
+            // egui lays a new screen out unseen on its first frame: a few frames on, it shows.
+            (Some(_), Some(_)) if self.trainer.is_some_and(|t| t.shown < 3) => false,
             (Some(at), _) => self.dashboard.status.time_s >= at,
             (None, Some(_)) => true,
             (None, None) => false,
@@ -186,11 +197,19 @@ impl App {
                 ui_ms,
             },
         );
-        // A scripted run with a screenshot closes itself once the session is over; in desktop
-        // mode, where nothing else ends it, the session ends with a screenshot taken at a time.
-        if self.shot_taken && self.desktop.is_some() && self.outcome.is_none() {
+        if let Some(t) = self.trainer.as_mut().filter(|t| t.results) {
+            t.shown += 1;
+        }
+        if let (Some(t), Some(at), None) = (
+            self.trainer.as_mut(),
+            self.opts.screenshot_at_s,
+            &self.outcome,
+        ) && self.dashboard.status.time_s >= at
+        {
+            t.results = true;
             self.end_session()?;
         }
+        // A scripted run with a screenshot closes itself once the session is over.
         if self.outcome.is_some() && self.opts.screenshot.is_some() && self.shot_taken {
             el.exit();
         }
@@ -341,4 +360,22 @@ fn screenshot(
     }
     crate::render::gpu::write_png(path, size, &pixels)?;
     Ok(size)
+}
+
+/// The desktop trainee's screen over the view: the start screen until Start, the pause
+/// screen while paused, the results once the session has ended.
+fn trainee_screen(
+    ui: &mut egui::Ui,
+    t: super::Trainer,
+    d: &super::super::dashboard::Dashboard,
+) -> super::super::screens::ScreenActions {
+    use super::super::screens;
+    match (&d.summary, t) {
+        (Some(s), super::Trainer { results: true, .. }) => {
+            screens::results(ui, s, d.status.steps_done.len(), d.info.steps.len())
+        }
+        (_, super::Trainer { started: false, .. }) => screens::start(ui, d.info),
+        (_, super::Trainer { paused: true, .. }) => screens::paused(ui),
+        _ => Default::default(),
+    }
 }

@@ -56,6 +56,8 @@ pub struct WindowOptions {
     /// The learning centre's records (file, trainee): the session is stored there when it
     /// ends (with `out`), and the Learning Centre panel shows them.
     pub records: Option<(PathBuf, String)>,
+    /// Desktop mode: begin at once, without the start screen (scripted runs).
+    pub start_now: bool,
 }
 
 /// Force-feedback devices for a window session.
@@ -189,6 +191,8 @@ pub fn run(mut opts: WindowOptions) -> Result<WindowRun, WindowError> {
     // Devices get their servo threads, and the simulation the cores those leave.
     let mut rig = None;
     let mut device_names = Vec::new();
+    // Desktop mode (the mouse drives): the session waits on the start screen.
+    let trainee_mode = opts.trace.is_none() && opts.xr.is_none() && opts.devices.is_none();
     let (sim, xr) = match (opts.xr.clone(), opts.devices.take()) {
         (None, Some(d)) => {
             let live = super::runner::open_live(
@@ -205,7 +209,10 @@ pub fn run(mut opts: WindowOptions) -> Result<WindowRun, WindowError> {
                 input,
                 until_s: d.until_s,
             };
-            (Some(SimThread::start_live(live, source, Some(pool))?), None)
+            (
+                Some(SimThread::start_live(live, source, Some(pool), false)?),
+                None,
+            )
         }
         (xr, _) => match xr {
             Some(x) => {
@@ -225,6 +232,7 @@ pub fn run(mut opts: WindowOptions) -> Result<WindowRun, WindowError> {
                     source,
                     Pacing::RealTime,
                     opts.out.as_deref(),
+                    trainee_mode && !opts.start_now,
                 )?),
                 None,
             ),
@@ -261,9 +269,14 @@ pub fn run(mut opts: WindowOptions) -> Result<WindowRun, WindowError> {
     } else {
         ViewMode::Free
     };
+    let trainer = desktop.is_some().then_some(Trainer {
+        started: opts.start_now,
+        ..Trainer::default()
+    });
     let mut app = App {
         dashboard,
         desktop,
+        trainer,
         shift: false,
         opts,
         sim,
@@ -348,6 +361,8 @@ struct App {
     dashboard: Dashboard,
     /// Desktop mode: the instruments the mouse drives, and where the simulation reads them.
     desktop: Option<(DesktopHands, Arc<ArcSwap<InputFrame>>)>,
+    /// Desktop mode's screens.
+    trainer: Option<Trainer>,
     shift: bool,
     sim: Option<SimThread>,
     /// The force-feedback devices' servo threads, and how they went once stopped.
@@ -374,6 +389,16 @@ struct App {
     shot_taken: bool,
     error: Option<WindowError>,
     start: Instant,
+}
+
+/// Where the desktop trainee is: on the start screen, working, paused, or reading the results.
+#[derive(Debug, Clone, Copy, Default)]
+struct Trainer {
+    started: bool,
+    paused: bool,
+    results: bool,
+    /// Frames drawn with the results screen up.
+    shown: u32,
 }
 
 impl App {
@@ -455,6 +480,7 @@ impl App {
                 "1" => self.select(Hand::Left),
                 "2" => self.select(Hand::Right),
                 "v" | "V" if self.xr.is_some() => self.next_view(),
+                "p" | "P" => self.toggle_pause(),
                 _ => {}
             },
             _ => {}
@@ -482,6 +508,35 @@ impl App {
                 Ok(()) => format!("saved to {}", path.display()),
                 Err(e) => format!("not saved: {e}"),
             });
+        }
+    }
+
+    /// Desktop mode: pauses the session, or lets it go on (not before it starts or after it
+    /// ends).
+    fn toggle_pause(&mut self) {
+        if let (Some(t), Some(sim)) = (self.trainer.as_mut(), &self.sim)
+            && t.started
+            && !t.results
+        {
+            t.paused = !t.paused;
+            sim.set_paused(t.paused);
+        }
+    }
+
+    /// What the trainee did on a screen.
+    fn on_screens(&mut self, el: &ActiveEventLoop, a: super::screens::ScreenActions) {
+        let Some(t) = self.trainer.as_mut() else {
+            return;
+        };
+        if a.start || a.resume {
+            t.started = true;
+            t.paused = false;
+            if let Some(sim) = &self.sim {
+                sim.set_paused(false);
+            }
+        }
+        if a.close {
+            el.exit();
         }
     }
 
@@ -525,11 +580,22 @@ impl ApplicationHandler for App {
         let used = v.egui.on_window_event(&v.window, &event).consumed;
         match event {
             WindowEvent::CloseRequested => {
-                // End the session, and draw its last frame (taking the screenshot if due).
+                // End the session, and draw its last frame (taking the screenshot if due). A
+                // desktop trainee's session that began shows its results first: the next
+                // close (or the results' Close) closes the window.
+                let results = match self.trainer.as_mut() {
+                    Some(t) if t.started && !t.results => {
+                        t.results = true;
+                        true
+                    }
+                    _ => false,
+                };
                 if let Err(e) = self.end_session().and_then(|()| self.redraw(el)) {
                     self.fail(el, e);
                 }
-                el.exit();
+                if !results {
+                    el.exit();
+                }
             }
             WindowEvent::Resized(size) => {
                 v.config.width = size.width.max(1);
