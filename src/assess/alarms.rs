@@ -72,16 +72,26 @@ pub struct Alarm {
 }
 
 impl Alarm {
-    /// The banner's text, e.g. "left jaws touch structure A".
+    /// The banner's text in a surgeon's words, e.g. "The grasper is 4.0 mm from the renal
+    /// artery" (a structure's name as people say it: `renal_artery` is the renal artery).
     pub fn message(&self) -> String {
         let tool = self.tool;
+        let said = |s: &str| s.replace('_', " ");
         match &self.reason {
-            Reason::Touching { structure } => format!("{tool} touches {structure}"),
+            Reason::Touching { structure } => {
+                format!("The {tool} is touching the {}", said(structure))
+            }
             Reason::Near {
                 structure,
                 distance_m,
-            } => format!("{tool} {:.1} mm from {structure}", distance_m * 1000.0),
-            Reason::Force { force_n } => format!("{tool} presses with {force_n:.1} N"),
+            } => format!(
+                "The {tool} is {:.1} mm from the {}",
+                distance_m * 1000.0,
+                said(structure)
+            ),
+            Reason::Force { force_n } => {
+                format!("The {tool} is pressing too hard: {force_n:.1} N")
+            }
         }
     }
 
@@ -190,7 +200,10 @@ mod tests {
         let (now, raised) = w.update(&s);
         assert_eq!(now, raised);
         assert_eq!(raised.len(), 1);
-        assert_eq!(raised[0].message(), "jaws 4.0 mm from structure A");
+        assert_eq!(
+            raised[0].message(),
+            "The jaws is 4.0 mm from the structure A"
+        );
         assert_eq!(raised[0].time_s, 1.5);
         // Still near: shown, not raised again.
         s.time_s = 1.6;
@@ -205,7 +218,10 @@ mod tests {
         let msgs: Vec<String> = raised.iter().map(Alarm::message).collect();
         assert_eq!(
             msgs,
-            ["jaws touches structure A", "jaws presses with 4.2 N"]
+            [
+                "The jaws is touching the structure A",
+                "The jaws is pressing too hard: 4.2 N"
+            ]
         );
         // All clear, then the same force again: a new episode.
         w.update(&status(2.0));

@@ -141,6 +141,18 @@ pub(super) fn cylinder(
     v: &mut Vec<Vertex>,
     idx: &mut Vec<u32>,
 ) {
+    cone(a, b, [radius, radius], mat, v, idx);
+}
+
+/// An open cone of 8 sides from `a` (radius `radii[0]`) to `b` (`radii[1]`).
+pub(super) fn cone(
+    a: Vec3,
+    b: Vec3,
+    radii: [f32; 2],
+    mat: u32,
+    v: &mut Vec<Vertex>,
+    idx: &mut Vec<u32>,
+) {
     let axis = (b - a).normalize_or(Vec3::Z);
     let side = axis.any_orthonormal_vector();
     let up = axis.cross(side);
@@ -149,7 +161,7 @@ pub(super) fn cylinder(
     for k in 0..SIDES {
         let t = k as f32 / SIDES as f32 * std::f32::consts::TAU;
         let n = side * t.cos() + up * t.sin();
-        for end in [a, b] {
+        for (end, radius) in [(a, radii[0]), (b, radii[1])] {
             v.push(Vertex {
                 position: (end + n * radius).to_array(),
                 normal: n.to_array(),

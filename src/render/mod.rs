@@ -18,7 +18,7 @@ mod pipelines;
 pub mod smoke;
 
 use meshes::{
-    clip_to_eyes, cylinder, draw_range, empty_mesh, ensure_capacity, instrument_segments,
+    clip_to_eyes, cone, cylinder, draw_range, empty_mesh, ensure_capacity, instrument_segments,
     tracked_buffer, upload,
 };
 
@@ -43,6 +43,12 @@ pub const BACKGROUND: [f64; 3] = [0.02, 0.012, 0.01];
 /// and stays plainly a surface; two over each other let a quarter through, enough to see an
 /// organ and an instrument behind them.
 pub const MEMBRANE_ALPHA: f32 = 0.5;
+
+/// A laser beam's radius over its distance from the eyes (0.4 degrees across, all along: 4
+/// pixels of a Vive's eye, where a constant 0.4 mm radius made a cone 4.6 degrees wide at the
+/// 1 cm the desktop laser leaves below the eye), and the least radius it is drawn with, metres.
+const BEAM_WIDTH_RAD: f32 = 0.0035;
+const BEAM_MIN_RADIUS_M: f32 = 0.0001;
 
 /// Material slots (the shader's table; it holds up to 16).
 pub mod material {
@@ -497,7 +503,9 @@ impl Renderer {
         let beams = snap
             .tools
             .iter()
-            .filter(|t| t.direction.length_squared() >= 0.5 && t.beam_end.is_some())
+            .filter(|t| {
+                t.direction.length_squared() >= 0.5 && (t.beam_end.or(t.beam_reach)).is_some()
+            })
             .count() as u64;
         // Organs, instruments, beams, the headlight and the eye rig (and the smoke, counted
         // when it is drawn).
@@ -525,17 +533,24 @@ impl Renderer {
             }
             let mut parts = Vec::with_capacity(4);
             instrument_segments(t, &mut parts);
-            if let Some(end) = t.beam_end {
+            for (a, b, radius, m) in parts {
+                if let Some((a, b)) = clip_to_eyes(a, b, radius, eyes) {
+                    cylinder(a, b, radius, m, &mut self.scratch, &mut self.scratch_idx);
+                }
+            }
+            // The beam to what it hits, or to its range: a thin line of about the same width
+            // on screen all along (its radius grows with the distance from the eyes).
+            if let Some(end) = t.beam_end.or(t.beam_reach) {
                 let m = if t.active {
                     material::LASER_ON
                 } else {
                     material::LASER_IDLE
                 };
-                parts.push((t.tip, end, 0.0004, m));
-            }
-            for (a, b, radius, m) in parts {
-                if let Some((a, b)) = clip_to_eyes(a, b, radius, eyes) {
-                    cylinder(a, b, radius, m, &mut self.scratch, &mut self.scratch_idx);
+                let mid = 0.5 * (eyes[0].position + eyes[1].position);
+                let width = |p: Vec3| (BEAM_WIDTH_RAD * p.distance(mid)).max(BEAM_MIN_RADIUS_M);
+                if let Some((a, b)) = clip_to_eyes(t.tip, end, BEAM_MIN_RADIUS_M, eyes) {
+                    let radii = [width(a), width(b)];
+                    cone(a, b, radii, m, &mut self.scratch, &mut self.scratch_idx);
                 }
             }
         }

@@ -47,6 +47,9 @@ pub struct ToolSnapshot {
     pub direction: Vec3,
     /// Laser hit point, if the beam hits tissue.
     pub beam_end: Option<Vec3>,
+    /// Where a beam that hits nothing ends (its range), for drawing; none when it hits (see
+    /// `beam_end`) or the instrument has no beam.
+    pub beam_reach: Option<Vec3>,
     pub active: bool,
     /// Which instrument the hand holds: 0 its own (`ProcedureInfo::tools`), `k` the
     /// procedure's `swap[k - 1]`.

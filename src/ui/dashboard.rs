@@ -425,7 +425,7 @@ mod tests {
             path_m: [0.12, 0.4],
             ..Status::default()
         };
-        s.near[0] = Some(("artery".into(), 0.004));
+        s.near[0] = Some(("renal_artery".into(), 0.004));
         d.update(s.clone());
         s.time_s = 1.6;
         d.update(s);
@@ -434,8 +434,13 @@ mod tests {
         let harness = Harness::new_ui(|ui| {
             d.show(ui, |_| {});
         });
-        harness.get_by_label(&format!("ALARM: {left} 4.0 mm from artery"));
-        harness.get_by_label_contains(&format!("1.50 s  {left} 4.0 mm from artery"));
+        // In words: the structure's name as people say it.
+        harness.get_by_label(&format!(
+            "ALARM: The {left} is 4.0 mm from the renal artery"
+        ));
+        harness.get_by_label_contains(&format!(
+            "1.50 s  The {left} is 4.0 mm from the renal artery"
+        ));
         harness.get_by_label(&format!("[x] {}", steps[0].text));
         harness.get_by_label(&format!("[ ] {}", steps[1].text));
         harness.get_by_label("31.2");

@@ -239,6 +239,7 @@ impl Catheterisation {
             tip: c.balls.x[0].as_vec3(),
             direction: c.axis.as_vec3(),
             beam_end: None,
+            beam_reach: None,
             active: touching,
             instrument: 0,
         };

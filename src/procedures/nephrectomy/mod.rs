@@ -457,6 +457,8 @@ impl Nephrectomy {
             tip: origin,
             direction: dir,
             beam_end: hit.map(|(_, h)| h.point),
+            // Missing, the beam still shows, to its range.
+            beam_reach: hit.is_none().then(|| origin + dir * tools.laser_range_m),
             active: cutting,
             instrument: 0,
         };
@@ -559,6 +561,7 @@ impl Nephrectomy {
             tip,
             direction: grasper.pose.forward(),
             beam_end: None,
+            beam_reach: None,
             active: grasper.buttons.grip >= tools.grip_threshold,
             instrument: 0,
         };

@@ -253,6 +253,7 @@ impl Sandbox {
             tip: probe.position,
             direction: probe_forward,
             beam_end: None,
+            beam_reach: None,
             active: false,
             instrument: 0,
         };
@@ -269,6 +270,7 @@ impl Sandbox {
             tip,
             direction: grasper.pose.forward(),
             beam_end: None,
+            beam_reach: None,
             active: gripping,
             instrument: 0,
         };
