@@ -55,10 +55,15 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
     if (r2 >= 1.0) {
         discard;
     }
-    // Densest in the middle, fading to nothing at the rim with no visible edge.
-    let soft = (1.0 - r2) * (1.0 - r2);
-    // Grey-white, a shade cool.
-    let colour = in.look.y * vec3<f32>(0.96, 0.97, 1.0);
+    // Smoke: densest in the middle, fading to nothing at the rim with no visible edge; grey-
+    // white, a shade cool. Blood (a negative grey, src/render/blood.rs): dark red, wet, with
+    // a crisper edge.
+    var soft = (1.0 - r2) * (1.0 - r2);
+    var colour = in.look.y * vec3<f32>(0.96, 0.97, 1.0);
+    if (in.look.y < 0.0) {
+        soft = 1.0 - r2 * r2 * r2 * r2;
+        colour = -in.look.y * vec3<f32>(0.26, 0.008, 0.012) * (1.0 + 0.4 * (1.0 - r2));
+    }
     // Nothing outside a monitor image's circle.
     return vec4<f32>(colour, in.look.x * soft * rim(in.clip.xy));
 }

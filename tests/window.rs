@@ -127,15 +127,17 @@ fn desktop_mode_the_mouse_points_the_laser_and_the_button_cuts() {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("temp dir");
     // The window opens at the top left of the virtual screen: its 3D view spans about 270 to
-    // 1300 pixels across, and the kidney and tumour sit in its middle.
+    // 1300 pixels across, the kidney in its middle and the tumour at about (824, 374).
     let script = r#"
 "$0" run nephrectomy --start --screenshot "$1/shot.png" --screenshot-at 12 --out "$1/out" &
 app=$!
 xdotool search --sync --name "Vesalius" > /dev/null
 sleep 1
-xdotool mousemove 760 420
+xdotool mousemove 824 374
 sleep 0.3
 xdotool click 3
+sleep 0.3
+xdotool mousemove 760 420
 sleep 0.3
 xdotool mousedown 1
 for x in 765 770 775 780 785 790 795 800; do xdotool mousemove $x 430; sleep 0.2; done

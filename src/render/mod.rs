@@ -7,6 +7,7 @@
 //! Each pass draws the opaque surfaces first, then the translucent ones: membranes, then
 //! smoke (`pipelines`, `smoke`).
 
+mod blood;
 pub mod camera;
 pub mod field;
 pub mod frames;
@@ -257,6 +258,8 @@ pub struct Renderer {
     tools: [ToolSnapshot; 2],
     /// The snapshot's emissions and time, drawn as smoke once the eyes are known.
     emissions: Vec<Emission>,
+    /// The snapshot's bleeding sources, drawn as blood with the smoke.
+    bleeds: Vec<crate::sim::Bleed>,
     time_s: f64,
     smoke: smoke::SmokeBuffer,
     objects: u64,
@@ -346,6 +349,7 @@ impl Renderer {
             scratch_idx: Vec::new(),
             tools: Default::default(),
             emissions: Vec::new(),
+            bleeds: Vec::new(),
             time_s: 0.0,
             smoke,
             objects: 0,
@@ -492,6 +496,7 @@ impl Renderer {
             mesh.index_count = indices.len() as u32;
         }
         self.emissions.clone_from(&snap.emissions);
+        self.bleeds.clone_from(&snap.bleeding);
         self.time_s = snap.time_s;
         // Instruments and beams are built per frame, clipped to the eyes (see `render`).
         self.tools = snap.tools;
@@ -602,11 +607,8 @@ impl Renderer {
         self.ensure_depth(size);
         self.build_instruments(eyes);
         self.smoke.update(
-            &self.device,
-            &self.queue,
-            &self.ledger,
-            &self.emissions,
-            self.time_s,
+            (&self.device, &self.queue, &self.ledger),
+            (&self.emissions, &self.bleeds, self.time_s),
             eyes,
         );
         let eye_uniform = |e: &EyeView| EyeUniform {

@@ -8,7 +8,7 @@ use super::camera::NEAR_M;
 use super::{EyeView, pipelines::PARTICLE_BYTES, tracked_buffer};
 use crate::models::Fnv;
 use crate::profiler::{Category, FrameCounters, Ledger, Tracked};
-use crate::sim::{Emission, EmissionKind};
+use crate::sim::{Bleed, Emission, EmissionKind};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 use std::sync::Arc;
@@ -60,7 +60,7 @@ pub fn seed(e: &Emission) -> u64 {
 }
 
 /// A number in [0, 1) for puff `k`'s property `j` of the emission seeded `seed`.
-fn unit(seed: u64, k: u32, j: u32) -> f32 {
+pub(super) fn unit(seed: u64, k: u32, j: u32) -> f32 {
     let mut h = Fnv(seed);
     h.write(k);
     h.write(j);
@@ -109,10 +109,10 @@ pub fn puff(origin: Vec3, seed: u64, k: u32, age_s: f32) -> Option<Puff> {
 /// One particle as the smoke pipeline reads it (see `pipelines::PARTICLE_BYTES`).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
-struct Particle {
-    centre: [f32; 3],
-    /// Radius (m), alpha, grey.
-    look: [f32; 3],
+pub(super) struct Particle {
+    pub centre: [f32; 3],
+    /// Radius (m), alpha, grey (negative: blood, `blood::BLOOD_GREY`).
+    pub look: [f32; 3],
 }
 
 const _: () = assert!(std::mem::size_of::<Particle>() as u64 == PARTICLE_BYTES);
@@ -122,15 +122,23 @@ const _: () = assert!(std::mem::size_of::<Particle>() as u64 == PARTICLE_BYTES);
 /// one order). A puff reaching within twice the near plane of an eye is left out, as
 /// instruments are clipped there: lavapipe draws near-clipped triangles of one view of a
 /// multiview pass into the other's layer.
-fn particles(emissions: &[Emission], time_s: f64, eyes: &[EyeView; 2], out: &mut Vec<Particle>) {
+fn particles(
+    emissions: &[Emission],
+    bleeds: &[Bleed],
+    time_s: f64,
+    eyes: &[EyeView; 2],
+    out: &mut Vec<Particle>,
+) {
     out.clear();
     let viewer = 0.5 * (eyes[0].position + eyes[1].position);
-    let clear_of_eyes = |p: &Puff| {
+    let clear = |centre: Vec3, radius_m: f32| {
         eyes.iter().all(|e| {
             let forward = e.orientation * Vec3::NEG_Z;
-            (p.centre - e.position).dot(forward) > 2.0 * NEAR_M + p.radius_m
+            (centre - e.position).dot(forward) > 2.0 * NEAR_M + radius_m
         })
     };
+    let clear_of_eyes = |p: &Puff| clear(p.centre, p.radius_m);
+    super::blood::particles(bleeds, time_s, viewer, clear, out);
     for e in emissions {
         let age = (time_s - e.time_s) as f32;
         let s = seed(e);
@@ -172,18 +180,15 @@ impl SmokeBuffer {
         self.count
     }
 
-    /// Fills the buffer with the puffs of `emissions` at `time_s` for these eyes (grown by a
-    /// quarter more than needed when they do not fit).
+    /// Fills the buffer with the puffs of `emissions` and the blood of `bleeds` at `time_s`
+    /// for these eyes (grown by a quarter more than needed when they do not fit).
     pub fn update(
         &mut self,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-        ledger: &Arc<Ledger>,
-        emissions: &[Emission],
-        time_s: f64,
+        (device, queue, ledger): (&wgpu::Device, &wgpu::Queue, &Arc<Ledger>),
+        (emissions, bleeds, time_s): (&[Emission], &[Bleed], f64),
         eyes: &[EyeView; 2],
     ) {
-        particles(emissions, time_s, eyes, &mut self.particles);
+        particles(emissions, bleeds, time_s, eyes, &mut self.particles);
         let bytes = std::mem::size_of_val(&self.particles[..]) as u64;
         if bytes > self.buffer.bytes() {
             self.buffer = instance_buffer(device, ledger, bytes + bytes / 4);
@@ -307,8 +312,8 @@ mod tests {
         let (mut p, mut q) = (Vec::new(), Vec::new());
         let viewer = Vec3::new(0.1, 0.1, 0.1);
         let eyes = stereo_eyes(viewer, a.position, 0.06);
-        particles(&list, 1.1, &eyes, &mut p);
-        particles(&list, 1.1, &eyes, &mut q);
+        particles(&list, &[], 1.1, &eyes, &mut p);
+        particles(&list, &[], 1.1, &eyes, &mut q);
         assert_eq!(p.len(), 3 * PUFFS_PER_EMISSION as usize);
         assert_eq!(
             bytemuck::cast_slice::<_, u8>(&p),
@@ -321,20 +326,20 @@ mod tests {
             .collect();
         assert!(d.windows(2).all(|w| w[0] >= w[1]));
         // Past their lifetime, emissions draw nothing.
-        particles(&list, 2.6, &eyes, &mut p);
+        particles(&list, &[], 2.6, &eyes, &mut p);
         assert!(p.is_empty());
         // Nor do puffs at the eyes or behind them.
         // Eyes 15 mm under the source looking up: the young puffs (2-3.5 mm up) are within
         // 2 cm of them, the older ones (12-21 mm up) not.
         let close = stereo_eyes(a.position - Vec3::Y * 0.015, a.position + Vec3::Y, 0.06);
-        particles(&list, 1.1, &close, &mut p);
+        particles(&list, &[], 1.1, &close, &mut p);
         assert!(
             !p.is_empty() && p.len() < 3 * PUFFS_PER_EMISSION as usize,
             "{} puffs",
             p.len()
         );
         let behind = stereo_eyes(a.position + Vec3::Y, a.position + 2.0 * Vec3::Y, 0.06);
-        particles(&list, 1.1, &behind, &mut p);
+        particles(&list, &[], 1.1, &behind, &mut p);
         assert!(p.is_empty(), "{p:?}");
     }
 }

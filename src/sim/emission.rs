@@ -102,6 +102,29 @@ impl EmissionLog {
     }
 }
 
+/// A bleeding source: where blood wells up (a cut vessel, an injury), since when, and when it
+/// was stopped (a clip, coagulation), if it was. The renderer draws its pool and drops as a
+/// pure function of these and the snapshot's time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Bleed {
+    pub position: Vec3,
+    pub start_s: f64,
+    pub stop_s: Option<f64>,
+}
+
+impl Bleed {
+    /// Seconds it has bled by `now_s` (none before it began; it stops counting when stopped).
+    pub fn bled_s(&self, now_s: f64) -> f64 {
+        let end = self.stop_s.map_or(now_s, |s| s.min(now_s));
+        (end - self.start_s).max(0.0)
+    }
+
+    /// Whether it still bleeds at `now_s`.
+    pub fn active(&self, now_s: f64) -> bool {
+        now_s >= self.start_s && self.stop_s.is_none_or(|s| now_s < s)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

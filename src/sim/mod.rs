@@ -17,7 +17,7 @@ mod world;
 
 pub use attachment::{Attachment, Link, LinkSpring};
 pub use clock::{Clock, Pacing};
-pub use emission::{Emission, EmissionKind, EmissionLog};
+pub use emission::{Bleed, Emission, EmissionKind, EmissionLog};
 pub use events::{EventKind, ProcedureEvent, SimEvent, shortest_f32};
 pub use haptic::{HapticFrame, HapticSlot, SeqWords, ToolHaptics};
 pub use input::{Buttons, Hand, HandInput, InputFrame, Pose};

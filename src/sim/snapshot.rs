@@ -72,6 +72,9 @@ pub struct Snapshot {
     /// few (the procedure keeps about the last 2 s), which the renderer animates from
     /// `time_s`. Empty for procedures that give off nothing.
     pub emissions: Vec<Emission>,
+    /// Bleeding sources, for the renderer's blood (pools that grow while they bleed, drops);
+    /// empty where nothing bleeds.
+    pub bleeding: Vec<super::Bleed>,
     /// Where the procedure's laparoscope looks from, once the trainee has moved it with a
     /// device (`ProcedureInfo::scope_hand`); `None`: the procedure's own viewpoint. The
     /// desktop window and headless frames show the field from here.

@@ -256,6 +256,7 @@ impl Catheterisation {
             reactions: [Vec3::ZERO, self.reaction.as_vec3()],
             target_found: true,
             emissions: Vec::new(),
+            bleeding: Vec::new(),
             scope: None,
         }
     }

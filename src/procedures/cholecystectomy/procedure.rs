@@ -8,7 +8,7 @@
 //! renderer draws.
 
 use super::anatomy::body;
-use super::clips::{ClipRecord, CutError};
+use super::clips::{ClipRecord, CutError, PatientEnd};
 use super::drawing::{Skin, fascia_mesh, lattice_skin, skin_mesh, tubes};
 use super::scenario::Scenario;
 use super::scene::{CholeScene, HandTool, StepOutcome};
@@ -18,8 +18,8 @@ use crate::models::particles::adhesion::AdhesionBreak;
 use crate::procedures::TaskStep;
 use crate::procedures::scope::Scope;
 use crate::sim::{
-    EmissionKind, EmissionLog, EventKind, Hand, HandInput, InputFrame, ProcedureEvent, SimEvent,
-    Snapshot, SurfaceRole, ToolSnapshot,
+    Bleed, EmissionKind, EmissionLog, EventKind, Hand, HandInput, InputFrame, ProcedureEvent,
+    SimEvent, Snapshot, SurfaceRole, ToolSnapshot,
 };
 use glam::Vec3;
 use serde::Serialize;
@@ -98,6 +98,33 @@ const OPEN_RAD: f32 = 0.6;
 /// past every fat particle).
 const EXPOSURE_EVERY: u64 = 20;
 
+/// A vessel cut short of its clips: where on it, which end is the patient's, and its bleeding.
+#[derive(Debug, Clone, Copy)]
+struct Bleeding {
+    vessel: &'static str,
+    at_m: f32,
+    patient: PatientEnd,
+    bleed: Bleed,
+}
+
+impl Bleeding {
+    /// Whether a clip at `at_m` along the vessel lies on the patient's side of the cut (the
+    /// side the blood comes from).
+    fn upstream(&self, at_m: f32) -> bool {
+        match self.patient {
+            PatientEnd::First => at_m < self.at_m,
+            PatientEnd::Last => at_m > self.at_m,
+        }
+    }
+}
+
+/// The `bleeding_stopped` event: the vessel, and how long it bled, s.
+#[derive(Debug, Clone, Copy, Serialize)]
+struct BleedingStopped {
+    vessel: &'static str,
+    bled_s: f64,
+}
+
 /// Running metrics of one session.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct Metrics {
@@ -149,6 +176,9 @@ pub struct Cholecystectomy {
     prev_tools: Option<[Vec3; 2]>,
     last: StepOutcome,
     smoke: EmissionLog,
+    /// Vessels cut short of their clips, bleeding until a clip on the patient's side of the
+    /// cut stops them.
+    bleeds: Vec<Bleeding>,
     /// From Calot's triangle towards the laparoscope's home (the exposure is judged from
     /// the standard view, wherever the trainee has moved the camera).
     towards_camera: Vec3,
@@ -217,6 +247,7 @@ impl Cholecystectomy {
             prev_tools: None,
             last: StepOutcome::default(),
             smoke: EmissionLog::smoke(),
+            bleeds: Vec::new(),
             towards_camera,
             scope: Scope::new(super::plugin::INFO.view),
         }
@@ -426,6 +457,11 @@ impl Cholecystectomy {
         }
     }
 
+    /// The bleeding sources (for tests and the renderer).
+    pub fn bleeding(&self) -> Vec<Bleed> {
+        self.bleeds.iter().map(|b| b.bleed).collect()
+    }
+
     /// The clip applier closed at `jaw`: a clip on the nearest clippable vessel in reach.
     fn clip(&mut self, jaw: Vec3, now_s: f64, ev: &mut Vec<EventKind>) {
         let reach = self.scenario.tools.clip_reach_m;
@@ -440,6 +476,19 @@ impl Cholecystectomy {
             .clip(&s.vessels, &s.particles, &v, jaw, reach, now_s)
         {
             Some(c) => {
+                // A clip on the patient's side of a bleeding cut stops it.
+                for b in self.bleeds.iter_mut().filter(|b| {
+                    b.vessel == c.vessel && b.bleed.stop_s.is_none() && b.upstream(c.at_m)
+                }) {
+                    b.bleed.stop_s = Some(now_s);
+                    ev.push(EventKind::Procedure(ProcedureEvent::new(
+                        "bleeding_stopped",
+                        BleedingStopped {
+                            vessel: c.vessel,
+                            bled_s: now_s - b.bleed.start_s,
+                        },
+                    )));
+                }
                 let on_vessel = self.metrics.clips.clips_on(v.name) as u32;
                 ev.push(EventKind::Procedure(ProcedureEvent::new(
                     "clip",
@@ -485,6 +534,16 @@ impl Cholecystectomy {
                 }
                 CutError::Bleeding => {
                     m.bleedings += 1;
+                    self.bleeds.push(Bleeding {
+                        vessel: c.vessel,
+                        at_m: c.at_m,
+                        patient: v.patient,
+                        bleed: Bleed {
+                            position: Vec3::from(c.position),
+                            start_s: now_s,
+                            stop_s: None,
+                        },
+                    });
                     (
                         "bleeding",
                         "bleeding: the cystic artery was cut with fewer than two clips on the patient's side",
@@ -591,6 +650,7 @@ impl Cholecystectomy {
             reactions: self.reactions(),
             target_found: true,
             emissions: self.smoke.at(time_s),
+            bleeding: self.bleeds.iter().map(|b| b.bleed).collect(),
             scope: self.scope.snapshot_view(),
         }
     }

@@ -73,14 +73,19 @@ impl Run {
     }
 }
 
-#[test]
-fn clips_and_cuts_land_in_the_report_and_a_cut_short_of_two_clips_is_an_error() {
-    let mut r = Run {
+/// A coarse session at its start, and a place away from every vessel.
+fn fresh() -> (Run, Vec3) {
+    let r = Run {
         c: coarse(),
         step: 0,
         events: Vec::new(),
     };
-    let away = Vec3::new(-0.03, -0.04, 0.08);
+    (r, Vec3::new(-0.03, -0.04, 0.08))
+}
+
+#[test]
+fn clips_and_cuts_land_in_the_report_and_a_cut_short_of_two_clips_is_an_error() {
+    let (mut r, away) = fresh();
     // The clip applier: two clips on the duct towards the junction (the patient's side), one
     // on the artery near the hepatic artery (its patient's side).
     r.next_instrument(away);
@@ -353,4 +358,90 @@ fn an_organ_read_from_an_obj_file_replaces_its_ellipsoid() {
     assert_eq!(e.key, "surfaces.gallbladder");
     assert!(e.message.contains("nowhere.obj"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Pixels of `with` (the snapshot drawn with its blood) that differ from `without` (the same
+/// snapshot without it) by more than 24 levels in a channel, red the strongest, within 40
+/// pixels of where `at` lands.
+fn blood_pixels(snap: &Snapshot, at: Vec3) -> usize {
+    use crate::render::camera::{DEFAULT_IPD_M, field_eyes};
+    use crate::render::gpu::EYE_FORMAT;
+    use crate::render::{EyeTarget, Gpu, Renderer};
+    let size = (270, 300);
+    let gpu = Gpu::headless(true).expect("a Vulkan adapter (CI installs mesa-vulkan-drivers)");
+    let eyes = field_eyes(&INFO.view, DEFAULT_IPD_M);
+    let draw = |s: &Snapshot| {
+        let mut r = Renderer::new(&gpu, EYE_FORMAT);
+        let target = EyeTarget::new(&gpu, size);
+        r.update(s);
+        r.render(target.target(r.multiview()), size, &eyes);
+        let [left, _] = target.read(&gpu).expect("read back");
+        left
+    };
+    let dry = Snapshot {
+        bleeding: Vec::new(),
+        ..snap.clone()
+    };
+    let (with, without) = (draw(snap), draw(&dry));
+    let centre = eyes[0].project(at, size).expect("in front");
+    with.chunks_exact(4)
+        .zip(without.chunks_exact(4))
+        .enumerate()
+        .filter(|(k, (p, q))| {
+            let (x, y) = ((k % 270) as f32, (k / 270) as f32);
+            let near = (x - centre.x).hypot(y - centre.y) < 40.0;
+            let differs = (0..3).any(|c| p[c].abs_diff(q[c]) > 24);
+            near && differs && p[0] >= p[1] && p[0] >= p[2]
+        })
+        .count()
+}
+
+#[test]
+fn a_cut_artery_bleeds_until_a_clip_on_the_patients_side_stops_it() {
+    let (mut r, away) = fresh();
+    // One clip on the artery's patient side, then a cut on the gallbladder's side of it:
+    // short of two clips, it bleeds.
+    r.next_instrument(away);
+    let first_clip = r.along(3, 0.2);
+    r.squeeze(first_clip);
+    r.next_instrument(away);
+    assert_eq!(r.c.right_tool(), RightTool::Scissors);
+    let cut = r.along(3, 0.6);
+    r.squeeze(cut);
+    assert_eq!(r.c.bleeding().len(), 1);
+    let idle = |r: &mut Run, seconds: f64| {
+        for _ in 0..(seconds / 0.001).round() as u64 {
+            r.go(&frame(away, 0.0, false));
+        }
+    };
+    // Blood shows near the cut within a second, and the pool grows while it bleeds.
+    idle(&mut r, 1.0);
+    let at_1s = blood_pixels(&r.c.snapshot(r.step), cut);
+    idle(&mut r, 1.0);
+    let at_2s = blood_pixels(&r.c.snapshot(r.step), cut);
+    assert!(at_1s > 30, "{at_1s} blood pixels 1 s after the cut");
+    assert!(
+        at_2s > at_1s + at_1s / 5,
+        "the pool grows: {at_1s} -> {at_2s}"
+    );
+    // Back to the clip applier: a second clip between the first and the cut stops it.
+    for _ in 0..3 {
+        r.next_instrument(away);
+    }
+    assert_eq!(r.c.right_tool(), RightTool::ClipApplier);
+    let stop = r.along(3, 0.4);
+    r.squeeze(stop);
+    assert_eq!(r.named("bleeding_stopped").len(), 1);
+    let b = r.c.bleeding()[0];
+    assert!(b.stop_s.is_some());
+    idle(&mut r, 0.1);
+    let clipped = blood_pixels(&r.c.snapshot(r.step), cut);
+    idle(&mut r, 2.0);
+    let later = blood_pixels(&r.c.snapshot(r.step), cut);
+    eprintln!("blood pixels: 1 s {at_1s}, 2 s {at_2s}, clipped {clipped}, 2 s later {later}");
+    // Stopped: the pool no longer grows (the tissue under it may still settle a little).
+    assert!(
+        later <= clipped + clipped / 20,
+        "after the clip: {clipped} -> {later} blood pixels"
+    );
 }

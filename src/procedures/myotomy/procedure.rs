@@ -403,6 +403,7 @@ impl Myotomy {
             reactions: self.reactions,
             target_found: true,
             emissions: self.smoke.at(time_s),
+            bleeding: Vec::new(),
             scope: None,
         }
     }

@@ -758,6 +758,7 @@ impl Nephrectomy {
             reactions: self.world.reactions(),
             target_found: self.identified,
             emissions: Vec::new(),
+            bleeding: Vec::new(),
             scope: None,
         }
     }

@@ -553,6 +553,7 @@ impl Rectum {
             reactions: self.reactions(),
             target_found: true,
             emissions: self.smoke.at(time_s),
+            bleeding: Vec::new(),
             scope: self.scope.snapshot_view(),
         }
     }

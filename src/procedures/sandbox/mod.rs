@@ -360,6 +360,7 @@ impl Sandbox {
             // The target is given, not found: the top is highlighted from the start.
             target_found: true,
             emissions: Vec::new(),
+            bleeding: Vec::new(),
             scope: None,
         }
     }
