@@ -31,3 +31,17 @@ fn rim(frag: vec2<f32>) -> f32 {
     let inner = radius * (1.0 - 0.06);
     return 1.0 - smoothstep(inner, radius, r);
 }
+
+// Corner `corner` (0-5) of a quad of two triangles spanning -1 to 1: the smoke's discs and
+// the headset's panel.
+fn quad_corner(corner: u32) -> vec2<f32> {
+    var corners = array<vec2<f32>, 6>(
+        vec2<f32>(-1.0, -1.0),
+        vec2<f32>(1.0, -1.0),
+        vec2<f32>(1.0, 1.0),
+        vec2<f32>(-1.0, -1.0),
+        vec2<f32>(1.0, 1.0),
+        vec2<f32>(-1.0, 1.0),
+    );
+    return corners[corner % 6u];
+}

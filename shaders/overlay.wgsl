@@ -22,15 +22,7 @@ struct VertexOut {
 @vertex
 fn vs_main(@builtin(vertex_index) corner: u32 /*VIEW_INDEX*/) -> VertexOut {
     let eye = VIEW;
-    var corners = array<vec2<f32>, 6>(
-        vec2<f32>(-1.0, -1.0),
-        vec2<f32>(1.0, -1.0),
-        vec2<f32>(1.0, 1.0),
-        vec2<f32>(-1.0, -1.0),
-        vec2<f32>(1.0, 1.0),
-        vec2<f32>(-1.0, 1.0),
-    );
-    let at = corners[corner % 6u];
+    let at = quad_corner(corner);
     let world = placement.centre.xyz + placement.right.xyz * at.x + placement.up.xyz * at.y;
     var out: VertexOut;
     out.clip = frame.eyes[eye].view_proj * vec4<f32>(world, 1.0);

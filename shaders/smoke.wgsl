@@ -22,15 +22,7 @@ struct VertexOut {
 @vertex
 fn vs_main(p: Particle, @builtin(vertex_index) corner: u32 /*VIEW_INDEX*/) -> VertexOut {
     let eye = VIEW;
-    var corners = array<vec2<f32>, 6>(
-        vec2<f32>(-1.0, -1.0),
-        vec2<f32>(1.0, -1.0),
-        vec2<f32>(1.0, 1.0),
-        vec2<f32>(-1.0, -1.0),
-        vec2<f32>(1.0, 1.0),
-        vec2<f32>(-1.0, 1.0),
-    );
-    let at = corners[corner % 6u];
+    let at = quad_corner(corner);
     // Facing this eye's position (each eye of a multiview pass sees its own disc). The disc is
     // round, so how it turns about the line of sight does not matter: any side vector will do,
     // as long as it is not along that line.

@@ -210,6 +210,20 @@ fn role_material(role: SurfaceRole) -> u32 {
     }
 }
 
+/// Each vertex's material: that of the role of a triangle it belongs to (the last one).
+fn vertex_materials(m: &crate::sim::ModelSnapshot) -> Vec<u32> {
+    let mut out = vec![material::TISSUE; m.positions.len()];
+    for (t, tri) in m.indices.chunks_exact(3).enumerate() {
+        let base = role_material(triangle_role(m, t));
+        for &i in tri {
+            if let Some(v) = out.get_mut(i as usize) {
+                *v = base;
+            }
+        }
+    }
+    out
+}
+
 struct GpuMesh {
     vertex: Tracked<wgpu::Buffer>,
     index: Tracked<wgpu::Buffer>,
@@ -370,25 +384,18 @@ impl Renderer {
     pub fn set_field(&mut self, field: Option<&crate::sim::ModelSnapshot>) {
         self.field = field.map(|m| {
             let mut mesh = empty_mesh(&self.device, &self.ledger, 0, 0);
+            let materials = vertex_materials(m);
             let verts: Vec<Vertex> = m
                 .positions
                 .iter()
+                .zip(materials)
                 .enumerate()
-                .map(|(i, p)| Vertex {
+                .map(|(i, (p, material))| Vertex {
                     position: p.to_array(),
                     normal: m.normals.get(i).copied().unwrap_or(Vec3::Y).to_array(),
-                    material: material::TISSUE,
+                    material,
                 })
                 .collect();
-            let mut verts = verts;
-            for (t, tri) in m.indices.chunks_exact(3).enumerate() {
-                let mat = role_material(triangle_role(m, t));
-                for &i in tri {
-                    if let Some(v) = verts.get_mut(i as usize) {
-                        v.material = mat;
-                    }
-                }
-            }
             upload(
                 &self.device,
                 &self.queue,
@@ -431,15 +438,7 @@ impl Renderer {
         }
         self.meshes.truncate(snap.models.len());
         for (k, m) in snap.models.iter().enumerate() {
-            let mut vertex_material = vec![material::TISSUE; m.positions.len()];
-            for (t, tri) in m.indices.chunks_exact(3).enumerate() {
-                let base = role_material(triangle_role(m, t));
-                for &i in tri {
-                    if let Some(v) = vertex_material.get_mut(i as usize) {
-                        *v = base;
-                    }
-                }
-            }
+            let vertex_material = vertex_materials(m);
             // Vertices go straight into wgpu's staging memory: no CPU copy of the mesh is kept.
             let mesh = &mut self.meshes[k];
             let vsize = (m.positions.len() * std::mem::size_of::<Vertex>()) as u64;
