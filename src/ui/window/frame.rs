@@ -240,8 +240,12 @@ fn read_pointer(ui: &egui::Ui, r: &egui::Response, rect: egui::Rect) -> Pointer 
             .sum();
         Pointer {
             ndc,
-            primary_down: ndc.is_some() && i.pointer.primary_down(),
-            secondary_down: ndc.is_some() && i.pointer.secondary_down(),
+            // A click whose press and release both fall between two frames (a quick click
+            // while lavapipe renders one frame) still counts as down for this frame.
+            primary_down: ndc.is_some()
+                && (i.pointer.primary_down() || i.pointer.primary_pressed()),
+            secondary_down: ndc.is_some()
+                && (i.pointer.secondary_down() || i.pointer.secondary_pressed()),
             wheel: if ndc.is_some() { wheel } else { 0.0 },
         }
     })
