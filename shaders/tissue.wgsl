@@ -47,6 +47,7 @@ fn vs_main(v: VertexIn /*VIEW_INDEX*/) -> VertexOut {
 }
 
 const CUT_FLAG: u32 = 256u;
+const SEAR_FLAG: u32 = 512u;
 const TARGET: u32 = 1u;
 const SPOT: f32 = 1.0;
 const AMBIENT: f32 = 0.04;
@@ -142,6 +143,13 @@ fn shade(in: VertexOut) -> vec3<f32> {
         // Cut parenchyma: raw, darker, duller.
         albedo = vec3<f32>(0.20, 0.006, 0.008) * (0.8 + 0.4 * value_noise(p * 2.0).x);
         specular = specular * 0.3;
+    }
+    if ((in.material & SEAR_FLAG) != 0u) {
+        // Seared by an energy instrument: carbonised tissue, near black, in brown patches
+        // where it only coagulated, and dry (almost no film to shine).
+        let brown = value_noise(p * 3.0).x;
+        albedo = mix(vec3<f32>(0.012, 0.009, 0.007), vec3<f32>(0.09, 0.045, 0.02), brown);
+        specular = specular * 0.1;
     }
     // The scope light (optics.rs: irradiance).
     let cos_i = max(dot(n, to_eye), 0.0);

@@ -140,6 +140,7 @@ fn plate(centre: Vec3, normal: Vec3, side: f32, role: SurfaceRole) -> ModelSnaps
         name: "plate".into(),
         normals: vec![n; positions.len()],
         cut_edge: vec![false; positions.len()],
+        seared: Vec::new(),
         regions: vec![0; indices.len() / 3],
         roles: vec![role],
         positions,

@@ -42,6 +42,7 @@ fn ball(radius: f32, drop_near: Option<(Vec3, f32)>) -> ModelSnapshot {
         regions,
         roles: vec![vesalius::sim::SurfaceRole::Tissue],
         cut_edge,
+        seared: Vec::new(),
     }
 }
 

@@ -43,6 +43,7 @@ fn square(name: &str, centre: Vec3, half: f32, role: SurfaceRole) -> ModelSnapsh
         regions: vec![0, 0],
         roles: vec![role],
         cut_edge: vec![false; 4],
+        seared: Vec::new(),
     }
 }
 

@@ -195,6 +195,7 @@ impl OperativeField {
         }
         let normals = vertex_normals(&positions, &indices);
         ModelSnapshot {
+            seared: Vec::new(),
             name: "operative field".into(),
             cut_edge: vec![false; positions.len()],
             positions,

@@ -67,6 +67,8 @@ pub mod material {
     pub const VISCUS: u32 = 11;
     /// Set on vertices at the edge of a cut.
     pub const CUT_FLAG: u32 = 256;
+    /// Set on vertices an energy instrument seared (drawn charred).
+    pub const SEAR_FLAG: u32 = 512;
     pub const COUNT: usize = 12;
     /// The shader's table length.
     pub const SLOTS: usize = 16;
@@ -455,10 +457,13 @@ impl Renderer {
                     self.scratch.clear();
                     for i in start..end {
                         let cut = m.cut_edge.get(i).copied().unwrap_or(false);
+                        let seared = m.seared.get(i).copied().unwrap_or(false);
                         self.scratch.push(Vertex {
                             position: m.positions[i].to_array(),
                             normal: m.normals.get(i).copied().unwrap_or(Vec3::Y).to_array(),
-                            material: vertex_material[i] | if cut { material::CUT_FLAG } else { 0 },
+                            material: vertex_material[i]
+                                | if cut { material::CUT_FLAG } else { 0 }
+                                | if seared { material::SEAR_FLAG } else { 0 },
                         });
                     }
                     view.slice(start * stride..end * stride)

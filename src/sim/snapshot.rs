@@ -39,6 +39,8 @@ pub struct ModelSnapshot {
     pub roles: Vec<SurfaceRole>,
     /// Per vertex: whether it lies on the edge of a cut (drawn as cut tissue).
     pub cut_edge: Vec<bool>,
+    /// Per vertex: seared by an energy instrument (drawn charred); empty: none is.
+    pub seared: Vec<bool>,
 }
 
 #[derive(Debug, Clone, Copy, Default, PartialEq)]

@@ -376,6 +376,7 @@ impl TissueModel for Strand {
             regions: Vec::new(),
             roles: Vec::new(),
             cut_edge: Vec::new(),
+            seared: Vec::new(),
         }
     }
     fn checkpoint(&mut self) {

@@ -53,6 +53,7 @@ fn split_at_offsets<'a, T>(mut v: &'a mut [T], cuts: &[u32]) -> Vec<&'a mut [T]>
 mod cg;
 mod constraints;
 mod contacts;
+pub mod crater;
 mod implicit;
 mod model;
 mod params;
@@ -256,6 +257,8 @@ pub struct SoftBody {
     contacting: [bool; 2],
     /// Never let a point sleep (benchmarks of the all-awake cost).
     stay_awake: bool,
+    /// Cuts are made by an energy instrument: drawn seared (see `crater`).
+    sear_cuts: bool,
 }
 
 impl SoftBody {
@@ -363,6 +366,7 @@ impl SoftBody {
             steps_since_resum: 0,
             contacting: [false; 2],
             stay_awake: false,
+            sear_cuts: false,
             x,
             mesh,
         };
@@ -386,6 +390,12 @@ impl SoftBody {
     }
 
     /// Adds breakable ties (e.g. tumour to its bed).
+    /// Says that an energy instrument makes this body's cuts (a laser, a hook): their outlines
+    /// are drawn seared.
+    pub fn sear_cuts(&mut self, on: bool) {
+        self.sear_cuts = on;
+    }
+
     pub fn set_ties(&mut self, ties: Vec<Tie>) {
         self.ties = ties;
         self.rebuild_adjacency();

@@ -371,7 +371,7 @@ impl TissueModel for SoftBody {
         let cut_edge = (0..self.mesh.render.len())
             .map(|r| self.mesh.is_split(r))
             .collect();
-        ModelSnapshot {
+        let mut out = ModelSnapshot {
             name: self.name.clone(),
             cut_edge,
             positions,
@@ -380,7 +380,14 @@ impl TissueModel for SoftBody {
             regions,
             // The procedure says what each region is.
             roles: Vec::new(),
+            seared: Vec::new(),
+        };
+        // The holes cuts left: smooth outlines and a bed of raw (seared) tissue.
+        let look = super::crater::close_cuts(&mut out, self.sear_cuts);
+        if self.sear_cuts {
+            out.seared = look.iter().map(|l| l.seared).collect();
         }
+        out
     }
 
     /// Keeps the positions only: a restored body is put to sleep where it was, at rest.

@@ -281,6 +281,7 @@ impl Catheterisation {
             }
         }
         ModelSnapshot {
+            seared: Vec::new(),
             name: "vessel".to_string(),
             positions: b.x.iter().map(|x| x.as_vec3()).collect(),
             normals: normals

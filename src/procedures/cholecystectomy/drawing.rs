@@ -79,6 +79,7 @@ pub fn skin_mesh(p: &Particles, skin: &Skin, name: &str, role: SurfaceRole) -> M
     let positions: Vec<Vec3> = skin.particles.iter().map(|&i| p.x[i as usize]).collect();
     let normals = crate::mesh::vertex_normals(&positions, &skin.triangles);
     ModelSnapshot {
+        seared: Vec::new(),
         name: name.to_string(),
         cut_edge: vec![false; positions.len()],
         regions: vec![0; skin.triangles.len() / 3],

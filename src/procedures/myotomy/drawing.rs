@@ -102,6 +102,7 @@ impl Drawing {
             }
         }
         let mut m = ModelSnapshot {
+            seared: Vec::new(),
             name: "esophagus".to_string(),
             positions: positions.iter().map(|p| p.as_vec3()).collect(),
             normals: normals

@@ -5,8 +5,8 @@
 use crate::mesh::{KidneyShape, TriMesh, TubeSpec, icosphere, kidney, tube};
 use crate::models::{SimplexMesh, SoftBody, Tie};
 use crate::sim::{
-    Contact, ContactKind, CutStroke, EventKind, Hand, InputFrame, ModelId, SimEvent, Snapshot,
-    SurfaceRole, TissueModel, ToolSnapshot, World,
+    Contact, ContactKind, CutStroke, EmissionKind, EmissionLog, EventKind, Hand, InputFrame,
+    ModelId, SimEvent, Snapshot, SurfaceRole, TissueModel, ToolSnapshot, World,
 };
 use glam::Vec3;
 use serde::Serialize;
@@ -176,6 +176,8 @@ pub struct Nephrectomy {
     freed: bool,
     removed: bool,
     last_cut_point: Option<Vec3>,
+    /// The plume where the laser vaporises tissue.
+    smoke: EmissionLog,
     /// Depth along the beam of the surface the laser was last on, metres.
     surface_depth_m: Option<f32>,
     prev_input: Option<InputFrame>,
@@ -267,6 +269,8 @@ impl Nephrectomy {
         let mesh = SimplexMesh::dual(&organ)?;
         let rest = mesh.rest.clone();
         let mut body = SoftBody::new("kidney", mesh, regions.clone(), scenario.kidney);
+        // The laser cuts: its cuts are seared.
+        body.sear_cuts(true);
         // Ties: every tumour point buried in the kidney to its nearest bed point, and every
         // bed point under the tumour to its nearest tumour point.
         let inside_kidney = |p: Vec3| {
@@ -355,6 +359,7 @@ impl Nephrectomy {
             freed: false,
             removed: false,
             last_cut_point: None,
+            smoke: EmissionLog::smoke(),
             surface_depth_m: None,
             prev_input: None,
             vessel_touch: [false; 2],
@@ -543,6 +548,9 @@ impl Nephrectomy {
                         self.metrics.cut_length_m += length;
                         self.last_cut_point = Some(h.point);
                         strokes.push((m, CutStroke { faces }, length));
+                        // The beam vaporises tissue where it cuts: a plume rises from there.
+                        let now_s = (step + 1) as f64 * f64::from(dt);
+                        self.smoke.record(now_s, h.point, EmissionKind::Smoke);
                     }
                 }
             } else {
@@ -757,7 +765,7 @@ impl Nephrectomy {
             tools: self.tools,
             reactions: self.world.reactions(),
             target_found: self.identified,
-            emissions: Vec::new(),
+            emissions: self.smoke.at(step as f64 * self.scenario.dt_s as f64),
             bleeding: Vec::new(),
             scope: None,
         }

@@ -130,6 +130,7 @@ impl TissueModel for RectumRod {
         let (positions, normals) = self.surface_now();
         let cut_edge = vec![false; positions.len()];
         ModelSnapshot {
+            seared: Vec::new(),
             name: NAME.to_string(),
             positions,
             normals,

@@ -1,0 +1,244 @@
+//! What a laser cut looks like (lavapipe): the nephrectomy's demo cut leaves a hole whose
+//! outline is a smooth seared ring (no staircase of whole triangles) around a bed of raw
+//! tissue, not a window onto what lies behind the kidney; and the laser smokes while it cuts,
+//! and only then.
+
+use glam::{Vec2, Vec3};
+use vesalius::procedures::Viewpoint;
+use vesalius::procedures::nephrectomy::{INFO, Nephrectomy, Scenario};
+use vesalius::render::frames::Look;
+use vesalius::render::{EyeTarget, Gpu};
+use vesalius::sim::{ModelSnapshot, Snapshot};
+use vesalius::trace::KeyTrace;
+
+const SIZE: (u32, u32) = (400, 400);
+
+/// The nephrectomy stepped along its demo trace for `seconds`.
+fn demo_at(seconds: f64) -> (Nephrectomy, Snapshot) {
+    let s = Scenario::parse("builtin nephrectomy scenario", INFO.scenario).expect("scenario");
+    let dt = f64::from(s.dt_s);
+    let mut n = Nephrectomy::new(s).expect("nephrectomy");
+    let keys = KeyTrace::parse("demo", INFO.demo_trace).expect("demo trace");
+    let steps = (seconds / dt) as u64;
+    let mut events = Vec::new();
+    for step in 0..steps {
+        n.step(&keys.sample(step as f64 * dt), step, &mut events);
+    }
+    let snap = n.snapshot(steps);
+    (n, snap)
+}
+
+/// Per vertex: joined by triangles to the used vertex nearest `p`.
+fn component(m: &ModelSnapshot, p: Vec3) -> Vec<bool> {
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    let n = m.positions.len();
+    let mut parent: Vec<usize> = (0..n).collect();
+    let mut used = vec![false; n];
+    for t in m.indices.chunks_exact(3) {
+        for k in 0..3 {
+            used[t[k] as usize] = true;
+            let (a, b) = (
+                root(&mut parent, t[0] as usize),
+                root(&mut parent, t[k] as usize),
+            );
+            parent[a] = b;
+        }
+    }
+    let nearest = (0..n)
+        .filter(|&i| used[i])
+        .min_by(|&a, &b| {
+            m.positions[a]
+                .distance(p)
+                .total_cmp(&m.positions[b].distance(p))
+        })
+        .unwrap_or(0);
+    let r = root(&mut parent, nearest);
+    (0..n).map(|i| root(&mut parent, i) == r).collect()
+}
+
+fn rgb(img: &[u8], q: Vec2) -> Option<[u8; 3]> {
+    let (x, y) = (q.x.floor(), q.y.floor());
+    if x < 0.0 || y < 0.0 || x >= SIZE.0 as f32 || y >= SIZE.1 as f32 {
+        return None;
+    }
+    let i = (y as usize * SIZE.0 as usize + x as usize) * 4;
+    Some([img[i], img[i + 1], img[i + 2]])
+}
+
+/// Seared: dark and brown-black, not the red of tissue (raw or whole).
+fn seared(c: [u8; 3]) -> bool {
+    c[0] < 90 && i16::from(c[0]) - i16::from(c[1]) < 30 && c[1] > c[2]
+}
+
+/// Raw or whole kidney: red.
+fn red(c: [u8; 3]) -> bool {
+    i16::from(c[0]) - i16::from(c[1]) > 50
+}
+
+#[test]
+fn the_laser_cut_has_a_smooth_seared_outline_around_a_raw_bed() {
+    // The demo has lifted the tumour out by 20 s.
+    let (n, mut snap) = demo_at(20.0);
+    // The instruments out of the way.
+    for t in &mut snap.tools {
+        t.tip = Vec3::new(0.0, 1.0, 0.0);
+        t.beam_end = None;
+        t.beam_reach = None;
+    }
+    let c = n.tumour_center();
+    let k = snap
+        .models
+        .iter_mut()
+        .find(|m| m.name == "kidney")
+        .expect("kidney");
+    // The seared outlines: the kidney's hole, and the specimen's, which the grasper holds
+    // over 2 cm away (the tumour's centre is the specimen's).
+    let hole: Vec<(Vec3, Vec3)> = (0..k.positions.len())
+        .filter(|&i| k.seared.get(i).copied().unwrap_or(false))
+        .map(|i| (k.positions[i], k.normals[i]))
+        .filter(|(p, _)| p.distance(c) > 0.022)
+        .collect();
+    assert!(
+        hole.len() > 30,
+        "{} seared vertices on the hole",
+        hole.len()
+    );
+    let centre = hole.iter().map(|h| h.0).sum::<Vec3>() / hole.len() as f32;
+    let normal = hole.iter().map(|h| h.1).sum::<Vec3>().normalize();
+    // Without the specimen: the kidney's triangles joined to the hole.
+    let part = component(k, centre);
+    let keep: Vec<usize> = (0..k.indices.len() / 3)
+        .filter(|&t| part[k.indices[3 * t] as usize])
+        .collect();
+    k.indices = keep
+        .iter()
+        .flat_map(|&t| k.indices[3 * t..3 * t + 3].to_vec())
+        .collect();
+    k.regions = keep.iter().map(|&t| k.regions[t]).collect();
+    // Looking straight into the hole from 4.5 cm, both eyes at one point.
+    let view = Viewpoint {
+        eye: centre + normal * 0.045,
+        target: centre,
+    };
+    let look = Look::bare(view);
+    let gpu = Gpu::headless(true).expect("a Vulkan adapter (CI installs mesa-vulkan-drivers)");
+    let mut r = look.renderer(&gpu);
+    let target = EyeTarget::new(&gpu, SIZE);
+    r.update(&snap);
+    let mut eyes = look.eyes(&look.view, SIZE);
+    for e in &mut eyes {
+        e.position = view.eye;
+    }
+    r.render(target.target(r.multiview()), SIZE, &eyes);
+    let [img, _] = target.read(&gpu).expect("read back");
+    gpu.check().expect("no GPU errors");
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("cut-look");
+    std::fs::create_dir_all(&dir).expect("scratch folder");
+    vesalius::render::gpu::write_png(&dir.join("hole.png"), SIZE, &img).expect("png");
+
+    // From the hole's middle outwards along 120 rays: raw red floor, then the seared ring,
+    // then the kidney's surface (or past its edge).
+    let mid = eyes[0].project(centre, SIZE).expect("ahead");
+    let mut outer = Vec::new();
+    let mut floor_red = 0;
+    for a in 0..120 {
+        let d = Vec2::from_angle(a as f32 * std::f32::consts::TAU / 120.0);
+        let at = |r: f32| rgb(&img, mid + d * r);
+        let first = (0..150).find(|&r| at(r as f32).is_some_and(seared));
+        let Some(first) = first else {
+            panic!("ray {a}: no seared ring");
+        };
+        floor_red += usize::from(at(first as f32 * 0.5).is_some_and(red));
+        // The ring's outer edge: the last seared pixel before two pixels that are not.
+        let mut last = first;
+        while (1..=2).any(|s| at((last + s) as f32).is_some_and(seared)) {
+            last += 1;
+        }
+        outer.push(last as f32);
+    }
+    // The bed is raw red tissue on every ray (no fat or void seen through the hole).
+    assert!(floor_red >= 118, "{floor_red} of 120 rays see red inside");
+    // The outline is smooth: its radius changes little from ray to ray (3 degrees apart)
+    // and bends gently (a bounded second difference), where a staircase of whole triangles
+    // (0.5-1 mm, 4-8 px here) jumps.
+    let n = outer.len();
+    let mean = outer.iter().sum::<f32>() / n as f32;
+    let jump = (0..n)
+        .map(|i| (outer[(i + 1) % n] - outer[i]).abs())
+        .fold(0.0, f32::max);
+    let bend = (0..n)
+        .map(|i| (outer[(i + n - 1) % n] - 2.0 * outer[i] + outer[(i + 1) % n]).abs())
+        .fold(0.0, f32::max);
+    eprintln!("outline radius {mean:.1} px, largest jump {jump:.1} px, largest bend {bend:.1} px");
+    assert!(mean > 30.0, "the hole is {mean:.1} px across");
+    assert!(jump <= 3.0, "the outline jumps {jump} px between rays");
+    assert!(bend <= 4.0, "the outline bends {bend} px");
+}
+
+/// Pixels of `snap` drawn differently when its emissions (the smoke) are left out.
+fn smoke_pixels(gpu: &Gpu, look: &Look, snap: &Snapshot) -> usize {
+    const EYE: (u32, u32) = (270, 300);
+    let draw = |s: &Snapshot| {
+        let mut r = look.renderer(gpu);
+        let target = EyeTarget::new(gpu, EYE);
+        r.update(s);
+        r.render(
+            target.target(r.multiview()),
+            EYE,
+            &look.eyes(&look.view, EYE),
+        );
+        let [left, _] = target.read(gpu).expect("read back");
+        left
+    };
+    let mut clear = snap.clone();
+    clear.emissions.clear();
+    let (a, b) = (draw(snap), draw(&clear));
+    a.chunks_exact(4)
+        .zip(b.chunks_exact(4))
+        .filter(|(p, q)| p.iter().zip(*q).any(|(x, y)| x.abs_diff(*y) > 2))
+        .count()
+}
+
+#[test]
+fn the_laser_smokes_while_it_cuts_and_only_then() {
+    let s = Scenario::parse("builtin nephrectomy scenario", INFO.scenario).expect("scenario");
+    let (dt, threshold) = (f64::from(s.dt_s), s.tools.cut_threshold);
+    let keys = KeyTrace::parse("demo", INFO.demo_trace).expect("demo trace");
+    let total = (keys.duration_s() / dt) as usize;
+    let pulled: Vec<bool> = (0..total)
+        .map(|k| keys.sample(k as f64 * dt).hands[1].buttons.trigger >= threshold)
+        .collect();
+    // Instants: half a second before the first cut; half a second into it; and 1.6 s (past a
+    // puff's 1.5 s life) after the trigger is let go for good.
+    let first = pulled.iter().position(|&p| p).expect("the demo cuts");
+    let last = pulled.iter().rposition(|&p| p).expect("the demo cuts");
+    let per_s = (1.0 / dt) as usize;
+    let before = first - per_s / 2;
+    let during = first + per_s / 2;
+    assert!(pulled[during], "the demo still cuts half a second in");
+    let after = last + per_s * 16 / 10;
+    assert!(after < total, "the demo runs 1.6 s past its last cut");
+    let mut n = Nephrectomy::new(s).expect("nephrectomy");
+    let mut events = Vec::new();
+    let mut shots = Vec::new();
+    for step in 0..=after {
+        n.step(&keys.sample(step as f64 * dt), step as u64, &mut events);
+        if [before, during, after].contains(&step) {
+            shots.push(n.snapshot(step as u64 + 1));
+        }
+    }
+    let gpu = Gpu::headless(true).expect("a Vulkan adapter (CI installs mesa-vulkan-drivers)");
+    let look = Look::monitor(&INFO);
+    let counts: Vec<usize> = shots.iter().map(|s| smoke_pixels(&gpu, &look, s)).collect();
+    gpu.check().expect("no GPU errors");
+    eprintln!("smoke pixels before, during and after cutting: {counts:?}");
+    assert_eq!(counts[0], 0, "smoke before the laser cut");
+    assert!(counts[1] > 150, "{} smoke pixels while it cuts", counts[1]);
+    assert_eq!(counts[2], 0, "smoke 1.6 s after the last cut");
+}
