@@ -4,7 +4,7 @@
 use super::camera::{self, EyeView};
 use super::{GpuMesh, Vertex, material};
 use crate::profiler::{Category, FrameCounters, Ledger, Tracked};
-use crate::sim::ToolSnapshot;
+use crate::sim::{InstrumentShape, ToolSnapshot};
 use glam::Vec3;
 use std::sync::Arc;
 
@@ -132,18 +132,6 @@ pub(super) fn ensure_capacity(
     }
 }
 
-/// An open cylinder of 8 sides from `a` to `b`.
-pub(super) fn cylinder(
-    a: Vec3,
-    b: Vec3,
-    radius: f32,
-    mat: u32,
-    v: &mut Vec<Vertex>,
-    idx: &mut Vec<u32>,
-) {
-    cone(a, b, [radius, radius], mat, v, idx);
-}
-
 /// An open cone of 8 sides from `a` (radius `radii[0]`) to `b` (`radii[1]`).
 pub(super) fn cone(
     a: Vec3,
@@ -175,15 +163,105 @@ pub(super) fn cone(
     }
 }
 
-/// A laparoscopic instrument: a 5 mm shaft ending at the tip, with two short jaws.
-/// Shaft and two jaws of an instrument as (from, to, radius, material) cylinders.
-pub(super) fn instrument_segments(t: &ToolSnapshot, out: &mut Vec<(Vec3, Vec3, f32, u32)>) {
+/// A part of an instrument: a cone from `a` (radius `radii[0]`) to `b` (`radii[1]`), metres.
+pub(super) type Part = (Vec3, Vec3, [f32; 2], u32);
+
+/// The shaft's radius: a 5 mm laparoscopic instrument, m.
+pub const SHAFT_RADIUS_M: f32 = 0.0025;
+/// How much of the shaft is drawn behind the working end, m.
+const SHAFT_LENGTH_M: f32 = 0.30;
+/// Jaw lengths and how far each jaw turns from the axis when wide open, radians.
+pub const GRASPER_JAW_M: f32 = 0.016;
+pub const GRASPER_OPEN_RAD: f32 = 30.0 * std::f32::consts::PI / 180.0;
+const SCISSORS_BLADE_M: f32 = 0.014;
+const SCISSORS_OPEN_RAD: f32 = 20.0 * std::f32::consts::PI / 180.0;
+/// The blades' curve: the outer half turns this much further, to one side.
+const SCISSORS_CURVE_RAD: f32 = 15.0 * std::f32::consts::PI / 180.0;
+const CLIP_JAW_M: f32 = 0.012;
+const CLIP_OPEN_RAD: f32 = 12.0 * std::f32::consts::PI / 180.0;
+/// The L-hook: the insulated neck's length and radius, and the foot's length.
+const HOOK_NECK_M: f32 = 0.010;
+pub const HOOK_FOOT_M: f32 = 0.004;
+
+/// The parts of an instrument as drawn: its shaft along `direction` ending at the working
+/// end, and the end its shape has, the jaws opened as `jaw` says. Its roll about the shaft is
+/// fixed by the direction (jaws open in the plane of `direction` and a vector normal to it).
+pub(super) fn instrument_parts(t: &ToolSnapshot, out: &mut Vec<Part>) {
     let d = t.direction.normalize_or(Vec3::NEG_Z);
-    let jaw_base = t.tip - d * 0.012;
-    out.push((t.tip - d * 0.30, jaw_base, 0.0025, material::INSTRUMENT));
-    let side = d.any_orthonormal_vector() * 0.0015;
-    for s in [side, -side] {
-        out.push((jaw_base + s, t.tip + s * 0.5, 0.0008, material::INSTRUMENT));
+    let side = d.any_orthonormal_vector();
+    let up = d.cross(side);
+    let tip = t.tip;
+    let m = material::INSTRUMENT;
+    let shaft = |end: Vec3, out: &mut Vec<Part>| {
+        out.push((end - d * SHAFT_LENGTH_M, end, [SHAFT_RADIUS_M; 2], m));
+    };
+    let open = t.jaw.clamp(0.0, 1.0);
+    // Two jaws of `length` hinged at the shaft's end, each turned `angle` off the axis, in
+    // the plane of the axis and `up`; closed, they meet along the axis and end at the tip.
+    let jaws = |length: f32, angle: f32, radii: [f32; 2], out: &mut Vec<Part>| {
+        let hinge = tip - d * length;
+        shaft(hinge, out);
+        for s in [1.0f32, -1.0] {
+            let dir = d * angle.cos() + up * (s * angle.sin());
+            out.push((
+                hinge + up * (s * radii[0] * 0.6),
+                hinge + dir * length,
+                radii,
+                m,
+            ));
+        }
+    };
+    match t.shape {
+        InstrumentShape::Plain => {
+            let jaw_base = tip - d * 0.012;
+            shaft(jaw_base, out);
+            let s = side * 0.0015;
+            for s in [s, -s] {
+                out.push((jaw_base + s, tip + s * 0.5, [0.0008; 2], m));
+            }
+        }
+        InstrumentShape::Grasper => jaws(
+            GRASPER_JAW_M,
+            open * GRASPER_OPEN_RAD,
+            [0.0012, 0.0008],
+            out,
+        ),
+        InstrumentShape::ClipApplier => {
+            jaws(CLIP_JAW_M, open * CLIP_OPEN_RAD, [0.0014, 0.0011], out)
+        }
+        InstrumentShape::Scissors => {
+            let hinge = tip - d * SCISSORS_BLADE_M;
+            shaft(hinge, out);
+            let half = 0.5 * SCISSORS_BLADE_M;
+            for s in [1.0f32, -1.0] {
+                let a = open * SCISSORS_OPEN_RAD;
+                let inner = d * a.cos() + up * (s * a.sin());
+                let b = a - SCISSORS_CURVE_RAD;
+                let outer = (d * b.cos() + up * (s * b.sin())) * SCISSORS_CURVE_RAD.cos()
+                    + side * SCISSORS_CURVE_RAD.sin();
+                let knee = hinge + inner * half;
+                out.push((hinge, knee, [0.0011, 0.0008], m));
+                out.push((knee, knee + outer * half, [0.0008, 0.0003], m));
+            }
+        }
+        InstrumentShape::Hook => {
+            // The foot ends at the tip; the elbow is a foot's length back along `up`.
+            let elbow = tip - up * HOOK_FOOT_M;
+            let neck = elbow - d * HOOK_NECK_M;
+            shaft(neck, out);
+            out.push((neck, elbow, [0.0012, 0.0008], m));
+            out.push((elbow, tip, [0.0007, 0.0005], m));
+        }
+        InstrumentShape::Laser => {
+            let taper = tip - d * 0.006;
+            shaft(taper, out);
+            out.push((taper, tip, [SHAFT_RADIUS_M, 0.0008], m));
+        }
+        InstrumentShape::Probe => {
+            let taper = tip - d * 0.004;
+            shaft(taper, out);
+            out.push((taper, tip, [SHAFT_RADIUS_M, 0.0015], m));
+        }
     }
 }
 
@@ -213,4 +291,93 @@ pub(super) fn clip_to_eyes(
         }
     }
     (t1 > t0).then(|| (a.lerp(b, t0), a.lerp(b, t1)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parts(shape: InstrumentShape, jaw: f32) -> Vec<Part> {
+        let t = ToolSnapshot {
+            tip: Vec3::new(0.01, 0.02, 0.03),
+            direction: Vec3::new(0.0, -0.6, -0.8),
+            shape,
+            jaw,
+            ..ToolSnapshot::default()
+        };
+        let mut out = Vec::new();
+        instrument_parts(&t, &mut out);
+        out
+    }
+
+    #[test]
+    fn a_grasper_opens_its_jaws_as_wide_as_its_grip_lets_go() {
+        let tip = Vec3::new(0.01, 0.02, 0.03);
+        // Shut: both jaws end at the tip.
+        let shut = parts(InstrumentShape::Grasper, 0.0);
+        assert_eq!(shut.len(), 3, "a shaft and two jaws");
+        for p in &shut[1..] {
+            assert!(p.1.distance(tip) < 1e-6, "{:?}", p.1);
+        }
+        // Wide open: 30 degrees each, the ends 2 L sin 30 = 16 mm apart.
+        let open = parts(InstrumentShape::Grasper, 1.0);
+        let gap = open[1].1.distance(open[2].1);
+        let expected = 2.0 * GRASPER_JAW_M * GRASPER_OPEN_RAD.sin();
+        assert!((gap - expected).abs() < 1e-5, "{gap} vs {expected}");
+        // Half open: half the angle.
+        let half = parts(InstrumentShape::Grasper, 0.5);
+        let gap = half[1].1.distance(half[2].1);
+        let expected = 2.0 * GRASPER_JAW_M * (0.5 * GRASPER_OPEN_RAD).sin();
+        assert!((gap - expected).abs() < 1e-5, "{gap} vs {expected}");
+        // The shaft is 5 mm across and ends where the jaws are hinged.
+        assert_eq!(open[0].2, [SHAFT_RADIUS_M; 2]);
+        assert!((open[0].1.distance(tip) - GRASPER_JAW_M).abs() < 1e-6);
+    }
+
+    #[test]
+    fn an_l_hook_ends_in_a_foot_at_right_angles_to_its_shaft() {
+        let d = Vec3::new(0.0, -0.6, -0.8);
+        let hook = parts(InstrumentShape::Hook, 0.0);
+        let (elbow, end) = (hook[2].0, hook[2].1);
+        assert!(end.distance(Vec3::new(0.01, 0.02, 0.03)) < 1e-6);
+        assert!((elbow.distance(end) - HOOK_FOOT_M).abs() < 1e-6);
+        assert!((end - elbow).normalize().dot(d).abs() < 1e-5);
+        // The neck runs along the shaft.
+        assert!((hook[1].1 - hook[1].0).normalize().dot(d) > 0.9999);
+    }
+
+    #[test]
+    fn every_shape_is_drawn_its_own_way_near_its_tip() {
+        let shapes = [
+            InstrumentShape::Plain,
+            InstrumentShape::Grasper,
+            InstrumentShape::Scissors,
+            InstrumentShape::ClipApplier,
+            InstrumentShape::Hook,
+            InstrumentShape::Laser,
+            InstrumentShape::Probe,
+        ];
+        let tip = Vec3::new(0.01, 0.02, 0.03);
+        let drawn: Vec<Vec<Part>> = shapes.iter().map(|&s| parts(s, 0.5)).collect();
+        for (k, p) in drawn.iter().enumerate() {
+            for part in p {
+                for end in [part.0, part.1] {
+                    assert!(
+                        end.distance(tip) <= SHAFT_LENGTH_M + 0.02,
+                        "{:?}",
+                        shapes[k]
+                    );
+                }
+                assert!(part.2.iter().all(|&r| r > 0.0 && r <= SHAFT_RADIUS_M));
+            }
+            for q in &drawn[..k] {
+                assert_ne!(p, q, "{:?} looks like another shape", shapes[k]);
+            }
+        }
+        // The scissors' blades curve to one side of the plane they open in.
+        let d = Vec3::new(0.0, -0.6, -0.8).normalize();
+        let side = d.any_orthonormal_vector();
+        let blades = &drawn[2];
+        assert!((blades[2].1 - blades[2].0).dot(side) > 0.0);
+    }
 }

@@ -19,8 +19,8 @@ mod pipelines;
 pub mod smoke;
 
 use meshes::{
-    clip_to_eyes, cone, cylinder, draw_range, empty_mesh, ensure_capacity, instrument_segments,
-    tracked_buffer, upload,
+    clip_to_eyes, cone, draw_range, empty_mesh, ensure_capacity, instrument_parts, tracked_buffer,
+    upload,
 };
 
 pub use camera::{EyeView, Fov};
@@ -540,11 +540,25 @@ impl Renderer {
             if t.direction.length_squared() < 0.5 {
                 continue;
             }
-            let mut parts = Vec::with_capacity(4);
-            instrument_segments(t, &mut parts);
-            for (a, b, radius, m) in parts {
-                if let Some((a, b)) = clip_to_eyes(a, b, radius, eyes) {
-                    cylinder(a, b, radius, m, &mut self.scratch, &mut self.scratch_idx);
+            let mut parts = Vec::with_capacity(6);
+            instrument_parts(t, &mut parts);
+            for (a, b, radii, m) in parts {
+                let widest = radii[0].max(radii[1]);
+                if let Some((ca, cb)) = clip_to_eyes(a, b, widest, eyes) {
+                    // Clipped, the radii follow the cone.
+                    let length = a.distance(b).max(1e-9);
+                    let at = |p: Vec3| {
+                        let u = (a.distance(p) / length).clamp(0.0, 1.0);
+                        radii[0] + (radii[1] - radii[0]) * u
+                    };
+                    cone(
+                        ca,
+                        cb,
+                        [at(ca), at(cb)],
+                        m,
+                        &mut self.scratch,
+                        &mut self.scratch_idx,
+                    );
                 }
             }
             // The beam to what it hits, or to its range: a thin line of about the same width

@@ -23,7 +23,9 @@ pub use haptic::{HapticFrame, HapticSlot, SeqWords, ToolHaptics};
 pub use input::{Buttons, Hand, HandInput, InputFrame, Pose};
 pub use model::{Contact, ContactKind, CutStroke, ModelOutput, ModelSizes, TissueModel, ToolId};
 pub use quarantine::Quarantine;
-pub use snapshot::{ModelSnapshot, ScopeView, Snapshot, SnapshotBus, SurfaceRole, ToolSnapshot};
+pub use snapshot::{
+    InstrumentShape, ModelSnapshot, ScopeView, Snapshot, SnapshotBus, SurfaceRole, ToolSnapshot,
+};
 pub use surface::{Collider, MeshSurface, TriangleSource};
 pub use world::{CHECKPOINT_STEPS, Interaction, ModelId, PointForces, PointSource, World};
 

@@ -56,6 +56,29 @@ pub struct ToolSnapshot {
     /// Which instrument the hand holds: 0 its own (`ProcedureInfo::tools`), `k` the
     /// procedure's `swap[k - 1]`.
     pub instrument: u8,
+    /// What the instrument looks like, and how far its jaws are open (0 shut, 1 wide).
+    pub shape: InstrumentShape,
+    pub jaw: f32,
+}
+
+/// The working end of a laparoscopic instrument, as drawn: each on a 5 mm shaft.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum InstrumentShape {
+    /// A shaft and two short prongs (an instrument the procedure does not name).
+    #[default]
+    Plain,
+    /// Two jaws hinged at the shaft's end, opening up to 30 degrees each.
+    Grasper,
+    /// Two curved blades, opening up to 20 degrees each.
+    Scissors,
+    /// Two straight jaws that close a clip, opening up to 12 degrees each.
+    ClipApplier,
+    /// An electrosurgical L-hook: an insulated neck and a short foot at right angles.
+    Hook,
+    /// A laser fibre's probe: the shaft tapers to the fibre.
+    Laser,
+    /// A blunt probe with a rounded end.
+    Probe,
 }
 
 /// An immutable picture of the simulation, published for renderer and haptic threads.

@@ -129,6 +129,9 @@ pub struct DesktopHands {
     pub scope_hand: Option<Hand>,
     /// The other instruments a hand can change to with the right button, in turn.
     pub swap: &'static [ToolInfo],
+    /// Where each hand's instrument enters the field (its port, where it is parked): a
+    /// shaft runs from there to its tip.
+    pub ports: [Vec3; 2],
 }
 
 impl DesktopHands {
@@ -147,6 +150,7 @@ impl DesktopHands {
             tools: info.tools,
             scope_hand: info.scope_hand,
             swap: info.swap,
+            ports: info.desk_park,
         }
     }
 }
@@ -175,6 +179,16 @@ impl DesktopHands {
         };
         let (eye, dir) = ray(view, ndc.clamp(Vec2::splat(-1.0), Vec2::splat(1.0)));
         let down = view.orientation * Vec3::NEG_Y;
+        // A laparoscopic instrument's shaft comes from its port to the tip under the cursor
+        // (not straight away from the eye, which shows only its end); a port behind the tip
+        // as the eye sees it would turn the shaft towards the eye: then along the ray.
+        let tip = eye + dir * self.depth_m[k];
+        let from_port = (tip - self.ports[k]).normalize_or_zero();
+        let shaft = if from_port.dot(dir) > 0.2 {
+            from_port
+        } else {
+            dir
+        };
         // The right button is the hand's primary button where the procedure gives it a use:
         // driving the laparoscope, changing the instrument (the left button then works
         // whichever instrument the hand holds).
@@ -183,7 +197,7 @@ impl DesktopHands {
                 || self.swap.iter().any(|s| s.hand.index() == k));
         self.frame.hands[k] = match self.tools[k].kind {
             ToolKind::Grasper | ToolKind::Probe => HandInput {
-                pose: Pose::looking_at(eye + dir * self.depth_m[k], eye + dir * 1.0),
+                pose: Pose::looking_at(tip, tip + shaft),
                 buttons: Buttons {
                     grip: if p.primary_down { 1.0 } else { 0.0 },
                     mark: primary,
@@ -191,7 +205,7 @@ impl DesktopHands {
                 },
             },
             ToolKind::Hook => HandInput {
-                pose: Pose::looking_at(eye + dir * self.depth_m[k], eye + dir * 1.0),
+                pose: Pose::looking_at(tip, tip + shaft),
                 buttons: Buttons {
                     trigger: if p.primary_down { 1.0 } else { 0.0 },
                     mark: primary,
@@ -373,6 +387,15 @@ mod hand_tests {
         assert!(px.distance(want) < 0.05, "{px} vs {want}");
         assert_eq!(g.buttons.grip, 1.0);
         assert!(g.pose.forward().dot(g.pose.position - view.position) > 0.0);
+        // Its shaft comes from its port, not from the eye: seen from the side, not end-on.
+        let from_port = (g.pose.position - h.ports[0]).normalize();
+        assert!(g.pose.forward().dot(from_port) > 0.9999);
+        assert!(
+            g.pose
+                .forward()
+                .dot((g.pose.position - view.position).normalize())
+                < 0.999
+        );
         assert_eq!(h.frame.hands[1], laser_before, "the other instrument stays");
         // Off the view, it stays and lets go.
         h.pointer(&view, Pointer::default());

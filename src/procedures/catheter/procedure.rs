@@ -242,6 +242,8 @@ impl Catheterisation {
             beam_reach: None,
             active: touching,
             instrument: 0,
+            shape: Default::default(),
+            jaw: 0.0,
         };
         events.extend(ev.into_iter().map(|kind| SimEvent { step, kind }));
     }

@@ -18,8 +18,8 @@ use crate::models::particles::adhesion::AdhesionBreak;
 use crate::procedures::TaskStep;
 use crate::procedures::scope::Scope;
 use crate::sim::{
-    Bleed, EmissionKind, EmissionLog, EventKind, Hand, HandInput, InputFrame, ProcedureEvent,
-    SimEvent, Snapshot, SurfaceRole, ToolSnapshot,
+    Bleed, EmissionKind, EmissionLog, EventKind, Hand, HandInput, InputFrame, InstrumentShape,
+    ProcedureEvent, SimEvent, Snapshot, SurfaceRole, ToolSnapshot,
 };
 use glam::Vec3;
 use serde::Serialize;
@@ -410,6 +410,8 @@ impl Cholecystectomy {
                 beam_reach: None,
                 active: out.held[0] > 0,
                 instrument: 0,
+                shape: InstrumentShape::Grasper,
+                jaw: 1.0 - left.buttons.grip,
             },
             ToolSnapshot {
                 tip: hook_end.unwrap_or(right.pose.position),
@@ -418,6 +420,17 @@ impl Cholecystectomy {
                 beam_reach: None,
                 active: trigger || out.held[1] > 0,
                 instrument: self.right.index() as u8,
+                shape: match self.right {
+                    RightTool::Hook => InstrumentShape::Hook,
+                    RightTool::ClipApplier => InstrumentShape::ClipApplier,
+                    RightTool::Scissors => InstrumentShape::Scissors,
+                    RightTool::Grasper => InstrumentShape::Grasper,
+                },
+                // The trigger closes the clip applier and the scissors, the grip the grasper.
+                jaw: match self.right {
+                    RightTool::Grasper => 1.0 - right.buttons.grip,
+                    _ => 1.0 - right.buttons.trigger,
+                },
             },
         ];
         self.last = out;

@@ -18,8 +18,8 @@ use crate::models::Fnv;
 use crate::models::bem::incision::Incision;
 use crate::procedures::TaskStep;
 use crate::sim::{
-    EmissionKind, EmissionLog, EventKind, Hand, InputFrame, ProcedureEvent, SimEvent, Snapshot,
-    ToolSnapshot,
+    EmissionKind, EmissionLog, EventKind, Hand, InputFrame, InstrumentShape, ProcedureEvent,
+    SimEvent, Snapshot, ToolSnapshot,
 };
 use glam::{DVec3, Vec3};
 use serde::Serialize;
@@ -251,6 +251,8 @@ impl Myotomy {
                 beam_reach: None,
                 active: !self.touches[0].held.is_empty(),
                 instrument: 0,
+                shape: InstrumentShape::Grasper,
+                jaw: 1.0 - left.buttons.grip,
             },
             ToolSnapshot {
                 tip: places[1],
@@ -259,6 +261,8 @@ impl Myotomy {
                 beam_reach: None,
                 active: current,
                 instrument: 0,
+                shape: InstrumentShape::Hook,
+                jaw: 0.0,
             },
         ];
         self.checklist(step, &mut ev);

@@ -6,7 +6,7 @@ use crate::mesh::{KidneyShape, TriMesh, TubeSpec, icosphere, kidney, tube};
 use crate::models::{SimplexMesh, SoftBody, Tie};
 use crate::sim::{
     Contact, ContactKind, CutStroke, EmissionKind, EmissionLog, EventKind, Hand, InputFrame,
-    ModelId, SimEvent, Snapshot, SurfaceRole, TissueModel, ToolSnapshot, World,
+    InstrumentShape, ModelId, SimEvent, Snapshot, SurfaceRole, TissueModel, ToolSnapshot, World,
 };
 use glam::Vec3;
 use serde::Serialize;
@@ -466,6 +466,8 @@ impl Nephrectomy {
             beam_reach: hit.is_none().then(|| origin + dir * tools.laser_range_m),
             active: cutting,
             instrument: 0,
+            shape: InstrumentShape::Laser,
+            jaw: 0.0,
         };
         let mut strokes: Vec<(ModelId, CutStroke, f32)> = Vec::new();
         let mut touching_vessel = [false; 2];
@@ -572,6 +574,8 @@ impl Nephrectomy {
             beam_reach: None,
             active: grasper.buttons.grip >= tools.grip_threshold,
             instrument: 0,
+            shape: InstrumentShape::Grasper,
+            jaw: 1.0 - grasper.buttons.grip,
         };
         if grasper.buttons.grip >= tools.grip_threshold {
             if self.grasp_model.is_none() {

@@ -12,8 +12,8 @@ use crate::models::Fnv;
 use crate::models::membrane::{LAYERS, Membrane};
 use crate::procedures::scope::Scope;
 use crate::sim::{
-    EmissionKind, EmissionLog, EventKind, Hand, HandInput, InputFrame, ModelSnapshot,
-    ProcedureEvent, SimEvent, Snapshot, SurfaceRole, TissueModel, ToolSnapshot,
+    EmissionKind, EmissionLog, EventKind, Hand, HandInput, InputFrame, InstrumentShape,
+    ModelSnapshot, ProcedureEvent, SimEvent, Snapshot, SurfaceRole, TissueModel, ToolSnapshot,
 };
 use glam::Vec3;
 use serde::Serialize;
@@ -302,6 +302,8 @@ impl Rectum {
                 beam_reach: None,
                 active: held,
                 instrument: 0,
+                shape: InstrumentShape::Grasper,
+                jaw: 1.0 - grasper.buttons.grip,
             },
             ToolSnapshot {
                 tip: end.unwrap_or(hook.pose.position),
@@ -310,6 +312,16 @@ impl Rectum {
                 beam_reach: None,
                 active: if with_hook { cutting } else { held_right },
                 instrument: u8::from(!with_hook),
+                shape: if with_hook {
+                    InstrumentShape::Hook
+                } else {
+                    InstrumentShape::Grasper
+                },
+                jaw: if with_hook {
+                    0.0
+                } else {
+                    1.0 - hook.buttons.grip
+                },
             },
         ];
         // Smoke rises where the current cut springs this step, at the hook's end; its time is

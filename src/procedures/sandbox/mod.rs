@@ -11,8 +11,8 @@
 
 use crate::models::{Fnv, SimplexMesh, SoftBody};
 use crate::sim::{
-    Contact, ContactKind, EventKind, Hand, InputFrame, ModelId, SimEvent, Snapshot, SurfaceRole,
-    TissueModel, ToolSnapshot, World,
+    Contact, ContactKind, EventKind, Hand, InputFrame, InstrumentShape, ModelId, SimEvent,
+    Snapshot, SurfaceRole, TissueModel, ToolSnapshot, World,
 };
 use glam::Vec3;
 use serde::Serialize;
@@ -256,6 +256,8 @@ impl Sandbox {
             beam_reach: None,
             active: false,
             instrument: 0,
+            shape: InstrumentShape::Probe,
+            jaw: 0.0,
         };
         let r_probe = tools.probe_tip_radius_m;
         if let Some(c) = self.sphere(Hand::Right, probe.position, probe_forward, r_probe) {
@@ -273,6 +275,8 @@ impl Sandbox {
             beam_reach: None,
             active: gripping,
             instrument: 0,
+            shape: InstrumentShape::Grasper,
+            jaw: 1.0 - grasper.buttons.grip,
         };
         let mut let_go = None;
         if gripping {
