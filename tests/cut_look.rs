@@ -1,14 +1,15 @@
 //! What a laser cut looks like (lavapipe): the nephrectomy's demo cut leaves a hole whose
 //! outline is a smooth seared ring (no staircase of whole triangles) around a bed of raw
-//! tissue, not a window onto what lies behind the kidney; and the laser smokes while it cuts,
-//! and only then.
+//! tissue, not a window onto what lies behind the kidney; the laser smokes while it cuts, and
+//! only then; and a grasper pressed side-on into the kidney dents it along its shaft, as a
+//! depth map of the drawn surface shows.
 
 use glam::{Vec2, Vec3};
 use vesalius::procedures::Viewpoint;
 use vesalius::procedures::nephrectomy::{INFO, Nephrectomy, Scenario};
 use vesalius::render::frames::Look;
 use vesalius::render::{EyeTarget, Gpu};
-use vesalius::sim::{ModelSnapshot, Snapshot};
+use vesalius::sim::{InputFrame, ModelSnapshot, Pose, Snapshot};
 use vesalius::trace::KeyTrace;
 
 const SIZE: (u32, u32) = (400, 400);
@@ -241,4 +242,144 @@ fn the_laser_smokes_while_it_cuts_and_only_then() {
     assert_eq!(counts[0], 0, "smoke before the laser cut");
     assert!(counts[1] > 150, "{} smoke pixels while it cuts", counts[1]);
     assert_eq!(counts[2], 0, "smoke 1.6 s after the last cut");
+}
+
+/// Distance along the ray from `origin` (unit `dir`) to the nearest triangle of `m`.
+fn depth(m: &ModelSnapshot, origin: Vec3, dir: Vec3) -> Option<f32> {
+    let mut best: Option<f32> = None;
+    for t in m.indices.chunks_exact(3) {
+        let [a, b, c] = [t[0], t[1], t[2]].map(|i| m.positions[i as usize]);
+        // Moller-Trumbore.
+        let (e1, e2) = (b - a, c - a);
+        let p = dir.cross(e2);
+        let det = e1.dot(p);
+        if det.abs() < 1e-12 {
+            continue;
+        }
+        let s = origin - a;
+        let u = s.dot(p) / det;
+        let q = s.cross(e1);
+        let v = dir.dot(q) / det;
+        let d = e2.dot(q) / det;
+        if u >= 0.0 && v >= 0.0 && u + v <= 1.0 && d > 0.0 && best.is_none_or(|b| d < b) {
+            best = Some(d);
+        }
+    }
+    best
+}
+
+#[test]
+fn a_grasper_pressed_side_on_dents_the_kidney_along_its_shaft() {
+    let s = Scenario::parse("builtin nephrectomy scenario", INFO.scenario).expect("scenario");
+    let r = s.tools.grasper_tip_radius_m;
+    let mut n = Nephrectomy::new(s).expect("nephrectomy");
+    // A point of the kidney's parenchyma facing the laparoscope, 2.5 cm or more from the
+    // tumour's middle.
+    let eye = INFO.view.eye;
+    let tumour = n.tumour_center();
+    let (p, normal) = [
+        (-0.015f32, -0.012f32),
+        (-0.01, -0.02),
+        (0.0, -0.02),
+        (-0.02, 0.0),
+    ]
+    .into_iter()
+    .find_map(|(dx, dy)| {
+        let aim = INFO.view.target + Vec3::new(dx, dy, 0.0);
+        let (m, h) = n.world().cast_ray(eye, (aim - eye).normalize(), 1.0)?;
+        (n.world().model(m).name() == "kidney" && h.point.distance(tumour) > 0.025)
+            .then_some((h.point, h.normal))
+    })
+    .expect("a point of the kidney in view");
+    // The shaft lies along the surface, its axis 2 mm less than its radius above it: pressed
+    // 2 mm in. Its tip is 1 cm ahead of the point, the shaft runs back from there.
+    let press = 0.002;
+    let before = n.snapshot(0);
+    let kidney = |s: &Snapshot| -> ModelSnapshot {
+        s.models
+            .iter()
+            .find(|m| m.name == "kidney")
+            .expect("kidney")
+            .clone()
+    };
+    let k0 = kidney(&before);
+    // The shaft's direction along the surface: of 8, the one where the surface falls away
+    // most behind and ahead of the point (the kidney is a bean: the shaft must not lie
+    // across its hilum's hollow, where it would plough in).
+    let first = normal.any_orthonormal_vector();
+    let rise = |along: Vec3| -> f32 {
+        let at = |u: f32| {
+            let origin = p + normal * 0.03 + along * u;
+            depth(&k0, origin, -normal).map_or(f32::INFINITY, |d| 0.03 - d)
+        };
+        (-20..=12)
+            .map(|u| at(u as f32 * 1e-3))
+            .fold(f32::MIN, f32::max)
+    };
+    let along = (0..8)
+        .map(|k| glam::Quat::from_axis_angle(normal, k as f32 * std::f32::consts::PI / 8.0) * first)
+        .min_by(|a, b| rise(*a).total_cmp(&rise(*b)))
+        .expect("a direction");
+    let across = normal.cross(along);
+    let axis = p + normal * (r - press);
+    let mut frame = InputFrame::default();
+    frame.hands[1].pose = Pose::looking_at(eye, eye + Vec3::Y);
+    let mut events = Vec::new();
+    // Lowered onto the surface over 0.2 s, then held there 0.4 s.
+    for step in 0..150u64 {
+        let lower = (1.0 - step as f32 / 50.0).max(0.0) * 0.01;
+        let at = axis + normal * lower + along * 0.01;
+        frame.hands[0].pose = Pose::looking_at(at, at + along);
+        n.step(&frame, step, &mut events);
+    }
+    let after = n.snapshot(150);
+    let k1 = kidney(&after);
+    // The depth map: from 3 cm above the surface, straight down onto it, every millimetre
+    // 2 cm either way along the shaft and 1 cm either way across it; the dent is how much
+    // deeper the surface lies than at rest.
+    let dent = |u: i32, v: i32| -> f32 {
+        let origin = p + normal * 0.03 + along * (u as f32 * 1e-3) + across * (v as f32 * 1e-3);
+        match (depth(&k0, origin, -normal), depth(&k1, origin, -normal)) {
+            (Some(a), Some(b)) => b - a,
+            _ => 0.0,
+        }
+    };
+    let map: Vec<Vec<f32>> = (-10..=10)
+        .map(|v| (-20..=20).map(|u| dent(u, v)).collect())
+        .collect();
+    let deepest = map.iter().flatten().copied().fold(0.0, f32::max);
+    let at = |u: i32, v: i32| map[(v + 10) as usize][(u + 20) as usize];
+    let over = |d: f32| d > 0.3e-3;
+    // Extent along the shaft (u) and across it (v), millimetres.
+    let length = (-20..=20)
+        .filter(|&u| (-10..=10).any(|v| over(at(u, v))))
+        .count();
+    let width = (-10..=10)
+        .filter(|&v| (-20..=20).any(|u| over(at(u, v))))
+        .count();
+    let behind = at(-8, 0);
+    let reaction = n.reactions()[0];
+    eprintln!(
+        "dent {:.2} mm deep, {length} mm along the shaft, {width} mm across; 8 mm behind the \
+         point: {:.2} mm; reaction {reaction} N",
+        deepest * 1e3,
+        behind * 1e3
+    );
+    assert!(
+        (0.5 * press..=1.3 * press).contains(&deepest),
+        "the dent is {:.2} mm deep for a 2 mm press",
+        deepest * 1e3
+    );
+    // The shaft dents too, 1.8 cm behind the tip, where a tip alone would not reach.
+    assert!(behind > 0.4 * press, "{:.2} mm behind", behind * 1e3);
+    assert!(length >= 2 * width, "{length} mm long, {width} mm wide");
+    // Away from the instrument the surface is where it was.
+    for v in [-10, 10] {
+        for u in -20..=20 {
+            let d = at(u, v);
+            assert!(d.abs() < 0.3e-3, "{:.2} mm at ({u}, {v})", d * 1e3);
+        }
+    }
+    // The tissue pushes the instrument back out.
+    assert!(reaction.dot(normal) > 0.0, "reaction {reaction}");
 }

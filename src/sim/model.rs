@@ -11,6 +11,10 @@ pub enum ContactKind {
     Press { pressure_pa: f32, area_m2: f32 },
     /// A rigid sphere (instrument tip) that tissue may not enter.
     Sphere { radius_m: f32 },
+    /// A rigid capsule: an instrument's tip (the contact's point) and the shaft behind it back
+    /// to `back`, `radius_m` around that segment, which tissue may not enter. The working end
+    /// tents the surface as a `Sphere` does; along the shaft tissue is pushed out radially.
+    Capsule { back: Vec3, radius_m: f32 },
     /// Closed grasper jaws at a pose: points within `radius_m` are held and carried.
     Grasp { rotation: Quat, radius_m: f32 },
 }

@@ -132,6 +132,13 @@ pub struct DesktopHands {
     /// Where each hand's instrument enters the field (its port, where it is parked): a
     /// shaft runs from there to its tip.
     pub ports: [Vec3; 2],
+    /// Camera motion is kept out of the instruments: per hand, how far its tip (and a laser's
+    /// origin) lies from where the cursor alone would put it, once the camera has moved with
+    /// the instrument in hand; and the last frame's camera, cursor, tips and origins.
+    pub offset: [Vec3; 2],
+    pub origin_offset: [Vec3; 2],
+    last: Option<(Vec3, Quat, Vec2)>,
+    tips: [Option<(Vec3, Vec3)>; 2],
 }
 
 impl DesktopHands {
@@ -151,6 +158,10 @@ impl DesktopHands {
             scope_hand: info.scope_hand,
             swap: info.swap,
             ports: info.desk_park,
+            offset: [Vec3::ZERO; 2],
+            origin_offset: [Vec3::ZERO; 2],
+            last: None,
+            tips: [None; 2],
         }
     }
 }
@@ -167,7 +178,10 @@ pub struct Pointer {
 }
 
 impl DesktopHands {
-    /// Moves the selected instrument with the mouse, seen through `view`.
+    /// Moves the selected instrument with the mouse, seen through `view`. The camera's own
+    /// motion moves no instrument (nor adds to its path): when the camera has moved since the
+    /// last frame, the instrument stays where it was in the field and the mouse moves it on
+    /// from there, by what the cursor's motion would move a point at its depth in the new view.
     pub fn pointer(&mut self, view: &EyeView, p: Pointer) {
         let k = self.selected.index();
         self.depth_m[k] =
@@ -177,12 +191,26 @@ impl DesktopHands {
             self.frame.hands[k].buttons = Buttons::default();
             return;
         };
-        let (eye, dir) = ray(view, ndc.clamp(Vec2::splat(-1.0), Vec2::splat(1.0)));
+        let ndc = ndc.clamp(Vec2::splat(-1.0), Vec2::splat(1.0));
+        let (eye, dir) = ray(view, ndc);
         let down = view.orientation * Vec3::NEG_Y;
+        let beside = eye + down * 0.01;
+        if let Some((position, orientation, seen)) = self.last
+            && (position != view.position || orientation != view.orientation)
+            && let Some((tip, origin)) = self.tips[k]
+        {
+            // Where the last frame's cursor points in the new view: the instrument stays.
+            let (_, was) = ray(view, seen);
+            self.offset[k] = tip - (eye + was * self.depth_m[k]);
+            self.origin_offset[k] = origin - beside;
+        }
+        self.last = Some((view.position, view.orientation, ndc));
         // A laparoscopic instrument's shaft comes from its port to the tip under the cursor
         // (not straight away from the eye, which shows only its end); a port behind the tip
         // as the eye sees it would turn the shaft towards the eye: then along the ray.
-        let tip = eye + dir * self.depth_m[k];
+        let tip = eye + dir * self.depth_m[k] + self.offset[k];
+        let origin = beside + self.origin_offset[k];
+        self.tips[k] = Some((tip, origin));
         let from_port = (tip - self.ports[k]).normalize_or_zero();
         let shaft = if from_port.dot(dir) > 0.2 {
             from_port
@@ -215,24 +243,21 @@ impl DesktopHands {
             // The handle where the pointer is (its travel along the entry pushes the
             // instrument in); the left button bends the tip, the right button twists it.
             ToolKind::Steerable => HandInput {
-                pose: Pose::looking_at(eye + dir * self.depth_m[k], eye + dir * 1.0),
+                pose: Pose::looking_at(tip, tip + dir),
                 buttons: Buttons {
                     trigger: if p.primary_down { 1.0 } else { 0.0 },
                     grip: if p.secondary_down { 1.0 } else { 0.0 },
                     mark: false,
                 },
             },
-            ToolKind::Laser => {
-                let from = eye + down * 0.01;
-                HandInput {
-                    pose: Pose::looking_at(from, eye + dir * self.depth_m[k]),
-                    buttons: Buttons {
-                        trigger: if p.primary_down { 1.0 } else { 0.0 },
-                        mark: p.secondary_down,
-                        ..Buttons::default()
-                    },
-                }
-            }
+            ToolKind::Laser => HandInput {
+                pose: Pose::looking_at(origin, tip),
+                buttons: Buttons {
+                    trigger: if p.primary_down { 1.0 } else { 0.0 },
+                    mark: p.secondary_down,
+                    ..Buttons::default()
+                },
+            },
         };
     }
 
@@ -401,6 +426,64 @@ mod hand_tests {
         h.pointer(&view, Pointer::default());
         assert_eq!(h.frame.hands[0].pose, g.pose);
         assert_eq!(h.frame.hands[0].buttons.grip, 0.0);
+    }
+
+    #[test]
+    fn moving_the_camera_moves_no_instrument_and_the_mouse_moves_it_on_from_there() {
+        let info = crate::procedures::REGISTRY[0];
+        let mut cam = OrbitCamera::at(&info.view);
+        let mut h = DesktopHands::parked(info);
+        let at = Vec2::new(0.1, 0.05);
+        let still = Pointer {
+            ndc: Some(at),
+            ..Pointer::default()
+        };
+        for hand in [Hand::Right, Hand::Left] {
+            h.selected = hand;
+            let k = hand.index();
+            h.pointer(&cam.view(1.5), still);
+            let before = h.frame.hands[k].pose;
+            // The camera orbits and zooms in; the cursor stays: the instrument stays.
+            cam.orbit(0.3, -0.1);
+            cam.zoom(0.8);
+            let view = cam.view(1.5);
+            h.pointer(&view, still);
+            let after = h.frame.hands[k].pose;
+            assert!(after.position.distance(before.position) < 1e-6, "{hand:?}");
+            assert!(
+                after.forward().dot(before.forward()) > 0.999_999,
+                "{hand:?}"
+            );
+            // The mouse moves: the instrument's tip (a laser's aim) moves by what the
+            // cursor's ray moves at its depth in the new view.
+            let next = Vec2::new(0.2, -0.05);
+            h.pointer(
+                &view,
+                Pointer {
+                    ndc: Some(next),
+                    ..Pointer::default()
+                },
+            );
+            let moved = h.frame.hands[k].pose;
+            let (_, d0) = ray(&view, at);
+            let (_, d1) = ray(&view, next);
+            let shift = (d1 - d0) * h.depth_m[k];
+            match h.tools[k].kind {
+                ToolKind::Laser => {
+                    // The origin stays; the beam turns to the shifted aim.
+                    assert!(moved.position.distance(after.position) < 1e-6);
+                    let aim = h.tips[k].expect("aimed").0;
+                    let was = aim - shift;
+                    let old = (was - after.position).normalize();
+                    assert!(after.forward().dot(old) > 0.999_99);
+                    assert!(moved.forward().dot((aim - moved.position).normalize()) > 0.999_99);
+                }
+                _ => {
+                    let step = moved.position - after.position;
+                    assert!(step.distance(shift) < 1e-6, "{step} vs {shift}");
+                }
+            }
+        }
     }
 
     #[test]

@@ -59,14 +59,13 @@ impl SoftBody {
                     }
                     out.reactions.push((c.tool, -total));
                 }
-                ContactKind::Sphere { radius_m } => {
-                    let q = Aabb::new(
-                        c.point - Vec3::splat(radius_m * 2.0),
-                        c.point + Vec3::splat(radius_m * 2.0),
-                    );
-                    let found: Vec<u32> = self.bvh.faces_in(&q).collect();
+                ContactKind::Sphere { .. } | ContactKind::Capsule { .. } => {
+                    let Some((radius_m, found)) = self.near_tip(c) else {
+                        continue;
+                    };
                     for f in found {
-                        if (self.x[f as usize] - c.point).length() < radius_m * 1.5 {
+                        let x = self.x[f as usize];
+                        if (x - tip_centre(c, x).0).length() < radius_m * 1.5 {
                             self.wake(f as usize);
                         }
                     }
@@ -166,6 +165,37 @@ impl SoftBody {
 /// A point within this fraction of a tip's radius of its surface counts as on it.
 const PIN_BAND: f32 = 1e-3;
 
+/// The centre of the part of a rigid tip nearest `x`: a sphere's centre, or the nearest point
+/// of a capsule's axis; and whether that is the working end (where the tip tents the surface).
+fn tip_centre(c: &Contact, x: Vec3) -> (Vec3, bool) {
+    match c.kind {
+        ContactKind::Capsule { back, .. } => {
+            let axis = c.point - back;
+            let len2 = axis.length_squared();
+            let t = if len2 > 0.0 {
+                ((x - back).dot(axis) / len2).clamp(0.0, 1.0)
+            } else {
+                1.0
+            };
+            (back + axis * t, t >= 1.0)
+        }
+        _ => (c.point, true),
+    }
+}
+
+/// Where a point at `x` inside a tip goes: from the working end as [`out_of_tip`] says, from
+/// a shaft straight out from its axis.
+fn out_of(c: &Contact, x: Vec3, radius_m: f32) -> Vec3 {
+    let (centre, end) = tip_centre(c, x);
+    let d = x - centre;
+    if end {
+        return out_of_tip(d, -c.normal, radius_m);
+    }
+    let len = d.length();
+    let dir = if len > 1e-9 { d / len } else { -c.normal };
+    dir * (radius_m - len)
+}
+
 /// Where a point inside a tip goes: a point ahead of the tip's centre goes on ahead of it (to
 /// the sphere, along the way the tool points), so the tip tents the surface like a probe;
 /// pushed straight out from the centre, the points in front would slide aside and let the
@@ -203,11 +233,13 @@ impl SoftBody {
     /// A rigid tip's radius and the points within twice it (by the BVH's boxes); none for
     /// another kind of contact.
     fn near_tip(&self, c: &Contact) -> Option<(f32, Vec<u32>)> {
-        let ContactKind::Sphere { radius_m } = c.kind else {
-            return None;
+        let (radius_m, back) = match c.kind {
+            ContactKind::Sphere { radius_m } => (radius_m, c.point),
+            ContactKind::Capsule { back, radius_m } => (radius_m, back),
+            _ => return None,
         };
         let reach = Vec3::splat(radius_m * 2.0);
-        let q = Aabb::new(c.point - reach, c.point + reach);
+        let q = Aabb::new(c.point.min(back) - reach, c.point.max(back) + reach);
         Some((radius_m, self.bvh.faces_in(&q).collect()))
     }
 
@@ -225,7 +257,7 @@ impl SoftBody {
                 if !self.alive[i] || self.kinematic[i] {
                     continue;
                 }
-                let d = self.x[i] - c.point;
+                let d = self.x[i] - tip_centre(c, self.x[i]).0;
                 let len = d.length();
                 // On the surface (within the band, either side of it, as rounding leaves a
                 // point that was put there), a point stays held only while the tissue presses
@@ -235,7 +267,7 @@ impl SoftBody {
                     continue;
                 }
                 if len < radius_m {
-                    self.push_tip(i, out_of_tip(d, -c.normal, radius_m));
+                    self.push_tip(i, out_of(c, self.x[i], radius_m));
                     self.pin(i, c.tool);
                 } else if on_surface {
                     self.pin(i, c.tool);
@@ -253,9 +285,9 @@ impl SoftBody {
             };
             for f in found {
                 let i = f as usize;
-                let d = self.x[i] - c.point;
+                let d = self.x[i] - tip_centre(c, self.x[i]).0;
                 if self.alive[i] && !self.kinematic[i] && d.length() < radius_m {
-                    self.push_tip(i, out_of_tip(d, -c.normal, radius_m));
+                    self.push_tip(i, out_of(c, self.x[i], radius_m));
                     self.pin(i, c.tool);
                 }
             }

@@ -19,6 +19,9 @@ mod score;
 pub use scenario::{Anatomy, Scenario, Task, Tools, Vulnerable, Weights};
 pub use score::{ScoreParts, score};
 
+/// How much of the grasper's shaft behind its tip tissue meets, m (a capsule of the tip's
+/// radius: the shaft dents what it lies on, not only the tip).
+const SHAFT_CONTACT_M: f32 = 0.06;
 /// How long the laser's beam must rest on the tumour to identify it without a click, s.
 const IDENTIFY_DWELL_S: f32 = 1.0;
 /// How far the laser must have moved (origin, metres; or turned, radians) from its first pose
@@ -595,13 +598,18 @@ impl Nephrectomy {
             }
         } else {
             self.grasp_model = None;
+            // The tip and the shaft behind it: the whole instrument dents what it presses.
+            let r = tools.grasper_tip_radius_m;
+            let back = tip - grasper.pose.forward() * SHAFT_CONTACT_M;
+            let samples = (SHAFT_CONTACT_M / r).ceil() as usize;
             let near: Vec<ModelId> = self
                 .world
                 .models()
                 .filter(|(_, b)| {
-                    !b.collider()
-                        .nearest_within(tip, tools.grasper_tip_radius_m * 1.5)
-                        .is_empty()
+                    (0..=samples).any(|k| {
+                        let at = tip.lerp(back, k as f32 / samples as f32);
+                        !b.collider().nearest_within(at, r * 1.5).is_empty()
+                    })
                 })
                 .map(|(m, _)| m)
                 .collect();
@@ -616,9 +624,7 @@ impl Nephrectomy {
                             tool: Hand::Left,
                             point: tip,
                             normal: -grasper.pose.forward(),
-                            kind: ContactKind::Sphere {
-                                radius_m: tools.grasper_tip_radius_m,
-                            },
+                            kind: ContactKind::Capsule { back, radius_m: r },
                         },
                     );
                 }

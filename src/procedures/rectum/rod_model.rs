@@ -24,7 +24,9 @@ impl RectumRod {
         for c in contacts {
             let hand = c.tool.index();
             match c.kind {
-                ContactKind::Sphere { radius_m } => {
+                // The rod meets a capsule at its working end only (its own instruments
+                // press it through their shapes' spheres).
+                ContactKind::Sphere { radius_m } | ContactKind::Capsule { radius_m, .. } => {
                     self.press_sphere(c.point, radius_m, hand);
                 }
                 ContactKind::Grasp { radius_m, .. } => {
