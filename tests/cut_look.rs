@@ -1,12 +1,12 @@
 //! What a laser cut looks like (lavapipe): the nephrectomy's demo cut leaves a hole whose
 //! outline is a smooth seared ring (no staircase of whole triangles) around a bed of raw
 //! tissue, not a window onto what lies behind the kidney; the laser smokes while it cuts, and
-//! only then; and a grasper pressed side-on into the kidney dents it along its shaft, as a
+//! only then; a laser cut into the renal artery bleeds; and a grasper pressed side-on into the kidney dents it along its shaft, as a
 //! depth map of the drawn surface shows.
 
 use glam::{Vec2, Vec3};
 use vesalius::procedures::Viewpoint;
-use vesalius::procedures::nephrectomy::{INFO, Nephrectomy, Scenario};
+use vesalius::procedures::nephrectomy::{INFO, Nephrectomy, REGION_TUMOUR, Scenario};
 use vesalius::render::frames::Look;
 use vesalius::render::{EyeTarget, Gpu};
 use vesalius::sim::{InputFrame, ModelSnapshot, Pose, Snapshot};
@@ -29,8 +29,8 @@ fn demo_at(seconds: f64) -> (Nephrectomy, Snapshot) {
     (n, snap)
 }
 
-/// Per vertex: joined by triangles to the used vertex nearest `p`.
-fn component(m: &ModelSnapshot, p: Vec3) -> Vec<bool> {
+/// Per vertex: the part (joined by triangles) it belongs to, as a representative vertex.
+fn parts(m: &ModelSnapshot) -> Vec<usize> {
     fn root(parent: &mut [usize], mut i: usize) -> usize {
         while parent[i] != i {
             parent[i] = parent[parent[i]];
@@ -40,10 +40,8 @@ fn component(m: &ModelSnapshot, p: Vec3) -> Vec<bool> {
     }
     let n = m.positions.len();
     let mut parent: Vec<usize> = (0..n).collect();
-    let mut used = vec![false; n];
     for t in m.indices.chunks_exact(3) {
-        for k in 0..3 {
-            used[t[k] as usize] = true;
+        for k in 1..3 {
             let (a, b) = (
                 root(&mut parent, t[0] as usize),
                 root(&mut parent, t[k] as usize),
@@ -51,16 +49,7 @@ fn component(m: &ModelSnapshot, p: Vec3) -> Vec<bool> {
             parent[a] = b;
         }
     }
-    let nearest = (0..n)
-        .filter(|&i| used[i])
-        .min_by(|&a, &b| {
-            m.positions[a]
-                .distance(p)
-                .total_cmp(&m.positions[b].distance(p))
-        })
-        .unwrap_or(0);
-    let r = root(&mut parent, nearest);
-    (0..n).map(|i| root(&mut parent, i) == r).collect()
+    (0..n).map(|i| root(&mut parent, i)).collect()
 }
 
 fn rgb(img: &[u8], q: Vec2) -> Option<[u8; 3]> {
@@ -85,25 +74,32 @@ fn red(c: [u8; 3]) -> bool {
 #[test]
 fn the_laser_cut_has_a_smooth_seared_outline_around_a_raw_bed() {
     // The demo has lifted the tumour out by 20 s.
-    let (n, mut snap) = demo_at(20.0);
+    let (_, mut snap) = demo_at(20.0);
     // The instruments out of the way.
     for t in &mut snap.tools {
         t.tip = Vec3::new(0.0, 1.0, 0.0);
         t.beam_end = None;
         t.beam_reach = None;
     }
-    let c = n.tumour_center();
     let k = snap
         .models
         .iter_mut()
         .find(|m| m.name == "kidney")
         .expect("kidney");
     // The seared outlines: the kidney's hole, and the specimen's, which the grasper holds
-    // over 2 cm away (the tumour's centre is the specimen's).
-    let hole: Vec<(Vec3, Vec3)> = (0..k.positions.len())
+    // away. The specimen is the part with the tumour's triangles.
+    let part = parts(k);
+    let specimen: Vec<usize> = k
+        .indices
+        .chunks_exact(3)
+        .zip(&k.regions)
+        .filter(|(_, r)| **r == REGION_TUMOUR)
+        .map(|(t, _)| part[t[0] as usize])
+        .collect();
+    let hole: Vec<(Vec3, Vec3, usize)> = (0..k.positions.len())
         .filter(|&i| k.seared.get(i).copied().unwrap_or(false))
-        .map(|i| (k.positions[i], k.normals[i]))
-        .filter(|(p, _)| p.distance(c) > 0.022)
+        .filter(|&i| !specimen.contains(&part[i]))
+        .map(|i| (k.positions[i], k.normals[i], part[i]))
         .collect();
     assert!(
         hole.len() > 30,
@@ -112,10 +108,10 @@ fn the_laser_cut_has_a_smooth_seared_outline_around_a_raw_bed() {
     );
     let centre = hole.iter().map(|h| h.0).sum::<Vec3>() / hole.len() as f32;
     let normal = hole.iter().map(|h| h.1).sum::<Vec3>().normalize();
-    // Without the specimen: the kidney's triangles joined to the hole.
-    let part = component(k, centre);
+    // Without the specimen: the kidney's triangles, in the hole's part.
+    let body = hole[0].2;
     let keep: Vec<usize> = (0..k.indices.len() / 3)
-        .filter(|&t| part[k.indices[3 * t] as usize])
+        .filter(|&t| part[k.indices[3 * t] as usize] == body)
         .collect();
     k.indices = keep
         .iter()
@@ -184,19 +180,7 @@ fn the_laser_cut_has_a_smooth_seared_outline_around_a_raw_bed() {
 
 /// Pixels of `snap` drawn differently when its emissions (the smoke) are left out.
 fn smoke_pixels(gpu: &Gpu, look: &Look, snap: &Snapshot) -> usize {
-    const EYE: (u32, u32) = (270, 300);
-    let draw = |s: &Snapshot| {
-        let mut r = look.renderer(gpu);
-        let target = EyeTarget::new(gpu, EYE);
-        r.update(s);
-        r.render(
-            target.target(r.multiview()),
-            EYE,
-            &look.eyes(&look.view, EYE),
-        );
-        let [left, _] = target.read(gpu).expect("read back");
-        left
-    };
+    let draw = |s: &Snapshot| eye(gpu, look, s);
     let mut clear = snap.clone();
     clear.emissions.clear();
     let (a, b) = (draw(snap), draw(&clear));
@@ -382,4 +366,86 @@ fn a_grasper_pressed_side_on_dents_the_kidney_along_its_shaft() {
     }
     // The tissue pushes the instrument back out.
     assert!(reaction.dot(normal) > 0.0, "reaction {reaction}");
+}
+
+#[test]
+fn a_laser_cut_into_the_renal_artery_bleeds_and_the_demo_injures_nothing() {
+    let s = Scenario::parse("builtin nephrectomy scenario", INFO.scenario).expect("scenario");
+    let dt = f64::from(s.dt_s);
+    let mut n = Nephrectomy::new(s).expect("nephrectomy");
+    // A point of the renal artery the laser can reach from just below the laparoscope.
+    let from = INFO.view.eye - Vec3::Y * 0.01;
+    let snap = n.snapshot(0);
+    let artery = snap
+        .models
+        .iter()
+        .find(|m| m.name == "renal_artery")
+        .expect("artery");
+    let aim = artery
+        .positions
+        .iter()
+        .step_by(37)
+        .copied()
+        .find(|&v| {
+            n.world()
+                .cast_ray(from, (v - from).normalize(), 1.0)
+                .is_some_and(|(m, _)| n.world().model(m).name() == "renal_artery")
+        })
+        .expect("a point of the artery in reach");
+    let mut frame = InputFrame::default();
+    frame.hands[0].pose = Pose::looking_at(from, from + Vec3::Y);
+    frame.hands[1].pose = Pose::looking_at(from, aim);
+    let mut events = Vec::new();
+    // The trigger pulled 0.1 s on the artery, then let go; 1 s on from the cut.
+    let steps = (1.1 / dt) as u64;
+    for step in 0..steps {
+        frame.hands[1].buttons.trigger = if step < (0.1 / dt) as u64 { 1.0 } else { 0.0 };
+        n.step(&frame, step, &mut events);
+    }
+    let injuries: Vec<_> = events
+        .iter()
+        .filter_map(|e| match &e.kind {
+            vesalius::sim::EventKind::Procedure(p) if p.name == "vessel_injured" => Some(p),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(injuries.len(), 1, "one opening of the artery: {injuries:?}");
+    assert_eq!(injuries[0].fields["vessel"], "renal_artery");
+    assert_eq!(n.metrics.vessel_injuries, 1);
+    let bleeding = n.snapshot(steps);
+    assert_eq!(bleeding.bleeding.len(), 1);
+    assert!(bleeding.bleeding[0].active(bleeding.time_s));
+    // Blood shows: the monitor image with the bleeding and without it differ.
+    let gpu = Gpu::headless(true).expect("a Vulkan adapter (CI installs mesa-vulkan-drivers)");
+    let look = Look::monitor(&INFO);
+    let mut dry = bleeding.clone();
+    dry.bleeding.clear();
+    let (wet, dry) = (eye(&gpu, &look, &bleeding), eye(&gpu, &look, &dry));
+    let blood = wet
+        .chunks_exact(4)
+        .zip(dry.chunks_exact(4))
+        .filter(|(p, q)| p.iter().zip(*q).any(|(x, y)| x.abs_diff(*y) > 2))
+        .count();
+    gpu.check().expect("no GPU errors");
+    eprintln!("blood pixels 1 s after the artery was cut: {blood}");
+    assert!(blood > 30, "{blood} blood pixels");
+    // The demo, an expert's session, opens no vessel.
+    let (d, end) = demo_at(20.0);
+    assert_eq!(d.metrics.vessel_injuries, 0);
+    assert!(end.bleeding.is_empty());
+}
+
+/// The left eye of a look at a snapshot, 270 x 300.
+fn eye(gpu: &Gpu, look: &Look, snap: &Snapshot) -> Vec<u8> {
+    const EYE: (u32, u32) = (270, 300);
+    let mut r = look.renderer(gpu);
+    let target = EyeTarget::new(gpu, EYE);
+    r.update(snap);
+    r.render(
+        target.target(r.multiview()),
+        EYE,
+        &look.eyes(&look.view, EYE),
+    );
+    let [left, _] = target.read(gpu).expect("read back");
+    left
 }

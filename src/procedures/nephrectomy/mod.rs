@@ -2,23 +2,28 @@
 //! tumour tied to its bed, renal artery, renal vein and ureter. The right controller is a
 //! laser pointer that identifies, marks and cuts; the left is a grasper that lifts the tumour.
 
-use crate::mesh::{KidneyShape, TriMesh, TubeSpec, icosphere, kidney, tube};
 use crate::models::{SimplexMesh, SoftBody, Tie};
 use crate::sim::{
-    Contact, ContactKind, CutStroke, EmissionKind, EmissionLog, EventKind, Hand, InputFrame,
+    Bleed, Contact, ContactKind, CutStroke, EmissionKind, EmissionLog, EventKind, Hand, InputFrame,
     InstrumentShape, ModelId, SimEvent, Snapshot, SurfaceRole, TissueModel, ToolSnapshot, World,
 };
 use glam::Vec3;
 use serde::Serialize;
 
+mod anatomy;
 mod field;
 mod plugin;
 mod scenario;
 mod score;
 
+pub use anatomy::anatomy;
 pub use scenario::{Anatomy, Scenario, Task, Tools, Vulnerable, Weights};
 pub use score::{ScoreParts, score};
 
+/// The vessels the laser's cut opens (the ureter leaks no blood).
+const BLEEDING_VESSELS: [&str; 2] = ["renal_artery", "renal_vein"];
+/// A cut within this of an earlier injury widens it rather than opening another, m.
+const INJURY_SPACING_M: f32 = 0.005;
 /// How much of the grasper's shaft behind its tip tissue meets, m (a capsule of the tip's
 /// radius: the shaft dents what it lies on, not only the tip).
 const SHAFT_CONTACT_M: f32 = 0.06;
@@ -135,6 +140,13 @@ struct Marked {
     margin_error_m: f32,
 }
 
+/// A renal vessel opened by the laser: which, and where, metres.
+#[derive(Serialize)]
+struct Injury {
+    vessel: String,
+    point: [f32; 3],
+}
+
 /// Running metrics of one session.
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct Metrics {
@@ -151,6 +163,8 @@ pub struct Metrics {
     /// Healthy area the intended margin removes, m^2.
     pub healthy_planned_m2: f32,
     pub vessel_contacts: u32,
+    /// Renal vessels opened by the laser's cut (each injury bleeds).
+    pub vessel_injuries: u32,
     pub ties_torn: u32,
     pub marks: u32,
     pub marks_on_margin: u32,
@@ -181,87 +195,15 @@ pub struct Nephrectomy {
     last_cut_point: Option<Vec3>,
     /// The plume where the laser vaporises tissue.
     smoke: EmissionLog,
+    /// Where the laser opened a renal vessel: each bleeds from then on (no instrument of
+    /// this procedure can stop it).
+    bleeds: Vec<Bleed>,
     /// Depth along the beam of the surface the laser was last on, metres.
     surface_depth_m: Option<f32>,
     prev_input: Option<InputFrame>,
     vessel_touch: [bool; 2],
     grasp_model: Option<ModelId>,
     tools: [ToolSnapshot; 2],
-}
-
-/// Builds the anatomy meshes: kidney + tumour as one mesh with regions, and the three tubes.
-pub fn anatomy(s: &Scenario) -> (TriMesh, Vec<u8>, Vec<(String, TriMesh)>, Vec3) {
-    let a = &s.anatomy;
-    let shape = KidneyShape {
-        half_length_m: a.kidney_half_length_m,
-        half_width_m: a.kidney_half_width_m,
-        half_thickness_m: a.kidney_half_thickness_m,
-        hilum_depth_m: a.hilum_depth_m,
-    };
-    let mut organ = kidney(&shape, a.level);
-    let dir = Vec3::from(a.tumour_direction).normalize();
-    let site = shape.surface(dir);
-    let normal = Vec3::new(
-        site.x / shape.half_width_m.powi(2),
-        site.y / shape.half_length_m.powi(2),
-        site.z / shape.half_thickness_m.powi(2),
-    )
-    .normalize();
-    let center = site + normal * (a.tumour_protrusion * a.tumour_radius_m);
-    let mut tumour = icosphere(a.level);
-    for p in &mut tumour.positions {
-        *p = center + *p * a.tumour_radius_m;
-    }
-    let mut regions = vec![REGION_PARENCHYMA; organ.triangle_count()];
-    regions.extend(std::iter::repeat_n(REGION_TUMOUR, tumour.triangle_count()));
-    organ.append(&tumour);
-    let hilum = Vec3::new(-shape.half_width_m + shape.hilum_depth_m * 0.8, 0.0, 0.0);
-    let seg = a.vessel_segments;
-    let rings = a.vessel_rings;
-    let vessel = |path: Vec<Vec3>, r: f32| {
-        tube(&TubeSpec {
-            path,
-            radius_m: r,
-            segments: seg,
-            rings,
-        })
-    };
-    let vessels = vec![
-        (
-            "renal_artery".to_string(),
-            vessel(
-                vec![
-                    hilum + Vec3::new(0.004, 0.006, -0.004),
-                    hilum + Vec3::new(-0.03, 0.01, -0.008),
-                    hilum + Vec3::new(-0.07, 0.012, -0.01),
-                ],
-                a.renal_artery_radius_m,
-            ),
-        ),
-        (
-            "renal_vein".to_string(),
-            vessel(
-                vec![
-                    hilum + Vec3::new(0.004, 0.0, 0.006),
-                    hilum + Vec3::new(-0.03, -0.002, 0.01),
-                    hilum + Vec3::new(-0.07, -0.004, 0.012),
-                ],
-                a.renal_vein_radius_m,
-            ),
-        ),
-        (
-            "ureter".to_string(),
-            vessel(
-                vec![
-                    hilum + Vec3::new(0.004, -0.01, 0.0),
-                    hilum + Vec3::new(-0.012, -0.035, -0.004),
-                    hilum + Vec3::new(-0.02, -0.1, -0.008),
-                ],
-                a.ureter_radius_m,
-            ),
-        ),
-    ];
-    (organ, regions, vessels, center)
 }
 
 impl Nephrectomy {
@@ -363,6 +305,7 @@ impl Nephrectomy {
             removed: false,
             last_cut_point: None,
             smoke: EmissionLog::smoke(),
+            bleeds: Vec::new(),
             surface_depth_m: None,
             prev_input: None,
             vessel_touch: [false; 2],
@@ -519,6 +462,26 @@ impl Nephrectomy {
             if cutting {
                 if self.vulnerable[m.index()] {
                     touching_vessel[1] = true;
+                    let vessel = self.world.model(m).name();
+                    let opened = self
+                        .bleeds
+                        .iter()
+                        .any(|b| b.position.distance(h.point) < INJURY_SPACING_M);
+                    if BLEEDING_VESSELS.contains(&vessel) && !opened {
+                        self.metrics.vessel_injuries += 1;
+                        ev.push(event(
+                            "vessel_injured",
+                            Injury {
+                                vessel: vessel.to_string(),
+                                point: h.point.to_array(),
+                            },
+                        ));
+                        self.bleeds.push(Bleed {
+                            position: h.point,
+                            start_s: (step + 1) as f64 * f64::from(dt),
+                            stop_s: None,
+                        });
+                    }
                 } else if m == KIDNEY {
                     if self.last_cut_point.is_none() {
                         // A stroke begins: before the margin is marked, out of order.
@@ -776,7 +739,7 @@ impl Nephrectomy {
             reactions: self.world.reactions(),
             target_found: self.identified,
             emissions: self.smoke.at(step as f64 * self.scenario.dt_s as f64),
-            bleeding: Vec::new(),
+            bleeding: self.bleeds.clone(),
             scope: None,
         }
     }
