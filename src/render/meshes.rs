@@ -179,17 +179,21 @@ const SCISSORS_OPEN_RAD: f32 = 20.0 * std::f32::consts::PI / 180.0;
 const SCISSORS_CURVE_RAD: f32 = 15.0 * std::f32::consts::PI / 180.0;
 const CLIP_JAW_M: f32 = 0.012;
 const CLIP_OPEN_RAD: f32 = 12.0 * std::f32::consts::PI / 180.0;
-/// The L-hook: the insulated neck's length and radius, and the foot's length.
+/// The L-hook: the insulated neck's length, and the foot's length (the collision model's
+/// 6 mm wire, `collision::Instrument::l_hook`, whose end is the tip).
 const HOOK_NECK_M: f32 = 0.010;
-pub const HOOK_FOOT_M: f32 = 0.004;
+pub const HOOK_FOOT_M: f32 = 0.006;
 
 /// The parts of an instrument as drawn: its shaft along `direction` ending at the working
 /// end, and the end its shape has, the jaws opened as `jaw` says. Its roll about the shaft is
 /// fixed by the direction (jaws open in the plane of `direction` and a vector normal to it).
 pub(super) fn instrument_parts(t: &ToolSnapshot, out: &mut Vec<Part>) {
     let d = t.direction.normalize_or(Vec3::NEG_Z);
-    let side = d.any_orthonormal_vector();
-    let up = d.cross(side);
+    // The roll: the instrument's own up, square to the shaft; without one, any.
+    let up = (t.up - d * t.up.dot(d))
+        .try_normalize()
+        .unwrap_or_else(|| d.cross(d.any_orthonormal_vector()));
+    let side = up.cross(d);
     let tip = t.tip;
     let m = material::INSTRUMENT;
     let shaft = |end: Vec3, out: &mut Vec<Part>| {
@@ -332,6 +336,26 @@ mod tests {
         // The shaft is 5 mm across and ends where the jaws are hinged.
         assert_eq!(open[0].2, [SHAFT_RADIUS_M; 2]);
         assert!((open[0].1.distance(tip) - GRASPER_JAW_M).abs() < 1e-6);
+    }
+
+    #[test]
+    fn the_hooks_foot_points_where_the_instruments_up_says_as_the_collision_model_has_it() {
+        let q = glam::Quat::from_rotation_x(-0.7) * glam::Quat::from_rotation_y(0.4);
+        let corner = Vec3::new(0.01, 0.02, 0.03);
+        let model = crate::collision::Instrument::l_hook(corner, q).expect("hook");
+        let foot = &model.cylinders()[1];
+        let t = ToolSnapshot {
+            tip: foot.p1(),
+            direction: q * Vec3::NEG_Z,
+            shape: InstrumentShape::Hook,
+            up: q * Vec3::Y,
+            ..ToolSnapshot::default()
+        };
+        let mut out = Vec::new();
+        instrument_parts(&t, &mut out);
+        // The drawn foot is the collision model's: from its corner to its end.
+        assert!(out[2].0.distance(corner) < 1e-6, "{} vs {corner}", out[2].0);
+        assert!(out[2].1.distance(foot.p1()) < 1e-6);
     }
 
     #[test]

@@ -59,6 +59,9 @@ pub struct ToolSnapshot {
     /// What the instrument looks like, and how far its jaws are open (0 shut, 1 wide).
     pub shape: InstrumentShape,
     pub jaw: f32,
+    /// The instrument's roll about its shaft: its local +Y (the plane its jaws open in, the
+    /// way an L-hook's foot points); zero when it has none.
+    pub up: Vec3,
 }
 
 /// The working end of a laparoscopic instrument, as drawn: each on a 5 mm shaft.

@@ -227,6 +227,12 @@ impl XrLoop {
         }
         let dt = f64::from(live.dt_s());
         let vibrator = Vibrator::new(&live.info().tools);
+        // Until a controller is first tracked, its instrument waits where the procedure parks
+        // it, over the field pointing away (not at the origin, inside the organ).
+        let parked = live.info().desk_park.map(|at| HandInput {
+            pose: Pose::looking_at(at, at + glam::Vec3::Y),
+            buttons: Buttons::default(),
+        });
         let sim = Stepper::start(live)?;
         Ok(XrLoop {
             app,
@@ -239,7 +245,7 @@ impl XrLoop {
             dt,
             machine: SessionMachine::new(),
             session: None,
-            held: [HandInput::default(); 2],
+            held: parked,
             tracked: [None; 2],
             vibrator,
             frames: 0,

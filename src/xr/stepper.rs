@@ -212,8 +212,10 @@ fn serve(
     let dt = f64::from(live.dt_s());
     let tools = live.info().tools;
     let haptics = live.haptics();
-    // The previous frame's input and the time its steps ended at.
-    let mut held = [HandInput::default(); 2];
+    // The previous frame's input (none before the first frame: its steps take its own
+    // reading, rather than sweeping the instruments in from the origin) and the time its
+    // steps ended at.
+    let mut held: Option<[HandInput; 2]> = None;
     let mut last_t_s = live.time_s();
     loop {
         let message = match inbox.recv_timeout(IDLE_FLUSH) {
@@ -229,12 +231,13 @@ fn serve(
             ToSim::Frame { target_s, hands } => {
                 let mut feel = FrameFeel::default();
                 let span = (target_s - last_t_s).max(1e-9);
+                let from = held.unwrap_or(hands);
                 while live.time_s() + dt * 0.5 <= target_s {
                     let s = ((live.time_s() - last_t_s) / span).clamp(0.0, 1.0) as f32;
                     let frame = InputFrame {
                         hands: [
-                            super::between(&held[0], &hands[0], s),
-                            super::between(&held[1], &hands[1], s),
+                            super::between(&from[0], &hands[0], s),
+                            super::between(&from[1], &hands[1], s),
                         ],
                     };
                     for e in live.step(frame)? {
@@ -248,7 +251,7 @@ fn serve(
                     ]);
                 }
                 last_t_s = live.time_s();
-                held = hands;
+                held = Some(hands);
                 bus.publish(live.snapshot());
                 status.store(Arc::new(live.status(crate::ui::runner::LOOK_M)));
                 let _ = done.send(Ok(FrameDone {

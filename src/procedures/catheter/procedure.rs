@@ -244,6 +244,7 @@ impl Catheterisation {
             instrument: 0,
             shape: Default::default(),
             jaw: 0.0,
+            up: Vec3::ZERO,
         };
         events.extend(ev.into_iter().map(|kind| SimEvent { step, kind }));
     }

@@ -412,6 +412,7 @@ impl Cholecystectomy {
                 instrument: 0,
                 shape: InstrumentShape::Grasper,
                 jaw: 1.0 - left.buttons.grip,
+                up: left.pose.orientation * Vec3::Y,
             },
             ToolSnapshot {
                 tip: hook_end.unwrap_or(right.pose.position),
@@ -431,6 +432,7 @@ impl Cholecystectomy {
                     RightTool::Grasper => 1.0 - right.buttons.grip,
                     _ => 1.0 - right.buttons.trigger,
                 },
+                up: right.pose.orientation * Vec3::Y,
             },
         ];
         self.last = out;

@@ -253,6 +253,7 @@ impl Myotomy {
                 instrument: 0,
                 shape: InstrumentShape::Grasper,
                 jaw: 1.0 - left.buttons.grip,
+                up: left.pose.orientation * Vec3::Y,
             },
             ToolSnapshot {
                 tip: places[1],
@@ -263,6 +264,7 @@ impl Myotomy {
                 instrument: 0,
                 shape: InstrumentShape::Hook,
                 jaw: 0.0,
+                up: right.pose.orientation * Vec3::Y,
             },
         ];
         self.checklist(step, &mut ev);

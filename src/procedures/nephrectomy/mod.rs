@@ -414,6 +414,7 @@ impl Nephrectomy {
             instrument: 0,
             shape: InstrumentShape::Laser,
             jaw: 0.0,
+            up: laser.pose.orientation * Vec3::Y,
         };
         let mut strokes: Vec<(ModelId, CutStroke, f32)> = Vec::new();
         let mut touching_vessel = [false; 2];
@@ -542,6 +543,7 @@ impl Nephrectomy {
             instrument: 0,
             shape: InstrumentShape::Grasper,
             jaw: 1.0 - grasper.buttons.grip,
+            up: grasper.pose.orientation * Vec3::Y,
         };
         if grasper.buttons.grip >= tools.grip_threshold {
             if self.grasp_model.is_none() {

@@ -304,6 +304,7 @@ impl Rectum {
                 instrument: 0,
                 shape: InstrumentShape::Grasper,
                 jaw: 1.0 - grasper.buttons.grip,
+                up: grasper.pose.orientation * Vec3::Y,
             },
             ToolSnapshot {
                 tip: end.unwrap_or(hook.pose.position),
@@ -322,6 +323,7 @@ impl Rectum {
                 } else {
                     1.0 - hook.buttons.grip
                 },
+                up: hook.pose.orientation * Vec3::Y,
             },
         ];
         // Smoke rises where the current cut springs this step, at the hook's end; its time is

@@ -258,6 +258,7 @@ impl Sandbox {
             instrument: 0,
             shape: InstrumentShape::Probe,
             jaw: 0.0,
+            up: probe.orientation * Vec3::Y,
         };
         let r_probe = tools.probe_tip_radius_m;
         if let Some(c) = self.sphere(Hand::Right, probe.position, probe_forward, r_probe) {
@@ -277,6 +278,7 @@ impl Sandbox {
             instrument: 0,
             shape: InstrumentShape::Grasper,
             jaw: 1.0 - grasper.buttons.grip,
+            up: grasper.pose.orientation * Vec3::Y,
         };
         let mut let_go = None;
         if gripping {
