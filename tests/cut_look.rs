@@ -4,6 +4,8 @@
 //! only then; a laser cut into the renal artery bleeds; and a grasper pressed side-on into the kidney dents it along its shaft, as a
 //! depth map of the drawn surface shows.
 
+mod common;
+
 use glam::{Vec2, Vec3};
 use vesalius::procedures::Viewpoint;
 use vesalius::procedures::nephrectomy::{INFO, Nephrectomy, REGION_TUMOUR, Scenario};
@@ -180,14 +182,9 @@ fn the_laser_cut_has_a_smooth_seared_outline_around_a_raw_bed() {
 
 /// Pixels of `snap` drawn differently when its emissions (the smoke) are left out.
 fn smoke_pixels(gpu: &Gpu, look: &Look, snap: &Snapshot) -> usize {
-    let draw = |s: &Snapshot| eye(gpu, look, s);
     let mut clear = snap.clone();
     clear.emissions.clear();
-    let (a, b) = (draw(snap), draw(&clear));
-    a.chunks_exact(4)
-        .zip(b.chunks_exact(4))
-        .filter(|(p, q)| p.iter().zip(*q).any(|(x, y)| x.abs_diff(*y) > 2))
-        .count()
+    common::pixels_differing(&eye(gpu, look, snap), &eye(gpu, look, &clear), 2)
 }
 
 #[test]
@@ -421,11 +418,7 @@ fn a_laser_cut_into_the_renal_artery_bleeds_and_the_demo_injures_nothing() {
     let mut dry = bleeding.clone();
     dry.bleeding.clear();
     let (wet, dry) = (eye(&gpu, &look, &bleeding), eye(&gpu, &look, &dry));
-    let blood = wet
-        .chunks_exact(4)
-        .zip(dry.chunks_exact(4))
-        .filter(|(p, q)| p.iter().zip(*q).any(|(x, y)| x.abs_diff(*y) > 2))
-        .count();
+    let blood = common::pixels_differing(&wet, &dry, 2);
     gpu.check().expect("no GPU errors");
     eprintln!("blood pixels 1 s after the artery was cut: {blood}");
     assert!(blood > 30, "{blood} blood pixels");
@@ -437,15 +430,5 @@ fn a_laser_cut_into_the_renal_artery_bleeds_and_the_demo_injures_nothing() {
 
 /// The left eye of a look at a snapshot, 270 x 300.
 fn eye(gpu: &Gpu, look: &Look, snap: &Snapshot) -> Vec<u8> {
-    const EYE: (u32, u32) = (270, 300);
-    let mut r = look.renderer(gpu);
-    let target = EyeTarget::new(gpu, EYE);
-    r.update(snap);
-    r.render(
-        target.target(r.multiview()),
-        EYE,
-        &look.eyes(&look.view, EYE),
-    );
-    let [left, _] = target.read(gpu).expect("read back");
-    left
+    common::left_eye(gpu, look, snap, (270, 300))
 }

@@ -48,13 +48,7 @@ fn demo_snapshot(info: &ProcedureInfo, max_steps: u64) -> Snapshot {
 
 /// The left eye of a look at a snapshot.
 fn left_eye(gpu: &Gpu, look: &Look, snap: &Snapshot) -> Vec<u8> {
-    let mut r = look.renderer(gpu);
-    let target = EyeTarget::new(gpu, SIZE);
-    r.update(snap);
-    let eyes = look.eyes(&look.view, SIZE);
-    r.render(target.target(r.multiview()), SIZE, &eyes);
-    let [left, _] = target.read(gpu).expect("read back");
-    left
+    common::left_eye(gpu, look, snap, SIZE)
 }
 
 /// The largest share of the pixels inside the image circle (short of its rim's fade) that

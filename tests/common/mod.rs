@@ -101,3 +101,22 @@ pub fn pixels_differing(a: &[u8], b: &[u8], tolerance: u8) -> usize {
         .filter(|(p, q)| p.iter().zip(*q).any(|(x, y)| x.abs_diff(*y) > tolerance))
         .count()
 }
+
+/// The left eye of `look` at `snap`, rendered at `size` on `gpu`.
+pub fn left_eye(
+    gpu: &vesalius::render::Gpu,
+    look: &vesalius::render::frames::Look,
+    snap: &vesalius::sim::Snapshot,
+    size: (u32, u32),
+) -> Vec<u8> {
+    let mut r = look.renderer(gpu);
+    let target = vesalius::render::EyeTarget::new(gpu, size);
+    r.update(snap);
+    r.render(
+        target.target(r.multiview()),
+        size,
+        &look.eyes(&look.view, size),
+    );
+    let [left, _] = target.read(gpu).expect("read back");
+    left
+}

@@ -8,7 +8,7 @@
 
 use crate::sim::ModelSnapshot;
 use glam::Vec3;
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 /// Depth of the bed under the outline, m (at most half the hole's mean radius, so a narrow
 /// groove stays shallow).
@@ -30,37 +30,36 @@ pub struct CutLook {
 
 /// The holes' outlines in `m`: closed loops of boundary edges (an edge of one triangle whose
 /// reverse no triangle has), in the direction the triangles run, in the order the triangles
-/// come. A loop through a vertex where two boundaries touch is left out.
-pub fn holes(m: &ModelSnapshot) -> Vec<Vec<u32>> {
-    let mut edges: HashMap<(u32, u32), ()> = HashMap::with_capacity(m.indices.len());
-    for t in m.indices.chunks_exact(3) {
-        for k in 0..3 {
-            edges.insert((t[k], t[(k + 1) % 3]), ());
-        }
-    }
+/// come. A loop through a vertex where two boundaries touch is left out. Only edges whose two
+/// ends `open` accepts are looked at (a boundary edge's reverse has the same ends, so a
+/// boundary among them is found whole).
+pub fn holes(m: &ModelSnapshot, open: impl Fn(u32) -> bool) -> Vec<Vec<u32>> {
+    let edges_of = |t: &[u32]| {
+        (0..3)
+            .map(move |k| (t[k], t[(k + 1) % 3]))
+            .filter(|&(a, b)| open(a) && open(b))
+            .collect::<Vec<_>>()
+    };
+    let edges: HashSet<(u32, u32)> = m.indices.chunks_exact(3).flat_map(edges_of).collect();
     // Boundary edges, in the order the triangles come.
     let mut order = Vec::new();
     let mut next: HashMap<u32, u32> = HashMap::new();
-    let mut pinched: Vec<u32> = Vec::new();
-    for t in m.indices.chunks_exact(3) {
-        for k in 0..3 {
-            let (a, b) = (t[k], t[(k + 1) % 3]);
-            if !edges.contains_key(&(b, a)) {
-                if next.insert(a, b).is_some() {
-                    pinched.push(a);
-                }
-                order.push(a);
+    let mut pinched: HashSet<u32> = HashSet::new();
+    for (a, b) in m.indices.chunks_exact(3).flat_map(edges_of) {
+        if !edges.contains(&(b, a)) {
+            if next.insert(a, b).is_some() {
+                pinched.insert(a);
             }
+            order.push(a);
         }
     }
-    let mut seen: HashMap<u32, ()> = HashMap::with_capacity(order.len());
+    let mut seen: HashSet<u32> = HashSet::with_capacity(order.len());
     let mut loops = Vec::new();
     for &start in &order {
-        if seen.contains_key(&start) {
+        if !seen.insert(start) {
             continue;
         }
         let mut ring = vec![start];
-        seen.insert(start, ());
         let mut at = start;
         let mut closed = false;
         while ring.len() <= order.len() {
@@ -69,7 +68,7 @@ pub fn holes(m: &ModelSnapshot) -> Vec<Vec<u32>> {
                 closed = true;
                 break;
             }
-            if seen.insert(b, ()).is_some() {
+            if !seen.insert(b) {
                 break;
             }
             ring.push(b);
@@ -111,7 +110,12 @@ pub fn close_cuts(m: &mut ModelSnapshot, seared: bool) -> Vec<CutLook> {
         .map(|&raw| CutLook { raw, seared: false })
         .collect();
     look.resize(m.positions.len(), CutLook::default());
-    let loops = holes(m);
+    // A hole's outline runs through the vertices a cut split (`cut_edge`): only their edges
+    // are looked at, and an uncut body (every frame until the first cut) costs one scan.
+    if !look.iter().any(|l| l.raw) {
+        return look;
+    }
+    let loops = holes(m, |v| look[v as usize].raw);
     // Each boundary vertex's region: that of a triangle it belongs to.
     let mut region_of: HashMap<u32, u8> = HashMap::new();
     if !loops.is_empty() {
@@ -252,7 +256,7 @@ mod tests {
             }
         }
         let regions = vec![0; indices.len() / 3];
-        ModelSnapshot {
+        let mut m = ModelSnapshot {
             name: "grid".into(),
             normals: vec![Vec3::Z; positions.len()],
             cut_edge: vec![false; positions.len()],
@@ -261,7 +265,13 @@ mod tests {
             regions,
             roles: Vec::new(),
             seared: Vec::new(),
+        };
+        // The boundary's vertices are split, as the soft body marks the vertices a cut
+        // passes through.
+        for v in holes(&m, |_| true).into_iter().flatten() {
+            m.cut_edge[v as usize] = true;
         }
+        m
     }
 
     /// The largest turn between successive edges of the loop, degrees.
@@ -290,7 +300,7 @@ mod tests {
     fn a_ragged_hole_gets_a_smooth_outline_of_the_same_size_and_a_closed_bed() {
         let (h, r) = (0.001, 0.009);
         let mut m = holed_grid(30, h, r);
-        let loops = holes(&m);
+        let loops = holes(&m, |_| true);
         assert_eq!(loops.len(), 2, "the grid's rim and the hole");
         // The hole is the shorter loop.
         let hole = loops
@@ -319,7 +329,7 @@ mod tests {
         // The grid's rim is smoothed too (it is a boundary); the hole is closed: every edge
         // of the hole's outline now has a triangle on each side.
         let outline: std::collections::HashSet<u32> = hole.iter().copied().collect();
-        let after_loops = holes(&m);
+        let after_loops = holes(&m, |_| true);
         assert!(
             after_loops
                 .iter()
@@ -357,7 +367,7 @@ mod tests {
             seared: Vec::new(),
         };
         let before = m.clone();
-        assert!(holes(&m).is_empty());
+        assert!(holes(&m, |_| true).is_empty());
         let look = close_cuts(&mut m, true);
         assert_eq!(m.positions, before.positions);
         assert_eq!(m.indices, before.indices);

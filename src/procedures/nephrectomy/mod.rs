@@ -566,7 +566,8 @@ impl Nephrectomy {
             // The tip and the shaft behind it: the whole instrument dents what it presses.
             let r = tools.grasper_tip_radius_m;
             let back = tip - grasper.pose.forward() * SHAFT_CONTACT_M;
-            let samples = (SHAFT_CONTACT_M / r).ceil() as usize;
+            // Balls of 1.5 r every 2 r along the axis cover everything within r of it.
+            let samples = (SHAFT_CONTACT_M / (2.0 * r)).ceil() as usize;
             let near: Vec<ModelId> = self
                 .world
                 .models()
