@@ -70,6 +70,46 @@ impl Timing {
     );
 }
 
+/// What the trainee sees in a headset (the scenario's optional `[headset]` table).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Headset {
+    /// `"scope"` (the default): the trainee stands in the field and sees it in the scope's
+    /// light, as the nephrectomy's Vive trainer does; `"monitor"`: the trainee sees the
+    /// laparoscope's image on a monitor across the table, as in the operating room and the
+    /// box trainers of the other papers, while the hands work in the unseen field.
+    #[serde(default)]
+    pub view: HeadsetView,
+}
+
+/// See [`Headset::view`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum HeadsetView {
+    #[default]
+    Scope,
+    Monitor,
+}
+
+/// The `[headset]` table of scenario text of any procedure (the default where there is none);
+/// an error names `file` and the key.
+pub fn headset_of(file: &str, text: &str) -> Result<Headset, InputError> {
+    let table: toml::Table = toml::from_str(text).map_err(|e| InputError::toml(file, &e))?;
+    match table.get("headset") {
+        None => Ok(Headset::default()),
+        Some(v) => v.clone().try_into().map_err(|e: toml::de::Error| {
+            InputError::new(
+                file,
+                "headset",
+                format!(
+                    "{} (expected view = \"scope\" or \"monitor\")",
+                    e.message().trim_end()
+                ),
+            )
+        }),
+    }
+}
+
 /// The steps a scenario may take, s.
 const DT_RANGE_S: (f64, f64) = (1e-4, 0.01);
 

@@ -127,7 +127,7 @@ fn the_laser_cut_has_a_smooth_seared_outline_around_a_raw_bed() {
     };
     let look = Look::bare(view);
     let gpu = Gpu::headless(true).expect("a Vulkan adapter (CI installs mesa-vulkan-drivers)");
-    let mut r = look.renderer(&gpu);
+    let mut r = look.renderer(&gpu).expect("shaders compile");
     let target = EyeTarget::new(&gpu, SIZE);
     r.update(&snap);
     let mut eyes = look.eyes(&look.view, SIZE);

@@ -143,7 +143,7 @@ fn plate(centre: Vec3, normal: Vec3, side: f32, role: SurfaceRole) -> ModelSnaps
 }
 
 fn render_with(gpu: &Gpu, snap: &Snapshot, eyes: &[EyeView; 2], optics: Optics) -> Vec<u8> {
-    let mut r = Renderer::new(gpu, EYE_FORMAT);
+    let mut r = Renderer::new(gpu, EYE_FORMAT).expect("shaders compile");
     r.set_optics(optics);
     let target = EyeTarget::new(gpu, SIZE);
     r.update(snap);

@@ -63,7 +63,7 @@ fn render(gpu: &Gpu, snap: &Snapshot, eyes: &[EyeView; 2]) -> Shot {
 }
 
 fn render_at(gpu: &Gpu, snap: &Snapshot, eyes: &[EyeView; 2], size: (u32, u32)) -> Shot {
-    let mut r = Renderer::new(gpu, EYE_FORMAT);
+    let mut r = Renderer::new(gpu, EYE_FORMAT).expect("shaders compile");
     let target = EyeTarget::new(gpu, size);
     r.update(snap);
     let counters = r.render(target.target(r.multiview()), size, eyes);

@@ -90,7 +90,7 @@ struct Shot {
 }
 
 fn shoot(gpu: &Gpu, snap: &Snapshot) -> Shot {
-    let mut r = Renderer::new(gpu, EYE_FORMAT);
+    let mut r = Renderer::new(gpu, EYE_FORMAT).expect("shaders compile");
     let target = EyeTarget::new(gpu, SIZE);
     r.update(snap);
     let counters = r.render(target.target(r.multiview()), SIZE, &eyes());
@@ -280,7 +280,7 @@ fn smoke_shows_grey_above_where_it_was_given_off_and_draws_the_same_bytes_every_
     // The same snapshot: the same bytes, from a new renderer and from the same one again.
     let again = shoot(&gpu, &smoky(true));
     assert!(again.eyes == with.eyes, "a new renderer drew other bytes");
-    let mut r = Renderer::new(&gpu, EYE_FORMAT);
+    let mut r = Renderer::new(&gpu, EYE_FORMAT).expect("shaders compile");
     let target = EyeTarget::new(&gpu, SIZE);
     let snap = smoky(true);
     let mut frames = Vec::new();

@@ -263,6 +263,53 @@ fn the_xr_mirror_shows_the_headsets_eye_without_drawing_the_scene_again() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Where the headset shows a monitor (the myotomy), the mirror shows the monitor's picture,
+/// the scope's round image that the trainee operates by, not the dim room around it.
+#[test]
+fn the_xr_mirror_shows_the_monitors_picture_where_the_headset_shows_a_monitor() {
+    let dir = std::env::temp_dir().join(format!("vesalius-mirror-mon-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let trace = dir.join("demo.toml");
+    std::fs::write(&trace, vesalius::procedures::myotomy::INFO.demo_trace).expect("trace");
+    let shot = dir.join("shot.png");
+    let o = Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 1920x1080x24"])
+        .arg(env!("CARGO_BIN_EXE_vesalius"))
+        .args(["run", "myotomy", "--xr-sim"])
+        .arg(&trace)
+        .arg("--out")
+        .arg(dir.join("out"))
+        .args(["--xr-duration", "1.0", "--eye-size", "270x300"])
+        .args(["--window-size", "1280x720", "--screenshot"])
+        .arg(&shot)
+        .output()
+        .expect("xvfb-run (apt-get install xvfb xauth)");
+    let stdout = succeeded(&o);
+    assert!(stdout.contains("1 session(s)"), "{stdout}");
+    let img = read_png(&shot);
+    // The room's colour (sRGB 53, 55, 60) is nowhere in the mirror; it fills the eye.
+    let room =
+        |p: &[u8]| p[0].abs_diff(53) <= 2 && p[1].abs_diff(55) <= 2 && p[2].abs_diff(60) <= 2;
+    let in_mirror = share(&img, (0.0, 1.0), (0.0, 1.0), room);
+    let eye = read_png(&dir.join("out/xr-sim/frames/0060_left.png"));
+    let in_eye = share(&eye, (0.0, 1.0), (0.0, 1.0), room);
+    assert!(in_eye > 0.8, "room in {:.1}% of the eye", in_eye * 100.0);
+    assert!(
+        in_mirror < 0.005,
+        "room in {:.2}% of the mirror",
+        in_mirror * 100.0
+    );
+    // The esophagus's red muscle in the middle of the picture: the scope's view, large.
+    let organ = share(&img, (0.35, 0.65), (0.3, 0.8), kidney);
+    assert!(
+        organ > 0.05,
+        "red tissue in {:.2}% of the middle",
+        organ * 100.0
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// A force-feedback session in the window: the simulated stylus presses the sandbox's block
 /// with the probe while the window draws it; the session ends at --seconds with its report,
 /// its recording replays to the same state, and the servo loop's line is printed.

@@ -77,11 +77,11 @@ impl Look {
     }
 
     /// A renderer for these frames: the field uploaded, the optics set.
-    pub fn renderer(&self, gpu: &Gpu) -> Renderer {
-        let mut renderer = Renderer::new(gpu, EYE_FORMAT);
+    pub fn renderer(&self, gpu: &Gpu) -> Result<Renderer, RenderError> {
+        let mut renderer = Renderer::new(gpu, EYE_FORMAT)?;
         renderer.set_field(self.field.as_ref().map(|f| f.mesh()).as_ref());
         renderer.set_optics(self.optics());
-        renderer
+        Ok(renderer)
     }
 }
 
@@ -97,7 +97,7 @@ pub fn render_snapshots(
     save: Option<&Path>,
 ) -> Result<FramesOut, RenderError> {
     gpu.check_eye_size(eye_size)?;
-    let mut renderer = look.renderer(gpu);
+    let mut renderer = look.renderer(gpu)?;
     let target = EyeTarget::new(gpu, eye_size);
     gpu.check()?;
     let eyes = look.eyes(&look.view, eye_size);

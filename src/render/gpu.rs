@@ -17,6 +17,8 @@ pub enum RenderError {
     Readback(String),
     #[error("{path}: {message}")]
     Write { path: String, message: String },
+    #[error("shader {file} does not compile: {message}")]
+    Shader { file: String, message: String },
     #[error("the GPU rejected a command: {0}")]
     Validation(String),
     #[error("the GPU device was lost: {0}")]

@@ -9,30 +9,27 @@
 
 mod blood;
 pub mod camera;
+mod draw;
 pub mod field;
 pub mod frames;
 pub mod gpu;
 mod meshes;
+pub mod monitor;
 pub mod optics;
 pub mod overlay;
 mod pipelines;
 pub mod smoke;
 
-use meshes::{
-    clip_to_eyes, cone, draw_range, empty_mesh, ensure_capacity, instrument_parts, tracked_buffer,
-    upload,
-};
+use meshes::{empty_mesh, ensure_capacity, tracked_buffer, upload};
 
 pub use camera::{EyeView, Fov};
 pub use gpu::{EyeTarget, Gpu, RenderError};
 
-use crate::profiler::{Category, FrameCounters, Ledger, Tracked};
-use crate::sim::{Emission, Snapshot, SurfaceRole, ToolSnapshot};
+use crate::profiler::{Category, Ledger, Tracked};
+use crate::sim::{Emission, ScopeView, Snapshot, SurfaceRole, ToolSnapshot};
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
-use std::num::NonZeroU32;
 use std::sync::Arc;
-use std::time::Instant;
 
 /// 16-bit depth: at 0.2 m from the eye with the near plane at 1 cm it resolves 0.06 mm, and it
 /// halves the depth buffer of a 2 x 1080 x 1200 target (5.2 MB).
@@ -258,13 +255,18 @@ pub struct Renderer {
     pipelines: pipelines::Pipelines,
     frame_buffers: Vec<Tracked<wgpu::Buffer>>,
     bind_groups: Vec<wgpu::BindGroup>,
-    _materials: Tracked<wgpu::Buffer>,
+    materials: Tracked<wgpu::Buffer>,
     meshes: Vec<GpuMesh>,
     /// The operative field around the models: static, drawn first.
     field: Option<GpuMesh>,
     optics: optics::Optics,
     /// The headset's text panel, made when first asked to show words.
     overlay: Option<overlay::Overlay>,
+    /// The operating room's monitor, where the headset shows one: the scene is drawn into
+    /// its picture, and the eyes see the screen.
+    monitor: Option<monitor::Monitor>,
+    /// The snapshot's laparoscope, where a hand drives it (the monitor's picture follows).
+    scope: Option<ScopeView>,
     instruments: GpuMesh,
     depth: Option<Depth>,
     format: wgpu::TextureFormat,
@@ -286,18 +288,65 @@ fn uniform_bytes() -> u64 {
     std::mem::size_of::<FrameUniform>() as u64
 }
 
+/// `passes` frame uniforms, each bound with the material table.
+fn frame_bind_groups(
+    device: &wgpu::Device,
+    ledger: &Arc<Ledger>,
+    layout: &wgpu::BindGroupLayout,
+    materials: &wgpu::Buffer,
+    passes: usize,
+) -> (Vec<Tracked<wgpu::Buffer>>, Vec<wgpu::BindGroup>) {
+    let buffers: Vec<Tracked<wgpu::Buffer>> = (0..passes)
+        .map(|_| {
+            tracked_buffer(
+                device,
+                ledger,
+                "frame",
+                uniform_bytes(),
+                wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                Category::Material,
+            )
+        })
+        .collect();
+    let groups = buffers
+        .iter()
+        .map(|fb| {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("frame"),
+                layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: fb.inner.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: materials.as_entire_binding(),
+                    },
+                ],
+            })
+        })
+        .collect();
+    (buffers, groups)
+}
+
 impl Renderer {
     /// A renderer for targets of `format` on `gpu`'s device; multiview when the device has it.
-    pub fn new(gpu: &Gpu, format: wgpu::TextureFormat) -> Self {
+    /// An error names a shader that does not compile.
+    pub fn new(gpu: &Gpu, format: wgpu::TextureFormat) -> Result<Self, RenderError> {
         Self::with_multiview(gpu, format, gpu.multiview)
     }
 
     /// A renderer that draws one view per pass even on a multiview device (a desktop view
     /// beside the headset's), or both eyes in one pass where `multiview` and the device allow.
-    pub fn with_multiview(gpu: &Gpu, format: wgpu::TextureFormat, multiview: bool) -> Self {
+    pub fn with_multiview(
+        gpu: &Gpu,
+        format: wgpu::TextureFormat,
+        multiview: bool,
+    ) -> Result<Self, RenderError> {
         let device = gpu.device.clone();
         let multiview = multiview && gpu.multiview;
-        let pipelines = pipelines::Pipelines::new(&device, format, multiview);
+        let pipelines = pipelines::Pipelines::new(&device, format, multiview)?;
         let ledger = gpu.ledger.clone();
         let table = material_table();
         let materials = tracked_buffer(
@@ -311,40 +360,11 @@ impl Renderer {
         gpu.queue
             .write_buffer(&materials, 0, bytemuck::cast_slice(&table));
         let passes = if multiview { 1 } else { 2 };
-        let frame_buffers: Vec<Tracked<wgpu::Buffer>> = (0..passes)
-            .map(|_| {
-                tracked_buffer(
-                    &device,
-                    &ledger,
-                    "frame",
-                    uniform_bytes(),
-                    wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-                    Category::Material,
-                )
-            })
-            .collect();
-        let bind_groups = frame_buffers
-            .iter()
-            .map(|fb| {
-                device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("frame"),
-                    layout: &pipelines.layout,
-                    entries: &[
-                        wgpu::BindGroupEntry {
-                            binding: 0,
-                            resource: fb.inner.as_entire_binding(),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 1,
-                            resource: materials.inner.as_entire_binding(),
-                        },
-                    ],
-                })
-            })
-            .collect();
+        let (frame_buffers, bind_groups) =
+            frame_bind_groups(&device, &ledger, &pipelines.layout, &materials, passes);
         let instruments = empty_mesh(&device, &ledger, 512, 1024);
         let smoke = smoke::SmokeBuffer::new(&device, &ledger);
-        Renderer {
+        Ok(Renderer {
             device,
             queue: gpu.queue.clone(),
             ledger,
@@ -352,11 +372,13 @@ impl Renderer {
             pipelines,
             frame_buffers,
             bind_groups,
-            _materials: materials,
+            materials,
             meshes: Vec::new(),
             field: None,
             optics: optics::Optics::default(),
             overlay: None,
+            monitor: None,
+            scope: None,
             instruments,
             depth: None,
             format,
@@ -370,7 +392,7 @@ impl Renderer {
             smoke,
             objects: 0,
             flags: [0.0; 4],
-        }
+        })
     }
 
     pub fn multiview(&self) -> bool {
@@ -417,6 +439,35 @@ impl Renderer {
 
     pub fn optics(&self) -> optics::Optics {
         self.optics
+    }
+
+    /// The monitor's picture (its first layer is what the screen shows) and its size, where
+    /// the eyes see a monitor: what a desktop mirror shows instead of an eye.
+    pub fn monitor_picture(&self) -> Option<(&wgpu::Texture, (u32, u32))> {
+        self.monitor.as_ref().map(|m| (&*m.texture, m.spec.pixels))
+    }
+
+    /// From the next frame on, the eyes see a monitor showing the scope's picture (`None`:
+    /// the scene itself, as before).
+    pub fn set_monitor(&mut self, spec: Option<monitor::MonitorSpec>) {
+        self.monitor = spec.map(|spec| {
+            let frames = frame_bind_groups(
+                &self.device,
+                &self.ledger,
+                &self.pipelines.layout,
+                &self.materials,
+                1,
+            );
+            let parts = monitor::Parts {
+                device: &self.device,
+                queue: &self.queue,
+                ledger: &self.ledger,
+                format: self.format,
+                quad_layout: &self.pipelines.overlay_layout,
+                frames,
+            };
+            monitor::Monitor::new(parts, spec)
+        });
     }
 
     /// Words to show in a panel before the eyes from the next frame on (the newest first;
@@ -502,6 +553,7 @@ impl Renderer {
         self.emissions.clone_from(&snap.emissions);
         self.bleeds.clone_from(&snap.bleeding);
         self.time_s = snap.time_s;
+        self.scope = snap.scope;
         // Instruments and beams are built per frame, clipped to the eyes (see `render`).
         self.tools = snap.tools;
         let tools = snap
@@ -518,8 +570,12 @@ impl Renderer {
             .count() as u64;
         // Organs, instruments, beams, the headlight and the eye rig (and the smoke, counted
         // when it is drawn).
-        self.objects =
-            snap.models.len() as u64 + u64::from(self.field.is_some()) + tools + beams + 2;
+        self.objects = snap.models.len() as u64
+            + u64::from(self.field.is_some())
+            + u64::from(self.monitor.is_some())
+            + tools
+            + beams
+            + 2;
         let flags = [
             if snap.target_found { 1.0 } else { 0.0 },
             snap.time_s as f32,
@@ -527,242 +583,6 @@ impl Renderer {
             0.0,
         ];
         self.flags = flags;
-    }
-
-    /// Instruments and laser beams as cylinders (a few hundred vertices), each cut where it
-    /// passes behind the eyes' near plane. The GPU would clip those triangles too, but Mesa's
-    /// lavapipe (22.3) draws near-plane-clipped triangles of the second view into the first
-    /// layer of a multiview pass; a shaft held close to the face showed in the wrong eye.
-    fn build_instruments(&mut self, eyes: &[EyeView; 2]) {
-        self.scratch.clear();
-        self.scratch_idx.clear();
-        for t in &self.tools {
-            if t.direction.length_squared() < 0.5 {
-                continue;
-            }
-            let mut parts = Vec::with_capacity(6);
-            instrument_parts(t, &mut parts);
-            for (a, b, radii, m) in parts {
-                let widest = radii[0].max(radii[1]);
-                if let Some((ca, cb)) = clip_to_eyes(a, b, widest, eyes) {
-                    // Clipped, the radii follow the cone.
-                    let length = a.distance(b).max(1e-9);
-                    let at = |p: Vec3| {
-                        let u = (a.distance(p) / length).clamp(0.0, 1.0);
-                        radii[0] + (radii[1] - radii[0]) * u
-                    };
-                    cone(
-                        ca,
-                        cb,
-                        [at(ca), at(cb)],
-                        m,
-                        &mut self.scratch,
-                        &mut self.scratch_idx,
-                    );
-                }
-            }
-            // The beam to what it hits, or to its range: a thin line of about the same width
-            // on screen all along (its radius grows with the distance from the eyes).
-            if let Some(end) = t.beam_end.or(t.beam_reach) {
-                let m = if t.active {
-                    material::LASER_ON
-                } else {
-                    material::LASER_IDLE
-                };
-                let mid = 0.5 * (eyes[0].position + eyes[1].position);
-                let width = |p: Vec3| (BEAM_WIDTH_RAD * p.distance(mid)).max(BEAM_MIN_RADIUS_M);
-                if let Some((a, b)) = clip_to_eyes(t.tip, end, BEAM_MIN_RADIUS_M, eyes) {
-                    let radii = [width(a), width(b)];
-                    cone(a, b, radii, m, &mut self.scratch, &mut self.scratch_idx);
-                }
-            }
-        }
-        let (verts, idx) = (
-            std::mem::take(&mut self.scratch),
-            std::mem::take(&mut self.scratch_idx),
-        );
-        upload(
-            &self.device,
-            &self.queue,
-            &self.ledger,
-            &mut self.instruments,
-            &verts,
-            &idx,
-        );
-        (self.scratch, self.scratch_idx) = (verts, idx);
-    }
-
-    fn ensure_depth(&mut self, size: (u32, u32)) {
-        if self.depth.as_ref().is_some_and(|d| d.size == size) {
-            return;
-        }
-        let (texture, array, layers) = gpu::eye_texture(
-            &self.device,
-            &self.ledger,
-            "depth",
-            size,
-            DEPTH_FORMAT,
-            wgpu::TextureUsages::RENDER_ATTACHMENT,
-        );
-        self.depth = Some(Depth {
-            size,
-            _texture: texture,
-            array,
-            layers,
-        });
-    }
-
-    /// Draws the last updated snapshot for both eyes into `target` (each eye `size` pixels)
-    /// and submits. Returns the frame's counters (memory and CPU stage times filled in by the
-    /// caller where it measures them).
-    pub fn render(
-        &mut self,
-        target: RenderTarget<'_>,
-        size: (u32, u32),
-        eyes: &[EyeView; 2],
-    ) -> FrameCounters {
-        let t0 = Instant::now();
-        self.ensure_depth(size);
-        self.build_instruments(eyes);
-        self.smoke.update(
-            (&self.device, &self.queue, &self.ledger),
-            (&self.emissions, &self.bleeds, self.time_s),
-            eyes,
-        );
-        let eye_uniform = |e: &EyeView| EyeUniform {
-            view_proj: e.view_proj().to_cols_array_2d(),
-            position: e.position.extend(1.0).to_array(),
-            forward: (e.orientation * Vec3::NEG_Z).extend(0.0).to_array(),
-        };
-        let optics = self.optics.uniform(size);
-        let overlay = self.overlay.as_ref().filter(|o| o.visible());
-        if let Some(o) = overlay {
-            o.place(&self.queue, eyes);
-        }
-        let both = [eye_uniform(&eyes[0]), eye_uniform(&eyes[1])];
-        if self.multiview {
-            let u = FrameUniform {
-                eyes: both,
-                flags: self.flags,
-                optics,
-            };
-            self.queue
-                .write_buffer(&self.frame_buffers[0], 0, bytemuck::bytes_of(&u));
-        } else {
-            for (k, fb) in self.frame_buffers.iter().enumerate() {
-                let u = FrameUniform {
-                    eyes: [both[k], both[k]],
-                    flags: self.flags,
-                    optics,
-                };
-                self.queue.write_buffer(fb, 0, bytemuck::bytes_of(&u));
-            }
-        }
-        let mut encoder = self
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("frame"),
-            });
-        let mut c = FrameCounters {
-            frame: self.frame,
-            multiview: self.multiview,
-            ..Default::default()
-        };
-        let Some(depth) = self.depth.as_ref() else {
-            return c;
-        };
-        let passes: Vec<(&wgpu::TextureView, &wgpu::TextureView, Option<NonZeroU32>)> =
-            match (&target, self.multiview) {
-                (RenderTarget::Array(v), true) => vec![(*v, &depth.array, NonZeroU32::new(0b11))],
-                (RenderTarget::PerEye(v), _) => vec![
-                    (v[0], &depth.layers[0], None),
-                    (v[1], &depth.layers[1], None),
-                ],
-                (RenderTarget::Single(v), false) => vec![(*v, &depth.layers[0], None)],
-                (RenderTarget::Array(_), false) | (RenderTarget::Single(_), true) => Vec::new(),
-            };
-        // Outside a monitor image's circle the picture is black; without a circle the void
-        // shows the cavity's dim colour (scenes with no field).
-        let clear = if self.optics.circle.is_some() {
-            [0.0; 3]
-        } else {
-            BACKGROUND
-        };
-        for (k, (colour, depth_view, mask)) in passes.iter().enumerate() {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("eyes"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: colour,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color {
-                            r: clear[0],
-                            g: clear[1],
-                            b: clear[2],
-                            a: 1.0,
-                        }),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: depth_view,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(1.0),
-                        store: wgpu::StoreOp::Discard,
-                    }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: *mask,
-            });
-            pass.set_pipeline(&self.pipelines.opaque);
-            pass.set_bind_group(0, &self.bind_groups[k.min(self.bind_groups.len() - 1)], &[]);
-            c.setpass_calls += 1;
-            c.passes += 1;
-            // Opaque surfaces write depth; then membranes and smoke blend over them, tested
-            // against that depth and writing none.
-            let meshes = || {
-                self.field
-                    .iter()
-                    .chain(self.meshes.iter())
-                    .chain(std::iter::once(&self.instruments))
-            };
-            for mesh in meshes() {
-                draw_range(&mut pass, mesh, 0..mesh.opaque_count, true, &mut c);
-            }
-            if meshes().any(|m| m.index_count > m.opaque_count) {
-                pass.set_pipeline(&self.pipelines.membrane);
-                c.setpass_calls += 1;
-                for mesh in meshes() {
-                    // A mesh's vertices count once, with its first draw.
-                    let first = mesh.opaque_count == 0;
-                    let range = mesh.opaque_count..mesh.index_count;
-                    draw_range(&mut pass, mesh, range, first, &mut c);
-                }
-            }
-            self.smoke.draw(&mut pass, &self.pipelines.smoke, &mut c);
-            if let Some(o) = overlay {
-                let frame = &self.bind_groups[k.min(self.bind_groups.len() - 1)];
-                o.draw(&mut pass, &self.pipelines.overlay, frame, &mut c);
-            }
-        }
-        c.batches = c.draw_calls;
-        let t1 = Instant::now();
-        self.queue.submit([encoder.finish()]);
-        let t2 = Instant::now();
-        c.cpu.render_encode_ms = (t1 - t0).as_secs_f64() * 1e3;
-        c.cpu.submit_ms = (t2 - t1).as_secs_f64() * 1e3;
-        c.textures = self.ledger.live(Category::Texture);
-        c.meshes = self.ledger.live(Category::Mesh);
-        c.materials = self.ledger.live(Category::Material);
-        c.materials.count = material::COUNT as u64;
-        c.vram_bytes = self.ledger.total_bytes();
-        c.total_memory_bytes = crate::profiler::heap_bytes() + c.vram_bytes;
-        c.objects = self.objects + u64::from(self.smoke.count() > 0);
-        self.frame += 1;
-        c
     }
 }
 

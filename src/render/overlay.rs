@@ -28,10 +28,10 @@ const FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 /// The panel's place: centre, and half its width and height along the eyes' right and up.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct Placement {
-    centre: [f32; 4],
-    right: [f32; 4],
-    up: [f32; 4],
+pub(super) struct Placement {
+    pub centre: [f32; 4],
+    pub right: [f32; 4],
+    pub up: [f32; 4],
 }
 
 pub(super) struct Overlay {
@@ -67,38 +67,7 @@ impl Overlay {
         let bytes = u64::from(PANEL_PX.0 * PANEL_PX.1 * 4);
         let texture = Tracked::new(texture, bytes, Category::Texture, ledger);
         let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
-        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
-            label: Some("panel"),
-            mag_filter: wgpu::FilterMode::Linear,
-            min_filter: wgpu::FilterMode::Linear,
-            ..Default::default()
-        });
-        let placement = tracked_buffer(
-            device,
-            ledger,
-            "panel placement",
-            std::mem::size_of::<Placement>() as u64,
-            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            Category::Material,
-        );
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("panel"),
-            layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: placement.inner.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(&view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: wgpu::BindingResource::Sampler(&sampler),
-                },
-            ],
-        });
+        let (placement, bind_group) = quad_binding(device, ledger, layout, "panel", &view);
         Overlay {
             lines: Vec::new(),
             ctx: egui::Context::default(),
@@ -218,15 +187,68 @@ impl Overlay {
         frame: &wgpu::BindGroup,
         c: &mut FrameCounters,
     ) {
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, frame, &[]);
-        pass.set_bind_group(1, &self.bind_group, &[]);
-        pass.draw(0..6, 0..1);
-        c.setpass_calls += 1;
-        c.draw_calls += 1;
-        c.triangles += 2;
-        c.vertices += 6;
+        draw_quad(pass, (pipeline, frame, &self.bind_group), c);
     }
+}
+
+/// A world quad's placement uniform and its bind group (placement, `view` filtered linearly).
+pub(super) fn quad_binding(
+    device: &wgpu::Device,
+    ledger: &Arc<Ledger>,
+    layout: &wgpu::BindGroupLayout,
+    label: &str,
+    view: &wgpu::TextureView,
+) -> (Tracked<wgpu::Buffer>, wgpu::BindGroup) {
+    let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+        label: Some(label),
+        mag_filter: wgpu::FilterMode::Linear,
+        min_filter: wgpu::FilterMode::Linear,
+        ..Default::default()
+    });
+    let placement = tracked_buffer(
+        device,
+        ledger,
+        label,
+        std::mem::size_of::<Placement>() as u64,
+        wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        Category::Material,
+    );
+    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: placement.inner.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: wgpu::BindingResource::TextureView(view),
+            },
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: wgpu::BindingResource::Sampler(&sampler),
+            },
+        ],
+    });
+    (placement, bind_group)
+}
+
+/// Draws one textured quad placed in the world (the panel, a monitor's screen): `pipeline`
+/// with the eyes' `frame` and the quad's placement, texture and sampler.
+pub(super) fn draw_quad(
+    pass: &mut wgpu::RenderPass<'_>,
+    (pipeline, frame, quad): (&wgpu::RenderPipeline, &wgpu::BindGroup, &wgpu::BindGroup),
+    c: &mut FrameCounters,
+) {
+    pass.set_pipeline(pipeline);
+    pass.set_bind_group(0, frame, &[]);
+    pass.set_bind_group(1, quad, &[]);
+    pass.draw(0..6, 0..1);
+    c.setpass_calls += 1;
+    c.draw_calls += 1;
+    c.triangles += 2;
+    c.vertices += 6;
 }
 
 fn placement(eyes: &[EyeView; 2]) -> Placement {

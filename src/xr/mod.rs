@@ -15,6 +15,7 @@
 
 use crate::profiler::FrameCounters;
 use crate::render::{EyeView, Fov, Gpu, RenderError, RenderTarget, Renderer};
+use crate::scenario::HeadsetView;
 use crate::session::{Live, Outcome, SessionError, Status};
 use crate::sim::{Buttons, EventKind, Hand, HandInput, Pacing, Pose, Snapshot};
 use glam::{Quat, Vec3};
@@ -23,6 +24,7 @@ use xr_bindings::app::{EYE_FORMAT, HandReading, XrApp, XrError, XrSession};
 use xr_bindings::openxr as xr;
 use xr_bindings::{Command, SessionMachine};
 
+pub mod room;
 pub mod stepper;
 pub mod vibration;
 pub use stepper::{Coupling, Stepper};
@@ -184,6 +186,8 @@ pub struct XrLoop {
     session: Option<(XrSession, xr::FrameWaiter, xr::FrameStream<xr::Vulkan>)>,
     /// The input each hand last gave (a lost controller's instrument stays there).
     held: [HandInput; 2],
+    /// The port each hand's instrument passes through (a monitor's room; none: held freely).
+    ports: [Option<Vec3>; 2],
     /// Whether each controller was tracked at the last focused frame (none yet: unknown).
     tracked: [Option<bool>; 2],
     vibrator: Vibrator,
@@ -210,17 +214,30 @@ impl XrLoop {
     ) -> Result<XrLoop, XrRunError> {
         let (app, xg) = XrApp::open("vesalius")?;
         let gpu = Gpu::from_parts(xg.instance, xg.adapter, xg.device, xg.queue, xg.multiview);
-        let mut renderer = Renderer::new(&gpu, EYE_FORMAT);
+        let mut renderer = Renderer::new(&gpu, EYE_FORMAT)?;
         let eye = opts.eye_size.unwrap_or(app.eye_size);
         gpu.check_eye_size(eye)?;
         let mut live = Live::new(scenario_text, scenario_file, Pacing::AsFastAsPossible)?;
         if let Some((file, tree)) = &opts.assessment {
             live.set_assessment(file, tree.clone())?;
         }
-        // In the headset: the operative field in the scope's light (no image circle).
+        // In the headset, as the scenario says: the operative field all around in the scope's
+        // light (no image circle), or the scope's picture on a monitor across the table, the
+        // laparoscopic instruments then passing their ports.
         let info = live.info();
         renderer.set_field(Some(&(info.field)().mesh()));
-        renderer.set_optics(crate::render::optics::Optics::headset(&info.view));
+        let headset = crate::scenario::headset_of(scenario_file, scenario_text)
+            .map_err(SessionError::from)?;
+        let ports = match headset.view {
+            HeadsetView::Scope => {
+                renderer.set_optics(crate::render::optics::Optics::headset(&info.view));
+                [None; 2]
+            }
+            HeadsetView::Monitor => {
+                renderer.set_monitor(Some(room::monitor(info)));
+                room::ports(info)
+            }
+        };
         if let Some(dir) = out {
             crate::session::prepare(dir)?;
             live.stream_to(&dir.join(crate::session::RECORDING))?;
@@ -246,6 +263,7 @@ impl XrLoop {
             machine: SessionMachine::new(),
             session: None,
             held: parked,
+            ports,
             tracked: [None; 2],
             vibrator,
             frames: 0,
@@ -259,10 +277,13 @@ impl XrLoop {
     }
 
     /// Starts copying `eye` of every frame into [`XrLoop::mirror`].
+    /// Where the headset shows a monitor, the mirror shows the monitor's picture (what the
+    /// trainee operates by), whichever eye is asked for.
     pub fn mirror_eye(&mut self, eye: MirrorEye) {
+        let size = self.renderer.monitor_picture().map_or(self.eye, |(_, s)| s);
         match &mut self.mirror {
             Some(m) => m.eye = eye,
-            None => self.mirror = Some(Mirror::new(&self.gpu.device, self.eye, eye)),
+            None => self.mirror = Some(Mirror::new(&self.gpu.device, size, eye)),
         }
     }
 
@@ -401,8 +422,9 @@ impl XrLoop {
                 self.tracked[k] = Some(is_tracked);
             }
             if let Some(aim) = r.aim {
+                let pose = field_pose(aim);
                 now[k] = HandInput {
-                    pose: field_pose(aim),
+                    pose: self.ports[k].map_or(pose, |port| room::through_port(pose, port)),
                     buttons: Buttons {
                         trigger: r.trigger,
                         grip: if r.squeeze { 1.0 } else { 0.0 },
@@ -519,11 +541,13 @@ fn draw(
             RenderTarget::PerEye([&layers[0], &layers[1]])
         };
         counters = renderer.render(target, eye, eyes);
-        // The mirror's eye, copied before the image goes back to the runtime.
+        // The mirror's eye, copied before the image goes back to the runtime (or the
+        // monitor's picture, where the eyes see a monitor).
         if let Some((m, gpu)) = mirror {
-            let layer = match m.eye {
-                MirrorEye::Left => 0,
-                MirrorEye::Right => 1,
+            let (texture, layer) = match (renderer.monitor_picture(), m.eye) {
+                (Some((picture, _)), _) => (picture, 0),
+                (None, MirrorEye::Left) => (texture, 0),
+                (None, MirrorEye::Right) => (texture, 1),
             };
             let mut encoder = gpu
                 .device

@@ -109,7 +109,7 @@ pub fn left_eye(
     snap: &vesalius::sim::Snapshot,
     size: (u32, u32),
 ) -> Vec<u8> {
-    let mut r = look.renderer(gpu);
+    let mut r = look.renderer(gpu).expect("shaders compile");
     let target = vesalius::render::EyeTarget::new(gpu, size);
     r.update(snap);
     r.render(

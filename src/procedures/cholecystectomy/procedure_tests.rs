@@ -371,7 +371,7 @@ fn blood_pixels(snap: &Snapshot, at: Vec3) -> usize {
     let gpu = Gpu::headless(true).expect("a Vulkan adapter (CI installs mesa-vulkan-drivers)");
     let eyes = field_eyes(&INFO.view, DEFAULT_IPD_M);
     let draw = |s: &Snapshot| {
-        let mut r = Renderer::new(&gpu, EYE_FORMAT);
+        let mut r = Renderer::new(&gpu, EYE_FORMAT).expect("shaders compile");
         let target = EyeTarget::new(&gpu, size);
         r.update(s);
         r.render(target.target(r.multiview()), size, &eyes);

@@ -19,6 +19,9 @@ pub struct Scenario {
     pub procedure: String,
     pub dt_s: f32,
     pub publish_hz: f32,
+    /// What a headset shows (`[headset]`; optional).
+    #[serde(default)]
+    pub headset: crate::scenario::Headset,
     pub anatomy: AnatomyTable,
     pub tissue: TissueTable,
     pub solver: SolverTable,

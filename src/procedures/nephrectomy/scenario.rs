@@ -22,6 +22,9 @@ pub struct Scenario {
     pub dt_s: f32,
     /// Snapshot publication rate for renderers, Hz.
     pub publish_hz: f32,
+    /// What a headset shows (`[headset]`; optional).
+    #[serde(default)]
+    pub headset: crate::scenario::Headset,
     pub anatomy: Anatomy,
     pub kidney: SoftBodyParams,
     pub vessels: SoftBodyParams,

@@ -23,6 +23,9 @@ pub struct Scenario {
     pub dt_s: f32,
     /// Snapshots published for renderers per second, Hz.
     pub publish_hz: f32,
+    /// What a headset shows (`[headset]`; optional).
+    #[serde(default)]
+    pub headset: crate::scenario::Headset,
     pub geometry: Geometry,
     /// The block's soft body.
     pub block: SoftBodyParams,

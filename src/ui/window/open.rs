@@ -95,7 +95,7 @@ fn finish_open(
     };
     surface.configure(&gpu.device, &config);
     // One view a pass (the device may have multiview for the headset).
-    let renderer = Renderer::with_multiview(&gpu, EYE_FORMAT, false);
+    let renderer = Renderer::with_multiview(&gpu, EYE_FORMAT, false)?;
     let ctx = egui::Context::default();
     let egui = egui_winit::State::new(
         ctx,
