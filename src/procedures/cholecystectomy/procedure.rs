@@ -105,6 +105,8 @@ struct Bleeding {
     at_m: f32,
     patient: PatientEnd,
     bleed: Bleed,
+    /// Seconds the hook's current has been held at its source.
+    coagulated_s: f64,
 }
 
 impl Bleeding {
@@ -118,11 +120,13 @@ impl Bleeding {
     }
 }
 
-/// The `bleeding_stopped` event: the vessel, and how long it bled, s.
+/// The `bleeding_stopped` event: the vessel, how long it bled, s, and what stopped it (`clip`
+/// or `coagulation`).
 #[derive(Debug, Clone, Copy, Serialize)]
 struct BleedingStopped {
     vessel: &'static str,
     bled_s: f64,
+    by: &'static str,
 }
 
 /// Running metrics of one session.
@@ -342,6 +346,7 @@ impl Cholecystectomy {
         match holding {
             RightTool::Hook if trigger => {
                 if let Some(end) = hook_end {
+                    self.coagulate(end, f64::from(dt), now_s, &mut ev);
                     let d = self.scene.dissect(end, t.dissect_radius_m);
                     cut_strands = d.adhesions;
                     fat_cut = d.fat_strands.len();
@@ -472,6 +477,33 @@ impl Cholecystectomy {
         }
     }
 
+    /// The hook's current on at `end` for a step of `dt`: a bleeding cut whose source lies
+    /// within the coagulation reach gathers the time, and stops bleeding once it has had
+    /// `coag_time_s` in all (the cystic artery is 1-2 mm across, within what monopolar current
+    /// seals; a clip on the patient's side stops it at once).
+    fn coagulate(&mut self, end: Vec3, dt: f64, now_s: f64, ev: &mut Vec<EventKind>) {
+        let t = &self.scenario.tools;
+        let (reach, needed) = (t.coag_reach_m, f64::from(t.coag_time_s));
+        for b in self
+            .bleeds
+            .iter_mut()
+            .filter(|b| b.bleed.active(now_s) && b.bleed.position.distance(end) <= reach)
+        {
+            b.coagulated_s += dt;
+            if b.coagulated_s + 1e-9 >= needed {
+                b.bleed.stop_s = Some(now_s);
+                ev.push(EventKind::Procedure(ProcedureEvent::new(
+                    "bleeding_stopped",
+                    BleedingStopped {
+                        vessel: b.vessel,
+                        bled_s: now_s - b.bleed.start_s,
+                        by: "coagulation",
+                    },
+                )));
+            }
+        }
+    }
+
     /// The bleeding sources (for tests and the renderer).
     pub fn bleeding(&self) -> Vec<Bleed> {
         self.bleeds.iter().map(|b| b.bleed).collect()
@@ -501,6 +533,7 @@ impl Cholecystectomy {
                         BleedingStopped {
                             vessel: c.vessel,
                             bled_s: now_s - b.bleed.start_s,
+                            by: "clip",
                         },
                     )));
                 }
@@ -558,6 +591,7 @@ impl Cholecystectomy {
                             start_s: now_s,
                             stop_s: None,
                         },
+                        coagulated_s: 0.0,
                     });
                     (
                         "bleeding",

@@ -445,3 +445,53 @@ fn a_cut_artery_bleeds_until_a_clip_on_the_patients_side_stops_it() {
         "after the clip: {clipped} -> {later} blood pixels"
     );
 }
+
+#[test]
+fn the_hooks_current_held_at_a_bleeding_cut_coagulates_it() {
+    let (mut r, away) = fresh();
+    // The artery cut short of its clips (one on the patient's side, as above): it bleeds.
+    r.next_instrument(away);
+    r.squeeze(r.along(3, 0.2));
+    r.next_instrument(away);
+    let cut = r.along(3, 0.6);
+    r.squeeze(cut);
+    let source = r.c.bleeding()[0].position;
+    // Scissors -> grasper -> hook.
+    r.next_instrument(away);
+    r.next_instrument(away);
+    assert_eq!(r.c.right_tool(), RightTool::Hook);
+    let current = |r: &mut Run, at: Vec3, seconds: f64| {
+        for _ in 0..(seconds / 0.001).round() as u64 {
+            r.go(&frame(at, 1.0, false));
+        }
+    };
+    // The current on away from the cut does nothing to the bleeding.
+    current(&mut r, away, 2.0);
+    assert!(r.c.bleeding()[0].stop_s.is_none());
+    // The hook's end (its foot's tip, not the hand's point) put on the bleeding source.
+    r.go(&frame(source, 0.0, false));
+    let end = r.c.snapshot(r.step).tools[1].tip;
+    let hand = source - (end - source);
+    r.go(&frame(hand, 0.0, false));
+    let end = r.c.snapshot(r.step).tools[1].tip;
+    let coag = r.c.scenario.tools.coag_time_s as f64;
+    assert!(
+        end.distance(source) < r.c.scenario.tools.coag_reach_m,
+        "{end} vs {source}"
+    );
+    // Short of the time needed it still bleeds; held on, it stops, by coagulation.
+    current(&mut r, hand, coag - 0.3);
+    assert!(r.c.bleeding()[0].stop_s.is_none());
+    assert!(r.named("bleeding_stopped").is_empty());
+    current(&mut r, hand, 0.4);
+    let stopped = r.named("bleeding_stopped");
+    assert_eq!(stopped.len(), 1);
+    assert_eq!(stopped[0].fields["by"], "coagulation");
+    assert_eq!(stopped[0].fields["vessel"], "cystic_artery");
+    let b = r.c.bleeding()[0];
+    let held = b.stop_s.expect("stopped") - b.start_s;
+    assert!(held > 2.0 + coag - 0.05, "bled {held} s");
+    // It stays stopped: the current there again raises nothing more.
+    current(&mut r, hand, 0.5);
+    assert_eq!(r.named("bleeding_stopped").len(), 1);
+}

@@ -275,6 +275,22 @@ pub struct Tools {
     pub dissect_radius_m: f32,
     pub grasp_reach_m: f32,
     pub grasp_stiffness_n_per_m: f32,
+    /// Coagulation (optional keys; files from before it have none).
+    #[serde(default = "coag_reach_default")]
+    pub coag_reach_m: f32,
+    #[serde(default = "coag_time_default")]
+    pub coag_time_s: f32,
+}
+
+const COAG_REACH_M: f32 = 0.004;
+const COAG_TIME_S: f32 = 1.5;
+
+fn coag_reach_default() -> f32 {
+    COAG_REACH_M
+}
+
+fn coag_time_default() -> f32 {
+    COAG_TIME_S
 }
 
 impl Params for Tools {
@@ -329,6 +345,20 @@ impl Params for Tools {
             (1.0, 1e5),
             "each held particle's spring to the jaw",
         ),
+        ParamSpec::new(
+            "coag_reach_m",
+            "m",
+            COAG_REACH_M as f64,
+            (0.0005, 0.02),
+            "the hook's current coagulates a bleeding cut whose source is this close to its end",
+        ),
+        ParamSpec::new(
+            "coag_time_s",
+            "s",
+            COAG_TIME_S as f64,
+            (0.1, 10.0),
+            "current held there this long in all stops the bleeding (a clip stops it at once)",
+        ),
     ];
     param_fields!(
         trigger_threshold,
@@ -337,7 +367,9 @@ impl Params for Tools {
         cut_reach_m,
         dissect_radius_m,
         grasp_reach_m,
-        grasp_stiffness_n_per_m
+        grasp_stiffness_n_per_m,
+        coag_reach_m,
+        coag_time_s
     );
 }
 
