@@ -11,7 +11,7 @@ use vesalius::procedures::Viewpoint;
 use vesalius::procedures::nephrectomy::{INFO, Nephrectomy, REGION_TUMOUR, Scenario};
 use vesalius::render::frames::Look;
 use vesalius::render::{EyeTarget, Gpu};
-use vesalius::sim::{InputFrame, ModelSnapshot, Pose, Snapshot};
+use vesalius::sim::{Hand, InputFrame, ModelSnapshot, Pose, Snapshot};
 use vesalius::trace::KeyTrace;
 
 const SIZE: (u32, u32) = (400, 400);
@@ -252,7 +252,21 @@ fn depth(m: &ModelSnapshot, origin: Vec3, dir: Vec3) -> Option<f32> {
 #[test]
 fn a_grasper_pressed_side_on_dents_the_kidney_along_its_shaft() {
     let s = Scenario::parse("builtin nephrectomy scenario", INFO.scenario).expect("scenario");
-    let r = s.tools.grasper_tip_radius_m;
+    press_side_on(Hand::Left, s.tools.grasper_tip_radius_m);
+}
+
+/// The laser probe's 5 mm body pushed side-on into the kidney dents it as the grasper does
+/// (its beam off): it does not pass through the tissue.
+#[test]
+fn the_laser_probe_pressed_side_on_dents_the_kidney_too() {
+    press_side_on(Hand::Right, 0.0025);
+}
+
+/// `hand`'s instrument, of radius `r` where tissue meets it, lowered side-on 2 mm into the
+/// kidney and held there: the depth map of the drawn surface shows a trough along its shaft
+/// and the tissue pushes it back out.
+fn press_side_on(hand: Hand, r: f32) {
+    let s = Scenario::parse("builtin nephrectomy scenario", INFO.scenario).expect("scenario");
     let mut n = Nephrectomy::new(s).expect("nephrectomy");
     // A point of the kidney's parenchyma facing the laparoscope, 2.5 cm or more from the
     // tumour's middle.
@@ -304,13 +318,15 @@ fn a_grasper_pressed_side_on_dents_the_kidney_along_its_shaft() {
     let across = normal.cross(along);
     let axis = p + normal * (r - press);
     let mut frame = InputFrame::default();
-    frame.hands[1].pose = Pose::looking_at(eye, eye + Vec3::Y);
+    // The other hand's instrument waits at the laparoscope, pointing away.
+    let other = 1 - hand.index();
+    frame.hands[other].pose = Pose::looking_at(eye, eye + Vec3::Y);
     let mut events = Vec::new();
     // Lowered onto the surface over 0.2 s, then held there 0.4 s.
     for step in 0..150u64 {
         let lower = (1.0 - step as f32 / 50.0).max(0.0) * 0.01;
         let at = axis + normal * lower + along * 0.01;
-        frame.hands[0].pose = Pose::looking_at(at, at + along);
+        frame.hands[hand.index()].pose = Pose::looking_at(at, at + along);
         n.step(&frame, step, &mut events);
     }
     let after = n.snapshot(150);
@@ -339,9 +355,9 @@ fn a_grasper_pressed_side_on_dents_the_kidney_along_its_shaft() {
         .filter(|&v| (-20..=20).any(|u| over(at(u, v))))
         .count();
     let behind = at(-8, 0);
-    let reaction = n.reactions()[0];
+    let reaction = n.reactions()[hand.index()];
     eprintln!(
-        "dent {:.2} mm deep, {length} mm along the shaft, {width} mm across; 8 mm behind the \
+        "{hand:?}: dent {:.2} mm deep, {length} mm along the shaft, {width} mm across; 8 mm behind the \
          point: {:.2} mm; reaction {reaction} N",
         deepest * 1e3,
         behind * 1e3

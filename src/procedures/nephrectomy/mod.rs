@@ -27,6 +27,8 @@ const INJURY_SPACING_M: f32 = 0.005;
 /// How much of the grasper's shaft behind its tip tissue meets, m (a capsule of the tip's
 /// radius: the shaft dents what it lies on, not only the tip).
 const SHAFT_CONTACT_M: f32 = 0.06;
+/// The laser probe's radius where tissue meets it: its 5 mm shaft, m.
+const LASER_PROBE_RADIUS_M: f32 = 0.0025;
 /// How long the laser's beam must rest on the tumour to identify it without a click, s.
 const IDENTIFY_DWELL_S: f32 = 1.0;
 /// How far the laser must have moved (origin, metres; or turned, radians) from its first pose
@@ -378,6 +380,40 @@ impl Nephrectomy {
         }
     }
 
+    /// An instrument's end at `tip`, of radius `r`, and [`SHAFT_CONTACT_M`] of its shaft behind
+    /// it (along `-forward`): every model it comes within reach of is pressed as a capsule.
+    /// Whether one of them is a vulnerable structure.
+    fn press_shaft(&mut self, hand: Hand, tip: Vec3, forward: Vec3, r: f32) -> bool {
+        let back = tip - forward * SHAFT_CONTACT_M;
+        // Balls of 1.5 r every 2 r along the axis cover everything within r of it.
+        let samples = (SHAFT_CONTACT_M / (2.0 * r)).ceil() as usize;
+        let near: Vec<ModelId> = self
+            .world
+            .models()
+            .filter(|(_, b)| {
+                (0..=samples).any(|k| {
+                    let at = tip.lerp(back, k as f32 / samples as f32);
+                    !b.collider().nearest_within(at, r * 1.5).is_empty()
+                })
+            })
+            .map(|(m, _)| m)
+            .collect();
+        let mut vulnerable = false;
+        for m in near {
+            vulnerable |= self.vulnerable[m.index()];
+            self.world.contact(
+                m,
+                Contact {
+                    tool: hand,
+                    point: tip,
+                    normal: -forward,
+                    kind: ContactKind::Capsule { back, radius_m: r },
+                },
+            );
+        }
+        vulnerable
+    }
+
     /// Advances the procedure one step.
     pub fn step(&mut self, input: &InputFrame, step: u64, events: &mut Vec<SimEvent>) {
         let dt = self.scenario.dt_s;
@@ -564,38 +600,13 @@ impl Nephrectomy {
         } else {
             self.grasp_model = None;
             // The tip and the shaft behind it: the whole instrument dents what it presses.
-            let r = tools.grasper_tip_radius_m;
-            let back = tip - grasper.pose.forward() * SHAFT_CONTACT_M;
-            // Balls of 1.5 r every 2 r along the axis cover everything within r of it.
-            let samples = (SHAFT_CONTACT_M / (2.0 * r)).ceil() as usize;
-            let near: Vec<ModelId> = self
-                .world
-                .models()
-                .filter(|(_, b)| {
-                    (0..=samples).any(|k| {
-                        let at = tip.lerp(back, k as f32 / samples as f32);
-                        !b.collider().nearest_within(at, r * 1.5).is_empty()
-                    })
-                })
-                .map(|(m, _)| m)
-                .collect();
-            for m in near {
-                {
-                    if self.vulnerable[m.index()] {
-                        touching_vessel[0] = true;
-                    }
-                    self.world.contact(
-                        m,
-                        Contact {
-                            tool: Hand::Left,
-                            point: tip,
-                            normal: -grasper.pose.forward(),
-                            kind: ContactKind::Capsule { back, radius_m: r },
-                        },
-                    );
-                }
-            }
+            let forward = grasper.pose.forward();
+            touching_vessel[0] |=
+                self.press_shaft(Hand::Left, tip, forward, tools.grasper_tip_radius_m);
         }
+        // The laser probe's body (its 5 mm shaft) dents what it is pushed into, as the
+        // grasper's does; its beam cuts as above.
+        touching_vessel[1] |= self.press_shaft(Hand::Right, origin, dir, LASER_PROBE_RADIUS_M);
         for h in 0..2 {
             if touching_vessel[h] && !self.vessel_touch[h] {
                 self.metrics.vessel_contacts += 1;
