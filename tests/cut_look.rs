@@ -268,26 +268,8 @@ fn the_laser_probe_pressed_side_on_dents_the_kidney_too() {
 fn press_side_on(hand: Hand, r: f32) {
     let s = Scenario::parse("builtin nephrectomy scenario", INFO.scenario).expect("scenario");
     let mut n = Nephrectomy::new(s).expect("nephrectomy");
-    // A point of the kidney's parenchyma facing the laparoscope, 2.5 cm or more from the
-    // tumour's middle.
     let eye = INFO.view.eye;
     let tumour = n.tumour_center();
-    let (p, normal) = [
-        (-0.015f32, -0.012f32),
-        (-0.01, -0.02),
-        (0.0, -0.02),
-        (-0.02, 0.0),
-    ]
-    .into_iter()
-    .find_map(|(dx, dy)| {
-        let aim = INFO.view.target + Vec3::new(dx, dy, 0.0);
-        let (m, h) = n.world().cast_ray(eye, (aim - eye).normalize(), 1.0)?;
-        (n.world().model(m).name() == "kidney" && h.point.distance(tumour) > 0.025)
-            .then_some((h.point, h.normal))
-    })
-    .expect("a point of the kidney in view");
-    // The shaft lies along the surface, its axis 2 mm less than its radius above it: pressed
-    // 2 mm in. Its tip is 1 cm ahead of the point, the shaft runs back from there.
     let press = 0.002;
     let before = n.snapshot(0);
     let kidney = |s: &Snapshot| -> ModelSnapshot {
@@ -298,23 +280,41 @@ fn press_side_on(hand: Hand, r: f32) {
             .clone()
     };
     let k0 = kidney(&before);
-    // The shaft's direction along the surface: of 8, the one where the surface falls away
-    // most behind and ahead of the point (the kidney is a bean: the shaft must not lie
-    // across its hilum's hollow, where it would plough in).
-    let first = normal.any_orthonormal_vector();
-    let rise = |along: Vec3| -> f32 {
+    // How far the surface rises above the tangent plane at `p` (normal `normal`) along
+    // `along`, from 4.5 cm behind the point (where the shaft ends) to 1.2 cm ahead of it.
+    let rise = |p: Vec3, normal: Vec3, along: Vec3| -> f32 {
         let at = |u: f32| {
             let origin = p + normal * 0.03 + along * u;
             depth(&k0, origin, -normal).map_or(f32::INFINITY, |d| 0.03 - d)
         };
-        (-20..=12)
+        (-45..=12)
             .map(|u| at(u as f32 * 1e-3))
             .fold(f32::MIN, f32::max)
     };
-    let along = (0..8)
-        .map(|k| glam::Quat::from_axis_angle(normal, k as f32 * std::f32::consts::PI / 8.0) * first)
-        .min_by(|a, b| rise(*a).total_cmp(&rise(*b)))
-        .expect("a direction");
+    // Of points of the parenchyma facing the laparoscope, 2.5 cm or more from the tumour's
+    // middle, and 8 directions along the surface at each, the flattest: where the surface
+    // falls away most along the whole shaft (the kidney is a bean with swells: a shaft must
+    // not lie across its hilum's hollow or a swell, where it would plough in).
+    let (p, normal, along) = (-4..=2)
+        .flat_map(|i| (-4..=2).map(move |j| (i as f32 * 0.005, j as f32 * 0.005)))
+        .filter_map(|(dx, dy)| {
+            let aim = INFO.view.target + Vec3::new(dx, dy, 0.0);
+            let (m, h) = n.world().cast_ray(eye, (aim - eye).normalize(), 1.0)?;
+            (n.world().model(m).name() == "kidney" && h.point.distance(tumour) > 0.025)
+                .then_some((h.point, h.normal))
+        })
+        .flat_map(|(p, normal)| {
+            let first = normal.any_orthonormal_vector();
+            (0..8).map(move |k| {
+                let turn =
+                    glam::Quat::from_axis_angle(normal, k as f32 * std::f32::consts::PI / 8.0);
+                (p, normal, turn * first)
+            })
+        })
+        .min_by(|a, b| rise(a.0, a.1, a.2).total_cmp(&rise(b.0, b.1, b.2)))
+        .expect("a point of the kidney in view");
+    // The shaft lies along the surface, its axis 2 mm less than its radius above it: pressed
+    // 2 mm in. Its tip is 1 cm ahead of the point, the shaft runs back from there.
     let across = normal.cross(along);
     let axis = p + normal * (r - press);
     let mut frame = InputFrame::default();
