@@ -62,11 +62,12 @@ pub mod material {
     pub const MEMBRANE: u32 = 9;
     pub const WALL: u32 = 10;
     pub const VISCUS: u32 = 11;
+    pub const SAC: u32 = 12;
     /// Set on vertices at the edge of a cut.
     pub const CUT_FLAG: u32 = 256;
     /// Set on vertices an energy instrument seared (drawn charred).
     pub const SEAR_FLAG: u32 = 512;
-    pub const COUNT: usize = 12;
+    pub const COUNT: usize = 13;
     /// The shader's table length.
     pub const SLOTS: usize = 16;
 }
@@ -181,7 +182,12 @@ fn material_table() -> [MaterialUniform; material::SLOTS] {
             [0.55, 70.0, 0.0, 0.18],
             [0.25, 0.40, 0.25, 160.0],
         ),
-        unused,
+        // sac: a thin, glossy wall over dark green-grey contents, fine vessels on it
+        m(
+            [0.47, 0.55, 0.36],
+            [0.60, 80.0, 0.0, 0.22],
+            [0.20, 0.30, 0.10, 300.0],
+        ),
         unused,
         unused,
         unused,
@@ -206,6 +212,7 @@ fn role_material(role: SurfaceRole) -> u32 {
         SurfaceRole::Membrane => material::MEMBRANE,
         SurfaceRole::Wall => material::WALL,
         SurfaceRole::Viscus => material::VISCUS,
+        SurfaceRole::Sac => material::SAC,
     }
 }
 

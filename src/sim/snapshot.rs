@@ -24,6 +24,8 @@ pub enum SurfaceRole {
     Wall,
     /// A hollow organ's outer surface (serosa) seen beside the task (the operative field).
     Viscus,
+    /// A thin-walled sac whose dark green-grey contents show through its wall.
+    Sac,
 }
 
 /// What a renderer needs of one model at one instant.

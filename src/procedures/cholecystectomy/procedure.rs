@@ -659,7 +659,7 @@ impl Cholecystectomy {
         let a = &s.anatomy;
         let mut models = vec![
             skin_mesh(p, &self.skins[0], "liver", SurfaceRole::Tissue),
-            skin_mesh(p, &self.skins[1], "gallbladder", SurfaceRole::Tissue),
+            skin_mesh(p, &self.skins[1], "gallbladder", SurfaceRole::Sac),
             skin_mesh(p, &self.skins[2], "fat", SurfaceRole::Fat),
         ];
         // Vessels: the ducts (region 0) and the artery (region 1), intact segments only.
