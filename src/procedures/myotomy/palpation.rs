@@ -1,8 +1,8 @@
 //! Palpation of the boundary-element esophagus with a round instrument tip: which field
 //! elements it holds, where it holds them, and the force, at haptic rate.
 //!
-//! The tip is a sphere. The elements whose resting centroids (under the pressure alone) lie
-//! inside it are the candidates, the deepest 64 kept; each is pushed in along its normal to
+//! The tip is a sphere (a shaft, a capsule). The elements whose resting centroids (under the
+//! pressure alone) lie inside it are the candidates, the deepest 64 kept; each is pushed in along its normal to
 //! the sphere's surface and held there (the tissue sticks to the tip sideways: James and
 //! Pai's displacement constraints). A held element that the solution
 //! would pull towards the tip (its contact traction along its outward normal is positive: the
@@ -17,11 +17,38 @@ use glam::DVec3;
 /// Solves after letting go of pulling elements, at most.
 const MOST_RELEASES: usize = 4;
 
-/// A spherical instrument tip, in the esophagus's frame.
+/// A spherical instrument tip, or a capsule (a shaft: the sphere swept from `centre_m` to
+/// `back_m`), in the esophagus's frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Tip {
     pub centre_m: DVec3,
     pub radius_m: f64,
+    /// The capsule's other end (`centre_m` for a sphere).
+    pub back_m: DVec3,
+}
+
+impl Tip {
+    pub fn sphere(centre_m: DVec3, radius_m: f64) -> Tip {
+        Tip {
+            centre_m,
+            radius_m,
+            back_m: centre_m,
+        }
+    }
+
+    /// The centre of the sphere that pushes the resting point `p` along its normal `n`: the
+    /// point of the axis nearest the line through `p` along `n` (a sphere's own centre).
+    fn centre_for(&self, p: DVec3, n: DVec3) -> DVec3 {
+        let d = self.back_m - self.centre_m;
+        let w = self.centre_m - p;
+        let (dd, dn) = (d.length_squared(), d.dot(n));
+        let denom = dd - dn * dn;
+        if dd <= 0.0 || denom <= 1e-12 * dd {
+            return self.centre_m;
+        }
+        let t = ((dn * w.dot(n) - w.dot(d)) / denom).clamp(0.0, 1.0);
+        self.centre_m + d * t
+    }
 }
 
 /// What one palpation update found.
@@ -196,7 +223,8 @@ impl Palpation {
     /// Element `e`'s resting centroid pushed in along its normal onto the sphere of `tip`:
     /// `s` solves `|w - n s| = r`, `w` the centroid from the centre (the positive root).
     fn on_sphere(&self, e: usize, tip: &Tip) -> DVec3 {
-        let (w, n) = (self.rest[e] - tip.centre_m, self.normals[e]);
+        let n = self.normals[e];
+        let w = self.rest[e] - tip.centre_for(self.rest[e], n);
         let wn = w.dot(n);
         let s = wn
             + (wn * wn + tip.radius_m * tip.radius_m - w.length_squared())
@@ -225,7 +253,7 @@ fn deepest_push(tips: &[Tip], p: DVec3, n: DVec3) -> (usize, f64) {
     tips.iter()
         .enumerate()
         .map(|(k, t)| {
-            let w = p - t.centre_m;
+            let w = p - t.centre_for(p, n);
             let wn = w.dot(n);
             let lateral2 = w.length_squared() - wn * wn;
             let r2 = t.radius_m * t.radius_m;
@@ -292,10 +320,7 @@ mod tests {
         assert!(wall > 0.0095, "resting wall at {wall} m");
         let mut last = 0.0;
         for depth_mm in [-1.0, 2.0, 4.0, 6.0, 8.0] {
-            let tip = Tip {
-                centre_m: DVec3::new(0.0, wall + r - depth_mm * 1e-3, 0.03),
-                radius_m: r,
-            };
+            let tip = Tip::sphere(DVec3::new(0.0, wall + r - depth_mm * 1e-3, 0.03), r);
             let touch = palp.update(&tip, 0.001).expect("within the field");
             if depth_mm < 0.0 {
                 assert!(touch.held.is_empty() && touch.force_n == DVec3::ZERO);

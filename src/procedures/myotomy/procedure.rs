@@ -49,6 +49,10 @@ pub const BAND_M: f64 = 0.001;
 const SPHINCTER_REACH_M: f64 = 0.010;
 /// Where an instrument whose pose is not finite is put: far from the tissue, m.
 const AWAY_M: f64 = 10.0;
+/// An instrument's shaft (5 mm across) where it meets the wall, from just behind its working
+/// end to this far back along it, m.
+const SHAFT_RADIUS_M: f64 = 0.0025;
+const SHAFT_CONTACT_M: f64 = 0.06;
 
 /// Running metrics of one session.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
@@ -190,22 +194,33 @@ impl Myotomy {
                 DVec3::splat(AWAY_M)
             }
         };
+        let radii = [t.grasper_radius_m, t.hook_radius_m];
+        // Each instrument's working end, then its 5 mm shaft behind it: the whole instrument
+        // presses the wall, not only its end.
+        let shaft = |k: usize, pose: &crate::sim::Pose| {
+            let back = |l: f64| centre(pose.position - pose.forward() * l as f32);
+            Tip {
+                centre_m: back(radii[k] + SHAFT_RADIUS_M),
+                radius_m: SHAFT_RADIUS_M,
+                back_m: back(SHAFT_CONTACT_M),
+            }
+        };
         let tips = [
-            Tip {
-                centre_m: centre(places[0]),
-                radius_m: t.grasper_radius_m,
-            },
-            Tip {
-                centre_m: centre(places[1]),
-                radius_m: t.hook_radius_m,
-            },
+            Tip::sphere(centre(places[0]), radii[0]),
+            Tip::sphere(centre(places[1]), radii[1]),
+            shaft(0, &left.pose),
+            shaft(1, &right.pose),
         ];
-        let grasp = [left.buttons.grip >= t.grip_threshold, false];
+        let grasp = [left.buttons.grip >= t.grip_threshold, false, false, false];
         let t0 = Instant::now();
+        let mut shafts = [DVec3::ZERO; 2];
         match self.palpation.update_tips(&tips, &grasp, dt) {
             Ok(touches) => {
-                for (k, touch) in touches.into_iter().take(2).enumerate() {
-                    self.touches[k] = touch;
+                for (k, touch) in touches.into_iter().enumerate() {
+                    match k {
+                        0 | 1 => self.touches[k] = touch,
+                        _ => shafts[k - 2] = touch.force_n,
+                    }
                 }
             }
             Err(_) => {
@@ -214,8 +229,8 @@ impl Myotomy {
             }
         }
         self.times[0] += t0.elapsed().as_secs_f64();
-        // The instruments feel minus what the tissue takes.
-        self.reactions = [0, 1].map(|k| (-self.touches[k].force_n).as_vec3());
+        // The instruments feel minus what the tissue takes from their ends and shafts.
+        self.reactions = [0, 1].map(|k| (-(self.touches[k].force_n + shafts[k])).as_vec3());
         let m = &mut self.metrics;
         m.max_left_force_n = m.max_left_force_n.max(self.reactions[0].length());
         m.max_right_force_n = m.max_right_force_n.max(self.reactions[1].length());

@@ -311,3 +311,37 @@ fn scenario_errors_name_the_key() {
         assert!(msg.contains("bad.toml") && msg.contains(key), "{msg}");
     }
 }
+
+/// The hook laid side-on across the anterior wall, its end past the esophagus and off it: its
+/// shaft presses the wall, the tissue pushes it back, and nothing is cut (only the end cuts).
+#[test]
+fn a_shaft_laid_across_the_wall_presses_it_and_is_pushed_back() {
+    let mut r = Run::new();
+    let z = r.m.scenario.task.junction_m as f32;
+    let top = r.wall_top(f64::from(z));
+    let outer = r.m.scenario.esophagus.outer_radius_m as f32;
+    let press = 0.002;
+    // The shaft runs across the esophagus (along x) 2 mm into the wall's top; the end is
+    // 1.5 cm beyond the far side, clear of the wall.
+    let y = top + SHAFT_RADIUS_M as f32 - press;
+    let end = Vec3::new(outer + 0.015, y, z);
+    let mut f = frame(None, None);
+    f.hands[1] = HandInput {
+        pose: Pose::looking_at(end, end + Vec3::X),
+        buttons: Buttons {
+            trigger: 1.0,
+            ..Buttons::default()
+        },
+    };
+    r.hold(&f, 50);
+    assert!(r.m.touches()[1].held.is_empty(), "the hook's end touches");
+    let push = r.m.reactions()[1];
+    eprintln!("shaft 2 mm into the wall: reaction {push} N");
+    assert!(push.y > 0.005, "the wall pushes the shaft up: {push} N");
+    assert_eq!(r.m.last_cut_m, 0.0);
+    // Lifted 5 mm clear, nothing pushes.
+    let lifted = end + Vec3::Y * 0.005;
+    f.hands[1].pose = Pose::looking_at(lifted, lifted + Vec3::X);
+    r.hold(&f, 50);
+    assert!(r.m.reactions()[1].length() < 1e-6, "{}", r.m.reactions()[1]);
+}
