@@ -26,8 +26,22 @@ pub fn kidney_relief(p: Vec3, shape: &KidneyShape) -> f32 {
     pole + swells
 }
 
+/// What [`anatomy`] builds: kidney and tumour (one mesh), each triangle's region, the three
+/// tubes by name, and the tumour's centre.
+pub type Built = (TriMesh, Vec<u8>, Vec<(String, TriMesh)>, Vec3);
+
 /// Builds the anatomy meshes: kidney + tumour as one mesh with regions, and the three tubes.
-pub fn anatomy(s: &Scenario) -> (TriMesh, Vec<u8>, Vec<(String, TriMesh)>, Vec3) {
+pub fn anatomy(s: &Scenario) -> Built {
+    build(s, true)
+}
+
+/// The same on the scenario's plain bean, without [`kidney_relief`]: a surface whose
+/// curvature is known, for the reference cases that compare a press with Hertz's law.
+pub fn bean_anatomy(s: &Scenario) -> Built {
+    build(s, false)
+}
+
+fn build(s: &Scenario, relief: bool) -> Built {
     let a = &s.anatomy;
     let shape = KidneyShape {
         half_length_m: a.kidney_half_length_m,
@@ -38,8 +52,10 @@ pub fn anatomy(s: &Scenario) -> (TriMesh, Vec<u8>, Vec<(String, TriMesh)>, Vec3)
     let mut organ = kidney(&shape, a.level);
     let indices: Vec<u32> = organ.triangles.iter().flatten().copied().collect();
     let normals = crate::mesh::vertex_normals(&organ.positions, &indices);
-    for (p, n) in organ.positions.iter_mut().zip(normals) {
-        *p += n * kidney_relief(*p, &shape);
+    if relief {
+        for (p, n) in organ.positions.iter_mut().zip(normals) {
+            *p += n * kidney_relief(*p, &shape);
+        }
     }
     let dir = Vec3::from(a.tumour_direction).normalize();
     let site = shape.surface(dir);
@@ -51,7 +67,11 @@ pub fn anatomy(s: &Scenario) -> (TriMesh, Vec<u8>, Vec<(String, TriMesh)>, Vec3)
     .normalize();
     // The tumour sits as far out of the surface as the scenario says, where the relief put
     // the surface.
-    let site = site + normal * kidney_relief(site, &shape);
+    let site = if relief {
+        site + normal * kidney_relief(site, &shape)
+    } else {
+        site
+    };
     let center = site + normal * (a.tumour_protrusion * a.tumour_radius_m);
     let mut tumour = icosphere(a.level);
     for p in &mut tumour.positions {

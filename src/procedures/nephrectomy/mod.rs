@@ -16,7 +16,7 @@ mod plugin;
 mod scenario;
 mod score;
 
-pub use anatomy::anatomy;
+pub use anatomy::{anatomy, bean_anatomy};
 pub use scenario::{Anatomy, Scenario, Task, Tools, Vulnerable, Weights};
 pub use score::{ScoreParts, score};
 
