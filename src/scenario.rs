@@ -75,9 +75,9 @@ impl Timing {
 #[serde(deny_unknown_fields)]
 pub struct Headset {
     /// `"scope"` (the default): the trainee stands in the field and sees it in the scope's
-    /// light, as the nephrectomy's Vive trainer does; `"monitor"`: the trainee sees the
-    /// laparoscope's image on a monitor across the table, as in the operating room and the
-    /// box trainers of the other papers, while the hands work in the unseen field.
+    /// light, as an immersive trainer does; `"monitor"`: the trainee sees the laparoscope's
+    /// image on a monitor across the table, as in the operating room and a box trainer, while
+    /// the hands work in the unseen field. Each shipped scenario says which its paper used.
     #[serde(default)]
     pub view: HeadsetView,
 }

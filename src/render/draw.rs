@@ -3,6 +3,7 @@
 //! shows a monitor, into the monitor's picture first and then the eyes see the screen.
 
 use super::meshes::{clip_to_eyes, cone, draw_range, instrument_parts, upload};
+use super::pipelines::Pipelines;
 use super::{
     BACKGROUND, BEAM_MIN_RADIUS_M, BEAM_WIDTH_RAD, DEPTH_FORMAT, Depth, EyeUniform, EyeView,
     FrameUniform, RenderTarget, Renderer, gpu, material,
@@ -122,15 +123,25 @@ impl Renderer {
             (&self.emissions, &self.bleeds, self.time_s),
             &scene_eyes,
         );
-        let scene_buffers = self
-            .monitor
-            .as_ref()
-            .map_or(&self.frame_buffers, |m| &m.frame_buffers);
-        self.write_frame(scene_buffers, &scene_eyes, optics.uniform(scene_size));
-        if self.monitor.is_some() {
-            // The room's pass: the eyes, no light or circle of its own.
-            let room = [0.0, 0.0, size.0 as f32, size.1 as f32];
-            self.write_frame(&self.frame_buffers, eyes, room);
+        match &self.monitor {
+            Some(m) => {
+                // The picture in one view; the room's pass sees the eyes, with no light or
+                // circle of its own.
+                self.write_frame(
+                    &m.frame_buffers,
+                    false,
+                    &scene_eyes,
+                    optics.uniform(scene_size),
+                );
+                let room = [0.0, 0.0, size.0 as f32, size.1 as f32];
+                self.write_frame(&self.frame_buffers, self.multiview, eyes, room);
+            }
+            None => self.write_frame(
+                &self.frame_buffers,
+                self.multiview,
+                &scene_eyes,
+                optics.uniform(scene_size),
+            ),
         }
         let overlay = self.overlay.as_ref().filter(|o| o.visible());
         if let Some(o) = overlay {
@@ -153,13 +164,10 @@ impl Renderer {
         let frame = |k: usize| &self.bind_groups[k.min(self.bind_groups.len() - 1)];
         match &self.monitor {
             Some(m) => {
-                let picture = if self.multiview {
-                    (&m.array, &m.depth_array, NonZeroU32::new(0b11))
-                } else {
-                    (&m.layers[0], &m.depth_layers[0], None)
-                };
                 // Outside the image circle the monitor's picture is black.
-                self.scene_pass(&mut encoder, picture, &m.bind_groups[0], [0.0; 3], &mut c);
+                let picture = (&m.view, &m.depth, None);
+                let scene = (&m.pipelines, &m.bind_groups[0]);
+                self.scene_pass(&mut encoder, picture, scene, [0.0; 3], &mut c);
                 for (k, p) in passes.into_iter().enumerate() {
                     let mut pass = begin(&mut encoder, p, super::monitor::ROOM, "room");
                     c.passes += 1;
@@ -178,7 +186,8 @@ impl Renderer {
                     BACKGROUND
                 };
                 for (k, p) in passes.into_iter().enumerate() {
-                    let mut pass = self.scene_pass(&mut encoder, p, frame(k), clear, &mut c);
+                    let scene = (&self.pipelines, frame(k));
+                    let mut pass = self.scene_pass(&mut encoder, p, scene, clear, &mut c);
                     if let Some(o) = overlay {
                         o.draw(&mut pass, &self.pipelines.overlay, frame(k), &mut c);
                     }
@@ -202,11 +211,12 @@ impl Renderer {
         c
     }
 
-    /// Writes the frame uniform of each pass: both eyes in one (multiview), or one buffer
+    /// Writes the frame uniform of each pass: both eyes in one (`multiview`), or one buffer
     /// per eye's pass with that eye first.
     fn write_frame(
         &self,
         buffers: &[crate::profiler::Tracked<wgpu::Buffer>],
+        multiview: bool,
         eyes: &[EyeView; 2],
         optics: [f32; 4],
     ) {
@@ -218,7 +228,7 @@ impl Renderer {
         let both = [eye_uniform(&eyes[0]), eye_uniform(&eyes[1])];
         for (k, fb) in buffers.iter().enumerate() {
             let u = FrameUniform {
-                eyes: if self.multiview {
+                eyes: if multiview {
                     both
                 } else {
                     [both[k.min(1)], both[k.min(1)]]
@@ -230,18 +240,19 @@ impl Renderer {
         }
     }
 
-    /// One pass of the scene: opaque surfaces, then membranes and smoke blended over them.
-    /// The pass is handed back for anything to be drawn over it.
+    /// One pass of the scene with `pipelines` and their frame bind group: opaque surfaces,
+    /// then membranes and smoke blended over them. The pass is handed back for anything to be
+    /// drawn over it.
     fn scene_pass<'e>(
         &self,
         encoder: &'e mut wgpu::CommandEncoder,
         target: Pass<'_>,
-        frame: &wgpu::BindGroup,
+        (pipelines, frame): (&Pipelines, &wgpu::BindGroup),
         clear: [f64; 3],
         c: &mut FrameCounters,
     ) -> wgpu::RenderPass<'e> {
         let mut pass = begin(encoder, target, clear, "eyes");
-        pass.set_pipeline(&self.pipelines.opaque);
+        pass.set_pipeline(&pipelines.opaque);
         pass.set_bind_group(0, frame, &[]);
         c.setpass_calls += 1;
         c.passes += 1;
@@ -257,7 +268,7 @@ impl Renderer {
             draw_range(&mut pass, mesh, 0..mesh.opaque_count, true, c);
         }
         if meshes().any(|m| m.index_count > m.opaque_count) {
-            pass.set_pipeline(&self.pipelines.membrane);
+            pass.set_pipeline(&pipelines.membrane);
             c.setpass_calls += 1;
             for mesh in meshes() {
                 // A mesh's vertices count once, with its first draw.
@@ -266,7 +277,7 @@ impl Renderer {
                 draw_range(&mut pass, mesh, range, first, c);
             }
         }
-        self.smoke.draw(&mut pass, &self.pipelines.smoke, c);
+        self.smoke.draw(&mut pass, &pipelines.smoke, c);
         pass
     }
 }

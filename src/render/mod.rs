@@ -448,33 +448,30 @@ impl Renderer {
         self.optics
     }
 
-    /// The monitor's picture (its first layer is what the screen shows) and its size, where
+    /// The monitor's picture and its size, where
     /// the eyes see a monitor: what a desktop mirror shows instead of an eye.
     pub fn monitor_picture(&self) -> Option<(&wgpu::Texture, (u32, u32))> {
         self.monitor.as_ref().map(|m| (&*m.texture, m.spec.pixels))
     }
 
     /// From the next frame on, the eyes see a monitor showing the scope's picture (`None`:
-    /// the scene itself, as before).
-    pub fn set_monitor(&mut self, spec: Option<monitor::MonitorSpec>) {
-        self.monitor = spec.map(|spec| {
-            let frames = frame_bind_groups(
-                &self.device,
-                &self.ledger,
-                &self.pipelines.layout,
-                &self.materials,
-                1,
-            );
-            let parts = monitor::Parts {
-                device: &self.device,
-                queue: &self.queue,
-                ledger: &self.ledger,
-                format: self.format,
-                quad_layout: &self.pipelines.overlay_layout,
-                frames,
-            };
-            monitor::Monitor::new(parts, spec)
-        });
+    /// the scene itself, as before). An error names a shader that does not compile.
+    pub fn set_monitor(&mut self, spec: Option<monitor::MonitorSpec>) -> Result<(), RenderError> {
+        self.monitor = match spec {
+            None => None,
+            Some(spec) => {
+                let parts = monitor::Parts {
+                    device: &self.device,
+                    queue: &self.queue,
+                    ledger: &self.ledger,
+                    format: self.format,
+                    materials: &self.materials,
+                    quad_layout: &self.pipelines.overlay_layout,
+                };
+                Some(monitor::Monitor::new(parts, spec)?)
+            }
+        };
+        Ok(())
     }
 
     /// Words to show in a panel before the eyes from the next frame on (the newest first;

@@ -5,10 +5,12 @@
 //! room. The hands still work in the field, which the eyes do not see directly: the
 //! laparoscopic surgeon's hand-eye split.
 
+use super::RenderError;
 use super::camera::EyeView;
-use super::gpu::{eye_texture, eye_views};
+use super::gpu::tracked_texture;
 use super::optics::{Optics, scope_eyes};
 use super::overlay::Placement;
+use super::pipelines::Pipelines;
 use crate::procedures::Viewpoint;
 use crate::profiler::{FrameCounters, Ledger, Tracked};
 use crate::sim::ScopeView;
@@ -89,16 +91,16 @@ impl MonitorSpec {
     }
 }
 
-/// The monitor's GPU side: its picture (two layers, for a multiview pass; the screen shows
-/// the first), a depth buffer, the picture's frame uniforms and the screen's quad.
+/// The monitor's GPU side: its picture, drawn once a frame in one view by pipelines of its
+/// own (a multiview renderer's would draw it once per layer), a depth buffer, the picture's
+/// frame uniform and the screen's quad.
 pub(super) struct Monitor {
     pub spec: MonitorSpec,
+    pub pipelines: Pipelines,
     pub texture: Tracked<wgpu::Texture>,
-    pub array: wgpu::TextureView,
-    pub layers: [wgpu::TextureView; 2],
+    pub view: wgpu::TextureView,
     _depth: Tracked<wgpu::Texture>,
-    pub depth_array: wgpu::TextureView,
-    pub depth_layers: [wgpu::TextureView; 2],
+    pub depth: wgpu::TextureView,
     pub frame_buffers: Vec<Tracked<wgpu::Buffer>>,
     pub bind_groups: Vec<wgpu::BindGroup>,
     _placement: Tracked<wgpu::Buffer>,
@@ -111,62 +113,69 @@ pub(super) struct Parts<'a> {
     pub queue: &'a wgpu::Queue,
     pub ledger: &'a Arc<Ledger>,
     pub format: wgpu::TextureFormat,
+    /// The material table the picture's frame binds.
+    pub materials: &'a wgpu::Buffer,
+    /// The layout of the quad the eyes' pass draws the screen with.
     pub quad_layout: &'a wgpu::BindGroupLayout,
-    /// The picture's frame uniforms and bind groups, one per pass.
-    pub frames: (Vec<Tracked<wgpu::Buffer>>, Vec<wgpu::BindGroup>),
 }
 
 impl Monitor {
-    pub fn new(parts: Parts<'_>, spec: MonitorSpec) -> Self {
+    /// An error names a shader that does not compile.
+    pub fn new(parts: Parts<'_>, spec: MonitorSpec) -> Result<Self, RenderError> {
         let Parts {
             device,
             queue,
             ledger,
             format,
+            materials,
             quad_layout,
-            frames,
         } = parts;
+        let pipelines = Pipelines::new(device, format, false)?;
+        let (frame_buffers, bind_groups) =
+            super::frame_bind_groups(device, ledger, &pipelines.layout, materials, 1);
         let size = (spec.pixels.0.max(1), spec.pixels.1.max(1));
-        let (texture, array, layers) = eye_texture(
+        let texture = tracked_texture(
             device,
             ledger,
             "monitor",
             size,
+            1,
             format,
             // Drawn, shown on the screen, copied to a desktop mirror.
             wgpu::TextureUsages::RENDER_ATTACHMENT
                 | wgpu::TextureUsages::TEXTURE_BINDING
                 | wgpu::TextureUsages::COPY_SRC,
         );
-        let (depth, _, _) = eye_texture(
+        let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
+        let depth_texture = tracked_texture(
             device,
             ledger,
             "monitor depth",
             size,
+            1,
             super::DEPTH_FORMAT,
             wgpu::TextureUsages::RENDER_ATTACHMENT,
         );
-        let (depth_array, depth_layers) = eye_views(&depth);
+        let depth = depth_texture.create_view(&wgpu::TextureViewDescriptor::default());
         let (placement, quad) =
-            super::overlay::quad_binding(device, ledger, quad_layout, "monitor", &layers[0]);
+            super::overlay::quad_binding(device, ledger, quad_layout, "monitor", &view);
         queue.write_buffer(&placement, 0, bytemuck::bytes_of(&spec.placement()));
         let spec = MonitorSpec {
             pixels: size,
             ..spec
         };
-        Monitor {
+        Ok(Monitor {
             spec,
+            pipelines,
             texture,
-            array,
-            layers,
-            _depth: depth,
-            depth_array,
-            depth_layers,
-            frame_buffers: frames.0,
-            bind_groups: frames.1,
+            view,
+            _depth: depth_texture,
+            depth,
+            frame_buffers,
+            bind_groups,
             _placement: placement,
             quad,
-        }
+        })
     }
 
     /// Draws the screen with its picture (the quad pipeline and the eyes' frame bound by the

@@ -234,7 +234,7 @@ impl XrLoop {
                 [None; 2]
             }
             HeadsetView::Monitor => {
-                renderer.set_monitor(Some(room::monitor(info)));
+                renderer.set_monitor(Some(room::monitor(info)))?;
                 room::ports(info)
             }
         };

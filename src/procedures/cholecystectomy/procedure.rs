@@ -118,6 +118,19 @@ impl Bleeding {
             PatientEnd::Last => at_m > self.at_m,
         }
     }
+
+    /// Stops it at `now_s`, `by` a clip or coagulation: the `bleeding_stopped` event.
+    fn stop(&mut self, now_s: f64, by: &'static str) -> EventKind {
+        self.bleed.stop_s = Some(now_s);
+        EventKind::Procedure(ProcedureEvent::new(
+            "bleeding_stopped",
+            BleedingStopped {
+                vessel: self.vessel,
+                bled_s: now_s - self.bleed.start_s,
+                by,
+            },
+        ))
+    }
 }
 
 /// The `bleeding_stopped` event: the vessel, how long it bled, s, and what stopped it (`clip`
@@ -491,15 +504,7 @@ impl Cholecystectomy {
         {
             b.coagulated_s += dt;
             if b.coagulated_s + 1e-9 >= needed {
-                b.bleed.stop_s = Some(now_s);
-                ev.push(EventKind::Procedure(ProcedureEvent::new(
-                    "bleeding_stopped",
-                    BleedingStopped {
-                        vessel: b.vessel,
-                        bled_s: now_s - b.bleed.start_s,
-                        by: "coagulation",
-                    },
-                )));
+                ev.push(b.stop(now_s, "coagulation"));
             }
         }
     }
@@ -527,15 +532,7 @@ impl Cholecystectomy {
                 for b in self.bleeds.iter_mut().filter(|b| {
                     b.vessel == c.vessel && b.bleed.stop_s.is_none() && b.upstream(c.at_m)
                 }) {
-                    b.bleed.stop_s = Some(now_s);
-                    ev.push(EventKind::Procedure(ProcedureEvent::new(
-                        "bleeding_stopped",
-                        BleedingStopped {
-                            vessel: c.vessel,
-                            bled_s: now_s - b.bleed.start_s,
-                            by: "clip",
-                        },
-                    )));
+                    ev.push(b.stop(now_s, "clip"));
                 }
                 let on_vessel = self.metrics.clips.clips_on(v.name) as u32;
                 ev.push(EventKind::Procedure(ProcedureEvent::new(

@@ -50,9 +50,9 @@ fn build(s: &Scenario, relief: bool) -> Built {
         hilum_depth_m: a.hilum_depth_m,
     };
     let mut organ = kidney(&shape, a.level);
-    let indices: Vec<u32> = organ.triangles.iter().flatten().copied().collect();
-    let normals = crate::mesh::vertex_normals(&organ.positions, &indices);
     if relief {
+        let indices: Vec<u32> = organ.triangles.iter().flatten().copied().collect();
+        let normals = crate::mesh::vertex_normals(&organ.positions, &indices);
         for (p, n) in organ.positions.iter_mut().zip(normals) {
             *p += n * kidney_relief(*p, &shape);
         }
