@@ -4,13 +4,14 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use vesalius::procedures::Nephrectomy;
 use vesalius::procedures::nephrectomy::Scenario;
-use vesalius::scenario::builtin;
+use vesalius::registry::builtin;
 use vesalius::trace::KeyTrace;
 
 fn nephrectomy_step(c: &mut Criterion) {
     let text = builtin("nephrectomy").expect("builtin scenario");
     let scenario = Scenario::parse("nephrectomy.toml", text).expect("scenario");
-    let trace = KeyTrace::parse("demo", vesalius::bench::DEMO_TRACE).expect("trace");
+    let trace =
+        KeyTrace::parse("demo", vesalius::procedures::nephrectomy::INFO.demo_trace).expect("trace");
     let dt = scenario.dt_s as f64;
     let mut p = Nephrectomy::new(scenario).expect("anatomy");
     let mut events = Vec::new();

@@ -4,9 +4,10 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod assess;
-pub mod bench;
 pub mod collision;
+pub mod diagnostics;
 pub mod haptics;
+pub mod input_error;
 pub mod mesh;
 pub mod models;
 pub mod params;
@@ -14,10 +15,13 @@ pub mod procedures;
 pub mod profiler;
 pub mod progress;
 pub mod records;
+pub mod registry;
 pub mod render;
 pub mod scenario;
 pub mod session;
 pub mod sim;
+#[cfg(test)]
+mod testing;
 pub mod trace;
 pub mod ui;
 pub mod verify;

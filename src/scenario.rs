@@ -6,43 +6,7 @@
 
 use crate::params::{ParamSpec, Params};
 
-/// The five procedures of the papers the product covers (the registry says which run today;
-/// it may hold others, such as the sandbox).
-pub const PROCEDURES: [&str; 5] = [
-    "nephrectomy",
-    "rectum",
-    "cholecystectomy",
-    "myotomy",
-    "catheter",
-];
-
-/// An input-file problem, for people: which file, which key or line, what was expected.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{file}: {key}: {message}")]
-pub struct InputError {
-    pub file: String,
-    pub key: String,
-    pub message: String,
-}
-
-impl InputError {
-    pub fn new(file: &str, key: &str, message: impl Into<String>) -> Self {
-        Self {
-            file: file.to_string(),
-            key: key.to_string(),
-            message: message.into(),
-        }
-    }
-
-    /// Wraps a TOML error, keeping its line and column.
-    pub fn toml(file: &str, e: &toml::de::Error) -> Self {
-        let key = match e.span() {
-            Some(_) => "toml".to_string(),
-            None => "file".to_string(),
-        };
-        Self::new(file, &key, e.to_string().trim_end().replace('\n', " | "))
-    }
-}
+pub use crate::input_error::InputError;
 
 /// A scenario's timing: the top-level `dt_s` and `publish_hz` every procedure's file holds
 /// (its [`crate::params::TOP_LEVEL`] table).
@@ -126,9 +90,10 @@ impl Params for Timing {
 
 /// The scenario `text` with `values` written into its `[table]`, comments and layout kept:
 /// each `key = value` line of the table gets the new value (a missing key is added at the end
-/// of the table). The result is checked: it still validates as a scenario of its procedure,
-/// and every value reads back.
+/// of the table). The result is checked: `check` (its procedure's reading, given the new
+/// text) accepts it, and every value reads back.
 pub fn with_values(
+    check: &dyn Fn(&str) -> Result<(), InputError>,
     file: &str,
     text: &str,
     table: &str,
@@ -181,7 +146,7 @@ pub fn with_values(
     if text.ends_with('\n') {
         written.push('\n');
     }
-    crate::procedures::plan(file, &written)?;
+    check(&written)?;
     let parsed: toml::Table = toml::from_str(&written).map_err(|e| InputError::toml(file, &e))?;
     for (k, v) in values {
         let back = parsed
@@ -199,28 +164,27 @@ pub fn with_values(
     Ok(written)
 }
 
-/// The scenario `text` with every tunable's value now written into its model's table.
-pub fn with_tunables(
+/// The scenario `text` with every tuned value, `(model, key, value)`, written into its
+/// model's table; `check` as for [`with_values`].
+pub fn with_tunables<'a>(
+    check: &dyn Fn(&str) -> Result<(), InputError>,
     file: &str,
     text: &str,
-    tunables: &[crate::procedures::Tunable],
+    tunables: impl IntoIterator<Item = (&'a str, &'a str, f32)>,
 ) -> Result<String, InputError> {
+    let tunables: Vec<(&str, &str, f32)> = tunables.into_iter().collect();
     let mut text = text.to_string();
-    let mut models: Vec<&str> = tunables.iter().map(|t| t.model.as_str()).collect();
+    let mut models: Vec<&str> = tunables.iter().map(|t| t.0).collect();
     models.dedup();
     for model in models {
         let values: Vec<(String, f32)> = tunables
             .iter()
-            .filter(|t| t.model == model)
-            .map(|t| (t.key.to_string(), t.value))
+            .filter(|t| t.0 == model)
+            .map(|t| (t.1.to_string(), t.2))
             .collect();
-        text = with_values(file, &text, model, &values)?;
+        text = with_values(check, file, &text, model, &values)?;
     }
     Ok(text)
-}
-
-pub fn builtin(procedure: &str) -> Option<&'static str> {
-    crate::procedures::find(procedure).map(|p| p.scenario)
 }
 
 /// The procedure a scenario text names (its top-level `procedure` key), before the
@@ -266,23 +230,21 @@ pub fn expect_procedure(file: &str, got: &str, expected: &str) -> Result<(), Inp
     ))
 }
 
+/// That `name` can name a procedure (files name one before anyone knows which are
+/// registered; the session resolves it against the registry).
 pub fn check_procedure(file: &str, key: &str, name: &str) -> Result<(), InputError> {
-    if crate::procedures::find(name).is_some() {
+    let plain = |c: char| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '-' || c == '_';
+    if !name.is_empty() && name.len() <= 64 && name.chars().all(plain) {
         return Ok(());
     }
-    let available: Vec<&str> = crate::procedures::names().collect();
-    let message = if PROCEDURES.contains(&name) {
+    Err(InputError::new(
+        file,
+        key,
         format!(
-            "procedure '{name}' is not implemented yet (available: {})",
-            available.join(", ")
-        )
-    } else {
-        format!(
-            "unknown procedure '{name}', expected one of {}",
-            available.join(", ")
-        )
-    };
-    Err(InputError::new(file, key, message))
+            "'{name}' is no procedure's name (expected lower-case letters, digits, '-' or '_', \
+             at most 64)"
+        ),
+    ))
 }
 
 /// Checks that `v` is a finite number in `[lo, hi]`; the error names `file` and `key`.
@@ -337,4 +299,66 @@ pub fn check_cost(file: &str, nodes: u64, steps: u64) -> Result<(), InputError> 
         ));
     }
     Ok(())
+}
+
+/// The part of a procedure's scenario reader every procedure writes alike, from its name,
+/// its step (`dt: (default, why)`, or `dt: default` for [`Timing::SPECS`]) and its tables
+/// `(key, field, type)` in file order: the top-level `TIMING` table, `PARAM_TABLES` (what
+/// `ProcedureInfo::param_tables` lists), and on `Scenario` `parse` (which runs the
+/// procedure's own `validate`), `timing` and `validate_tables` (the name, the timing and every
+/// table's ranges), which the procedure's `validate` calls before its rules between values.
+#[macro_export]
+macro_rules! scenario_tables {
+    (
+        name: $name:expr,
+        dt: ($dt:expr, $why:expr),
+        tables: [$(($key:expr, $field:ident, $ty:ty)),* $(,)?] $(,)?
+    ) => {
+        /// The top level: the simulation step and the snapshot rate.
+        const TIMING: &[$crate::params::ParamSpec] = &[
+            $crate::scenario::Timing::dt_spec($dt, $why),
+            $crate::scenario::Timing::PUBLISH_HZ,
+        ];
+        $crate::scenario_tables!(@rest $name, [$(($key, $field, $ty)),*]);
+    };
+    (
+        name: $name:expr,
+        dt: default,
+        tables: [$(($key:expr, $field:ident, $ty:ty)),* $(,)?] $(,)?
+    ) => {
+        /// The top level: the default step and snapshot rate.
+        const TIMING: &[$crate::params::ParamSpec] =
+            <$crate::scenario::Timing as $crate::params::Params>::SPECS;
+        $crate::scenario_tables!(@rest $name, [$(($key, $field, $ty)),*]);
+    };
+    (@rest $name:expr, [$(($key:expr, $field:ident, $ty:ty)),*]) => {
+        /// The scenario's tables with specs, as `INFO.param_tables` lists them (file order).
+        pub const PARAM_TABLES: &[(&str, &[$crate::params::ParamSpec])] = &[
+            ($crate::params::TOP_LEVEL, TIMING),
+            $(($key, <$ty as $crate::params::Params>::SPECS)),*
+        ];
+
+        impl Scenario {
+            /// Parses and checks scenario text; `file` names it in errors.
+            pub fn parse(file: &str, text: &str) -> Result<Self, $crate::scenario::InputError> {
+                $crate::scenario::parse_checked(file, text, Scenario::validate)
+            }
+
+            /// The top-level timing.
+            pub fn timing(&self) -> $crate::scenario::Timing {
+                $crate::scenario::Timing {
+                    dt_s: self.dt_s,
+                    publish_hz: self.publish_hz,
+                }
+            }
+
+            /// The procedure's name, the timing and every table's ranges.
+            fn validate_tables(&self, file: &str) -> Result<(), $crate::scenario::InputError> {
+                $crate::scenario::expect_procedure(file, &self.procedure, $name)?;
+                $crate::params::validate(file, $crate::params::TOP_LEVEL, &self.timing())?;
+                $($crate::params::validate(file, $key, &self.$field)?;)*
+                Ok(())
+            }
+        }
+    };
 }

@@ -3,7 +3,7 @@
 
 use std::process::Command;
 use vesalius::procedures::nephrectomy::Scenario;
-use vesalius::scenario::builtin;
+use vesalius::registry::builtin;
 use vesalius::trace::{KeyTrace, Recording, Tail, TuningRecord};
 
 fn scenario() -> String {
@@ -85,15 +85,25 @@ fn out_of_range_and_nan_numbers_are_rejected_with_the_expected_range() {
 
 #[test]
 fn unknown_procedures_are_named_with_the_ones_there_are() {
-    let e = scenario_error(&scenario().replace(
+    let text = scenario().replace(
         "procedure = \"nephrectomy\"",
         "procedure = \"appendectomy\"",
-    ));
+    );
+    // The registry resolves the name: it lists the ones there are.
+    let e = vesalius::registry::plan("bad.toml", &text)
+        .expect_err("no such procedure")
+        .to_string();
     assert!(
         e.contains("procedure")
             && e.contains("unknown procedure 'appendectomy'")
             && e.contains("nephrectomy")
             && e.contains("catheter"),
+        "{e}"
+    );
+    // A procedure's own reader takes only its own scenarios.
+    let e = scenario_error(&text);
+    assert!(
+        e.contains("bad.toml: procedure: must be \"nephrectomy\""),
         "{e}"
     );
     // All five of the papers' procedures are built: a trace for any of them parses.

@@ -5,7 +5,7 @@
 
 use glam::Vec3;
 use vesalius::procedures::nephrectomy::Scenario;
-use vesalius::scenario::builtin;
+use vesalius::registry::builtin;
 use vesalius::session::Live;
 use vesalius::sim::{Hand, Pacing};
 use vesalius::trace::KeyTrace;

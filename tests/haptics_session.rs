@@ -113,7 +113,7 @@ fn a_phantom_drives_a_session_through_its_library() {
     let r = report(&d);
     assert_eq!(r["ended"], "time_up", "{r}");
     // The probe's point is held 1 mm under the top: its ball tip is that plus its radius deep.
-    let scenario: toml::Table = vesalius::scenario::builtin("sandbox")
+    let scenario: toml::Table = vesalius::registry::builtin("sandbox")
         .expect("builtin")
         .parse()
         .expect("TOML");

@@ -5,13 +5,14 @@ mod common;
 use common::without_id;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use vesalius::scenario::builtin;
+use vesalius::registry::builtin;
 use vesalius::session::{self, Input};
 use vesalius::sim::{Pacing, SnapshotBus};
 use vesalius::trace::KeyTrace;
 
 fn demo_trace() -> KeyTrace {
-    KeyTrace::parse("demo", vesalius::bench::DEMO_TRACE).expect("demo trace parses")
+    KeyTrace::parse("demo", vesalius::procedures::nephrectomy::INFO.demo_trace)
+        .expect("demo trace parses")
 }
 
 fn scenario() -> &'static str {
@@ -161,7 +162,8 @@ fn run_cli(dir: &Path, threads: &str) -> Vec<u8> {
     let scen = dir.join("coarse.toml");
     std::fs::write(&scen, coarse()).expect("write scenario");
     let trace = dir.join("demo.toml");
-    std::fs::write(&trace, vesalius::bench::DEMO_TRACE).expect("write trace");
+    std::fs::write(&trace, vesalius::procedures::nephrectomy::INFO.demo_trace)
+        .expect("write trace");
     let out = dir.join("out");
     let o = bin()
         .args([

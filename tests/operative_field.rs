@@ -5,7 +5,8 @@
 mod common;
 
 use glam::Vec3;
-use vesalius::procedures::{ProcedureInfo, REGISTRY};
+use vesalius::procedures::ProcedureInfo;
+use vesalius::registry::REGISTRY;
 use vesalius::render::camera::stereo_eyes;
 use vesalius::render::frames::Look;
 use vesalius::render::gpu::EYE_FORMAT;

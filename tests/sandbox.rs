@@ -103,7 +103,7 @@ fn demo_plays_every_registered_procedure() {
         .arg(&*dir)
         .output()
         .expect("runs"));
-    for p in vesalius::procedures::REGISTRY {
+    for p in vesalius::registry::REGISTRY {
         let r = report(&dir.join(p.name));
         assert_eq!(r["procedure"], p.name);
         assert_eq!(r["completed"], true, "{}: {r}", p.name);
@@ -137,7 +137,7 @@ fn demo_plays_every_registered_procedure() {
         .arg(dir.join("records.sqlite"))
         .output()
         .expect("runs"));
-    for p in vesalius::procedures::REGISTRY {
+    for p in vesalius::registry::REGISTRY {
         let r = report(&dir.join(p.name));
         let id = r["session_id"].as_str().unwrap_or("?");
         let line = list.lines().find(|l| l.starts_with(id)).unwrap_or_default();
@@ -148,10 +148,7 @@ fn demo_plays_every_registered_procedure() {
             p.name
         );
     }
-    assert_eq!(
-        list.lines().count(),
-        1 + vesalius::procedures::REGISTRY.len()
-    );
+    assert_eq!(list.lines().count(), 1 + vesalius::registry::REGISTRY.len());
 }
 
 #[test]

@@ -8,7 +8,7 @@ use common::{Scratch, bin, report, text};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
-use vesalius::scenario::builtin;
+use vesalius::registry::builtin;
 
 /// The shipped scenario at coarse resolution (fast, far above real time).
 fn coarse(dir: &Path) -> PathBuf {

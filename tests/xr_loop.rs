@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use vesalius::procedures::Nephrectomy;
 use vesalius::procedures::nephrectomy::{REGION_PARENCHYMA, Scenario};
-use vesalius::scenario::builtin;
+use vesalius::registry::builtin;
 use vesalius::sim::Hand;
 use vesalius::trace::Recording;
 use vesalius::xr::HapticProfile;

@@ -4,9 +4,8 @@
 //! instrument's full scale (the procedure says it). A beam has no force alarm: the force it
 //! applies is the model's deforming pressure, not a load on an instrument.
 
-use crate::procedures::{ProcedureInfo, ToolInfo, ToolKind};
-use crate::session::Status;
 use crate::sim::Hand;
+use crate::sim::{ProcedureInfo, SessionStatus as Status, ToolInfo, ToolKind};
 
 /// When to raise an alarm, and what the instruments are called.
 #[derive(Debug, Clone, Copy, PartialEq)]

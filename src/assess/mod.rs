@@ -11,8 +11,8 @@ pub mod tree;
 
 pub use tree::{Assessment, Tree};
 
-use crate::procedures::ProcedureInfo;
 use crate::scenario::InputError;
+use crate::sim::{Catalog, ProcedureInfo};
 
 /// That `tree` is `info`'s and binds only measures it reports (`file` names it in errors).
 pub fn check_for(info: &ProcedureInfo, file: &str, tree: &Tree) -> Result<(), InputError> {
@@ -33,17 +33,17 @@ pub fn check_for(info: &ProcedureInfo, file: &str, tree: &Tree) -> Result<(), In
     tree.check_measures(file, &names)
 }
 
-/// Reads a tree file's text and checks it against the registered procedure it names.
-pub fn load(file: &str, text: &str) -> Result<Tree, InputError> {
+/// Reads a tree file's text and checks it against the procedure of `catalog` it names.
+pub fn load(catalog: &Catalog, file: &str, text: &str) -> Result<Tree, InputError> {
     let tree = Tree::parse(file, text)?;
-    let info = crate::procedures::find(&tree.procedure).ok_or_else(|| {
+    let info = catalog.find(&tree.procedure).ok_or_else(|| {
         InputError::new(
             file,
             "procedure",
             format!(
                 "'{}' is not a registered procedure ({})",
                 tree.procedure,
-                crate::procedures::names().collect::<Vec<_>>().join(", ")
+                catalog.names().collect::<Vec<_>>().join(", ")
             ),
         )
     })?;
@@ -51,12 +51,12 @@ pub fn load(file: &str, text: &str) -> Result<Tree, InputError> {
     Ok(tree)
 }
 
-/// Reads and checks a tree file.
-pub fn load_file(path: &std::path::Path) -> Result<Tree, InputError> {
+/// Reads and checks a tree file against the procedures of `catalog`.
+pub fn load_file(catalog: &Catalog, path: &std::path::Path) -> Result<Tree, InputError> {
     let file = path.display().to_string();
     let text = std::fs::read_to_string(path)
         .map_err(|e| InputError::new(&file, "file", format!("cannot read: {e}")))?;
-    load(&file, &text)
+    load(catalog, &file, &text)
 }
 
 #[cfg(test)]

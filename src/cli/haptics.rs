@@ -54,7 +54,7 @@ pub fn haptics(
     seconds: f64,
     json: bool,
 ) -> Result<(), CliError> {
-    let info = vesalius::procedures::find(procedure)
+    let info = vesalius::registry::find(procedure)
         .ok_or_else(|| CliError::Usage(format!("unknown procedure '{procedure}'")))?;
     let device = device.resolved(info);
     if hd_name.is_some() && device != DeviceArg::Phantom {
@@ -113,7 +113,7 @@ pub fn run_with_devices(a: &RunArgs) -> Result<(), CliError> {
             a.haptics.len()
         )));
     }
-    let info = vesalius::procedures::find(&a.procedure)
+    let info = vesalius::registry::find(&a.procedure)
         .ok_or_else(|| CliError::Usage(format!("no procedure '{}'", a.procedure)))?;
     let chosen: Vec<DeviceArg> = a.haptics.iter().map(|d| d.resolved(info)).collect();
     let names = hd_names(&chosen, &a.hd_names)?;

@@ -4,6 +4,7 @@
 
 #[macro_use]
 mod output;
+mod bench;
 mod haptics;
 mod precompute;
 mod records;
@@ -33,6 +34,14 @@ pub struct Cli {
     /// Rayon worker threads (default: all cores); results do not depend on it.
     #[arg(long, global = true, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
     threads: Option<u16>,
+    /// Diagnostics on standard error at this level (error, warn, info, debug, trace) or by
+    /// directives (vesalius::sim=debug); default: RUST_LOG, else warn.
+    #[arg(long, global = true, value_name = "LEVEL")]
+    log: Option<String>,
+    /// Write a Chrome trace of every span (each model's step, interaction, render pass, the
+    /// servo loop) to FILE; Perfetto (ui.perfetto.dev) or chrome://tracing opens it.
+    #[arg(long, global = true, value_name = "FILE")]
+    profile_trace: Option<PathBuf>,
     #[command(subcommand)]
     command: Command,
 }
@@ -314,7 +323,10 @@ pub enum CliError {
     #[error(transparent)]
     Window(#[from] vesalius::ui::window::WindowError),
     #[error(transparent)]
-    Bench(#[from] vesalius::bench::BenchError),
+    Bench(#[from] vesalius::sim::BenchError),
+    /// `--log` or `--profile-trace`.
+    #[error(transparent)]
+    Diagnostics(#[from] vesalius::diagnostics::DiagnosticsError),
     #[error(transparent)]
     Render(#[from] vesalius::render::RenderError),
     /// A procedure refused its (checked) scenario.
@@ -355,7 +367,7 @@ impl CliError {
 /// The registered procedures, with their titles for `--help`.
 fn procedures() -> PossibleValuesParser {
     PossibleValuesParser::new(
-        vesalius::procedures::REGISTRY
+        vesalius::registry::REGISTRY
             .iter()
             .map(|p| PossibleValue::new(p.name).help(p.title)),
     )
@@ -479,6 +491,8 @@ fn edit_distance(a: &str, b: &str) -> usize {
 }
 
 fn dispatch(cli: Cli) -> Result<(), CliError> {
+    // Written when the command ends (the guard drops at the end of this function).
+    let _trace = vesalius::diagnostics::init(cli.log.as_deref(), cli.profile_trace.as_deref())?;
     if let Some(n) = cli.threads {
         rayon::ThreadPoolBuilder::new()
             .num_threads(usize::from(n))
@@ -566,14 +580,14 @@ mod tests {
             .find_subcommand_mut("run")
             .map(|c| c.render_long_help().to_string())
             .unwrap_or_default();
-        for p in vesalius::procedures::REGISTRY {
+        for p in vesalius::registry::REGISTRY {
             assert!(help.contains(p.name) && help.contains(p.title), "{help}");
         }
     }
 
     #[test]
     fn conflicting_and_incomplete_flags_are_usage_errors() {
-        let p = vesalius::procedures::REGISTRY[0].name;
+        let p = vesalius::registry::REGISTRY[0].name;
         for args in [
             &["vesalius", "run", p, "--xr", "--headless"][..],
             &["vesalius", "run", p, "--frames", "3", "--headless"],

@@ -3,12 +3,23 @@
 use super::CliError;
 use std::path::PathBuf;
 use vesalius::models::bem::cache;
-use vesalius::procedures::precompute::{PRECOMPUTABLE, find};
 use vesalius::progress::Bar;
+use vesalius::registry::CATALOG;
+use vesalius::sim::precompute::Precomputable;
 
-/// The procedures that have something to precompute, for the command line.
+/// The procedures that have something to precompute, for the command line (the registered
+/// ones whose description names a precomputation).
 pub fn names() -> Vec<&'static str> {
-    PRECOMPUTABLE.iter().map(|p| p.name).collect()
+    CATALOG
+        .iter()
+        .filter(|p| p.precompute.is_some())
+        .map(|p| p.name)
+        .collect()
+}
+
+/// The precomputation of procedure `name`.
+fn find(name: &str) -> Option<&'static Precomputable> {
+    CATALOG.find(name).and_then(|p| p.precompute)
 }
 
 pub fn precompute(

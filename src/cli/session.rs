@@ -3,7 +3,7 @@
 
 use super::{CliError, RunArgs};
 use std::path::{Path, PathBuf};
-use vesalius::scenario::builtin;
+use vesalius::registry::builtin;
 use vesalius::session::{self, Input, Options, interrupt};
 use vesalius::sim::Pacing;
 use vesalius::trace::{KeyTrace, Recording, Tail};
@@ -59,7 +59,7 @@ fn load_tree(
     let Some(path) = path else {
         return Ok(None);
     };
-    let tree = vesalius::assess::load_file(path)?;
+    let tree = vesalius::assess::load_file(&vesalius::registry::CATALOG, path)?;
     if tree.procedure != procedure {
         return Err(CliError::Failed(format!(
             "{}: procedure: the tree is for '{}', not '{procedure}'",
@@ -170,8 +170,8 @@ fn render_frames(
     let eye_size = eye_size.unwrap_or(vesalius::render::camera::VIVE_EYE_SIZE);
     let gpu = vesalius::render::Gpu::headless(true)?;
     let sim_ms = outcome.wall_s * 1e3 / outcome.report.steps.max(1) as f64;
-    let info = vesalius::procedures::find(&outcome.report.procedure)
-        .unwrap_or(vesalius::procedures::REGISTRY[0]);
+    let info = vesalius::registry::find(&outcome.report.procedure)
+        .unwrap_or(vesalius::registry::REGISTRY[0]);
     // The frames show what the procedure's laparoscope shows on its monitor.
     let look = vesalius::render::frames::Look::monitor(info);
     let done = vesalius::render::frames::render_snapshots(
@@ -454,7 +454,11 @@ pub fn replay(
     eye_size: Option<(u32, u32)>,
     assessment: Option<&Path>,
 ) -> Result<(), CliError> {
-    let rec = Recording::read(recorded)?;
+    let mut rec = Recording::read(recorded)?;
+    rec.resolve(
+        &vesalius::registry::CATALOG,
+        &recorded.display().to_string(),
+    )?;
     let tree = load_tree(assessment, &rec.procedure)?;
     let own = recorded.parent().map(|p| {
         if p.as_os_str().is_empty() {
@@ -509,7 +513,7 @@ const DEMO_EYE_SIZE: (u32, u32) = (540, 600);
 /// session stored for trainee 'demo' in the records (`records`, default DIR/records.sqlite).
 pub fn demo(out: &Path, records: Option<&Path>) -> Result<(), CliError> {
     let db = records.map_or_else(|| out.join("records.sqlite"), Path::to_path_buf);
-    for p in vesalius::procedures::REGISTRY {
+    for p in vesalius::registry::REGISTRY {
         let keys = KeyTrace::parse(&format!("builtin {} demo trace", p.name), p.demo_trace)?;
         let dir = out.join(p.name);
         let opts = Options {

@@ -1,6 +1,6 @@
 //! `check`, `bench`, `profile` and `xr-sim manifest`.
 
-use super::CliError;
+use super::{CliError, bench};
 use std::path::{Path, PathBuf};
 use vesalius::scenario::InputError;
 use vesalius::trace::{KeyTrace, Recording};
@@ -67,8 +67,9 @@ fn check_one(path: &Path) -> Result<&'static str, InputError> {
     let bytes = std::fs::read(path)
         .map_err(|e| InputError::new(&file, "file", format!("cannot read: {e}")))?;
     if Recording::is_recording(&bytes) {
-        let rec = Recording::decode(&file, &bytes)?;
-        vesalius::procedures::plan(&format!("{file} (embedded scenario)"), &rec.scenario)?;
+        let mut rec = Recording::decode(&file, &bytes)?;
+        rec.resolve(&vesalius::registry::CATALOG, &file)?;
+        vesalius::registry::plan(&format!("{file} (embedded scenario)"), &rec.scenario)?;
         return Ok(match rec.tail {
             vesalius::trace::Tail::Cut { .. } => "recorded trace, stops short: replays up to it",
             vesalius::trace::Tail::Ended { .. } => "recorded trace",
@@ -79,13 +80,14 @@ fn check_one(path: &Path) -> Result<&'static str, InputError> {
     let table: toml::Table = toml::from_str(&text).map_err(|e| InputError::toml(&file, &e))?;
     let has = |k: &str| table.contains_key(k);
     if has("left") || has("right") {
-        KeyTrace::parse(&file, &text)?;
+        let trace = KeyTrace::parse(&file, &text)?;
+        vesalius::registry::CATALOG.lookup(&file, "procedure", &trace.procedure)?;
         Ok("keyframed trace")
     } else if has("items") && has("rating") {
         vesalius::assess::questionnaire::Questionnaire::parse(&file, &text)?;
         Ok("questionnaire")
     } else if has("node") && has("version") {
-        vesalius::assess::load(&file, &text)?;
+        vesalius::assess::load(&vesalius::registry::CATALOG, &file, &text)?;
         Ok("assessment tree")
     } else if has("profile") && has("bindings") {
         xr_bindings::profiles::Profile::parse(&file, &text)
@@ -96,7 +98,7 @@ fn check_one(path: &Path) -> Result<&'static str, InputError> {
             .map_err(|e| InputError::new(&file, "settings", e.to_string()))?;
         Ok("simulated runtime settings")
     } else {
-        vesalius::procedures::plan(&file, &text)?;
+        vesalius::registry::plan(&file, &text)?;
         Ok("scenario")
     }
 }
@@ -105,10 +107,10 @@ fn check_one(path: &Path) -> Result<&'static str, InputError> {
 pub fn bench(procedure: Option<&str>, json: bool) -> Result<(), CliError> {
     let names: Vec<&str> = match procedure {
         Some(p) => vec![p],
-        None => vesalius::procedures::names().collect(),
+        None => vesalius::registry::names().collect(),
     };
     for p in names {
-        let lines = vesalius::bench::run(p)?;
+        let lines = bench::run(p)?;
         for l in &lines {
             if json {
                 say!("{}", serde_json::to_string(l).unwrap_or_default());
@@ -143,8 +145,8 @@ pub fn profile(
 ) -> Result<(), CliError> {
     use vesalius::profiler::mb;
     let info = match procedure {
-        Some(p) => vesalius::procedures::find(p),
-        None => vesalius::procedures::REGISTRY.first().copied(),
+        Some(p) => vesalius::registry::find(p),
+        None => vesalius::registry::REGISTRY.first().copied(),
     }
     .ok_or_else(|| CliError::Usage("no such procedure".into()))?;
     let procedure = info.name;
@@ -154,7 +156,7 @@ pub fn profile(
     // and render that instant with the simulation still alive, so total memory counts it as
     // Unity's profiler would.
     let file = format!("builtin {procedure} scenario");
-    let (_, plan) = vesalius::procedures::plan(&file, text)?;
+    let (_, plan) = vesalius::registry::plan(&file, text)?;
     let dt = f64::from(plan.dt_s);
     let mut sim = (info.build)(&file, text)?;
     let steps = (keys.duration_s() * 0.4 / dt).ceil() as u64;
@@ -272,7 +274,7 @@ pub fn profile(
 /// `verify`: the reference cases as a table or JSON lines; fails when one is out of tolerance.
 pub fn verify(json: bool, known_failures: bool) -> Result<(), CliError> {
     use vesalius::verify;
-    let results = verify::run_all();
+    let results = verify::run_all(&vesalius::registry::CATALOG);
     let print = |results: &[verify::CaseResult]| -> Result<(), CliError> {
         if json {
             for r in results {

@@ -1,6 +1,7 @@
 //! Collision queries between instruments and tissue surfaces. Detection produces contacts and
 //! hits; the models consume them.
 
+mod collider;
 mod face_bvh;
 mod point_blocks;
 mod primitives;
@@ -8,6 +9,7 @@ mod ray_mesh;
 mod sphere_vertices;
 mod tool_cylinder;
 
+pub use collider::{Collider, MeshSurface, TriangleSource};
 pub use face_bvh::{FaceBvh, PATCH_FACES};
 pub use point_blocks::{BLOCK_POINTS, PointBlocks, PointCloud};
 pub use primitives::{

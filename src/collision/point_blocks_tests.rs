@@ -195,8 +195,8 @@ fn refresh_and_query_are_the_same_on_one_and_two_threads() {
         }
         (blocks.bounds, all)
     };
-    let one = crate::sim::on_threads(1, run);
-    let two = crate::sim::on_threads(2, run);
+    let one = crate::testing::on_threads(1, run);
+    let two = crate::testing::on_threads(2, run);
     assert!(!one.1.is_empty());
     assert_eq!(one, two);
 }

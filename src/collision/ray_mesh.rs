@@ -1,4 +1,4 @@
-use crate::sim::MeshSurface;
+use super::MeshSurface;
 use glam::Vec3;
 use parry3d::query::{Ray, RayCast};
 use parry3d::shape::Triangle;
@@ -34,38 +34,4 @@ pub fn cast_ray(surface: &MeshSurface, origin: Vec3, dir: Vec3, max_m: f32) -> O
         point: origin + dir * toi,
         normal,
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::mesh::icosphere;
-    use crate::models::{SimplexMesh, SoftBody, SoftBodyParams};
-    use crate::sim::TissueModel;
-
-    #[test]
-    fn ray_hits_the_near_side_of_a_sphere_at_its_radius() {
-        let mut m = icosphere(3);
-        for p in &mut m.positions {
-            *p *= 0.05;
-        }
-        let s = SimplexMesh::dual(&m).expect("dual");
-        let n = s.len();
-        let body = SoftBody::new("ball", s, vec![0; n], SoftBodyParams::default());
-        let view = body.collider();
-        let hit = view
-            .cast_ray(Vec3::new(0.0, 0.0, 0.2), Vec3::NEG_Z, 1.0)
-            .expect("hit");
-        // The flat facets sit just inside the sphere: 0.15 m to 0.1503 m away.
-        assert!(
-            hit.distance_m > 0.1495 && hit.distance_m < 0.151,
-            "{}",
-            hit.distance_m
-        );
-        assert!(hit.normal.z > 0.9);
-        assert!(
-            view.cast_ray(Vec3::new(0.0, 0.2, 0.2), Vec3::NEG_Z, 1.0)
-                .is_none()
-        );
-    }
 }

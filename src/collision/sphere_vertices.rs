@@ -1,4 +1,4 @@
-use crate::sim::MeshSurface;
+use super::MeshSurface;
 use glam::Vec3;
 use parry3d::bounding_volume::Aabb;
 

@@ -289,6 +289,7 @@ fn run_pull(
     let mut next = Instant::now();
     let result = loop {
         wait_until(next, spin);
+        let _tick = tracing::trace_span!("servo_tick").entered();
         let now = Instant::now();
         // A tick far later than one period (the thread was preempted) moves no further
         // than the longest substep sequence the simulated stylus takes in stride.
@@ -338,6 +339,7 @@ fn run_push(
     let duration_s = config.duration_s;
     let mut done = false;
     let servo: ServoCallback = Box::new(move |state: &DeviceState| {
+        let _tick = tracing::trace_span!("servo_tick").entered();
         if done {
             return PushReply {
                 force_n: DVec3::ZERO,

@@ -18,27 +18,8 @@ use super::device::{
 };
 use super::simulated::{Script, SimulatedStylus, StylusParams};
 
-/// A device the command line can ask for.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum DeviceChoice {
-    /// The simulated stylus, playing [`Script::press`].
-    Sim,
-    /// A Phantom Omni or Touch through OpenHaptics HD (`libHD.so`).
-    Phantom,
-    /// A Novint Falcon (or omega) through Force Dimension DHD (`libdhd.so`).
-    Falcon,
-}
-
-impl DeviceChoice {
-    /// Its name on the command line.
-    pub fn flag(self) -> &'static str {
-        match self {
-            DeviceChoice::Sim => "sim",
-            DeviceChoice::Phantom => "phantom",
-            DeviceChoice::Falcon => "falcon",
-        }
-    }
-}
+/// A device the command line can ask for (named in the core: a procedure says its own).
+pub use crate::sim::DeviceChoice;
 
 /// Opens the device `choice` names; a Phantom by its HD device name (`None`: HD's default
 /// device).

@@ -1,5 +1,6 @@
 //! Triangle meshes: the render triangulation, its adjacency, and deterministic organ generators.
 
+pub mod block;
 mod generate;
 pub mod gltf;
 pub mod obj;

@@ -12,3 +12,6 @@ pub mod xpbd;
 
 pub use simplex::{RenderVertex, SimplexMesh};
 pub use softbody::{Fnv, SoftBody, SoftBodyParams, Tie, Tuning};
+
+#[cfg(test)]
+mod world_tests;

@@ -109,7 +109,7 @@ pub fn stereo_eyes(head: Vec3, target: Vec3, ipd_m: f32) -> [EyeView; 2] {
 }
 
 /// Both eyes at a procedure's viewpoint over its field (the headless and mirror view).
-pub fn field_eyes(view: &crate::procedures::Viewpoint, ipd_m: f32) -> [EyeView; 2] {
+pub fn field_eyes(view: &crate::sim::Viewpoint, ipd_m: f32) -> [EyeView; 2] {
     stereo_eyes(view.eye, view.target, ipd_m)
 }
 

@@ -107,6 +107,7 @@ impl Renderer {
         size: (u32, u32),
         eyes: &[EyeView; 2],
     ) -> FrameCounters {
+        let _span = tracing::debug_span!("render_frame", width = size.0, height = size.1).entered();
         let t0 = Instant::now();
         self.ensure_depth(size);
         // Where the scene is seen from: the eyes, or the scope whose picture the monitor shows.

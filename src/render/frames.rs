@@ -3,12 +3,12 @@
 
 use super::Renderer;
 use super::camera::{DEFAULT_IPD_M, EyeView, field_eyes};
-use super::field::OperativeField;
 use super::gpu::{EYE_FORMAT, EyeTarget, Gpu, RenderError, write_png};
 use super::optics::{Optics, scope_eyes};
-use crate::procedures::{ProcedureInfo, Viewpoint};
 use crate::profiler::FrameCounters;
 use crate::sim::Snapshot;
+use crate::sim::field::OperativeField;
+use crate::sim::{ProcedureInfo, Viewpoint};
 use std::io::Write;
 use std::path::Path;
 use std::time::Instant;

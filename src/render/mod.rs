@@ -10,7 +10,8 @@
 mod blood;
 pub mod camera;
 mod draw;
-pub mod field;
+/// The operative field is described in the core ([`crate::sim::field`]); drawn here.
+pub use crate::sim::field;
 pub mod frames;
 pub mod gpu;
 mod meshes;

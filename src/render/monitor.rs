@@ -11,9 +11,9 @@ use super::gpu::tracked_texture;
 use super::optics::{Optics, scope_eyes};
 use super::overlay::Placement;
 use super::pipelines::Pipelines;
-use crate::procedures::Viewpoint;
 use crate::profiler::{FrameCounters, Ledger, Tracked};
 use crate::sim::ScopeView;
+use crate::sim::Viewpoint;
 use glam::{Vec2, Vec3};
 use std::sync::Arc;
 

@@ -15,7 +15,7 @@
 //! radius (the scope's vignette); outside it is black.
 
 use super::camera::{EyeView, Fov};
-use crate::procedures::Viewpoint;
+use crate::sim::Viewpoint;
 use glam::{Quat, Vec3};
 
 /// The light guide's spread: irradiance off the axis goes as `cos(a)` to this power.

@@ -6,8 +6,8 @@
 
 use super::camera::NEAR_M;
 use super::{EyeView, pipelines::PARTICLE_BYTES, tracked_buffer};
-use crate::models::Fnv;
 use crate::profiler::{Category, FrameCounters, Ledger, Tracked};
+use crate::sim::Fnv;
 use crate::sim::{Bleed, Emission, EmissionKind};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;

@@ -116,7 +116,7 @@ impl Live {
         pacing: Pacing,
         session_id: &str,
     ) -> Result<Live, SessionError> {
-        let (info, plan) = crate::procedures::plan(scenario_file, scenario_text)?;
+        let (info, plan) = crate::registry::plan(scenario_file, scenario_text)?;
         let tree = Tree::parse(
             &format!("builtin {} assessment", info.name),
             info.assessment,
@@ -268,8 +268,13 @@ impl Live {
     /// that cannot be written stops the session with an error.
     pub fn step(&mut self, frame: InputFrame) -> Result<&[SimEvent], SessionError> {
         let step = self.clock.step();
+        let _span = tracing::debug_span!("session_step", step).entered();
         let before = self.events.len();
-        self.proc_.step(&frame, step, &mut self.events);
+        {
+            let _s = tracing::debug_span!("procedure_step", procedure = self.proc_.info().name)
+                .entered();
+            self.proc_.step(&frame, step, &mut self.events);
+        }
         match self.writer.as_mut().map(|w| w.push_frame(&frame)) {
             Some(Err(e)) => return Err(self.recording_failed(e)),
             Some(Ok(())) => {}

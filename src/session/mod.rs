@@ -9,8 +9,8 @@ mod output;
 pub use live::Live;
 pub use output::{EVENTS, RECORDING, REPORT, TIMING, new_session_id, prepare, write_outputs};
 
+use crate::procedures::BuildError;
 pub use crate::procedures::ModelReport;
-use crate::procedures::{BuildError, Tunable};
 use crate::scenario::InputError;
 use crate::sim::{Pacing, SimEvent, Snapshot, SnapshotBus};
 use crate::trace::{KeyTrace, Recording, Tail};
@@ -41,37 +41,12 @@ pub mod ended {
     pub const TRUNCATED_RECORDING: &str = "truncated_recording";
 }
 
-/// A session's state at one step, as the supervisor's panels show it.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Status {
-    pub step: u64,
-    /// Simulated time, seconds.
-    pub time_s: f64,
-    /// Instrument tip path length so far (left, right), metres.
-    pub path_m: [f32; 2],
-    /// Errors so far (the procedure counts them).
-    pub errors: u32,
-    /// Score so far (0-100), by the scenario's weights.
-    pub score: f32,
-    /// Task step ids done, in order.
-    pub steps_done: Vec<String>,
-    pub completed: bool,
-    /// Contact force on each tool, newtons.
-    pub force_n: [f32; 2],
-    /// Whether each tool touches a vulnerable structure.
-    pub touching: [bool; 2],
-    /// The nearest vulnerable structure near each tool, and its distance, metres.
-    pub near: [Option<(String, f32)>; 2],
-    /// The procedure's live figures: a label and a formatted value.
-    pub figures: Vec<(String, String)>,
-    /// The dynamic assessment's newest instructions to the trainee, newest first.
-    pub instructions: Vec<String>,
-    /// The instructions given in the last [`INSTRUCTION_CURRENT_S`] simulated seconds, newest
-    /// first, words only: what the headset's panel shows.
-    pub current_instructions: Vec<String>,
-    /// The values the supervisor may tune, as they are now.
-    pub tunables: Vec<Tunable>,
-}
+/// A session's state at one step (the core's word for it: the panels and alarms read it).
+pub use crate::sim::SessionStatus as Status;
+
+/// Vulnerable structures are reported in the status within this distance, metres (the
+/// alarms use a nearer limit of their own).
+pub const LOOK_M: f32 = 0.01;
 
 /// How long an instruction stays in the headset's panel, simulated seconds.
 pub const INSTRUCTION_CURRENT_S: f64 = 8.0;
@@ -241,7 +216,7 @@ pub fn run_with(
         prepare(dir)?;
     }
     // Refuse an absurd session before its anatomy is built.
-    let (_, plan) = crate::procedures::plan(scenario_file, scenario_text)?;
+    let (_, plan) = crate::registry::plan(scenario_file, scenario_text)?;
     let total_steps = match &input {
         Input::Keys(k) => ((k.duration_s() + SETTLE_S) / f64::from(plan.dt_s)).ceil() as u64,
         Input::Recorded(r) => r.frames.len() as u64,

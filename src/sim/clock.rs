@@ -50,6 +50,13 @@ impl Clock {
         }
     }
 
+    /// How far simulated time is ahead of the wall clock since the first real-time tick,
+    /// seconds (negative: behind); none before it or when stepping as fast as possible.
+    pub fn lead_s(&self) -> Option<f64> {
+        let start = self.start.filter(|_| self.pacing == Pacing::RealTime)?;
+        Some(self.time_s() - start.elapsed().as_secs_f64())
+    }
+
     /// Advances one step; in real-time mode waits until the wall clock has caught up.
     pub fn tick(&mut self) {
         self.step += 1;
@@ -82,11 +89,25 @@ mod tests {
     #[test]
     fn real_time_pacing_never_runs_ahead_of_the_wall_clock() {
         let mut c = Clock::new(0.001, Pacing::RealTime);
-        let t0 = Instant::now();
+        assert_eq!(c.lead_s(), None, "no wall clock before the first tick");
+        // After every tick, the simulated time is not ahead of the wall time since the first
+        // (the sleep's lower bound: behaviour, not speed).
         for _ in 0..20 {
             c.tick();
+            let lead = c.lead_s().expect("started");
+            assert!(lead <= 0.0, "{lead} s ahead at step {}", c.step());
         }
-        // Behaviour, not speed: at least the simulated 19 ms after the first tick have passed.
-        assert!(t0.elapsed() >= Duration::from_millis(19));
+        // A pause of 50 ms leaves the clock at least that far behind; resuming goes on from
+        // the wall clock's now instead of racing to catch up.
+        std::thread::sleep(Duration::from_millis(50));
+        let paused = c.lead_s().expect("started");
+        assert!(paused <= -0.05, "{paused}");
+        c.resume();
+        let lead = c.lead_s().expect("started");
+        assert!(lead <= 0.0 && lead > paused, "{paused} -> {lead}");
+        // As fast as possible: no wall clock is kept at all.
+        let mut fast = Clock::new(1.0, Pacing::AsFastAsPossible);
+        fast.tick();
+        assert_eq!((fast.lead_s(), fast.time_s()), (None, 1.0));
     }
 }

@@ -1,40 +1,54 @@
 //! The simulation core: fixed-step clock, per-step input, the tissue-model trait, contacts,
 //! events, snapshots and the emissions they carry, the per-step haptic channel, the NaN
-//! quarantine, and the world that holds a procedure's models and the interactions between
-//! them.
+//! quarantine, the world that holds a procedure's models and the interactions between
+//! them, and the vocabulary every layer shares about procedures (the `Procedure` trait, its
+//! description, tools, plans, tunables, reports, the catalog handed down by the registry,
+//! the operative field around the models and the benchmark lines).
 
 mod attachment;
+pub mod bench;
+mod cases;
+mod catalog;
 mod clock;
 mod emission;
 mod events;
+pub mod field;
 mod haptic;
+mod hash;
 mod input;
 mod model;
+pub mod precompute;
+mod procedure;
 mod quarantine;
 mod snapshot;
-mod surface;
 mod world;
 
+/// What tools, rays and cuts see of a model: collision's words, used by every model.
+pub use crate::collision::{Collider, MeshSurface, TriangleSource};
 pub use attachment::{Attachment, Link, LinkSpring};
+pub use bench::{ALL_AWAKE_S, BenchError, BenchLine, ExtraBench, Once, peak_gflops};
+pub use cases::{Case, Measured};
+pub use catalog::Catalog;
 pub use clock::{Clock, Pacing};
 pub use emission::{Bleed, Emission, EmissionKind, EmissionLog};
 pub use events::{EventKind, ProcedureEvent, SimEvent, shortest_f32};
 pub use haptic::{HapticFrame, HapticSlot, SeqWords, ToolHaptics};
+pub use hash::Fnv;
 pub use input::{Buttons, Hand, HandInput, InputFrame, Pose};
 pub use model::{Contact, ContactKind, CutStroke, ModelOutput, ModelSizes, TissueModel, ToolId};
+pub use procedure::{
+    BuildError, BuildFn, DeviceChoice, MassSpring, ModelError, ModelReport, Plan, Procedure,
+    ProcedureInfo, ProcedureReport, SessionStatus, TaskStatus, TaskStep, ToolInfo, ToolKind,
+    Tunable, Viewpoint, completion_share, out_of_order, tick_off, time_efficiency,
+};
 pub use quarantine::Quarantine;
 pub use snapshot::{
     InstrumentShape, ModelSnapshot, ScopeView, Snapshot, SnapshotBus, SurfaceRole, ToolSnapshot,
 };
-pub use surface::{Collider, MeshSurface, TriangleSource};
-pub use world::{CHECKPOINT_STEPS, Interaction, ModelId, PointForces, PointSource, World};
+pub use world::{
+    CHECKPOINT_STEPS, Interaction, ModelId, ModelSet, PointForces, PointSource, World,
+};
 
-/// Runs `f` on a pool of `threads` workers (tests comparing the bytes of 1 and 2 threads).
+/// Runs a closure on a pool of so many workers (tests comparing the bytes of 1 and 2 threads).
 #[cfg(test)]
-pub(crate) fn on_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .expect("a thread pool")
-        .install(f)
-}
+pub(crate) use crate::testing::on_threads;

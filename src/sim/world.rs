@@ -12,8 +12,8 @@
 //! reported once, and the other models go on.
 
 use super::{
-    Contact, CutStroke, EventKind, ModelOutput, ModelSnapshot, Quarantine, SurfaceRole,
-    TissueModel, ToolId,
+    Contact, CutStroke, EventKind, ModelOutput, ModelReport, ModelSnapshot, Quarantine,
+    SurfaceRole, TissueModel, ToolId,
 };
 use crate::collision::RayHit;
 use glam::Vec3;
@@ -39,6 +39,13 @@ pub struct PointForces {
 }
 
 impl PointForces {
+    /// Empty lists for `models` models (interactions tested apart from a world).
+    pub fn for_models(models: usize) -> Self {
+        Self {
+            per_model: vec![Vec::new(); models],
+        }
+    }
+
     /// Adds `force_n` on point `point` of `model`.
     pub fn add(&mut self, model: ModelId, point: u32, force_n: Vec3) {
         if let Some(list) = self.per_model.get_mut(model.index()) {
@@ -211,11 +218,13 @@ impl<M: TissueModel> World<M> {
     /// Advances every model one step of `dt_s` (see the module's phases); `step` is the
     /// step's number (for checkpoints). Events go to `events` in model order.
     pub fn step(&mut self, dt_s: f32, step: u64, events: &mut Vec<EventKind>) {
+        let _span = tracing::debug_span!("world_step", step, models = self.slots.len()).entered();
         for list in &mut self.forces.per_model {
             list.clear();
         }
         let points = Points(&self.slots);
         for interaction in &mut self.interactions {
+            let _s = tracing::debug_span!("interaction", name = interaction.name()).entered();
             interaction.apply(dt_s, &points, &mut self.forces, events);
         }
         let forces = &self.forces.per_model;
@@ -228,6 +237,12 @@ impl<M: TissueModel> World<M> {
                 if slot.guard.is_frozen() {
                     return;
                 }
+                let _s = tracing::debug_span!(
+                    "model_step",
+                    model = slot.model.name(),
+                    kind = slot.model.kind()
+                )
+                .entered();
                 let t0 = std::time::Instant::now();
                 slot.model.apply_point_forces(forces);
                 slot.model.step(dt_s, &slot.contacts, &mut slot.output);
@@ -235,6 +250,11 @@ impl<M: TissueModel> World<M> {
                 slot.awake_sum += f64::from(slot.model.awake_fraction());
                 slot.stepped += 1;
                 if let Some(e) = slot.guard.after_step(&mut slot.model, step) {
+                    tracing::warn!(
+                        model = slot.model.name(),
+                        step,
+                        "a non-finite state: rolled back to the last checkpoint and frozen"
+                    );
                     slot.output.events.push(e);
                     // A rolled-back model pushes nothing on the tools.
                     slot.output.reactions.clear();
@@ -313,11 +333,11 @@ impl<M: TissueModel> World<M> {
     }
 
     /// Sizes of every model, for reports.
-    pub fn model_reports(&self) -> Vec<crate::procedures::ModelReport> {
+    pub fn model_reports(&self) -> Vec<ModelReport> {
         self.models()
             .map(|(_, m)| {
                 let s = m.sizes();
-                crate::procedures::ModelReport {
+                ModelReport {
                     name: m.name().to_string(),
                     kind: m.kind().to_string(),
                     vertices: s.vertices,
@@ -365,7 +385,7 @@ impl<M: TissueModel> World<M> {
 
     /// A digest of every model's state, in model order.
     pub fn state_hash(&self) -> u64 {
-        let mut h = crate::models::Fnv::default();
+        let mut h = crate::sim::Fnv::default();
         for (_, m) in self.models() {
             let v = m.state_hash();
             h.write(v as u32);
@@ -375,6 +395,34 @@ impl<M: TissueModel> World<M> {
     }
 }
 
-#[cfg(test)]
-#[path = "world_tests.rs"]
-mod tests;
+/// What a procedure's reports and benchmarks read of its world's models, whatever their
+/// type: sizes, step times, heap bytes, awake shares and the state digest.
+pub trait ModelSet: Send {
+    fn model_reports(&self) -> Vec<ModelReport>;
+    fn model_times(&self) -> Vec<f64>;
+    fn memory(&self) -> Vec<(&'static str, usize)>;
+    fn awake_fractions(&self) -> Vec<f64>;
+    fn stay_awake(&mut self);
+    fn state_hash(&self) -> u64;
+}
+
+impl<M: TissueModel> ModelSet for World<M> {
+    fn model_reports(&self) -> Vec<ModelReport> {
+        World::model_reports(self)
+    }
+    fn model_times(&self) -> Vec<f64> {
+        World::model_times(self)
+    }
+    fn memory(&self) -> Vec<(&'static str, usize)> {
+        World::memory(self)
+    }
+    fn awake_fractions(&self) -> Vec<f64> {
+        World::awake_fractions(self)
+    }
+    fn stay_awake(&mut self) {
+        World::stay_awake(self);
+    }
+    fn state_hash(&self) -> u64 {
+        World::state_hash(self)
+    }
+}

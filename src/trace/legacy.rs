@@ -1,6 +1,7 @@
 //! Versions 1 and 2: one monolithic record, written at the end of a session by earlier
-//! releases. They still read, as ended "legacy", with their tunings given to the model the
-//! procedure names for them (`ProcedureInfo::legacy_tuned_model`).
+//! releases. They still read, as ended "legacy". Their tunings name no model: they are read
+//! with an empty model, which [`Recording::resolve`] gives the model the procedure names
+//! for them (`ProcedureInfo::legacy_tuned_model`).
 
 use super::codec::{FRAME_BYTES, Reader, read_frame};
 use super::recording::{Recording, Tail, TuningRecord, check_dt};
@@ -59,12 +60,7 @@ pub(super) fn decode_legacy(mut r: Reader, version: u32) -> Result<Recording, In
                 let m = format!("step {step} is out of order or past the last frame ({n})");
                 return Err(InputError::new(file, &key, m));
             }
-            let model = crate::procedures::find(&procedure)
-                .and_then(|p| p.legacy_tuned_model)
-                .ok_or_else(|| {
-                    InputError::new(file, &key, "this procedure's recordings never had tunings")
-                })?;
-            tunings.push(TuningRecord::from_tuning(step, model, &t));
+            tunings.push(TuningRecord::from_tuning(step, "", &t));
         }
     }
     Ok(Recording {

@@ -191,6 +191,36 @@ impl Recording {
         Self::decode(&file, &bytes)
     }
 
+    /// Resolves the recording against `catalog`: its procedure must be one of it, and the
+    /// tunings of a version 1 or 2 recording (which name no model) go to the model its
+    /// procedure names for them. `file` names it in errors.
+    pub fn resolve(&mut self, catalog: &crate::sim::Catalog, file: &str) -> Result<(), InputError> {
+        let info = catalog.lookup(file, "procedure", &self.procedure)?;
+        self.name_legacy_tunings(file, info.legacy_tuned_model)
+    }
+
+    /// Gives the tunings that name no model (versions 1 and 2) to `model`; an error naming
+    /// the first such tuning where there is no model to give them.
+    pub fn name_legacy_tunings(
+        &mut self,
+        file: &str,
+        model: Option<&str>,
+    ) -> Result<(), InputError> {
+        for (j, t) in self.tunings.iter_mut().enumerate() {
+            if t.model.is_empty() {
+                let model = model.ok_or_else(|| {
+                    InputError::new(
+                        file,
+                        &format!("tuning {j}"),
+                        "this procedure's recordings never had tunings",
+                    )
+                })?;
+                t.model = model.to_string();
+            }
+        }
+        Ok(())
+    }
+
     pub fn is_recording(bytes: &[u8]) -> bool {
         bytes.starts_with(MAGIC)
     }
@@ -226,7 +256,7 @@ fn partial_path(path: &Path) -> PathBuf {
     path.with_file_name(name)
 }
 
-/// A version 3 header's checks, shared by reader and writer: a known procedure, a step in
+/// A version 3 header's checks, shared by reader and writer: a procedure's name, a step in
 /// range, and a step equal to the embedded scenario's top-level `dt_s` (a replay steps at the
 /// scenario's `dt_s`, so a mismatch means the frames are not what ran). The scenario is read as
 /// plain TOML: this module does not know any procedure's scenario.

@@ -402,7 +402,7 @@ mod tests {
     use egui_kittest::kittest::Queryable;
 
     fn info() -> &'static ProcedureInfo {
-        crate::procedures::REGISTRY[0]
+        crate::registry::REGISTRY[0]
     }
 
     fn dashboard() -> Dashboard {

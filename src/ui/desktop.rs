@@ -336,7 +336,7 @@ mod tests {
 
     #[test]
     fn the_target_is_in_the_middle_of_the_view_wherever_the_camera_goes() {
-        let view = crate::procedures::REGISTRY[0].view;
+        let view = crate::registry::REGISTRY[0].view;
         let mut c = OrbitCamera::at(&view);
         assert!(close(c.eye(), view.eye), "{}", c.eye());
         for (yaw, pitch, pan, zoom) in [
@@ -364,7 +364,7 @@ mod tests {
 
     #[test]
     fn orbit_pitch_and_zoom_stay_in_range() {
-        let mut c = OrbitCamera::at(&crate::procedures::REGISTRY[0].view);
+        let mut c = OrbitCamera::at(&crate::registry::REGISTRY[0].view);
         c.orbit(0.0, 10.0);
         assert_eq!(c.pitch, PITCH_LIMIT);
         for _ in 0..100 {
@@ -384,11 +384,11 @@ mod hand_tests {
 
     #[test]
     fn the_grasper_goes_under_the_cursor_at_the_wheel_depth_and_grips_with_the_button() {
-        let cam = OrbitCamera::at(&crate::procedures::REGISTRY[0].view);
+        let cam = OrbitCamera::at(&crate::registry::REGISTRY[0].view);
         let view = cam.view(1.5);
         let mut h = DesktopHands {
             selected: Hand::Left,
-            ..DesktopHands::parked(crate::procedures::REGISTRY[0])
+            ..DesktopHands::parked(crate::registry::REGISTRY[0])
         };
         let laser_before = h.frame.hands[1];
         let at = Vec2::new(0.25, -0.5);
@@ -430,7 +430,7 @@ mod hand_tests {
 
     #[test]
     fn moving_the_camera_moves_no_instrument_and_the_mouse_moves_it_on_from_there() {
-        let info = crate::procedures::REGISTRY[0];
+        let info = crate::registry::REGISTRY[0];
         let mut cam = OrbitCamera::at(&info.view);
         let mut h = DesktopHands::parked(info);
         let at = Vec2::new(0.1, 0.05);
@@ -488,8 +488,8 @@ mod hand_tests {
 
     #[test]
     fn the_laser_beam_follows_the_cursor_ray_and_cuts_or_marks_with_the_buttons() {
-        let view = OrbitCamera::at(&crate::procedures::REGISTRY[0].view).view(16.0 / 9.0);
-        let mut h = DesktopHands::parked(crate::procedures::REGISTRY[0]);
+        let view = OrbitCamera::at(&crate::registry::REGISTRY[0].view).view(16.0 / 9.0);
+        let mut h = DesktopHands::parked(crate::registry::REGISTRY[0]);
         assert_eq!(h.selected, Hand::Right);
         h.pointer(
             &view,
@@ -521,7 +521,7 @@ mod hand_tests {
 
     #[test]
     fn the_right_button_is_the_primary_button_only_where_the_procedure_uses_it() {
-        let reg = crate::procedures::REGISTRY;
+        let reg = crate::registry::REGISTRY;
         // A procedure whose hands both use their primary buttons: one changes instrument,
         // the other drives the laparoscope.
         let info = reg

@@ -47,9 +47,7 @@ pub struct SimThread {
     handle: Option<JoinHandle<Result<Live, SessionError>>>,
 }
 
-/// Vulnerable structures are reported in the status within this distance, metres (the
-/// alarms use a nearer limit of their own).
-pub const LOOK_M: f32 = 0.01;
+pub use crate::session::LOOK_M;
 
 impl SimThread {
     /// Builds the procedure (here, so a bad scenario is reported before any window opens)

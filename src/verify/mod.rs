@@ -17,10 +17,10 @@ mod collision_cases;
 mod cosserat_cases;
 mod forces_cases;
 pub mod hertz_cases;
-pub(crate) mod membrane_cases;
-pub(crate) mod particle_cases;
+mod membrane_cases;
+mod particle_cases;
 mod skeleton_cases;
-mod softbody_cases;
+pub mod softbody_cases;
 pub mod softbody_contact_cases;
 mod xpbd_cases;
 
@@ -53,48 +53,7 @@ pub struct CaseResult {
     pub sim_s_per_wall_s: Option<f64>,
 }
 
-/// A registered case: its identity, its tolerance, and the function that measures it.
-pub struct Case {
-    pub model: &'static str,
-    pub case: &'static str,
-    pub description: &'static str,
-    pub unit: &'static str,
-    /// Relative tolerance; each case says in its description or source why this much.
-    pub tolerance: f64,
-    pub run: fn() -> Measured,
-}
-
-/// What a case's run produces.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Measured {
-    /// The independent reference value.
-    pub reference: f64,
-    /// The simulator's value.
-    pub measured: f64,
-    /// Simulated time stepped, s (0 for a static case).
-    pub simulated_s: f64,
-    /// Smallest magnitude the error is taken relative to, so that a reference of zero still
-    /// gives a relative error; 0 where the reference is far from zero.
-    pub floor: f64,
-}
-
-impl Measured {
-    /// A static case (no simulated time) with a reference far from zero.
-    pub fn at_rest(reference: f64, measured: f64) -> Measured {
-        Measured {
-            reference,
-            measured,
-            simulated_s: 0.0,
-            floor: 0.0,
-        }
-    }
-
-    /// A case that could not be set up (say, a mesh that failed to build): its measured value
-    /// is NaN, so it fails rather than passing silently.
-    pub fn not_run(reference: f64) -> Measured {
-        Measured::at_rest(reference, f64::NAN)
-    }
-}
+pub use crate::sim::{Case, Measured};
 
 /// Relative error of `measured` against `reference`, taken relative to at least `floor`.
 /// NaN when either value is not finite or both the reference and the floor are zero.
@@ -133,7 +92,7 @@ impl CaseResult {
     }
 }
 
-/// Every registered case, in a fixed order (model by model). Each of these passes when the
+/// Every model's case, in a fixed order (model by model). Each of these passes when the
 /// models follow their own equations; a new model adds one line here.
 pub fn cases() -> Vec<Case> {
     let mut all = Vec::new();
@@ -174,9 +133,19 @@ pub fn run(cases: &[Case]) -> Vec<CaseResult> {
     cases.iter().map(run_case).collect()
 }
 
-/// Runs every registered case (not the known failures), in order.
-pub fn run_all() -> Vec<CaseResult> {
-    run(&cases())
+/// The models' cases, then each procedure's of `catalog` that needs its whole scene, in
+/// the catalog's order: `vesalius verify`'s table.
+pub fn cases_in(catalog: &crate::sim::Catalog) -> Vec<Case> {
+    let mut all = cases();
+    for p in catalog.iter() {
+        all.extend((p.cases)());
+    }
+    all
+}
+
+/// Runs every case of [`cases_in`] (not the known failures), in order.
+pub fn run_all(catalog: &crate::sim::Catalog) -> Vec<CaseResult> {
+    run(&cases_in(catalog))
 }
 
 /// An aligned text table: a header, one row per result, and a last line
@@ -256,8 +225,8 @@ mod tests {
     use std::collections::HashSet;
 
     #[test]
-    fn every_registered_case_passes() {
-        let results = run_all();
+    fn every_models_case_passes() {
+        let results = run(&cases());
         let failed: Vec<String> = results
             .iter()
             .filter(|r| !r.passed)
@@ -274,7 +243,7 @@ mod tests {
 
     #[test]
     fn every_result_field_is_finite() {
-        for r in run_all() {
+        for r in run(&cases()) {
             for (name, v) in [
                 ("reference", r.reference),
                 ("measured", r.measured),
@@ -304,7 +273,7 @@ mod tests {
 
     #[test]
     fn the_table_has_a_header_one_row_per_case_and_a_summary() {
-        let results = run_all();
+        let results = run(&cases());
         let text = table(&results);
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(lines.len(), results.len() + 2, "{text}");
@@ -367,5 +336,43 @@ mod tests {
             assert!(r.measured.is_finite(), "{}: {}", r.case, r.measured);
             assert!(!r.passed, "{} now passes: register it", r.case);
         }
+    }
+
+    /// The shape-matching column of the verify case sags as the continuum does at the
+    /// liver's and gallbladder's sizes (20 and 30 lattice steps), within 10 %.
+    #[test]
+    fn a_hanging_column_sags_as_the_continuum_does() {
+        // A bar of height H hanging from its top under its own weight stretches by
+        // rho g H^2 / (2 E).
+        for ny in [20usize, 30] {
+            let (sag, continuum) = particle_cases::column_sag(ny, 2).expect("clusters");
+            assert!(
+                (sag / continuum - 1.0).abs() < 0.1,
+                "{ny} steps: {sag} m vs {continuum} m"
+            );
+        }
+    }
+
+    #[test]
+    fn a_free_sheet_under_residual_strain_shrinks_by_it() {
+        // Overdamped: the sheet draws in without overshooting. (Structural springs alone
+        // resist neither shear nor bending: a row that overshot would stay folded at zero
+        // energy.) The same sheet is the membrane's residual-shrink case.
+        let (rows, cols, spacing) = membrane_cases::FREED;
+        let (m, _) = membrane_cases::freed_sheet().expect("a sheet");
+        let span = |l: usize| {
+            let (a, b) = (m.node(l, 0, cols / 2), m.node(l, rows - 1, cols / 2));
+            m.position(b).distance(m.position(a))
+        };
+        let rest = (rows - 1) as f32 * spacing;
+        let across = m
+            .position(m.node(1, 10, cols - 1))
+            .distance(m.position(m.node(1, 10, 0)));
+        let across = 1.0 - across / ((cols - 1) as f32 * spacing);
+        assert!((across - 0.1).abs() < 0.015, "shrank across by {across}");
+        let shrink = 1.0 - span(1) / rest;
+        assert!((shrink - 0.1).abs() < 0.015, "shrank by {shrink}");
+        // The layers without residual strain keep their size.
+        assert!((span(2) / rest - 1.0).abs() < 1e-4, "{}", span(2));
     }
 }

@@ -13,7 +13,8 @@ use crate::models::{SimplexMesh, SoftBody, SoftBodyParams};
 use crate::sim::{ModelOutput, TissueModel};
 use glam::Vec3;
 
-pub(super) const MODEL: &str = "simplex soft body";
+/// The model these cases (and the procedures' soft-body cases) are listed under.
+pub const MODEL: &str = "simplex soft body";
 const RADIUS_M: f32 = 0.03;
 pub(super) const DT_S: f32 = 0.002;
 

@@ -116,7 +116,7 @@ mod tests {
     #[test]
     fn the_monitor_stands_across_the_table_facing_the_trainee() {
         let head = Vec3::from(DEFAULT_HEAD.0);
-        for info in crate::procedures::REGISTRY {
+        for info in crate::registry::REGISTRY {
             let m = monitor(info);
             // Ahead of the eyes, beyond the field, its picture toward them and upright.
             assert!((m.centre - head).length() > 0.9);

@@ -75,9 +75,7 @@ impl Stepper {
     pub fn start(mut live: Live) -> Result<Stepper, SessionError> {
         let bus = Arc::new(SnapshotBus::new());
         bus.publish(live.snapshot());
-        let status = Arc::new(ArcSwap::from_pointee(
-            live.status(crate::ui::runner::LOOK_M),
-        ));
+        let status = Arc::new(ArcSwap::from_pointee(live.status(crate::session::LOOK_M)));
         let (to_sim, inbox) = channel();
         let (done_tx, done) = channel();
         let (b, s) = (bus.clone(), status.clone());
@@ -253,7 +251,7 @@ fn serve(
                 last_t_s = live.time_s();
                 held = Some(hands);
                 bus.publish(live.snapshot());
-                status.store(Arc::new(live.status(crate::ui::runner::LOOK_M)));
+                status.store(Arc::new(live.status(crate::session::LOOK_M)));
                 let _ = done.send(Ok(FrameDone {
                     feel,
                     time_s: last_t_s,

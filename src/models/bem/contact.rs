@@ -52,6 +52,12 @@ pub enum ContactError {
     Singular,
 }
 
+impl From<ContactError> for crate::sim::BenchError {
+    fn from(e: ContactError) -> Self {
+        crate::sim::BenchError::Model(crate::sim::ModelError::new("a contact update", e))
+    }
+}
+
 /// A contact update worked out but not yet taken: the elastic tractions, the relaxation's
 /// memory and the tractions with the relaxation, Pa (3 per contact).
 #[derive(Debug, Clone, Default, PartialEq)]

@@ -177,6 +177,39 @@ pub enum PrecomputeError {
     Input(#[from] crate::scenario::InputError),
 }
 
+impl From<PrecomputeError> for crate::sim::ModelError {
+    fn from(e: PrecomputeError) -> Self {
+        crate::sim::ModelError::new("precomputing the tissue's responses", e)
+    }
+}
+
+impl From<PrecomputeError> for crate::sim::BuildError {
+    fn from(e: PrecomputeError) -> Self {
+        crate::sim::BuildError::Model(e.into())
+    }
+}
+
+impl Timings {
+    /// `report` with these stage times, their total and the factorisation's rate for
+    /// `flops` operations.
+    pub fn fill(
+        self,
+        mut report: crate::sim::precompute::PrecomputeReport,
+        flops: f64,
+    ) -> crate::sim::precompute::PrecomputeReport {
+        report.assembly_s = self.assembly_s;
+        report.factor_s = self.factor_s;
+        report.solve_s = self.solve_s;
+        report.total_s = self.assembly_s + self.factor_s + self.solve_s;
+        report.factor_gflops = if self.factor_s > 0.0 {
+            flops / self.factor_s / 1e9
+        } else {
+            0.0
+        };
+        report
+    }
+}
+
 /// A problem's solution as given and its field elements' responses.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Precomputed {

@@ -410,7 +410,7 @@ impl CosseratRod {
 
     /// A digest of the state's bits.
     pub fn state_hash(&self) -> u64 {
-        let mut h = crate::models::Fnv::default();
+        let mut h = crate::sim::Fnv::default();
         let mut put = |c: f64| {
             let b = c.to_bits();
             h.write(b as u32);

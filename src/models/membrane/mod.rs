@@ -730,7 +730,7 @@ impl Membrane {
 
     /// A digest of the state's bits.
     pub fn state_hash(&self) -> u64 {
-        let mut h = crate::models::Fnv::default();
+        let mut h = crate::sim::Fnv::default();
         for v in &self.state.data {
             h.write(v.to_bits());
         }

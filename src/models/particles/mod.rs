@@ -144,7 +144,7 @@ impl Particles {
 
     /// A deterministic digest of positions and velocities.
     pub fn state_hash(&self) -> u64 {
-        let mut h = crate::models::Fnv::default();
+        let mut h = crate::sim::Fnv::default();
         for p in self.x.iter().chain(&self.v) {
             for c in p.to_array() {
                 h.write(c.to_bits());

@@ -203,7 +203,7 @@ impl CatheterScene {
 
     /// A digest of the balls' places and speeds and the holes, for replay checks.
     pub fn state_hash(&self) -> u64 {
-        let mut h = crate::models::Fnv::default();
+        let mut h = crate::sim::Fnv::default();
         let balls = [&self.catheter.balls, &self.vessel.balls];
         for b in balls {
             for (x, v) in b.x.iter().zip(&b.v) {

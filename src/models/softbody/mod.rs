@@ -61,7 +61,7 @@ mod params;
 mod tests;
 mod topology;
 
-pub use model::Fnv;
+pub use crate::sim::Fnv;
 pub use params::{SoftBodyParams, Tuning};
 
 /// A piece of the body cut free of its anchors.

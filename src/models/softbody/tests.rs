@@ -418,3 +418,48 @@ fn one_or_two_threads_step_a_large_awake_body_to_the_same_bits() {
     let f = Vec3::from_array(one.1.map(f32::from_bits));
     assert!(f.z > 0.0, "reaction {f}");
 }
+
+/// Collision's ray cast against a soft body's surface.
+#[test]
+fn ray_hits_the_near_side_of_a_sphere_at_its_radius() {
+    let mut m = icosphere(3);
+    for p in &mut m.positions {
+        *p *= 0.05;
+    }
+    let s = SimplexMesh::dual(&m).expect("dual");
+    let n = s.len();
+    let body = SoftBody::new("ball", s, vec![0; n], SoftBodyParams::default());
+    let view = crate::sim::TissueModel::collider(&body);
+    let hit = view
+        .cast_ray(Vec3::new(0.0, 0.0, 0.2), Vec3::NEG_Z, 1.0)
+        .expect("hit");
+    // The flat facets sit just inside the sphere: 0.15 m to 0.1503 m away.
+    assert!(
+        hit.distance_m > 0.1495 && hit.distance_m < 0.151,
+        "{}",
+        hit.distance_m
+    );
+    assert!(hit.normal.z > 0.9);
+    assert!(
+        view.cast_ray(Vec3::new(0.0, 0.2, 0.2), Vec3::NEG_Z, 1.0)
+            .is_none()
+    );
+}
+
+/// A live tuning of a soft body's table is checked against its sliders' ranges.
+#[test]
+fn live_values_are_checked_against_their_sliders() {
+    let ok = [("foundation_pa_per_m".to_string(), 2e6)];
+    assert!(crate::params::check_tuning::<SoftBodyParams>("tissue", &ok).is_ok());
+    let high = [("foundation_pa_per_m".to_string(), 2e7)];
+    let e = crate::params::check_tuning::<SoftBodyParams>("tissue", &high)
+        .expect_err("above")
+        .to_string();
+    assert!(
+        e.contains("tissue.foundation_pa_per_m") && e.contains("10000000"),
+        "{e}"
+    );
+    let fixed = [("falloff_m".to_string(), 0.01)];
+    let e = crate::params::check_tuning::<SoftBodyParams>("tissue", &fixed).expect_err("fixed");
+    assert!(matches!(e, crate::params::TuneError::Fixed { .. }), "{e}");
+}

@@ -5,7 +5,7 @@
 
 use super::plugin::{INFO, build_scene};
 use super::scenario::Scenario;
-use crate::bench::{BenchError, BenchLine};
+use crate::sim::bench::{BenchError, BenchLine};
 use crate::trace::KeyTrace;
 
 /// Simulated seconds of the demo each vessel is timed over.

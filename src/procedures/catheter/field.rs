@@ -2,8 +2,8 @@
 //! runs in (a bed of fat and muscle behind it, connective tissue around), seen by a
 //! forward-viewing camera.
 
-use crate::render::field::{FieldShape, OperativeField};
 use crate::sim::SurfaceRole::{Fat, Tissue};
+use crate::sim::field::{FieldShape, OperativeField};
 use glam::Vec3;
 
 pub fn field() -> OperativeField {

@@ -6,13 +6,13 @@ use super::scenario::{self, NAME, Scenario};
 use crate::models::skeleton::catheter::Catheter;
 use crate::models::skeleton::scene::CatheterScene;
 use crate::models::skeleton::vessel::Vessel;
-use crate::params::TuneError;
 use crate::procedures::{
     BuildError, MassSpring, ModelReport, Plan, Procedure, ProcedureInfo, ProcedureReport,
-    TaskStatus, ToolInfo, ToolKind, Tunable, Viewpoint,
+    TaskStatus, ToolInfo, ToolKind, Viewpoint,
 };
 use crate::scenario::InputError;
-use crate::sim::{Hand, InputFrame, SimEvent, Snapshot};
+use crate::sim::Hand;
+use crate::sim::{completion_share, time_efficiency};
 use glam::{DVec3, Vec3};
 use serde::Serialize;
 
@@ -56,8 +56,10 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
     field: super::field::field,
     blank_metrics: || serde_json::to_value(Metrics::default()).unwrap_or_default(),
     // The paper's Novint Falcon (9 N, 1 kHz).
-    haptic_device: crate::haptics::DeviceChoice::Falcon,
+    haptic_device: crate::sim::DeviceChoice::Falcon,
     bench_extra: Some(super::bench::extra),
+    cases: Vec::new,
+    precompute: None,
     plan,
     build,
 };
@@ -121,10 +123,8 @@ pub struct ScoreParts {
 pub fn score(s: &Scenario, m: &Metrics) -> (f32, ScoreParts) {
     let most = s.device.max_force_n.max(3.5 + 1e-9);
     let parts = ScoreParts {
-        completion: m.steps_done.len().min(STEPS.len()) as f32 / STEPS.len() as f32,
-        efficiency: m.completion_time_s.map_or(0.0, |t| {
-            (s.task.target_time_s / t.max(1e-9)).min(1.0) as f32
-        }),
+        completion: completion_share(m.steps_done.len(), STEPS.len()),
+        efficiency: time_efficiency(s.task.target_time_s, m.completion_time_s),
         gentleness: (1.0 - ((m.peak_force_n - 3.5) / (most - 3.5)).clamp(0.0, 1.0)) as f32,
         penalty: PUNCTURE_PENALTY * m.punctures as f32
             + WRONG_BRANCH_PENALTY * m.wrong_branch as f32,
@@ -137,21 +137,7 @@ pub fn score(s: &Scenario, m: &Metrics) -> (f32, ScoreParts) {
 }
 
 impl Procedure for Catheterisation {
-    fn info(&self) -> &'static ProcedureInfo {
-        &INFO
-    }
-
-    fn dt_s(&self) -> f32 {
-        self.scenario.dt_s
-    }
-
-    fn step(&mut self, input: &InputFrame, step: u64, events: &mut Vec<SimEvent>) {
-        Catheterisation::step(self, input, step, events);
-    }
-
-    fn snapshot(&mut self, step: u64) -> Snapshot {
-        Catheterisation::snapshot(self, step)
-    }
+    crate::procedure_basics!(INFO);
 
     fn status(&self, _near_m: f32) -> TaskStatus {
         let m = &self.metrics;
@@ -181,13 +167,13 @@ impl Procedure for Catheterisation {
 
     fn report(&self) -> ProcedureReport {
         let (score, parts) = score(&self.scenario, &self.metrics);
-        ProcedureReport {
-            completed: self.is_completed(),
-            errors: self.metrics.errors,
-            metrics: serde_json::to_value(&self.metrics).unwrap_or_default(),
-            score_parts: serde_json::to_value(&parts).unwrap_or_default(),
+        ProcedureReport::of(
+            self.is_completed(),
+            self.metrics.errors,
+            &self.metrics,
+            &parts,
             score,
-        }
+        )
     }
 
     fn reactions(&self) -> [Vec3; 2] {
@@ -263,14 +249,6 @@ impl Procedure for Catheterisation {
 
     fn state_hash(&self) -> u64 {
         Catheterisation::state_hash(self)
-    }
-
-    fn tunables(&self) -> Vec<Tunable> {
-        Vec::new()
-    }
-
-    fn tune(&mut self, model: &str, _values: &[(String, f32)]) -> Result<(), TuneError> {
-        Err(TuneError::NoSuchModel(model.to_string()))
     }
 
     fn is_completed(&self) -> bool {

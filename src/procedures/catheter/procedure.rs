@@ -9,10 +9,10 @@
 //! what the renderer draws.
 
 use super::scenario::Scenario;
-use crate::models::Fnv;
 use crate::models::skeleton::catheter::Drive;
 use crate::models::skeleton::scene::CatheterScene;
 use crate::procedures::TaskStep;
+use crate::sim::Fnv;
 use crate::sim::{
     EventKind, Hand, InputFrame, ModelSnapshot, ProcedureEvent, SimEvent, Snapshot, SurfaceRole,
     ToolSnapshot,

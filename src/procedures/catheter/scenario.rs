@@ -6,8 +6,8 @@ use crate::models::skeleton::catheter::CatheterParams;
 use crate::models::skeleton::contact::ContactLaw;
 use crate::models::skeleton::vessel::VesselParams;
 use crate::param_fields;
-use crate::params::{ParamSpec, Params, TOP_LEVEL};
-use crate::scenario::{InputError, Timing};
+use crate::params::{ParamSpec, Params};
+use crate::scenario::InputError;
 use serde::Deserialize;
 
 /// The name scenarios and traces give this procedure.
@@ -354,48 +354,22 @@ impl Params for Task {
     param_fields!(branch, reach_m, target_time_s);
 }
 
-/// The top level: 1 ms steps, the Falcon's servo rate.
-const TIMING: &[ParamSpec] = &[
-    Timing::dt_spec(
-        0.001,
-        "the simulation step: the Falcon's 1 kHz servo period",
-    ),
-    Timing::PUBLISH_HZ,
-];
-
-/// The scenario's tables with specs (file order).
-pub const PARAM_TABLES: &[(&str, &[ParamSpec])] = &[
-    (TOP_LEVEL, TIMING),
-    ("vessel", VesselTable::SPECS),
-    ("catheter", CatheterTable::SPECS),
-    ("contact", ContactTable::SPECS),
-    ("device", DeviceTable::SPECS),
-    ("task", Task::SPECS),
-];
+crate::scenario_tables! {
+    name: NAME,
+    dt: (0.001, "the simulation step: the Falcon's 1 kHz servo period"),
+    tables: [
+        ("vessel", vessel, VesselTable),
+        ("catheter", catheter, CatheterTable),
+        ("contact", contact, ContactTable),
+        ("device", device, DeviceTable),
+        ("task", task, Task),
+    ],
+}
 
 impl Scenario {
-    /// Parses and checks scenario text; `file` names it in errors.
-    pub fn parse(file: &str, text: &str) -> Result<Self, InputError> {
-        crate::scenario::parse_checked(file, text, Scenario::validate)
-    }
-
-    pub fn timing(&self) -> Timing {
-        Timing {
-            dt_s: self.dt_s,
-            publish_hz: self.publish_hz,
-        }
-    }
-
     /// The tables' ranges, and the rules between them.
     pub fn validate(&self, file: &str) -> Result<(), InputError> {
-        use crate::params::validate;
-        crate::scenario::expect_procedure(file, &self.procedure, NAME)?;
-        validate(file, TOP_LEVEL, &self.timing())?;
-        validate(file, "vessel", &self.vessel)?;
-        validate(file, "catheter", &self.catheter)?;
-        validate(file, "contact", &self.contact)?;
-        validate(file, "device", &self.device)?;
-        validate(file, "task", &self.task)?;
+        self.validate_tables(file)?;
         let v = &self.vessel;
         if v.wall_m >= 0.25 * v.diameter_m {
             return Err(InputError::new(

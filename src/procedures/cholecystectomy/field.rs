@@ -2,8 +2,8 @@
 //! liver's underside with the gallbladder, the duodenum and the stomach below and to the left,
 //! the transverse colon and the omentum's fat beneath, under the diaphragm's peritoneum.
 
-use crate::render::field::{FieldShape, OperativeField};
 use crate::sim::SurfaceRole::{Fat, Viscus};
+use crate::sim::field::{FieldShape, OperativeField};
 use glam::Vec3;
 
 pub fn field() -> OperativeField {

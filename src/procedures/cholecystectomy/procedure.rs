@@ -13,10 +13,10 @@ use super::drawing::{Skin, fascia_mesh, lattice_skin, skin_mesh, tubes};
 use super::scenario::Scenario;
 use super::scene::{CholeScene, HandTool, StepOutcome};
 use crate::collision::Instrument;
-use crate::models::Fnv;
 use crate::models::particles::adhesion::AdhesionBreak;
 use crate::procedures::TaskStep;
 use crate::procedures::scope::Scope;
+use crate::sim::Fnv;
 use crate::sim::{
     Bleed, EmissionKind, EmissionLog, EventKind, Hand, HandInput, InputFrame, InstrumentShape,
     ProcedureEvent, SimEvent, Snapshot, SurfaceRole, ToolSnapshot,

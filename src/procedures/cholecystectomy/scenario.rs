@@ -5,8 +5,8 @@
 use super::anatomy::AnatomyParams;
 use super::scene::SceneParams;
 use crate::param_fields;
-use crate::params::{ParamSpec, Params, TOP_LEVEL};
-use crate::scenario::{InputError, Timing};
+use crate::params::{ParamSpec, Params};
+use crate::scenario::InputError;
 use serde::Deserialize;
 
 /// The name scenarios and traces give this procedure.
@@ -445,50 +445,24 @@ impl Params for Task {
     );
 }
 
-/// The top level: 1 ms steps, the simulator's haptic rate.
-const TIMING: &[ParamSpec] = &[
-    Timing::dt_spec(
-        0.001,
-        "simulation step (0.001: the haptic rate; the solver's substeps divide it)",
-    ),
-    Timing::PUBLISH_HZ,
-];
-
-/// The scenario's tables with specs (file order).
-pub const PARAM_TABLES: &[(&str, &[ParamSpec])] = &[
-    (TOP_LEVEL, TIMING),
-    ("anatomy", AnatomyTable::SPECS),
-    ("tissue", TissueTable::SPECS),
-    ("solver", SolverTable::SPECS),
-    ("adhesion", AdhesionTable::SPECS),
-    ("tools", Tools::SPECS),
-    ("task", Task::SPECS),
-];
+crate::scenario_tables! {
+    name: NAME,
+    dt: (0.001, "simulation step (0.001: the haptic rate; the solver's substeps divide it)"),
+    tables: [
+        ("anatomy", anatomy, AnatomyTable),
+        ("tissue", tissue, TissueTable),
+        ("solver", solver, SolverTable),
+        ("adhesion", adhesion, AdhesionTable),
+        ("tools", tools, Tools),
+        ("task", task, Task),
+    ],
+}
 
 impl Scenario {
-    /// Parses and checks scenario text; `file` names it in errors.
-    pub fn parse(file: &str, text: &str) -> Result<Self, InputError> {
-        crate::scenario::parse_checked(file, text, Scenario::validate)
-    }
-
-    pub fn timing(&self) -> Timing {
-        Timing {
-            dt_s: self.dt_s,
-            publish_hz: self.publish_hz,
-        }
-    }
-
     /// The tables' ranges.
     pub fn validate(&self, file: &str) -> Result<(), InputError> {
-        use crate::params::validate;
-        crate::scenario::expect_procedure(file, &self.procedure, NAME)?;
-        validate(file, TOP_LEVEL, &self.timing())?;
-        validate(file, "anatomy", &self.anatomy)?;
-        validate(file, "tissue", &self.tissue)?;
-        validate(file, "solver", &self.solver)?;
-        validate(file, "adhesion", &self.adhesion)?;
-        validate(file, "tools", &self.tools)?;
-        validate(file, "task", &self.task)
+        self.validate_tables(file)?;
+        Ok(())
     }
 
     /// The anatomy generator's parameters.

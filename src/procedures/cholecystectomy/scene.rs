@@ -492,7 +492,7 @@ impl CholeScene {
 
     /// A digest of the particles' state and the adhesions' progress.
     pub fn state_hash(&self) -> u64 {
-        let mut h = crate::models::Fnv(self.particles.state_hash());
+        let mut h = crate::sim::Fnv(self.particles.state_hash());
         h.write(self.adhesion.torn_segments() as u32);
         h.0
     }

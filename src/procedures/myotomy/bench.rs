@@ -8,10 +8,10 @@
 use super::anatomy::Esophagus;
 use super::plugin::INFO;
 use super::scenario::Scenario;
-use crate::bench::{BenchError, BenchLine, Once, peak_gflops};
 use crate::models::bem::contact::{Contacts, MOST_CONTACTS};
 use crate::models::bem::system::lu_flops;
 use crate::procedures::BuildError;
+use crate::sim::bench::{BenchError, BenchLine, Once, peak_gflops};
 use glam::DVec3;
 use std::time::Instant;
 
@@ -27,7 +27,7 @@ pub fn extra() -> Result<Vec<BenchLine>, BenchError> {
     let pre = e
         .problem
         .precompute(&e.field, par, &|_, _| {})
-        .map_err(|x| BuildError::Precompute(x.into()))?;
+        .map_err(|x| BuildError::from(crate::models::bem::PrecomputeError::from(x)))?;
     let n = pre.n;
     let t = pre.timings;
     let peak = peak_gflops();

@@ -2,8 +2,8 @@
 //! hiatus between the diaphragm's crura, the stomach below the junction, the liver's left lobe
 //! lifted to one side, the aorta deep behind, under the diaphragm's peritoneum.
 
-use crate::render::field::{FieldShape, OperativeField};
 use crate::sim::SurfaceRole::{Artery, Fat, Tissue, Viscus};
+use crate::sim::field::{FieldShape, OperativeField};
 use glam::Vec3;
 
 pub fn field() -> OperativeField {

@@ -8,13 +8,13 @@ use super::procedure::{Metrics, Myotomy, STEPS};
 use super::scenario::{self, NAME, Scenario};
 use crate::models::bem::cache;
 use crate::models::bem::contact::Contacts;
-use crate::params::TuneError;
 use crate::procedures::{
     BuildError, MassSpring, ModelReport, Plan, Procedure, ProcedureInfo, ProcedureReport,
-    TaskStatus, ToolInfo, ToolKind, Tunable, Viewpoint,
+    TaskStatus, ToolInfo, ToolKind, Viewpoint,
 };
 use crate::scenario::InputError;
-use crate::sim::{Hand, InputFrame, SimEvent, Snapshot};
+use crate::sim::Hand;
+use crate::sim::{completion_share, time_efficiency};
 use glam::Vec3;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -59,8 +59,10 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
     assessment: include_str!("../../../assets/assessment/myotomy.toml"),
     field: super::field::field,
     blank_metrics: || serde_json::to_value(Metrics::default()).unwrap_or_default(),
-    haptic_device: crate::haptics::DeviceChoice::Phantom,
+    haptic_device: crate::sim::DeviceChoice::Phantom,
     bench_extra: Some(super::bench::extra),
+    cases: Vec::new,
+    precompute: Some(&super::PRECOMPUTE),
     plan,
     build,
 };
@@ -134,10 +136,8 @@ pub struct ScoreParts {
 /// perforation (a flat score until the assessment trees of #12).
 pub fn score(s: &Scenario, m: &Metrics) -> (f32, ScoreParts) {
     let parts = ScoreParts {
-        completion: m.steps_done.len().min(STEPS.len()) as f32 / STEPS.len() as f32,
-        efficiency: m.completion_time_s.map_or(0.0, |t| {
-            (s.task.target_time_s / t.max(1e-9)).min(1.0) as f32
-        }),
+        completion: completion_share(m.steps_done.len(), STEPS.len()),
+        efficiency: time_efficiency(s.task.target_time_s, m.completion_time_s),
         division: if m.required_m > 0.0 {
             (m.divided_m / m.required_m).min(1.0) as f32
         } else {
@@ -153,21 +153,7 @@ pub fn score(s: &Scenario, m: &Metrics) -> (f32, ScoreParts) {
 }
 
 impl Procedure for Myotomy {
-    fn info(&self) -> &'static ProcedureInfo {
-        &INFO
-    }
-
-    fn dt_s(&self) -> f32 {
-        self.scenario.dt_s
-    }
-
-    fn step(&mut self, input: &InputFrame, step: u64, events: &mut Vec<SimEvent>) {
-        Myotomy::step(self, input, step, events);
-    }
-
-    fn snapshot(&mut self, step: u64) -> Snapshot {
-        Myotomy::snapshot(self, step)
-    }
+    crate::procedure_basics!(INFO);
 
     fn status(&self, _near_m: f32) -> TaskStatus {
         let m = &self.metrics;
@@ -214,13 +200,13 @@ impl Procedure for Myotomy {
 
     fn report(&self) -> ProcedureReport {
         let (score, parts) = score(&self.scenario, &self.metrics);
-        ProcedureReport {
-            completed: self.is_completed(),
-            errors: self.metrics.errors,
-            metrics: serde_json::to_value(&self.metrics).unwrap_or_default(),
-            score_parts: serde_json::to_value(&parts).unwrap_or_default(),
+        ProcedureReport::of(
+            self.is_completed(),
+            self.metrics.errors,
+            &self.metrics,
+            &parts,
             score,
-        }
+        )
     }
 
     fn reactions(&self) -> [Vec3; 2] {
@@ -284,14 +270,6 @@ impl Procedure for Myotomy {
 
     fn state_hash(&self) -> u64 {
         Myotomy::state_hash(self)
-    }
-
-    fn tunables(&self) -> Vec<Tunable> {
-        Vec::new()
-    }
-
-    fn tune(&mut self, model: &str, _values: &[(String, f32)]) -> Result<(), TuneError> {
-        Err(TuneError::NoSuchModel(model.to_string()))
     }
 
     fn is_completed(&self) -> bool {

@@ -4,12 +4,13 @@
 use super::anatomy::Esophagus;
 use super::plugin::{INFO, cache_file};
 use super::scenario::Scenario;
+use crate::models::bem::PrecomputeError;
 use crate::models::bem::system::lu_flops;
-use crate::models::bem::{PrecomputeError, Progress};
-use crate::procedures::precompute::{Precomputable, PrecomputeReport};
+use crate::sim::ModelError;
+use crate::sim::precompute::{Precomputable, PrecomputeReport, Progress};
 use std::path::{Path, PathBuf};
 
-/// The entry in [`crate::procedures::precompute::PRECOMPUTABLE`].
+/// Its precomputation, named in its description (`ProcedureInfo::precompute`).
 pub const PRECOMPUTE: Precomputable = Precomputable {
     name: "myotomy",
     default_file,
@@ -29,7 +30,7 @@ fn default_file(dir: &Path) -> PathBuf {
     }
 }
 
-fn run(path: &Path, progress: Progress) -> Result<PrecomputeReport, PrecomputeError> {
+fn run(path: &Path, progress: Progress) -> Result<PrecomputeReport, ModelError> {
     let e = esophagus()?;
     let par = faer::Par::rayon(rayon::current_num_threads());
     let (pre, why) = e.problem.precompute_cached(&e.field, path, par, progress)?;
@@ -48,5 +49,5 @@ fn run(path: &Path, progress: Progress) -> Result<PrecomputeReport, PrecomputeEr
         total_s: 0.0,
         bytes: std::fs::metadata(path).map(|m| m.len()).unwrap_or(0),
     };
-    Ok(report.timed(pre.timings, lu_flops(pre.n)))
+    Ok(pre.timings.fill(report, lu_flops(pre.n)))
 }

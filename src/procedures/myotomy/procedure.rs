@@ -14,9 +14,9 @@ use super::anatomy::Esophagus;
 use super::drawing::Drawing;
 use super::palpation::{Palpation, Tip, Touch};
 use super::scenario::Scenario;
-use crate::models::Fnv;
 use crate::models::bem::incision::Incision;
 use crate::procedures::TaskStep;
+use crate::sim::Fnv;
 use crate::sim::{
     EmissionKind, EmissionLog, EventKind, Hand, InputFrame, InstrumentShape, ProcedureEvent,
     SimEvent, Snapshot, ToolSnapshot,

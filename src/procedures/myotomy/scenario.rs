@@ -5,8 +5,8 @@
 use super::anatomy::EsophagusParams;
 use crate::models::bem::contact::Prony;
 use crate::param_fields;
-use crate::params::{ParamSpec, Params, TOP_LEVEL};
-use crate::scenario::{InputError, Timing};
+use crate::params::{ParamSpec, Params};
+use crate::scenario::InputError;
 use serde::Deserialize;
 
 /// The name scenarios and traces give this procedure.
@@ -285,46 +285,21 @@ impl Params for Task {
     );
 }
 
-/// The top level: 1 ms steps, the haptic rate the contact update runs at.
-const TIMING: &[ParamSpec] = &[
-    Timing::dt_spec(
-        0.001,
-        "the simulation step: every step updates the contacts from the precomputed responses",
-    ),
-    Timing::PUBLISH_HZ,
-];
-
-/// The scenario's tables with specs (file order).
-pub const PARAM_TABLES: &[(&str, &[ParamSpec])] = &[
-    (TOP_LEVEL, TIMING),
-    ("esophagus", EsophagusTable::SPECS),
-    ("relaxation", RelaxationTable::SPECS),
-    ("tools", Tools::SPECS),
-    ("task", Task::SPECS),
-];
+crate::scenario_tables! {
+    name: NAME,
+    dt: (0.001, "the simulation step: every step updates the contacts from the precomputed responses"),
+    tables: [
+        ("esophagus", esophagus, EsophagusTable),
+        ("relaxation", relaxation, RelaxationTable),
+        ("tools", tools, Tools),
+        ("task", task, Task),
+    ],
+}
 
 impl Scenario {
-    /// Parses and checks scenario text; `file` names it in errors.
-    pub fn parse(file: &str, text: &str) -> Result<Self, InputError> {
-        crate::scenario::parse_checked(file, text, Scenario::validate)
-    }
-
-    pub fn timing(&self) -> Timing {
-        Timing {
-            dt_s: self.dt_s,
-            publish_hz: self.publish_hz,
-        }
-    }
-
     /// The tables' ranges, and the few rules between them.
     pub fn validate(&self, file: &str) -> Result<(), InputError> {
-        use crate::params::validate;
-        crate::scenario::expect_procedure(file, &self.procedure, NAME)?;
-        validate(file, TOP_LEVEL, &self.timing())?;
-        validate(file, "esophagus", &self.esophagus)?;
-        validate(file, "relaxation", &self.relaxation)?;
-        validate(file, "tools", &self.tools)?;
-        validate(file, "task", &self.task)?;
+        self.validate_tables(file)?;
         let e = &self.esophagus;
         if e.wall_m >= 0.8 * e.outer_radius_m {
             return Err(InputError::new(

@@ -3,8 +3,8 @@
 //! to at the midline, the colon reflected medially, the liver's edge above, all under the
 //! peritoneum of the flank.
 
-use crate::render::field::{FieldShape, OperativeField};
 use crate::sim::SurfaceRole::{Artery, Fat, Tissue, Vein, Viscus};
+use crate::sim::field::{FieldShape, OperativeField};
 use glam::Vec3;
 
 pub fn field() -> OperativeField {

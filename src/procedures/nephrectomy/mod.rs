@@ -11,6 +11,7 @@ use glam::Vec3;
 use serde::Serialize;
 
 mod anatomy;
+mod cases;
 mod field;
 mod plugin;
 mod scenario;
@@ -90,15 +91,17 @@ pub const INFO: super::ProcedureInfo = super::ProcedureInfo {
     // Tables 2 and 3 of the paper.
     profile_reference: Some(|| [crate::profiler::paper_cpu(), crate::profiler::paper_gpu()]),
     param_tables: scenario::PARAM_TABLES,
-    bench_all_awake_s: crate::bench::ALL_AWAKE_S,
+    bench_all_awake_s: crate::sim::ALL_AWAKE_S,
     scope_hand: None,
     swap: &[],
     legacy_tuned_model: Some(TUNED_MODEL),
     assessment: include_str!("../../../assets/assessment/nephrectomy.toml"),
     field: field::field,
     blank_metrics: || serde_json::to_value(Metrics::default()).unwrap_or_default(),
-    haptic_device: crate::haptics::DeviceChoice::Phantom,
+    haptic_device: crate::sim::DeviceChoice::Phantom,
     bench_extra: None,
+    cases: cases::cases,
+    precompute: None,
     plan,
     build,
 };

@@ -3,10 +3,8 @@
 use super::{INFO, KIDNEY, Nephrectomy, TUNED_MODEL};
 use crate::params::{TuneError, check_slider};
 use crate::procedures::soft_tissue;
-use crate::procedures::{
-    ModelReport, Procedure, ProcedureInfo, ProcedureReport, TaskStatus, Tunable,
-};
-use crate::sim::{InputFrame, SimEvent, Snapshot};
+use crate::procedures::{Procedure, ProcedureReport, TaskStatus, Tunable};
+use crate::sim::ModelSet;
 use glam::Vec3;
 
 /// The scenario table of the instruments, whose laser pressure is tunable too.
@@ -20,21 +18,7 @@ const LASER_PRESSURE_PA: (f64, f64) = match super::scenario::LASER_PRESSURE.tune
 const LASER_PRESSURE: &str = super::scenario::LASER_PRESSURE.key;
 
 impl Procedure for Nephrectomy {
-    fn info(&self) -> &'static ProcedureInfo {
-        &INFO
-    }
-
-    fn dt_s(&self) -> f32 {
-        self.scenario.dt_s
-    }
-
-    fn step(&mut self, input: &InputFrame, step: u64, events: &mut Vec<SimEvent>) {
-        Nephrectomy::step(self, input, step, events);
-    }
-
-    fn snapshot(&mut self, step: u64) -> Snapshot {
-        Nephrectomy::snapshot(self, step)
-    }
+    crate::procedure_basics!(INFO);
 
     fn status(&self, near_m: f32) -> TaskStatus {
         let m = &self.metrics;
@@ -64,13 +48,13 @@ impl Procedure for Nephrectomy {
             metrics.healthy_removed_m2 = self.healthy_removed();
         }
         let (score, parts) = super::score(&self.scenario, &metrics);
-        ProcedureReport {
-            completed: self.is_completed(),
-            errors: metrics.vessel_contacts + metrics.ties_torn,
-            metrics: serde_json::to_value(&metrics).unwrap_or_default(),
-            score_parts: serde_json::to_value(&parts).unwrap_or_default(),
+        ProcedureReport::of(
+            self.is_completed(),
+            metrics.vessel_contacts + metrics.ties_torn,
+            &metrics,
+            &parts,
             score,
-        }
+        )
     }
 
     fn reactions(&self) -> [Vec3; 2] {
@@ -90,28 +74,12 @@ impl Procedure for Nephrectomy {
         ]
     }
 
-    fn model_reports(&self) -> Vec<ModelReport> {
-        self.world().model_reports()
+    fn models(&self) -> Option<&dyn ModelSet> {
+        Some(&self.world)
     }
 
-    fn model_times(&self) -> Vec<f64> {
-        self.world().model_times()
-    }
-
-    fn awake_fractions(&self) -> Vec<f64> {
-        self.world.awake_fractions()
-    }
-
-    fn stay_awake(&mut self) {
-        self.world.stay_awake();
-    }
-
-    fn memory(&self) -> Vec<(&'static str, usize)> {
-        self.world().memory()
-    }
-
-    fn state_hash(&self) -> u64 {
-        self.world().state_hash()
+    fn models_mut(&mut self) -> Option<&mut dyn ModelSet> {
+        Some(&mut self.world)
     }
 
     fn tunables(&self) -> Vec<Tunable> {

@@ -5,8 +5,8 @@
 //! error names the file, the key and what is expected.
 
 use crate::models::SoftBodyParams;
-use crate::params::{ParamSpec, Params, TOP_LEVEL};
-use crate::scenario::{InputError, MAX_NODES, MIN_DIRECTION_LENGTH, Timing, check_procedure};
+use crate::params::{ParamSpec, Params};
+use crate::scenario::{InputError, MAX_NODES, MIN_DIRECTION_LENGTH};
 use serde::Deserialize;
 use std::path::Path;
 
@@ -408,35 +408,20 @@ impl Params for Weights {
     crate::param_fields!(completion, margin, preservation, safety, efficiency);
 }
 
-/// The top level: a 4 ms step, where the implicit kidney keeps up with real time on two cores.
-const TIMING: &[ParamSpec] = &[
-    Timing::dt_spec(
-        0.004,
-        "simulation step (0.004: 250 Hz; a force-feedback servo renders at 1 kHz between steps)",
-    ),
-    Timing::PUBLISH_HZ,
-];
-
-/// The scenario's tables with specs, as `INFO.param_tables` lists them (file order).
-pub const PARAM_TABLES: &[(&str, &[ParamSpec])] = &[
-    (TOP_LEVEL, TIMING),
-    ("anatomy", Anatomy::SPECS),
-    ("kidney", SoftBodyParams::SPECS),
-    ("vessels", SoftBodyParams::SPECS),
-    ("tools", Tools::SPECS),
-    ("task", Task::SPECS),
-    ("weights", Weights::SPECS),
-];
+crate::scenario_tables! {
+    name: super::INFO.name,
+    dt: (0.004, "simulation step (0.004: 250 Hz; a force-feedback servo renders at 1 kHz between steps)"),
+    tables: [
+        ("anatomy", anatomy, Anatomy),
+        ("kidney", kidney, SoftBodyParams),
+        ("vessels", vessels, SoftBodyParams),
+        ("tools", tools, Tools),
+        ("task", task, Task),
+        ("weights", weights, Weights),
+    ],
+}
 
 impl Scenario {
-    /// The top-level timing.
-    pub fn timing(&self) -> Timing {
-        Timing {
-            dt_s: self.dt_s,
-            publish_hz: self.publish_hz,
-        }
-    }
-
     /// Simulated points the anatomy will have, estimated from its sizes before anything is
     /// built: kidney and tumour (20 x 4^level faces each, one point per face) and three
     /// vessels (two faces per segment and ring).
@@ -445,11 +430,6 @@ impl Scenario {
         let sphere = 20 * 4u64.saturating_pow(a.level);
         let tube = 2 * u64::from(a.vessel_segments) * u64::from(a.vessel_rings);
         2 * sphere + 3 * tube
-    }
-
-    /// Parses and validates scenario text; `file` names it in errors.
-    pub fn parse(file: &str, text: &str) -> Result<Self, InputError> {
-        crate::scenario::parse_checked(file, text, Scenario::validate)
     }
 
     pub fn load(path: &Path) -> Result<Self, InputError> {
@@ -461,11 +441,8 @@ impl Scenario {
 
     /// The tables' ranges, then the checks that tie values together.
     pub fn validate(&self, file: &str) -> Result<(), InputError> {
-        use crate::params::validate;
-        check_procedure(file, "procedure", &self.procedure)?;
-        validate(file, TOP_LEVEL, &self.timing())?;
+        self.validate_tables(file)?;
         let a = &self.anatomy;
-        validate(file, "anatomy", a)?;
         let dir = glam::Vec3::from(a.tumour_direction);
         if dir.length() < MIN_DIRECTION_LENGTH || dir.try_normalize().is_none() {
             return Err(InputError::new(
@@ -492,12 +469,7 @@ impl Scenario {
                 ),
             ));
         }
-        validate(file, "kidney", &self.kidney)?;
-        validate(file, "vessels", &self.vessels)?;
-        validate(file, "tools", &self.tools)?;
-        validate(file, "task", &self.task)?;
         let w = &self.weights;
-        validate(file, "weights", w)?;
         if w.completion + w.margin + w.preservation + w.safety + w.efficiency <= 0.0 {
             return Err(InputError::new(
                 file,
@@ -525,7 +497,12 @@ impl Scenario {
 mod tests {
     use super::*;
     use crate::models::Tuning;
-    use crate::scenario::{builtin, with_values};
+    use crate::scenario::{InputError, with_values};
+
+    /// The tuned text is checked as a scenario of this procedure.
+    fn own(text: &str) -> Result<(), InputError> {
+        (super::super::INFO.plan)("s.toml", text).map(|_| ())
+    }
 
     fn shipped() -> Scenario {
         Scenario::parse("nephrectomy.toml", super::super::INFO.scenario).expect("parses")
@@ -533,7 +510,7 @@ mod tests {
 
     #[test]
     fn tuned_values_are_written_into_their_table_keeping_comments() {
-        let text = builtin("nephrectomy").expect("builtin");
+        let text = super::super::INFO.scenario;
         let before = Scenario::parse("s.toml", text).expect("parses");
         let t = Tuning {
             foundation_pa_per_m: 2.5e6,
@@ -547,7 +524,7 @@ mod tests {
                 .map(|((k, _, _), v)| ((*k).to_string(), v))
                 .collect()
         };
-        let out = with_values("s.toml", text, "kidney", &vals(&t)).expect("written");
+        let out = with_values(&own, "s.toml", text, "kidney", &vals(&t)).expect("written");
         let after = Scenario::parse("s.toml", &out).expect("parses");
         assert_eq!(Tuning::of(&after.kidney), t);
         // The vessels keep their own values; every comment line survives; one line a key.
@@ -563,12 +540,13 @@ mod tests {
             .map(|l| format!("{l}\n"))
             .collect();
         assert_ne!(short, text);
-        let out = with_values("s.toml", &short, "kidney", &vals(&t)).expect("written");
+        let out = with_values(&own, "s.toml", &short, "kidney", &vals(&t)).expect("written");
         assert_eq!(
             Tuning::of(&Scenario::parse("s.toml", &out).expect("ok").kidney),
             t
         );
         let e = with_values(
+            &own,
             "s.toml",
             "procedure = \"nephrectomy\"\n",
             "kidney",

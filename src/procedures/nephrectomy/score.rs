@@ -2,6 +2,7 @@
 
 use super::Metrics;
 use super::Scenario;
+use crate::sim::{completion_share, time_efficiency};
 use serde::Serialize;
 
 #[derive(Debug, Clone, Serialize)]
@@ -23,7 +24,7 @@ const MARGIN_SCALE_M: f32 = 0.002;
 
 pub fn score(s: &Scenario, m: &Metrics) -> (f32, ScoreParts) {
     let parts = ScoreParts {
-        completion: m.steps_done.len().min(4) as f32 / 4.0,
+        completion: completion_share(m.steps_done.len(), 4),
         margin: if m.cut_faces > m.cut_into_tumour_faces {
             (-m.cut_deviation_mean_m / MARGIN_SCALE_M).exp()
         } else {
@@ -40,9 +41,7 @@ pub fn score(s: &Scenario, m: &Metrics) -> (f32, ScoreParts) {
                 + m.vessel_contacts as f32
                 + m.ties_torn as f32
                 + m.cut_into_tumour_faces as f32 / 10.0),
-        efficiency: m.completion_time_s.map_or(0.0, |t| {
-            (s.task.target_time_s as f64 / t.max(1e-9)).min(1.0) as f32
-        }),
+        efficiency: time_efficiency(f64::from(s.task.target_time_s), m.completion_time_s),
     };
     let w = &s.weights;
     let total = w.completion + w.margin + w.preservation + w.safety + w.efficiency;

@@ -3,8 +3,8 @@
 //! bowel and the sigmoid colon above, the iliac vessels at the sides, under the pelvic
 //! peritoneum.
 
-use crate::render::field::{FieldShape, OperativeField};
 use crate::sim::SurfaceRole::{Artery, Fat, Tissue, Vein, Viscus};
+use crate::sim::field::{FieldShape, OperativeField};
 use glam::Vec3;
 
 pub fn field() -> OperativeField {

@@ -4,6 +4,7 @@
 //! the membrane and the instruments, and the procedure (scenario, task, metrics, drawing).
 
 pub mod anatomy;
+mod cases;
 mod field;
 mod plugin;
 mod procedure;

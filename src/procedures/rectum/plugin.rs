@@ -3,13 +3,13 @@
 
 use super::procedure::{Metrics, Rectum, STEPS};
 use super::scenario::{self, NAME, Scenario};
-use crate::params::TuneError;
 use crate::procedures::{
     BuildError, MassSpring, ModelReport, Plan, Procedure, ProcedureInfo, ProcedureReport,
-    TaskStatus, ToolInfo, ToolKind, Tunable, Viewpoint,
+    TaskStatus, ToolInfo, ToolKind, Viewpoint,
 };
 use crate::scenario::InputError;
-use crate::sim::{Hand, InputFrame, SimEvent, Snapshot, TissueModel};
+use crate::sim::{Hand, TissueModel};
+use crate::sim::{completion_share, time_efficiency};
 use glam::Vec3;
 use serde::Serialize;
 
@@ -63,8 +63,10 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
     assessment: include_str!("../../../assets/assessment/rectum.toml"),
     field: super::field::field,
     blank_metrics: || serde_json::to_value(Metrics::default()).unwrap_or_default(),
-    haptic_device: crate::haptics::DeviceChoice::Phantom,
+    haptic_device: crate::sim::DeviceChoice::Phantom,
     bench_extra: None,
+    cases: super::cases::cases,
+    precompute: None,
     plan,
     build,
 };
@@ -110,10 +112,8 @@ pub struct ScoreParts {
 /// A flat score until the hierarchy of Table 1 with its weights and fuzzy levels (#12).
 pub fn score(s: &Scenario, m: &Metrics) -> (f32, ScoreParts) {
     let parts = ScoreParts {
-        completion: m.steps_done.len().min(STEPS.len()) as f32 / STEPS.len() as f32,
-        efficiency: m.completion_time_s.map_or(0.0, |t| {
-            (f64::from(s.task.target_time_s) / t.max(1e-9)).min(1.0) as f32
-        }),
+        completion: completion_share(m.steps_done.len(), STEPS.len()),
+        efficiency: time_efficiency(f64::from(s.task.target_time_s), m.completion_time_s),
         precision: m.correct_cut_ratio,
         penalty: ALARM_PENALTY * m.alarms as f32,
     };
@@ -125,21 +125,7 @@ pub fn score(s: &Scenario, m: &Metrics) -> (f32, ScoreParts) {
 }
 
 impl Procedure for Rectum {
-    fn info(&self) -> &'static ProcedureInfo {
-        &INFO
-    }
-
-    fn dt_s(&self) -> f32 {
-        self.scenario.dt_s
-    }
-
-    fn step(&mut self, input: &InputFrame, step: u64, events: &mut Vec<SimEvent>) {
-        Rectum::step(self, input, step, events);
-    }
-
-    fn snapshot(&mut self, step: u64) -> Snapshot {
-        Rectum::snapshot(self, step)
-    }
+    crate::procedure_basics!(INFO);
 
     fn status(&self, near_m: f32) -> TaskStatus {
         let m = &self.metrics;
@@ -171,13 +157,13 @@ impl Procedure for Rectum {
 
     fn report(&self) -> ProcedureReport {
         let (score, parts) = score(&self.scenario, &self.metrics);
-        ProcedureReport {
-            completed: self.is_completed(),
-            errors: self.metrics.alarms,
-            metrics: serde_json::to_value(&self.metrics).unwrap_or_default(),
-            score_parts: serde_json::to_value(&parts).unwrap_or_default(),
+        ProcedureReport::of(
+            self.is_completed(),
+            self.metrics.alarms,
+            &self.metrics,
+            &parts,
             score,
-        }
+        )
     }
 
     fn reactions(&self) -> [Vec3; 2] {
@@ -255,14 +241,6 @@ impl Procedure for Rectum {
 
     fn state_hash(&self) -> u64 {
         Rectum::state_hash(self)
-    }
-
-    fn tunables(&self) -> Vec<Tunable> {
-        Vec::new()
-    }
-
-    fn tune(&mut self, model: &str, _values: &[(String, f32)]) -> Result<(), TuneError> {
-        Err(TuneError::NoSuchModel(model.to_string()))
     }
 
     fn is_completed(&self) -> bool {

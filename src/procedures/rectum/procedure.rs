@@ -8,9 +8,9 @@
 use super::regions::{self, RegionKind};
 use super::scenario::Scenario;
 use super::scene::{ALARM_RECTAL_WALL, RectumScene, StepOutcome, ToolState};
-use crate::models::Fnv;
 use crate::models::membrane::{LAYERS, Membrane};
 use crate::procedures::scope::Scope;
+use crate::sim::Fnv;
 use crate::sim::{
     EmissionKind, EmissionLog, EventKind, Hand, HandInput, InputFrame, InstrumentShape,
     ModelSnapshot, ProcedureEvent, SimEvent, Snapshot, SurfaceRole, TissueModel, ToolSnapshot,

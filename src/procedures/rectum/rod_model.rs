@@ -3,8 +3,8 @@
 
 use super::{NAME, RectumRod};
 use crate::collision::GeneralizedCylinder;
-use crate::models::Fnv;
 use crate::procedures::rectum::skin::Selection;
+use crate::sim::Fnv;
 use crate::sim::{
     Collider, Contact, ContactKind, EventKind, ModelOutput, ModelSizes, ModelSnapshot, SurfaceRole,
     TissueModel, ToolId,

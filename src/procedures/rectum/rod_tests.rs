@@ -460,27 +460,38 @@ fn the_model_reports_its_sizes_collider_and_surface() {
 }
 
 #[test]
-fn rod_steps_per_second_at_30_elements() {
+fn a_grasp_lifting_the_rod_is_felt_as_its_spring() {
+    // The rod's step rate is `vesalius bench rectum`'s line; here, what the pull does.
     let mut rod = sacral_rod(RectumRodParams::default());
+    let k_g = rod.params().grasp_stiffness_n_per_m;
     let mid = rod.rod().elements() / 2;
     let top = (rod.rod().positions()[mid] + rod.rod().frames()[mid].x_axis * 0.02).as_vec3();
     assert!(rod.grasp(0, top));
+    let start = rod.held_point(0).expect("held");
+    // The jaw rises 1 cm over 2 s, then holds still for 1 s so the rod settles.
     let steps = 2000;
-    let t0 = std::time::Instant::now();
-    for k in 0..steps {
-        rod.hold(0, top + Vec3::Y * (0.01 * (k as f32 / steps as f32)));
-        rod.advance(1e-3);
+    let jaw = top + Vec3::Y * 0.01;
+    let mut felt = [None; 2];
+    for k in 0..3000 {
+        let f = (k.min(steps) as f32) / steps as f32;
+        rod.hold(0, top + Vec3::Y * (0.01 * f));
+        felt = rod.advance(1e-3);
     }
-    let wall = t0.elapsed().as_secs_f64();
-    let substeps = (1e-3 / rod.substep_s()).ceil();
-    eprintln!(
-        "rod at 30 elements: {:.0} world steps/s of 1 ms with a grasp pulling ({substeps} rod \
-         steps each: {:.0} rod steps/s, {:.1} us a rod step)",
-        steps as f64 / wall,
-        steps as f64 * substeps / wall,
-        wall / (steps as f64 * substeps) * 1e6
-    );
     assert!(rod.state_is_finite());
+    let held = rod.held_point(0).expect("still held");
+    // The held point followed the jaw up, but not past it: the rod pulls back.
+    assert!(held.y > start.y + 1e-4, "{start} -> {held}");
+    assert!(held.y < jaw.y, "{held} above the jaw {jaw}");
+    // At rest, the hand feels the grasp spring: -k_g (jaw - held), pulling it down.
+    let reaction = felt[0].expect("the hand holds");
+    let spring = -(jaw - held) * k_g as f32;
+    assert!(reaction.y < 0.0, "{reaction}");
+    assert!(
+        (reaction - spring).length() <= 0.05 * spring.length() + 1e-4,
+        "{reaction} vs {spring}"
+    );
+    // The other hand holds nothing and feels nothing.
+    assert_eq!(felt[1], None);
 }
 
 #[test]

@@ -6,8 +6,8 @@
 use super::anatomy::AnatomyParams;
 use super::scene::{SceneParams, membrane_params};
 use crate::models::membrane::{Integrator, LAYERS, LayerMaterial};
-use crate::params::{ParamSpec, Params, TOP_LEVEL};
-use crate::scenario::{InputError, Timing};
+use crate::params::{ParamSpec, Params};
+use crate::scenario::InputError;
 use serde::Deserialize;
 
 /// The name scenarios and traces give this procedure.
@@ -367,41 +367,22 @@ impl Params for Task {
     );
 }
 
-/// The top level: the rectum steps at the paper's 1 kHz force rate.
-const TIMING: &[ParamSpec] = &[
-    Timing::dt_spec(
-        0.001,
-        "simulation step (0.001: the paper's 1 kHz force loop; the membrane takes as many \
-         explicit substeps within it as its stability needs)",
-    ),
-    Timing::PUBLISH_HZ,
-];
-
-/// The scenario's tables with specs, as `INFO.param_tables` lists them (file order).
-pub const PARAM_TABLES: &[(&str, &[ParamSpec])] = &[
-    (TOP_LEVEL, TIMING),
-    ("anatomy", AnatomyTable::SPECS),
-    ("membrane", MembraneTable::SPECS),
-    ("tools", Tools::SPECS),
-    ("task", Task::SPECS),
-];
+crate::scenario_tables! {
+    name: NAME,
+    dt: (0.001, "simulation step (0.001: the paper's 1 kHz force loop; the membrane takes as many \
+         explicit substeps within it as its stability needs)"),
+    tables: [
+        ("anatomy", anatomy, AnatomyTable),
+        ("membrane", membrane, MembraneTable),
+        ("tools", tools, Tools),
+        ("task", task, Task),
+    ],
+}
 
 impl Scenario {
-    /// Parses and checks scenario text; `file` names it in errors.
-    pub fn parse(file: &str, text: &str) -> Result<Self, InputError> {
-        crate::scenario::parse_checked(file, text, Scenario::validate)
-    }
-
     /// Membrane nodes: four layers of rows x columns.
     pub fn nodes(&self) -> u64 {
         LAYERS as u64 * u64::from(self.anatomy.rows) * u64::from(self.anatomy.cols)
-    }
-
-    pub fn timing(&self) -> Timing {
-        Timing {
-            dt_s: self.dt_s,
-            publish_hz: self.publish_hz,
-        }
     }
 
     /// The integrator the membrane table names.
@@ -461,11 +442,8 @@ impl Scenario {
 
     /// The tables' ranges, then the checks that tie values together.
     pub fn validate(&self, file: &str) -> Result<(), InputError> {
-        use crate::params::validate;
         let err = |key: &str, message: String| InputError::new(file, key, message);
-        crate::scenario::expect_procedure(file, &self.procedure, NAME)?;
-        validate(file, TOP_LEVEL, &self.timing())?;
-        validate(file, "anatomy", &self.anatomy)?;
+        self.validate_tables(file)?;
         if self.nodes() > MAX_NODES {
             return Err(err(
                 "anatomy.rows",
@@ -486,11 +464,8 @@ impl Scenario {
                 ),
             ));
         }
-        validate(file, "membrane", &self.membrane)?;
         self.integrator(file)?;
-        validate(file, "tools", &self.tools)?;
         let k = &self.task;
-        validate(file, "task", k)?;
         if k.target_to <= k.target_from {
             return Err(err(
                 "task.target_to",

@@ -1,7 +1,7 @@
 //! The sandbox's field: a training box's inside, its floor a pad the block rests on, seen through a forward-viewing scope.
 
-use crate::render::field::{FieldShape, OperativeField};
 use crate::sim::SurfaceRole::{Viscus, Wall};
+use crate::sim::field::{FieldShape, OperativeField};
 use glam::Vec3;
 
 pub fn field() -> OperativeField {

@@ -17,14 +17,15 @@ use crate::sim::{
 use glam::Vec3;
 use serde::Serialize;
 
-mod block;
 mod field;
 mod plugin;
 mod scenario;
 #[cfg(test)]
 mod tests;
 
-pub use block::{BlockShape, REGION_BOTTOM, REGION_SIDES, REGION_TOP, block, divisions};
+pub use crate::mesh::block::{
+    BlockShape, REGION_BOTTOM, REGION_SIDES, REGION_TOP, block, divisions,
+};
 pub use plugin::{ScoreParts, score};
 pub use scenario::{Geometry, MODEL, NAME, Scenario, Task, Tools};
 
@@ -83,15 +84,17 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
     desk_park: [Vec3::new(-0.04, 0.06, 0.03), Vec3::new(0.04, 0.06, 0.03)],
     profile_reference: None,
     param_tables: scenario::PARAM_TABLES,
-    bench_all_awake_s: crate::bench::ALL_AWAKE_S,
+    bench_all_awake_s: crate::sim::ALL_AWAKE_S,
     scope_hand: None,
     swap: &[],
     legacy_tuned_model: None,
     assessment: include_str!("../../../assets/assessment/sandbox.toml"),
     field: field::field,
     blank_metrics: || serde_json::to_value(Metrics::default()).unwrap_or_default(),
-    haptic_device: crate::haptics::DeviceChoice::Phantom,
+    haptic_device: crate::sim::DeviceChoice::Phantom,
     bench_extra: None,
+    cases: Vec::new,
+    precompute: None,
     plan,
     build,
 };

@@ -3,10 +3,8 @@
 use super::{INFO, MODEL, Metrics, STEPS, Sandbox, Scenario};
 use crate::params::TuneError;
 use crate::procedures::soft_tissue;
-use crate::procedures::{
-    ModelReport, Procedure, ProcedureInfo, ProcedureReport, TaskStatus, Tunable,
-};
-use crate::sim::{InputFrame, SimEvent, Snapshot};
+use crate::procedures::{Procedure, ProcedureReport, TaskStatus, Tunable};
+use crate::sim::{ModelSet, completion_share, time_efficiency};
 use glam::Vec3;
 use serde::Serialize;
 
@@ -28,31 +26,15 @@ pub struct ScoreParts {
 /// errors but do not lower the score (there is no tissue to harm).
 pub fn score(s: &Scenario, m: &Metrics) -> (f32, ScoreParts) {
     let parts = ScoreParts {
-        completion: m.steps_done.len().min(STEPS.len()) as f32 / STEPS.len() as f32,
-        efficiency: m.completion_time_s.map_or(0.0, |t| {
-            (f64::from(s.task.target_time_s) / t.max(1e-9)).min(1.0) as f32
-        }),
+        completion: completion_share(m.steps_done.len(), STEPS.len()),
+        efficiency: time_efficiency(f64::from(s.task.target_time_s), m.completion_time_s),
     };
     let total = COMPLETION_POINTS * parts.completion + EFFICIENCY_POINTS * parts.efficiency;
     (total.clamp(0.0, 100.0), parts)
 }
 
 impl Procedure for Sandbox {
-    fn info(&self) -> &'static ProcedureInfo {
-        &INFO
-    }
-
-    fn dt_s(&self) -> f32 {
-        self.scenario.dt_s
-    }
-
-    fn step(&mut self, input: &InputFrame, step: u64, events: &mut Vec<SimEvent>) {
-        Sandbox::step(self, input, step, events);
-    }
-
-    fn snapshot(&mut self, step: u64) -> Snapshot {
-        Sandbox::snapshot(self, step)
-    }
+    crate::procedure_basics!(INFO);
 
     fn status(&self, _near_m: f32) -> TaskStatus {
         let m = &self.metrics;
@@ -80,13 +62,13 @@ impl Procedure for Sandbox {
 
     fn report(&self) -> ProcedureReport {
         let (score, parts) = score(&self.scenario, &self.metrics);
-        ProcedureReport {
-            completed: self.is_completed(),
-            errors: self.metrics.grasper_overloads,
-            metrics: serde_json::to_value(&self.metrics).unwrap_or_default(),
-            score_parts: serde_json::to_value(&parts).unwrap_or_default(),
+        ProcedureReport::of(
+            self.is_completed(),
+            self.metrics.grasper_overloads,
+            &self.metrics,
+            &parts,
             score,
-        }
+        )
     }
 
     fn reactions(&self) -> [Vec3; 2] {
@@ -101,24 +83,12 @@ impl Procedure for Sandbox {
         })
     }
 
-    fn model_reports(&self) -> Vec<ModelReport> {
-        self.world.model_reports()
+    fn models(&self) -> Option<&dyn ModelSet> {
+        Some(&self.world)
     }
 
-    fn model_times(&self) -> Vec<f64> {
-        self.world.model_times()
-    }
-
-    fn awake_fractions(&self) -> Vec<f64> {
-        self.world.awake_fractions()
-    }
-
-    fn stay_awake(&mut self) {
-        self.world.stay_awake();
-    }
-
-    fn memory(&self) -> Vec<(&'static str, usize)> {
-        self.world.memory()
+    fn models_mut(&mut self) -> Option<&mut dyn ModelSet> {
+        Some(&mut self.world)
     }
 
     fn state_hash(&self) -> u64 {

@@ -5,8 +5,8 @@
 //! hand. An error names the file, the key and the expected range.
 
 use crate::models::SoftBodyParams;
-use crate::params::{ParamSpec, Params, TOP_LEVEL};
-use crate::scenario::{InputError, Timing};
+use crate::params::{ParamSpec, Params};
+use crate::scenario::InputError;
 use serde::Deserialize;
 
 /// The name scenarios and traces give this procedure.
@@ -195,49 +195,35 @@ impl Params for Task {
     crate::param_fields!(probe_depth_m, lift_height_m, target_time_s);
 }
 
-/// The scenario's tables with specs, as `INFO.param_tables` lists them (file order).
-pub const PARAM_TABLES: &[(&str, &[ParamSpec])] = &[
-    (TOP_LEVEL, Timing::SPECS),
-    ("geometry", Geometry::SPECS),
-    (MODEL, SoftBodyParams::SPECS),
-    ("tools", Tools::SPECS),
-    ("task", Task::SPECS),
-];
+crate::scenario_tables! {
+    name: NAME,
+    dt: default,
+    tables: [
+        ("geometry", geometry, Geometry),
+        (MODEL, block, SoftBodyParams),
+        ("tools", tools, Tools),
+        ("task", task, Task),
+    ],
+}
 
 impl Scenario {
-    /// Parses and checks scenario text; `file` names it in errors.
-    pub fn parse(file: &str, text: &str) -> Result<Self, InputError> {
-        crate::scenario::parse_checked(file, text, Scenario::validate)
-    }
-
     /// Cells along x, y and z: the longest edge gets `resolution`, the others as many as keep
     /// the cells square (at least one).
     pub fn cells(&self) -> [u32; 3] {
         let g = &self.geometry;
-        super::block::divisions(glam::Vec3::from(g.size_m), g.resolution)
+        crate::mesh::block::divisions(glam::Vec3::from(g.size_m), g.resolution)
     }
 
     /// Simulated points: one per triangle of the block's surface.
     pub fn points(&self) -> u64 {
-        super::block::triangle_count(glam::Vec3::from(self.geometry.size_m), self.cells())
-    }
-
-    /// The top-level timing.
-    pub fn timing(&self) -> Timing {
-        Timing {
-            dt_s: self.dt_s,
-            publish_hz: self.publish_hz,
-        }
+        crate::mesh::block::triangle_count(glam::Vec3::from(self.geometry.size_m), self.cells())
     }
 
     /// The tables' ranges, then the checks that tie values together.
     pub fn validate(&self, file: &str) -> Result<(), InputError> {
-        use crate::params::validate;
         let err = |key: &str, message: String| InputError::new(file, key, message);
-        crate::scenario::expect_procedure(file, &self.procedure, NAME)?;
-        validate(file, TOP_LEVEL, &self.timing())?;
+        self.validate_tables(file)?;
         let g = &self.geometry;
-        validate(file, "geometry", g)?;
         if self.points() > MAX_POINTS {
             return Err(err(
                 "geometry.resolution",
@@ -247,10 +233,7 @@ impl Scenario {
                 ),
             ));
         }
-        validate(file, MODEL, &self.block)?;
-        validate(file, "tools", &self.tools)?;
         let k = &self.task;
-        validate(file, "task", k)?;
         // The probe may not be asked to go through more than half the block.
         let half_height = 0.5 * g.size_m[1];
         crate::scenario::check_number(

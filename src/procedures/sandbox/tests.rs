@@ -459,16 +459,24 @@ fn the_snapshot_gives_each_region_its_role() {
 /// The registry plans, builds and plays the sandbox, and the window's save-back writes its
 /// table.
 #[test]
-fn the_registry_builds_plans_and_plays_the_sandbox() {
+fn a_catalog_builds_plans_and_plays_the_sandbox() {
     let keys = KeyTrace::parse("sandbox-demo.toml", INFO.demo_trace).expect("trace");
     assert_eq!(keys, demo_keys());
-    let (info, plan) = crate::procedures::plan("sandbox.toml", INFO.scenario).expect("plan");
+    let own = crate::sim::Catalog(&[&INFO]);
+    let (info, plan) = own.plan("sandbox.toml", INFO.scenario).expect("plan");
     assert_eq!((info.name, plan.nodes), (NAME, 4172));
-    let mut p = crate::procedures::build("sandbox.toml", INFO.scenario).expect("build");
+    let mut p = own.build("sandbox.toml", INFO.scenario).expect("build");
     let mut ev = Vec::new();
     p.step(&keys.sample(0.0), 0, &mut ev);
-    let tuned = crate::scenario::with_tunables("sandbox.toml", INFO.scenario, &p.tunables())
-        .expect("the window's save-back writes [block]");
+    let tuned = crate::scenario::with_tunables(
+        &|text| own.plan("sandbox.toml", text).map(|_| ()),
+        "sandbox.toml",
+        INFO.scenario,
+        p.tunables()
+            .iter()
+            .map(|t| (t.model.as_str(), t.key, t.value)),
+    )
+    .expect("the window's save-back writes [block]");
     assert_eq!(
         Scenario::parse("tuned.toml", &tuned).expect("parses"),
         scenario()

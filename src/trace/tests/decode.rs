@@ -358,7 +358,19 @@ fn versions_1_and_2_still_read() {
     };
     let v1 = Recording::decode("v1.vtrace", &legacy_bytes(1, &rec, &tunings)).expect("v1");
     assert_eq!(v1, legacy);
-    let v2 = Recording::decode("v2.vtrace", &legacy_bytes(2, &rec, &tunings)).expect("v2");
+    let mut v2 = Recording::decode("v2.vtrace", &legacy_bytes(2, &rec, &tunings)).expect("v2");
+    // Their tunings name no model until the procedure's is given to them.
+    assert!(v2.tunings.iter().all(|t| t.model.is_empty()));
+    let e = v2
+        .clone()
+        .name_legacy_tunings("v2.vtrace", None)
+        .expect_err("no model for them");
+    assert!(
+        e.key == "tuning 0" && e.message.contains("never had tunings"),
+        "{e}"
+    );
+    v2.name_legacy_tunings("v2.vtrace", Some(tuned_model()))
+        .expect("named");
     assert_eq!(v2.frames, rec.frames);
     assert_eq!(v2.tunings.len(), 3);
     let names: Vec<&str> = v2.tunings[1]

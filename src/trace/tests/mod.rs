@@ -17,17 +17,15 @@ use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-/// The procedure the samples are of: the first registered one, which had recordings of
-/// every format version.
+/// The procedure the samples are of (recordings name one; which are registered is the
+/// session's business).
 fn procedure() -> &'static str {
-    crate::procedures::REGISTRY[0].name
+    "drill"
 }
 
-/// The model its old recordings' tunings belong to.
+/// The model its recordings' tunings belong to.
 fn tuned_model() -> &'static str {
-    crate::procedures::REGISTRY[0]
-        .legacy_tuned_model
-        .unwrap_or("tissue")
+    "tissue"
 }
 
 fn scenario(dt_s: &str) -> String {

@@ -178,7 +178,7 @@ pub struct WindowRun {
 
 /// Runs the window until the session ends and its screenshot is taken, or the user closes it.
 pub fn run(mut opts: WindowOptions) -> Result<WindowRun, WindowError> {
-    let info = crate::procedures::find(&opts.procedure)
+    let info = crate::registry::find(&opts.procedure)
         .ok_or_else(|| WindowError::UnknownProcedure(opts.procedure.clone()))?;
     let hands = DesktopHands::parked(info);
     let desk = Arc::new(ArcSwap::from_pointee(hands.frame));
@@ -497,10 +497,16 @@ impl App {
         }
         if a.save {
             let path = &self.opts.save_tuning_to;
+            let file = &self.opts.scenario_file;
             let written = crate::scenario::with_tunables(
-                &self.opts.scenario_file,
+                &|text| crate::registry::plan(file, text).map(|_| ()),
+                file,
                 &self.opts.scenario_text,
-                &self.dashboard.status.tunables,
+                self.dashboard
+                    .status
+                    .tunables
+                    .iter()
+                    .map(|t| (t.model.as_str(), t.key, t.value)),
             )
             .map_err(SaveError::from)
             .and_then(|text| write_atomic(path, &text));

@@ -1,7 +1,10 @@
-use super::*;
+//! The world stepping real models: soft bodies, and a strand of the tests' own beside them
+//! (here, above the core, since they name the models).
+
 use crate::mesh::icosphere;
 use crate::models::{SimplexMesh, SoftBody, SoftBodyParams};
-use crate::sim::{Attachment, ContactKind, Hand, Link, LinkSpring};
+use crate::sim::*;
+use glam::Vec3;
 
 /// A soft ball of radius `r` at `center`, level-2 icosphere (320 points).
 fn ball(name: &str, center: Vec3, r: f32) -> SoftBody {
@@ -162,9 +165,7 @@ impl PointSource for Fixed {
 
 /// Empty force lists for two models.
 fn two_forces() -> PointForces {
-    PointForces {
-        per_model: vec![Vec::new(); 2],
-    }
+    PointForces::for_models(2)
 }
 
 #[test]
@@ -278,24 +279,47 @@ fn attached_balls_move_toward_each_other_by_mirror_image_amounts() {
     assert!((da + db).abs() < 1e-3 * da.abs(), "{da} vs {db}");
 }
 
+/// Models of different kinds share one world behind boxes: each steps with its own contacts,
+/// the tool's reaction is the sum of what each did to it (in model order), and the world's
+/// digest covers both.
 #[test]
 fn boxed_models_of_any_kind_share_one_world() {
     let mut world: World<Box<dyn TissueModel>> = World::new();
-    let id = world.add(Box::new(ball("boxed", Vec3::ZERO, 0.02)));
+    let ball_id = world.add(Box::new(ball("boxed", Vec3::ZERO, 0.02)));
+    let strand_id = world.add(Box::new(Strand::new()));
+    // A 2 mm tip 1 mm into the strand's middle, held by the same hand as the press.
+    let tip = Contact {
+        tool: Hand::Right,
+        point: Vec3::new(0.0, 0.05 + 0.0015 + 0.002 - 0.001, 0.0),
+        normal: Vec3::Y,
+        kind: ContactKind::Sphere { radius_m: 0.002 },
+    };
+    let start = world.state_hash();
     let mut events = Vec::new();
-    for step in 0..10 {
-        world.contact(id, press(Vec3::ZERO, 0.02, 2000.0));
+    for step in 0..3 {
+        world.contact(ball_id, press(Vec3::ZERO, 0.02, 2000.0));
+        world.contact(strand_id, tip);
         world.step(0.002, step, &mut events);
     }
-    // The press pushes the tool back up, out of the tissue.
+    let from_ball = world.reactions_from(ball_id)[Hand::Right.index()];
+    let from_strand = world.reactions_from(strand_id)[Hand::Right.index()];
+    // Both push the tool back up, out of the tissue; the hand feels their sum.
     assert!(
-        world.reaction(Hand::Right).y > 0.0,
-        "{}",
-        world.reaction(Hand::Right)
+        from_ball.y > 0.0 && from_strand.y > 0.0,
+        "{from_ball} {from_strand}"
     );
-    assert_eq!(world.find("boxed"), Some(id));
-    let hit = world.cast_ray(Vec3::new(0.0, 0.1, 0.0), Vec3::NEG_Y, 1.0);
-    assert!(hit.is_some_and(|(m, h)| m == id && (h.distance_m - 0.08).abs() < 2e-3));
+    assert_eq!(world.reaction(Hand::Right), from_ball + from_strand);
+    assert_eq!(world.reaction(Hand::Left), Vec3::ZERO);
+    assert_eq!(
+        (world.find("boxed"), world.find("strand")),
+        (Some(ball_id), Some(strand_id))
+    );
+    let kinds: Vec<&str> = world.models().map(|(_, m)| m.kind()).collect();
+    assert_eq!(kinds, ["simplex_soft_body", "test_strand"]);
+    assert_ne!(world.state_hash(), start);
+    // Beside the strand a ray goes on to the ball, whose top is 17.3 mm up 1 cm off its axis.
+    let hit = world.cast_ray(Vec3::new(0.0, 0.1, 0.01), Vec3::NEG_Y, 1.0);
+    assert!(hit.is_some_and(|(m, h)| m == ball_id && (h.distance_m - 0.0827).abs() < 2e-3));
 }
 
 /// A taut strand (a rod's collider: a centreline with a radius per point) that sags under a
@@ -389,7 +413,7 @@ impl TissueModel for Strand {
         self.centreline.iter().all(|p| p.is_finite())
     }
     fn state_hash(&self) -> u64 {
-        let mut h = crate::models::Fnv::default();
+        let mut h = crate::sim::Fnv::default();
         for p in &self.centreline {
             for c in p.to_array() {
                 h.write(c.to_bits());

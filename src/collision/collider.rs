@@ -4,7 +4,7 @@
 //! tubes: a centreline with a radius per point). Every answer names a *feature*: a face,
 //! a sphere, a capsule or a centreline segment, with the region the model gave it.
 
-use crate::collision::{
+use super::{
     CapsuleSet, FaceBvh, GeneralizedCylinder, PrimitiveHit, RayHit, SphereSet, cast_ray,
     nearest_within,
 };

@@ -1,9 +1,11 @@
 //! What every procedure is to the rest of the program: its description (name, paper, default
-//! scenario, demo trace, task checklist, instruments, camera) and the `Procedure` trait the
-//! session steps, snapshots, asks for status and reports through. Nothing here names an organ.
+//! scenario, demo trace, task checklist, instruments, camera), the `Procedure` trait the
+//! session steps, snapshots, asks for status and reports through, and the words every layer
+//! shares about a running task (tools, plans, tunables, reports, status). Nothing here names
+//! an organ or a procedure: the registry at the top lists them.
 
+use super::{Hand, InputFrame, ModelSet, SimEvent, Snapshot};
 use crate::scenario::InputError;
-use crate::sim::{Hand, InputFrame, SimEvent, Snapshot};
 use glam::Vec3;
 
 /// One step of a procedure's task, as its checklist shows it.
@@ -22,14 +24,14 @@ pub fn tick_off(
     steps: &[TaskStep],
     done: &[bool],
     steps_done: &mut Vec<String>,
-    events: &mut Vec<crate::sim::EventKind>,
+    events: &mut Vec<super::EventKind>,
 ) {
     while let Some(next) = steps.get(steps_done.len()) {
         if !done.get(steps_done.len()).copied().unwrap_or(false) {
             break;
         }
         steps_done.push(next.id.to_string());
-        events.push(crate::sim::EventKind::TaskStep {
+        events.push(super::EventKind::TaskStep {
             name: next.id.to_string(),
         });
     }
@@ -42,12 +44,12 @@ pub fn out_of_order(
     steps: &[TaskStep],
     steps_done: &[String],
     step: &str,
-) -> Option<crate::sim::EventKind> {
+) -> Option<super::EventKind> {
     let at = steps.iter().position(|s| s.id == step)?;
     let next = steps
         .iter()
         .position(|s| !steps_done.iter().any(|d| d == s.id))?;
-    (next < at).then(|| crate::sim::EventKind::OutOfOrder {
+    (next < at).then(|| super::EventKind::OutOfOrder {
         step: step.to_string(),
         expected: steps[next].id.to_string(),
     })
@@ -65,7 +67,7 @@ pub enum ToolKind {
     /// An electrosurgical L-hook: it presses tissue along its whole shape, and its current
     /// (the trigger) cuts what its end touches.
     Hook,
-    /// A steerable flexible instrument held at its handle (an interventional catheter): the
+    /// A steerable flexible instrument held at its handle (an interventional one): the
     /// handle's travel pushes it in, the trigger bends its tip, the grip twists it.
     Steerable,
 }
@@ -107,8 +109,54 @@ pub enum BuildError {
     Input(#[from] InputError),
     #[error("building the anatomy: {0}")]
     Mesh(#[from] crate::mesh::MeshError),
-    #[error("precomputing the tissue's responses: {0}")]
-    Precompute(#[from] crate::models::bem::PrecomputeError),
+    /// A model's own failure (a precomputation, a solver), carried without naming it.
+    #[error(transparent)]
+    Model(#[from] ModelError),
+}
+
+/// A model's own error, carried up through the core (which names no model): what was being
+/// done, and the model's error.
+#[derive(Debug, thiserror::Error)]
+#[error("{doing}: {source}")]
+pub struct ModelError {
+    /// What was being done ("precomputing the tissue's responses").
+    pub doing: &'static str,
+    #[source]
+    pub source: Box<dyn std::error::Error + Send + Sync>,
+}
+
+impl ModelError {
+    pub fn new(
+        doing: &'static str,
+        source: impl std::error::Error + Send + Sync + 'static,
+    ) -> Self {
+        Self {
+            doing,
+            source: Box::new(source),
+        }
+    }
+}
+
+/// A force-feedback device a procedure is made for, or the command line asks for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DeviceChoice {
+    /// The simulated stylus, playing its scripted press.
+    Sim,
+    /// A Phantom Omni or Touch through OpenHaptics HD (`libHD.so`).
+    Phantom,
+    /// A Novint Falcon (or omega) through Force Dimension DHD (`libdhd.so`).
+    Falcon,
+}
+
+impl DeviceChoice {
+    /// Its name on the command line.
+    pub fn flag(self) -> &'static str {
+        match self {
+            DeviceChoice::Sim => "sim",
+            DeviceChoice::Phantom => "phantom",
+            DeviceChoice::Falcon => "falcon",
+        }
+    }
 }
 
 /// Builds a procedure from a scenario (`file` names it in errors).
@@ -146,7 +194,7 @@ pub struct ProcedureInfo {
     pub bench_all_awake_s: f64,
     /// The hand whose primary button makes its device drive the laparoscope (its instrument
     /// waits meanwhile), if any.
-    pub scope_hand: Option<crate::sim::Hand>,
+    pub scope_hand: Option<Hand>,
     /// The other instruments one hand can change to with its primary button (the scrub
     /// nurse hands the next over; after the last, the hand's own comes back), all for the
     /// same hand; empty where the procedure offers none. The snapshot's
@@ -160,15 +208,20 @@ pub struct ProcedureInfo {
     pub assessment: &'static str,
     /// What surrounds its models in the picture (cavity, neighbouring anatomy) and the
     /// laparoscope that sees them: built once per renderer.
-    pub field: fn() -> crate::render::field::OperativeField,
+    pub field: fn() -> super::field::OperativeField,
     /// Its metrics before anything happened (a JSON object): the measures it reports, by
     /// which trees are checked.
     pub blank_metrics: fn() -> serde_json::Value,
     /// The force-feedback device `--haptics default` opens for it (the paper's own).
-    pub haptic_device: crate::haptics::DeviceChoice,
+    pub haptic_device: DeviceChoice,
     /// Benchmarks of its own beyond the stepping (a precomputation, a haptic-rate update at
     /// its largest), appended to `vesalius bench`'s lines; none for most.
-    pub bench_extra: Option<crate::bench::ExtraBench>,
+    pub bench_extra: Option<super::bench::ExtraBench>,
+    /// Its reference cases that need its whole scene (the models' own are `vesalius
+    /// verify`'s already); `vesalius verify` runs them after the models'.
+    pub cases: fn() -> Vec<super::Case>,
+    /// The precomputation it needs before its first session (`vesalius precompute`), if any.
+    pub precompute: Option<&'static super::precompute::Precomputable>,
     /// Reads and checks a scenario for planning (`file` names it in errors).
     pub plan: fn(file: &str, text: &str) -> Result<Plan, InputError>,
     /// Builds the procedure from a scenario.
@@ -301,27 +354,145 @@ pub trait Procedure: Send {
     /// Where each instrument touches tissue after the last step: the point and the tissue's
     /// outward normal there (none: no contact).
     fn contacts_now(&self) -> [Option<(Vec3, Vec3)>; 2];
+    /// The world its models step in, for the model figures below (a procedure whose models
+    /// are not in a world yet gives none and answers those itself).
+    fn models(&self) -> Option<&dyn ModelSet> {
+        None
+    }
+    fn models_mut(&mut self) -> Option<&mut dyn ModelSet> {
+        None
+    }
     /// Each model's sizes.
-    fn model_reports(&self) -> Vec<ModelReport>;
+    fn model_reports(&self) -> Vec<ModelReport> {
+        self.models().map_or_else(Vec::new, ModelSet::model_reports)
+    }
     /// Wall-clock seconds each model has spent stepping so far (benchmarks only).
-    fn model_times(&self) -> Vec<f64>;
+    fn model_times(&self) -> Vec<f64> {
+        self.models().map_or_else(Vec::new, ModelSet::model_times)
+    }
     /// Heap bytes by part.
-    fn memory(&self) -> Vec<(&'static str, usize)>;
+    fn memory(&self) -> Vec<(&'static str, usize)> {
+        self.models().map_or_else(Vec::new, ModelSet::memory)
+    }
     /// The mean share of each model's points awake so far (benchmarks).
-    fn awake_fractions(&self) -> Vec<f64>;
+    fn awake_fractions(&self) -> Vec<f64> {
+        self.models()
+            .map_or_else(Vec::new, ModelSet::awake_fractions)
+    }
     /// Keeps every point of every model stepping from now on (benchmarks).
-    fn stay_awake(&mut self);
-    /// A deterministic digest of the state, for replay and determinism checks.
-    fn state_hash(&self) -> u64;
-    /// The values the supervisor may tune now.
-    fn tunables(&self) -> Vec<Tunable>;
+    fn stay_awake(&mut self) {
+        if let Some(m) = self.models_mut() {
+            m.stay_awake();
+        }
+    }
+    /// A deterministic digest of the state, for replay and determinism checks (a procedure
+    /// with state beyond its world's models adds it in its own).
+    fn state_hash(&self) -> u64 {
+        self.models().map_or(0, ModelSet::state_hash)
+    }
+    /// The values the supervisor may tune now (none by default).
+    fn tunables(&self) -> Vec<Tunable> {
+        Vec::new()
+    }
     /// Changes tunable values of `model` (its scenario table) from the next step on (all or
-    /// none).
+    /// none); by default there is nothing to tune.
     fn tune(
         &mut self,
         model: &str,
         values: &[(String, f32)],
-    ) -> Result<(), crate::params::TuneError>;
+    ) -> Result<(), crate::params::TuneError> {
+        let _ = values;
+        Err(crate::params::TuneError::NoSuchModel(model.to_string()))
+    }
     /// Whether the task is done.
     fn is_completed(&self) -> bool;
+}
+
+/// The part of `impl Procedure` every plug-in writes alike: its description `$info`, the step
+/// of its `scenario` field's `dt_s`, and step and snapshot by its own methods of those names.
+#[macro_export]
+macro_rules! procedure_basics {
+    ($info:expr) => {
+        fn info(&self) -> &'static $crate::sim::ProcedureInfo {
+            &$info
+        }
+
+        fn dt_s(&self) -> f32 {
+            self.scenario.dt_s
+        }
+
+        fn step(
+            &mut self,
+            input: &$crate::sim::InputFrame,
+            step: u64,
+            events: &mut Vec<$crate::sim::SimEvent>,
+        ) {
+            Self::step(self, input, step, events);
+        }
+
+        fn snapshot(&mut self, step: u64) -> $crate::sim::Snapshot {
+            Self::snapshot(self, step)
+        }
+    };
+}
+
+/// The share of a checklist of `steps` done when `done` are, 0-1.
+pub fn completion_share(done: usize, steps: usize) -> f32 {
+    done.min(steps) as f32 / steps.max(1) as f32
+}
+
+/// An expert's `target_s` over the completion time, at most 1; zero until completed.
+pub fn time_efficiency(target_s: f64, completion_s: Option<f64>) -> f32 {
+    completion_s.map_or(0.0, |t| (target_s / t.max(1e-9)).min(1.0) as f32)
+}
+
+impl ProcedureReport {
+    /// A report of a procedure's own `metrics` and `score_parts` (written as JSON objects).
+    pub fn of(
+        completed: bool,
+        errors: u32,
+        metrics: &impl serde::Serialize,
+        score_parts: &impl serde::Serialize,
+        score: f32,
+    ) -> Self {
+        Self {
+            completed,
+            errors,
+            metrics: serde_json::to_value(metrics).unwrap_or_default(),
+            score_parts: serde_json::to_value(score_parts).unwrap_or_default(),
+            score,
+        }
+    }
+}
+
+/// A session's state at one step, as the supervisor's panels show it.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SessionStatus {
+    pub step: u64,
+    /// Simulated time, seconds.
+    pub time_s: f64,
+    /// Instrument tip path length so far (left, right), metres.
+    pub path_m: [f32; 2],
+    /// Errors so far (the procedure counts them).
+    pub errors: u32,
+    /// Score so far (0-100), by the scenario's weights.
+    pub score: f32,
+    /// Task step ids done, in order.
+    pub steps_done: Vec<String>,
+    pub completed: bool,
+    /// Contact force on each tool, newtons.
+    pub force_n: [f32; 2],
+    /// Whether each tool touches a vulnerable structure.
+    pub touching: [bool; 2],
+    /// The nearest vulnerable structure near each tool, and its distance, metres.
+    pub near: [Option<(String, f32)>; 2],
+    /// The procedure's live figures: a label and a formatted value.
+    pub figures: Vec<(String, String)>,
+    /// The dynamic assessment's newest instructions to the trainee, newest first.
+    pub instructions: Vec<String>,
+    /// The instructions given in the last `INSTRUCTION_CURRENT_S` (the session's) simulated seconds, newest
+    /// first, words only: what the headset's panel shows.
+    pub current_instructions: Vec<String>,
+    /// The values the supervisor may tune, as they are now.
+    pub tunables: Vec<Tunable>,
 }

@@ -6,9 +6,8 @@
 //! noise of world position, deterministic (a hash of lattice points, no random state), so the
 //! same field gives the same mesh on every machine and run.
 
+use super::{ModelSnapshot, SurfaceRole, Viewpoint};
 use crate::mesh::{TubeSpec, icosphere, tube, vertex_normals};
-use crate::procedures::Viewpoint;
-use crate::sim::{ModelSnapshot, SurfaceRole};
 use glam::{Quat, Vec3};
 
 /// One shape of the field.

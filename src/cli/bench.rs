@@ -1,0 +1,120 @@
+//! `vesalius bench`: step rates of each model and of the whole procedure at the scenario's
+//! sizes, driven by the procedure's demo trace, with the share of points each model kept
+//! awake; then the same models with every point kept awake (a sleeping model must never read
+//! as fast), over the first seconds of the trace the procedure names
+//! (`ProcedureInfo::bench_all_awake_s`).
+
+use std::time::Instant;
+use vesalius::registry::CATALOG;
+use vesalius::sim::{BenchError, BenchLine, Clock, Once, Pacing, ProcedureInfo};
+use vesalius::trace::KeyTrace;
+
+/// Runs the procedure's demo trace once on its default scenario, timing every model and the
+/// whole step; then again over its first seconds (the procedure's `bench_all_awake_s`) with
+/// every point awake.
+pub fn run(procedure: &str) -> Result<Vec<BenchLine>, BenchError> {
+    let info = CATALOG
+        .find(procedure)
+        .ok_or_else(|| BenchError::NoSuchProcedure(procedure.to_string()))?;
+    let trace = KeyTrace::parse(&format!("builtin {procedure} demo trace"), info.demo_trace)?;
+    let mut out = pass(info, &trace, trace.duration_s(), false)?;
+    out.extend(pass(
+        info,
+        &trace,
+        info.bench_all_awake_s.min(trace.duration_s()),
+        true,
+    )?);
+    if let Some(extra) = info.bench_extra {
+        out.extend(extra()?);
+    }
+    Ok(out)
+}
+
+/// One timed run of `seconds` of the trace; `all_awake` keeps every point stepping.
+fn pass(
+    info: &ProcedureInfo,
+    trace: &KeyTrace,
+    seconds: f64,
+    all_awake: bool,
+) -> Result<Vec<BenchLine>, BenchError> {
+    let file = format!("builtin {} scenario", info.name);
+    let (_, plan) = CATALOG.plan(&file, info.scenario)?;
+    let dt = plan.dt_s;
+    let mut p = (info.build)(&file, info.scenario)?;
+    if all_awake {
+        p.stay_awake();
+    }
+    let mut clock = Clock::new(dt, Pacing::AsFastAsPossible);
+    let steps = (seconds / dt as f64).ceil() as u64;
+    let mut events = Vec::new();
+    let t0 = Instant::now();
+    // On a worker of the pool, as a session steps (see `vesalius::session::on_pool`).
+    vesalius::session::on_pool(|| {
+        while clock.step() < steps {
+            let f = trace.sample(clock.time_s());
+            p.step(&f, clock.step(), &mut events);
+            events.clear();
+            clock.tick();
+        }
+    });
+    let wall = t0.elapsed().as_secs_f64();
+    let threads = rayon::current_num_threads();
+    let line = |model: String, secs: f64, sizes: [usize; 3], awake_fraction: f64| {
+        let sps = steps as f64 / secs.max(1e-12);
+        BenchLine {
+            model,
+            steps,
+            steps_per_s: sps,
+            dt_s: dt,
+            realtime_factor: sps * dt as f64,
+            vertices: sizes[0],
+            triangles: sizes[1],
+            constraints: sizes[2],
+            threads,
+            awake_fraction,
+            all_awake,
+            mass_spring: Default::default(),
+            once: Once::default(),
+        }
+    };
+    let models = p.model_reports();
+    let awake = p.awake_fractions();
+    let mut out: Vec<BenchLine> = models
+        .iter()
+        .zip(p.model_times())
+        .zip(&awake)
+        .map(|((m, t), a)| BenchLine {
+            mass_spring: m.mass_spring,
+            ..line(
+                m.name.clone(),
+                t,
+                [m.vertices, m.triangles, m.constraints],
+                *a,
+            )
+        })
+        .collect();
+    let total = models.iter().fold([0; 3], |a, m| {
+        [a[0] + m.vertices, a[1] + m.triangles, a[2] + m.constraints]
+    });
+    // The whole procedure's share: awake points over all points.
+    let awake_points: f64 = models
+        .iter()
+        .zip(&awake)
+        .map(|(m, a)| m.vertices as f64 * a)
+        .sum();
+    let share = awake_points / (total[0].max(1) as f64);
+    out.push(line("procedure".to_string(), wall, total, share));
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_unknown_procedure_is_named() {
+        let e = run("appendectomy").expect_err("no such procedure");
+        assert!(matches!(&e, BenchError::NoSuchProcedure(p) if p == "appendectomy"));
+        assert_eq!(e.to_string(), "no procedure 'appendectomy'");
+    }
+}

@@ -1,0 +1,63 @@
+//! The rectum's reference cases that need its whole scene: the membrane handing a load on its
+//! fat to the rod through the skin.
+
+use super::{Anatomy, AnatomyParams, RectumScene, SceneParams, ToolState};
+use crate::models::membrane::LAYERS;
+use crate::sim::{Case, Measured};
+use glam::Vec3;
+
+/// `vesalius verify`'s rows for the coupled scene.
+pub fn cases() -> Vec<Case> {
+    vec![Case {
+        model: "rectum scene",
+        case: "membrane_load_on_rod",
+        description: "50 mN pressing on the fat (layer 1, 5 x 5 nodes) over the middle of a \
+                          coarse rectum (60 x 48 a layer), every tile awake, the pelvic side let \
+                          go so the membrane hangs on the rod alone: the membrane's load on the \
+                          rod after 0.8 s vs the load (at rest a free membrane passes it all \
+                          on); tolerance 5 %",
+        unit: "N",
+        tolerance: 0.05,
+        run: load_on_rod,
+    }]
+}
+
+fn load_on_rod() -> Measured {
+    let load = Vec3::new(0.0, -0.05, 0.0);
+    let reference = f64::from(load.length());
+    let Ok(a) = Anatomy::generate(AnatomyParams {
+        rows: 60,
+        cols: 48,
+        ..AnatomyParams::default()
+    }) else {
+        return Measured::not_run(reference);
+    };
+    let Ok(mut s) = RectumScene::new(&a, SceneParams::default()) else {
+        return Measured::not_run(reference);
+    };
+    s.membrane.detach_layer(LAYERS - 1);
+    s.membrane.stay_awake();
+    let patch = s.top_patch(1, 2);
+    let idle = ToolState {
+        hook: None,
+        cutting: false,
+        grasper: None,
+        grasper_right: None,
+    };
+    let steps = 800;
+    let mut on_rod = Vec3::ZERO;
+    for _ in 0..steps {
+        for &n in &patch {
+            s.membrane.add_force(n, load / patch.len() as f32);
+        }
+        on_rod = s.step(1e-3, &idle).membrane_on_rod_n;
+    }
+    // The load's component along itself: what the rod takes of it.
+    let along = on_rod.as_dvec3().dot(load.as_dvec3().normalize());
+    Measured {
+        reference,
+        measured: along,
+        simulated_s: steps as f64 * 1e-3,
+        floor: 0.0,
+    }
+}

@@ -1,0 +1,139 @@
+//! What `vesalius bench` reports (its lines, a one-off computation's figures, why a
+//! benchmark did not run), so that a procedure can add lines of its own; the command line
+//! runs the benchmarks.
+
+use super::BuildError;
+use crate::scenario::InputError;
+use serde::Serialize;
+
+#[derive(Debug, Serialize)]
+pub struct BenchLine {
+    pub model: String,
+    pub steps: u64,
+    pub steps_per_s: f64,
+    pub dt_s: f32,
+    pub realtime_factor: f64,
+    pub vertices: usize,
+    pub triangles: usize,
+    pub constraints: usize,
+    pub threads: usize,
+    /// Mean share of the points stepped each step (1: none asleep).
+    pub awake_fraction: f64,
+    /// Every point was kept awake for this line.
+    pub all_awake: bool,
+    /// A mass-spring model's particulars.
+    #[serde(flatten)]
+    pub mass_spring: super::MassSpring,
+    /// A one-off computation's particulars (a precomputation's stages).
+    #[serde(flatten)]
+    pub once: Once,
+}
+
+/// A one-off computation's seconds, size and rate, beside the machine's peak (each left out
+/// of the JSON when absent).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct Once {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub seconds: Option<f64>,
+    /// The dense system's unknowns.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub n: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gflops: Option<f64>,
+    /// The machine's double-precision peak, GFLOP/s (see [`peak_gflops`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub peak_gflops: Option<f64>,
+}
+
+/// A procedure's own benchmarks, beyond stepping its demo.
+pub type ExtraBench = fn() -> Result<Vec<BenchLine>, BenchError>;
+
+impl BenchLine {
+    /// A line for `count` repetitions of something that took `seconds` in all (`steps` are
+    /// the repetitions, `steps_per_s` their rate; no time step).
+    pub fn repeated(model: &str, count: u64, seconds: f64) -> BenchLine {
+        BenchLine {
+            model: model.to_string(),
+            steps: count,
+            steps_per_s: count as f64 / seconds.max(1e-12),
+            dt_s: 0.0,
+            realtime_factor: 0.0,
+            vertices: 0,
+            triangles: 0,
+            constraints: 0,
+            threads: rayon::current_num_threads(),
+            awake_fraction: 1.0,
+            all_awake: true,
+            mass_spring: Default::default(),
+            once: Once::default(),
+        }
+    }
+}
+
+/// The machine's double-precision peak, GFLOP/s: the cores rayon uses times their clock
+/// (`cpu MHz` of `/proc/cpuinfo`, the highest listed) times the flops one core retires a
+/// cycle with the widest fused multiply-add it has (AVX-512: 32, but 16 on AMD's family 25,
+/// Zen 3 and 4, whose AVX-512 runs as two 256-bit halves; AVX2 with FMA: 16, else 4). An
+/// estimate of the ceiling at the listed clock, not a measurement (a boosting core can pass
+/// it); none where the clock cannot be read.
+pub fn peak_gflops() -> Option<f64> {
+    let text = std::fs::read_to_string("/proc/cpuinfo").ok()?;
+    let mhz = text
+        .lines()
+        .filter(|l| l.starts_with("cpu MHz"))
+        .filter_map(|l| l.split(':').nth(1)?.trim().parse::<f64>().ok())
+        .fold(0.0, f64::max);
+    if mhz <= 0.0 {
+        return None;
+    }
+    let amd_family_25 = text
+        .lines()
+        .any(|l| l.starts_with("vendor_id") && l.contains("AuthenticAMD"))
+        && text.lines().any(|l| {
+            l.starts_with("cpu family") && l.split(':').nth(1).map(str::trim) == Some("25")
+        });
+    let per_cycle = if amd_family_25 {
+        flops_per_cycle().min(16.0)
+    } else {
+        flops_per_cycle()
+    };
+    Some(rayon::current_num_threads() as f64 * mhz * 1e-3 * per_cycle)
+}
+
+#[cfg(target_arch = "x86_64")]
+fn flops_per_cycle() -> f64 {
+    if std::arch::is_x86_feature_detected!("avx512f") {
+        32.0
+    } else if std::arch::is_x86_feature_detected!("avx2")
+        && std::arch::is_x86_feature_detected!("fma")
+    {
+        16.0
+    } else {
+        4.0
+    }
+}
+
+/// Elsewhere: two-wide fused multiply-adds (NEON), a conservative figure.
+#[cfg(not(target_arch = "x86_64"))]
+fn flops_per_cycle() -> f64 {
+    4.0
+}
+
+/// Simulated seconds of the all-awake pass (the whole demo all awake would take minutes) by
+/// default; each procedure says its own ([`super::ProcedureInfo::bench_all_awake_s`]).
+pub const ALL_AWAKE_S: f64 = 1.0;
+
+/// Why a benchmark did not run.
+#[derive(Debug, thiserror::Error)]
+pub enum BenchError {
+    #[error("no procedure '{0}'")]
+    NoSuchProcedure(String),
+    /// The procedure's built-in scenario or demo trace is refused (a bug in the build).
+    #[error(transparent)]
+    Input(#[from] InputError),
+    #[error(transparent)]
+    Build(#[from] BuildError),
+    /// A model's own failure.
+    #[error(transparent)]
+    Model(#[from] super::ModelError),
+}
