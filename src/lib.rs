@@ -6,6 +6,7 @@
 pub mod assess;
 pub mod collision;
 pub mod diagnostics;
+pub mod gpu;
 pub mod haptics;
 pub mod input_error;
 pub mod mesh;

@@ -4,7 +4,8 @@
 //!
 //! Layers, top to bottom: the command line (the binary); `ui`, `xr`, `haptics`; `session`;
 //! `registry`; `procedures`; then the generic layers that may not name those above: `render`,
-//! `assess`, `trace`, `verify`, `models`, `sim`, `collision`, `mesh`, `scenario`, `params`.
+//! `assess`, `trace`, `verify`, `models`, `sim`, `collision`, `mesh`, `gpu`, `scenario`,
+//! `params`.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -20,7 +21,7 @@ const HIGH: [&str; 7] = [
     "haptics",
     "cli",
 ];
-const LOW: [&str; 11] = [
+const LOW: [&str; 12] = [
     "render",
     "assess",
     "trace",
@@ -32,6 +33,7 @@ const LOW: [&str; 11] = [
     "collision",
     "mesh",
     "diagnostics",
+    "gpu",
 ];
 
 fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {

@@ -13,7 +13,8 @@ mod draw;
 /// The operative field is described in the core ([`crate::sim::field`]); drawn here.
 pub use crate::sim::field;
 pub mod frames;
-pub mod gpu;
+/// The one wgpu device, a leaf below the renderer (models may share it for compute).
+pub use crate::gpu;
 mod meshes;
 pub mod monitor;
 pub mod optics;
@@ -23,8 +24,8 @@ pub mod smoke;
 
 use meshes::{empty_mesh, ensure_capacity, tracked_buffer, upload};
 
+pub use crate::gpu::{EyeTarget, Gpu, RenderError, RenderTarget};
 pub use camera::{EyeView, Fov};
-pub use gpu::{EyeTarget, Gpu, RenderError};
 
 use crate::profiler::{Category, Ledger, Tracked};
 use crate::sim::{Emission, ScopeView, Snapshot, SurfaceRole, ToolSnapshot};
@@ -238,14 +239,6 @@ struct GpuMesh {
     index_count: u32,
     /// Indices before this draw opaque triangles; from it on, membranes (translucent).
     opaque_count: u32,
-}
-
-/// Where to draw: both eyes' layers of one array texture (multiview), one view per eye, or
-/// one view seen by the first eye only (a desktop window; not with a multiview renderer).
-pub enum RenderTarget<'a> {
-    Array(&'a wgpu::TextureView),
-    PerEye([&'a wgpu::TextureView; 2]),
-    Single(&'a wgpu::TextureView),
 }
 
 struct Depth {

@@ -1,5 +1,6 @@
-//! The wgpu device for headless rendering (Vulkan; Mesa's lavapipe where there is no GPU), and
-//! eye textures that can be read back to PNG.
+//! The one wgpu device (Vulkan; Mesa's lavapipe where there is no GPU), shared by the
+//! renderer, the window, the headset and tissue models' compute, and eye textures that can be
+//! read back to PNG. A leaf: it names no model and no renderer.
 
 use crate::profiler::{Category, Ledger, Tracked};
 use std::path::Path;
@@ -251,11 +252,11 @@ impl EyeTarget {
     }
 
     /// The target as the renderer takes it: the array for multiview, else one view per eye.
-    pub fn target(&self, multiview: bool) -> super::RenderTarget<'_> {
+    pub fn target(&self, multiview: bool) -> RenderTarget<'_> {
         if multiview {
-            super::RenderTarget::Array(&self.array)
+            RenderTarget::Array(&self.array)
         } else {
-            super::RenderTarget::PerEye([&self.layers[0], &self.layers[1]])
+            RenderTarget::PerEye([&self.layers[0], &self.layers[1]])
         }
     }
 
@@ -396,4 +397,12 @@ pub fn read_png(path: &Path) -> Result<((u32, u32), Vec<u8>), RenderError> {
         other => return Err(err(format!("expected an RGB or RGBA PNG, got {other:?}"))),
     };
     Ok(((info.width, info.height), rgba))
+}
+
+/// Where to draw: both eyes' layers of one array texture (multiview), one view per eye, or
+/// one view seen by the first eye only (a desktop window; not with a multiview renderer).
+pub enum RenderTarget<'a> {
+    Array(&'a wgpu::TextureView),
+    PerEye([&'a wgpu::TextureView; 2]),
+    Single(&'a wgpu::TextureView),
 }
