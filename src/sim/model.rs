@@ -93,6 +93,9 @@ pub trait TissueModel: Send {
     fn state_is_finite(&self) -> bool;
     /// A deterministic digest of the state, for replay and determinism checks.
     fn state_hash(&self) -> u64;
+    /// Puts a NaN into the state where the next step will meet it, as a failing solver or a
+    /// bad force would (fault injection: the quarantine is tested in every procedure).
+    fn inject_nan(&mut self);
     /// Heap bytes by part, for the profiler.
     fn memory(&self) -> Vec<(&'static str, usize)> {
         Vec::new()
@@ -152,6 +155,9 @@ impl TissueModel for Box<dyn TissueModel> {
     }
     fn state_hash(&self) -> u64 {
         (**self).state_hash()
+    }
+    fn inject_nan(&mut self) {
+        (**self).inject_nan();
     }
     fn memory(&self) -> Vec<(&'static str, usize)> {
         (**self).memory()

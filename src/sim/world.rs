@@ -404,6 +404,9 @@ pub trait ModelSet: Send {
     fn awake_fractions(&self) -> Vec<f64>;
     fn stay_awake(&mut self);
     fn state_hash(&self) -> u64;
+    /// Puts a NaN into model `index` (in the order of [`ModelSet::model_reports`]); false
+    /// when there is no such model.
+    fn inject_nan(&mut self, index: usize) -> bool;
 }
 
 impl<M: TissueModel> ModelSet for World<M> {
@@ -424,5 +427,14 @@ impl<M: TissueModel> ModelSet for World<M> {
     }
     fn state_hash(&self) -> u64 {
         World::state_hash(self)
+    }
+    fn inject_nan(&mut self, index: usize) -> bool {
+        match self.slots.get_mut(index) {
+            Some(slot) => {
+                slot.model.inject_nan();
+                true
+            }
+            None => false,
+        }
     }
 }

@@ -415,6 +415,13 @@ impl TissueModel for SoftBody {
             .all(|&i| self.x[i as usize].is_finite() && self.v[i as usize].is_finite())
     }
 
+    /// The first point moved to NaN and woken.
+    fn inject_nan(&mut self) {
+        if !self.x.is_empty() {
+            self.set_position(0, Vec3::NAN);
+        }
+    }
+
     fn state_hash(&self) -> u64 {
         let mut h = Fnv::default();
         for (x, v) in self.x.iter().zip(&self.v) {

@@ -163,6 +163,14 @@ impl TissueModel for RectumRod {
         self.rod.is_finite()
     }
 
+    /// A NaN force on the first node for the next step (past `add_node_force`, which
+    /// refuses one).
+    fn inject_nan(&mut self) {
+        if let Some(f) = self.load.first_mut() {
+            *f = DVec3::NAN;
+        }
+    }
+
     /// The rod's digest, then each grasp's material point and jaw.
     fn state_hash(&self) -> u64 {
         let mut h = Fnv::default();
