@@ -298,16 +298,7 @@ pub fn read_texture(
         });
     for layer in 0..layers {
         encoder.copy_texture_to_buffer(
-            wgpu::TexelCopyTextureInfo {
-                texture,
-                mip_level: 0,
-                origin: wgpu::Origin3d {
-                    x: 0,
-                    y: 0,
-                    z: layer,
-                },
-                aspect: wgpu::TextureAspect::All,
-            },
+            texture_layer(texture, layer),
             wgpu::TexelCopyBufferInfo {
                 buffer: &buffer,
                 layout: wgpu::TexelCopyBufferLayout {
@@ -405,4 +396,18 @@ pub enum RenderTarget<'a> {
     Array(&'a wgpu::TextureView),
     PerEye([&'a wgpu::TextureView; 2]),
     Single(&'a wgpu::TextureView),
+}
+
+/// Layer `layer` of `texture` (mip 0, from its corner), as a copy's source or destination.
+pub fn texture_layer(texture: &wgpu::Texture, layer: u32) -> wgpu::TexelCopyTextureInfo<'_> {
+    wgpu::TexelCopyTextureInfo {
+        texture,
+        mip_level: 0,
+        origin: wgpu::Origin3d {
+            x: 0,
+            y: 0,
+            z: layer,
+        },
+        aspect: wgpu::TextureAspect::All,
+    }
 }

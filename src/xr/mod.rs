@@ -555,22 +555,8 @@ fn draw(
                     label: Some("mirror copy"),
                 });
             encoder.copy_texture_to_texture(
-                wgpu::TexelCopyTextureInfo {
-                    texture,
-                    mip_level: 0,
-                    origin: wgpu::Origin3d {
-                        x: 0,
-                        y: 0,
-                        z: layer,
-                    },
-                    aspect: wgpu::TextureAspect::All,
-                },
-                wgpu::TexelCopyTextureInfo {
-                    texture: &m.texture,
-                    mip_level: 0,
-                    origin: wgpu::Origin3d::ZERO,
-                    aspect: wgpu::TextureAspect::All,
-                },
+                crate::gpu::texture_layer(texture, layer),
+                crate::gpu::texture_layer(&m.texture, 0),
                 wgpu::Extent3d {
                     width: m.size.0,
                     height: m.size.1,
