@@ -25,11 +25,6 @@ impl Catalog {
         self.iter().map(|p| p.name)
     }
 
-    /// The first procedure (the one examples and defaults use); none in an empty catalog.
-    pub fn first(&self) -> Option<&'static ProcedureInfo> {
-        self.0.first().copied()
-    }
-
     /// The procedure called `name`, or an error naming `file` and `key` that lists the ones
     /// there are.
     pub fn lookup(
