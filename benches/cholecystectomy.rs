@@ -71,11 +71,11 @@ fn scene(c: &mut Criterion) {
     s.settle(0.2, 8, 60.0);
     eprintln!(
         "scene: {} particles, {organs} in {} clusters",
-        s.particles.len(),
-        s.shape.clusters()
+        s.solver().particles.len(),
+        s.solver().shape.clusters()
     );
     g.bench_function("scene_step_1ms_all_awake", |b| {
-        b.iter(|| s.step(1e-3, &[None, None]))
+        b.iter(|| s.step(1e-3, &[None, None], 0, &mut Vec::new()))
     });
 }
 

@@ -41,13 +41,13 @@ fn rectum(c: &mut Criterion) {
         b.iter(|| hook.contacts_all(PointCloud::from_points(&points), &mut contacts))
     });
     let mut scene = RectumScene::new(&a, SceneParams::default()).expect("scene");
-    g.bench_function("rod_step_1ms", |b| b.iter(|| scene.rod.advance(1e-3)));
+    g.bench_function("rod_step_1ms", |b| b.iter(|| scene.rod_mut().advance(1e-3)));
     let mut row = 200usize;
     g.bench_function("scene_step_1ms_hook_cutting", |b| {
         b.iter(|| {
             // The hook sweeps along the top of the rectum, one row (0.25 mm) per 5 steps.
             row = 200 + (row - 200 + 1) % 1000;
-            let (corner, q) = hook_at(&scene.membrane, 200 + (row - 200) / 5);
+            let (corner, q) = hook_at(scene.membrane(), 200 + (row - 200) / 5);
             scene.step(
                 1e-3,
                 &ToolState {
@@ -56,13 +56,15 @@ fn rectum(c: &mut Criterion) {
                     grasper: None,
                     grasper_right: None,
                 },
+                0,
+                &mut Vec::new(),
             )
         })
     });
     eprintln!(
         "scene: awake share {:.4} of {} membrane nodes",
-        scene.membrane.awake_fraction(),
-        scene.membrane.len()
+        scene.membrane().awake_fraction(),
+        scene.membrane().len()
     );
     g.finish();
 }

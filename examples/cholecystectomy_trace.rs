@@ -129,7 +129,7 @@ impl Play {
     }
 
     fn x(&self, i: u32) -> Vec3 {
-        self.c.scene.particles.x[i as usize]
+        self.c.scene.solver().particles.x[i as usize]
     }
 
     /// A point a fraction of the way along a vessel's chain now.
@@ -153,7 +153,7 @@ fn main() {
     };
     let mut play = Play { c, step: 0 };
     let an = &play.c.scene.anatomy;
-    let p = &play.c.scene.particles;
+    let p = &play.c.scene.solver().particles;
     let x = |i: u32| p.x[i as usize];
     // The fundus's front: the gallbladder's surface particle nearest the laparoscope beyond
     // 2.5 cm along it.

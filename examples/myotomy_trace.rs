@@ -126,7 +126,7 @@ impl Play {
         let e = &self.m.esophagus;
         e.field
             .iter()
-            .map(|&i| self.m.palpation.rest(i))
+            .map(|&i| self.m.palpation().rest(i))
             .filter(|p| (p.z as f32 - z).abs() < 0.002)
             .map(|p| p.y as f32)
             .fold(0.0, f32::max)

@@ -272,7 +272,7 @@ fn every_procedures_own_cases_pass_with_unique_ids() {
     for c in all.iter().chain(&crate::verify::known_failures()) {
         assert!(seen.insert(c.case), "duplicate case id {}", c.case);
     }
-    let own: Vec<crate::sim::Case> = REGISTRY.iter().flat_map(|p| (p.cases)()).collect();
+    let own: Vec<crate::sim::Case> = REGISTRY.iter().flat_map(|p| (p.options.cases)()).collect();
     assert!(own.len() >= 4, "{} cases of procedures", own.len());
     for r in crate::verify::run(&own) {
         assert!(

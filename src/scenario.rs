@@ -309,34 +309,51 @@ pub fn check_cost(file: &str, nodes: u64, steps: u64) -> Result<(), InputError> 
 /// table's ranges), which the procedure's `validate` calls before its rules between values.
 #[macro_export]
 macro_rules! scenario_tables {
-    (
-        name: $name:expr,
-        dt: ($dt:expr, $why:expr),
-        tables: [$(($key:expr, $field:ident, $ty:ty)),* $(,)?] $(,)?
-    ) => {
+    (name: $name:expr, dt: ($dt:expr, $why:expr), $($rest:tt)*) => {
         /// The top level: the simulation step and the snapshot rate.
         const TIMING: &[$crate::params::ParamSpec] = &[
             $crate::scenario::Timing::dt_spec($dt, $why),
             $crate::scenario::Timing::PUBLISH_HZ,
         ];
-        $crate::scenario_tables!(@rest $name, [$(($key, $field, $ty)),*]);
+        $crate::scenario_tables!(@rest $name, $($rest)*);
     };
-    (
-        name: $name:expr,
-        dt: default,
-        tables: [$(($key:expr, $field:ident, $ty:ty)),* $(,)?] $(,)?
-    ) => {
+    (name: $name:expr, dt: default, $($rest:tt)*) => {
         /// The top level: the default step and snapshot rate.
         const TIMING: &[$crate::params::ParamSpec] =
             <$crate::scenario::Timing as $crate::params::Params>::SPECS;
-        $crate::scenario_tables!(@rest $name, [$(($key, $field, $ty)),*]);
+        $crate::scenario_tables!(@rest $name, $($rest)*);
     };
-    (@rest $name:expr, [$(($key:expr, $field:ident, $ty:ty)),*]) => {
+    (
+        @rest $name:expr,
+        nodes: $nodes:ident,
+        tables: [$($(#[$tm:meta])* ($key:expr, $field:ident, $ty:ty)),* $(,)?],
+        $(extra: [$($(#[$em:meta])* $efield:ident: $ety:ty),* $(,)?],)?
+    ) => {
+        /// A scenario file: the procedure's name, the timing, what a headset shows, and the
+        /// procedure's tables.
+        #[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+        #[serde(deny_unknown_fields)]
+        pub struct Scenario {
+            /// Always the procedure's name.
+            pub procedure: String,
+            /// Simulation step, s.
+            pub dt_s: f32,
+            /// Snapshots published for renderers per second, Hz.
+            pub publish_hz: f32,
+            /// What a headset shows (`[headset]`; optional).
+            #[serde(default)]
+            pub headset: $crate::scenario::Headset,
+            $($(#[$tm])* pub $field: $ty,)*
+            $($($(#[$em])* pub $efield: $ety,)*)?
+        }
+
         /// The scenario's tables with specs, as `INFO.param_tables` lists them (file order).
         pub const PARAM_TABLES: &[(&str, &[$crate::params::ParamSpec])] = &[
             ($crate::params::TOP_LEVEL, TIMING),
             $(($key, <$ty as $crate::params::Params>::SPECS)),*
         ];
+
+        $crate::scenario_plan!($nodes);
 
         impl Scenario {
             /// Parses and checks scenario text; `file` names it in errors.

@@ -21,10 +21,10 @@ pub fn run(procedure: &str) -> Result<Vec<BenchLine>, BenchError> {
     out.extend(pass(
         info,
         &trace,
-        info.bench_all_awake_s.min(trace.duration_s()),
+        info.options.bench_all_awake_s.min(trace.duration_s()),
         true,
     )?);
-    if let Some(extra) = info.bench_extra {
+    if let Some(extra) = info.options.bench_extra {
         out.extend(extra()?);
     }
     Ok(out)

@@ -24,7 +24,7 @@ pub enum DeviceArg {
 impl DeviceArg {
     /// `Default` made the procedure's own device.
     fn resolved(self, info: &vesalius::procedures::ProcedureInfo) -> DeviceArg {
-        match (self, info.haptic_device) {
+        match (self, info.options.haptic_device) {
             (DeviceArg::Default, DeviceChoice::Sim) => DeviceArg::Sim,
             (DeviceArg::Default, DeviceChoice::Phantom) => DeviceArg::Phantom,
             (DeviceArg::Default, DeviceChoice::Falcon) => DeviceArg::Falcon,

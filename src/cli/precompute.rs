@@ -12,14 +12,14 @@ use vesalius::sim::precompute::Precomputable;
 pub fn names() -> Vec<&'static str> {
     CATALOG
         .iter()
-        .filter(|p| p.precompute.is_some())
+        .filter(|p| p.options.precompute.is_some())
         .map(|p| p.name)
         .collect()
 }
 
 /// The precomputation of procedure `name`.
 fn find(name: &str) -> Option<&'static Precomputable> {
-    CATALOG.find(name).and_then(|p| p.precompute)
+    CATALOG.find(name).and_then(|p| p.options.precompute)
 }
 
 pub fn precompute(

@@ -194,7 +194,7 @@ pub fn profile(
                 .map(|(k, b)| (k.to_string(), serde_json::json!(b)))
                 .collect::<serde_json::Map<_, _>>(),
             "vesalius": ours,
-            "paper": info.profile_reference.map(|f| {
+            "paper": info.options.profile_reference.map(|f| {
                 let [cpu, gpu] = f();
                 serde_json::json!({ "cpu": cpu, "gpu": gpu })
             }),
@@ -202,7 +202,7 @@ pub fn profile(
         say!("{}", serde_json::to_string_pretty(&v).unwrap_or_default());
         return Ok(());
     }
-    let paper = info.profile_reference.map(|f| f());
+    let paper = info.options.profile_reference.map(|f| f());
     say!(
         "{procedure} on {} ({}x{} per eye, {} pass{}), {frame_ms:.1} ms per stereo frame",
         done.device,

@@ -45,6 +45,20 @@ pub enum Collider<'a> {
     Tube(GeneralizedCylinder<'a>, &'a [u8]),
 }
 
+impl Collider<'static> {
+    /// Nothing rays or tools meet: a model whose owner brings the instruments to it in its
+    /// own terms (tips pressing boundary elements, penalties on a grid's nodes).
+    pub fn none() -> Self {
+        Collider::Spheres(
+            SphereSet {
+                centers: &[],
+                radii: &[],
+            },
+            &[],
+        )
+    }
+}
+
 fn from_primitive(h: PrimitiveHit) -> RayHit {
     RayHit {
         feature: h.feature,

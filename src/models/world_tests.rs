@@ -424,8 +424,9 @@ impl TissueModel for Strand {
     fn point(&self, i: u32) -> Option<Vec3> {
         self.centreline.get(i as usize).copied()
     }
-    fn inject_nan(&mut self) {
+    fn inject_nan(&mut self) -> bool {
         self.centreline[0] = Vec3::NAN;
+        true
     }
 }
 

@@ -10,6 +10,7 @@ pub mod bench;
 mod cases;
 mod catalog;
 mod clock;
+mod coupling;
 mod emission;
 mod events;
 pub mod field;
@@ -30,6 +31,7 @@ pub use bench::{ALL_AWAKE_S, BenchError, BenchLine, ExtraBench, Once, peak_gflop
 pub use cases::{Case, Measured};
 pub use catalog::Catalog;
 pub use clock::{Clock, Pacing};
+pub use coupling::{Couplings, Models, Phase, Uncoupled};
 pub use emission::{Bleed, Emission, EmissionKind, EmissionLog};
 pub use events::{EventKind, ProcedureEvent, SimEvent, shortest_f32};
 pub use haptic::{HapticFrame, HapticSlot, SeqWords, ToolHaptics};
@@ -37,9 +39,10 @@ pub use hash::Fnv;
 pub use input::{Buttons, Hand, HandInput, InputFrame, Pose};
 pub use model::{Contact, ContactKind, CutStroke, ModelOutput, ModelSizes, TissueModel, ToolId};
 pub use procedure::{
-    BuildError, BuildFn, DeviceChoice, MassSpring, ModelError, ModelReport, Plan, Procedure,
-    ProcedureInfo, ProcedureReport, SessionStatus, TaskStatus, TaskStep, ToolInfo, ToolKind,
-    Tunable, Viewpoint, completion_share, out_of_order, tick_off, time_efficiency,
+    BuildError, BuildFn, DeviceChoice, MassSpring, ModelError, ModelReport, Options, Plan,
+    Procedure, ProcedureInfo, ProcedureReport, SessionStatus, TaskStatus, TaskStep, ToolInfo,
+    ToolKind, Tunable, Viewpoint, completion_share, out_of_order, tick_off, time_efficiency,
+    weighted_score,
 };
 pub use quarantine::Quarantine;
 pub use snapshot::{

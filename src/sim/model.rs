@@ -94,11 +94,16 @@ pub trait TissueModel: Send {
     /// A deterministic digest of the state, for replay and determinism checks.
     fn state_hash(&self) -> u64;
     /// Puts a NaN into the state where the next step will meet it, as a failing solver or a
-    /// bad force would (fault injection: the quarantine is tested in every procedure).
-    fn inject_nan(&mut self);
+    /// bad force would (fault injection: the quarantine is tested in every procedure);
+    /// false when the model holds no such state now (a contact model touching nothing).
+    fn inject_nan(&mut self) -> bool;
     /// Heap bytes by part, for the profiler.
     fn memory(&self) -> Vec<(&'static str, usize)> {
         Vec::new()
+    }
+    /// A mass-spring model's nodes, springs and integrator, for reports (none otherwise).
+    fn mass_spring(&self) -> crate::sim::MassSpring {
+        crate::sim::MassSpring::default()
     }
     /// The share of the model's points the last step worked on (1 for a model that never
     /// sleeps).
@@ -156,11 +161,14 @@ impl TissueModel for Box<dyn TissueModel> {
     fn state_hash(&self) -> u64 {
         (**self).state_hash()
     }
-    fn inject_nan(&mut self) {
-        (**self).inject_nan();
+    fn inject_nan(&mut self) -> bool {
+        (**self).inject_nan()
     }
     fn memory(&self) -> Vec<(&'static str, usize)> {
         (**self).memory()
+    }
+    fn mass_spring(&self) -> crate::sim::MassSpring {
+        (**self).mass_spring()
     }
     fn awake_fraction(&self) -> f32 {
         (**self).awake_fraction()
@@ -174,4 +182,88 @@ impl TissueModel for Box<dyn TissueModel> {
     fn apply_point_forces(&mut self, forces: &[(u32, Vec3)]) {
         (**self).apply_point_forces(forces);
     }
+}
+
+/// An enum of a procedure's model types that is itself a [`TissueModel`], each method
+/// forwarded to the variant: `World<M>` holds models of several kinds with no boxing, and a
+/// coupling matches on the variants it joins.
+///
+/// ```ignore
+/// tissue_models! {
+///     pub enum SceneModel { Rod(Rod), Membrane(Membrane) }
+/// }
+/// ```
+#[macro_export]
+macro_rules! tissue_models {
+    ($(#[$meta:meta])* $vis:vis enum $name:ident { $($variant:ident($ty:ty)),+ $(,)? }) => {
+        $(#[$meta])*
+        // A world holds a few models, each once: the enum's size costs nothing, and a box
+        // would put an indirection on every access in a step.
+        #[allow(clippy::large_enum_variant)]
+        $vis enum $name {
+            $($variant($ty)),+
+        }
+
+        impl $crate::sim::TissueModel for $name {
+            fn name(&self) -> &str {
+                match self { $(Self::$variant(m) => <$ty as $crate::sim::TissueModel>::name(m)),+ }
+            }
+            fn kind(&self) -> &'static str {
+                match self { $(Self::$variant(m) => <$ty as $crate::sim::TissueModel>::kind(m)),+ }
+            }
+            fn sizes(&self) -> $crate::sim::ModelSizes {
+                match self { $(Self::$variant(m) => <$ty as $crate::sim::TissueModel>::sizes(m)),+ }
+            }
+            fn step(
+                &mut self,
+                dt_s: f32,
+                contacts: &[$crate::sim::Contact],
+                out: &mut $crate::sim::ModelOutput,
+            ) {
+                match self { $(Self::$variant(m) => <$ty as $crate::sim::TissueModel>::step(m, dt_s, contacts, out)),+ }
+            }
+            fn cut(&mut self, stroke: &$crate::sim::CutStroke, out: &mut $crate::sim::ModelOutput) {
+                match self { $(Self::$variant(m) => <$ty as $crate::sim::TissueModel>::cut(m, stroke, out)),+ }
+            }
+            fn collider(&self) -> $crate::sim::Collider<'_> {
+                match self { $(Self::$variant(m) => <$ty as $crate::sim::TissueModel>::collider(m)),+ }
+            }
+            fn render_mesh(&mut self) -> $crate::sim::ModelSnapshot {
+                match self { $(Self::$variant(m) => <$ty as $crate::sim::TissueModel>::render_mesh(m)),+ }
+            }
+            fn checkpoint(&mut self) {
+                match self { $(Self::$variant(m) => <$ty as $crate::sim::TissueModel>::checkpoint(m)),+ }
+            }
+            fn restore(&mut self) {
+                match self { $(Self::$variant(m) => <$ty as $crate::sim::TissueModel>::restore(m)),+ }
+            }
+            fn state_is_finite(&self) -> bool {
+                match self { $(Self::$variant(m) => <$ty as $crate::sim::TissueModel>::state_is_finite(m)),+ }
+            }
+            fn state_hash(&self) -> u64 {
+                match self { $(Self::$variant(m) => <$ty as $crate::sim::TissueModel>::state_hash(m)),+ }
+            }
+            fn inject_nan(&mut self) -> bool {
+                match self { $(Self::$variant(m) => <$ty as $crate::sim::TissueModel>::inject_nan(m)),+ }
+            }
+            fn memory(&self) -> Vec<(&'static str, usize)> {
+                match self { $(Self::$variant(m) => <$ty as $crate::sim::TissueModel>::memory(m)),+ }
+            }
+            fn mass_spring(&self) -> $crate::sim::MassSpring {
+                match self { $(Self::$variant(m) => <$ty as $crate::sim::TissueModel>::mass_spring(m)),+ }
+            }
+            fn awake_fraction(&self) -> f32 {
+                match self { $(Self::$variant(m) => <$ty as $crate::sim::TissueModel>::awake_fraction(m)),+ }
+            }
+            fn stay_awake(&mut self) {
+                match self { $(Self::$variant(m) => <$ty as $crate::sim::TissueModel>::stay_awake(m)),+ }
+            }
+            fn point(&self, i: u32) -> Option<glam::Vec3> {
+                match self { $(Self::$variant(m) => <$ty as $crate::sim::TissueModel>::point(m, i)),+ }
+            }
+            fn apply_point_forces(&mut self, forces: &[(u32, glam::Vec3)]) {
+                match self { $(Self::$variant(m) => <$ty as $crate::sim::TissueModel>::apply_point_forces(m, forces)),+ }
+            }
+        }
+    };
 }

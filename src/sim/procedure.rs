@@ -183,12 +183,34 @@ pub struct ProcedureInfo {
     /// Where the desktop mode parks each instrument before the trainee moves (left, right):
     /// over the field, pointing away from it.
     pub desk_park: [Vec3; 2],
-    /// Its paper's profiler counters (CPU and GPU columns) for `vesalius profile` to print
-    /// beside ours; none where the paper gives none.
-    pub profile_reference: Option<fn() -> [crate::profiler::PaperColumn; 2]>,
     /// The parameter tables its scenario holds that have a table of specs: (scenario table,
     /// specs). They drive validation, sliders and `docs/parameters.md`.
     pub param_tables: &'static [(&'static str, &'static [crate::params::ParamSpec])],
+    /// Its assessment tree (TOML text, `assets/assessment/<name>.toml`): how its measures
+    /// are weighed into the score and the level of expertise.
+    pub assessment: &'static str,
+    /// What surrounds its models in the picture (cavity, neighbouring anatomy) and the
+    /// laparoscope that sees them: built once per renderer.
+    pub field: fn() -> super::field::OperativeField,
+    /// Its metrics before anything happened (a JSON object): the measures it reports, by
+    /// which trees are checked.
+    pub blank_metrics: fn() -> serde_json::Value,
+    /// Reads and checks a scenario for planning (`file` names it in errors).
+    pub plan: fn(file: &str, text: &str) -> Result<Plan, InputError>,
+    /// Builds the procedure from a scenario.
+    pub build: BuildFn,
+    /// What only some procedures have ([`Options::NONE`] for none of it).
+    pub options: Options,
+}
+
+/// What only some procedures have: a laparoscope hand, instruments to swap, a paper's
+/// profiler counters, legacy recordings, a precomputation, scene-wide reference cases,
+/// benchmarks of their own, another force-feedback device.
+#[derive(Clone, Copy)]
+pub struct Options {
+    /// Its paper's profiler counters (CPU and GPU columns) for `vesalius profile` to print
+    /// beside ours; none where the paper gives none.
+    pub profile_reference: Option<fn() -> [crate::profiler::PaperColumn; 2]>,
     /// Simulated seconds of `vesalius bench`'s all-awake pass (a model of a million points
     /// all awake steps far slower than real time).
     pub bench_all_awake_s: f64,
@@ -203,15 +225,6 @@ pub struct ProcedureInfo {
     /// The model that tunings in recordings of format versions 1 and 2 (which name no model)
     /// were made to; none for a procedure that had no such recordings.
     pub legacy_tuned_model: Option<&'static str>,
-    /// Its assessment tree (TOML text, `assets/assessment/<name>.toml`): how its measures
-    /// are weighed into the score and the level of expertise.
-    pub assessment: &'static str,
-    /// What surrounds its models in the picture (cavity, neighbouring anatomy) and the
-    /// laparoscope that sees them: built once per renderer.
-    pub field: fn() -> super::field::OperativeField,
-    /// Its metrics before anything happened (a JSON object): the measures it reports, by
-    /// which trees are checked.
-    pub blank_metrics: fn() -> serde_json::Value,
     /// The force-feedback device `--haptics default` opens for it (the paper's own).
     pub haptic_device: DeviceChoice,
     /// Benchmarks of its own beyond the stepping (a precomputation, a haptic-rate update at
@@ -222,10 +235,23 @@ pub struct ProcedureInfo {
     pub cases: fn() -> Vec<super::Case>,
     /// The precomputation it needs before its first session (`vesalius precompute`), if any.
     pub precompute: Option<&'static super::precompute::Precomputable>,
-    /// Reads and checks a scenario for planning (`file` names it in errors).
-    pub plan: fn(file: &str, text: &str) -> Result<Plan, InputError>,
-    /// Builds the procedure from a scenario.
-    pub build: BuildFn,
+}
+
+impl Options {
+    /// None of it: no laparoscope hand, no swaps, no profiler reference, no legacy
+    /// recordings, no precomputation, no scene cases, no extra benchmarks; the Phantom;
+    /// the default all-awake benchmark.
+    pub const NONE: Options = Options {
+        profile_reference: None,
+        bench_all_awake_s: super::bench::ALL_AWAKE_S,
+        scope_hand: None,
+        swap: &[],
+        legacy_tuned_model: None,
+        haptic_device: DeviceChoice::Phantom,
+        bench_extra: None,
+        cases: Vec::new,
+        precompute: None,
+    };
 }
 
 impl std::fmt::Debug for ProcedureInfo {
@@ -245,7 +271,7 @@ impl ProcedureInfo {
 
     /// The hand whose primary button changes its instrument, if any.
     pub fn swap_hand(&self) -> Option<Hand> {
-        self.swap.first().map(|t| t.hand)
+        self.options.swap.first().map(|t| t.hand)
     }
 
     /// The instrument `hand` holds when its snapshot says `instrument` (0: its own).
@@ -253,6 +279,7 @@ impl ProcedureInfo {
         match instrument {
             0 => self.tool(hand),
             k => self
+                .options
                 .swap
                 .get(usize::from(k) - 1)
                 .filter(|t| t.hand == hand)
@@ -374,10 +401,14 @@ pub trait Procedure: Send {
     fn memory(&self) -> Vec<(&'static str, usize)> {
         self.models().map_or_else(Vec::new, ModelSet::memory)
     }
-    /// The mean share of each model's points awake so far (benchmarks).
+    /// The mean share of each model's points awake so far (benchmarks): the world's, and 1
+    /// for each further line a procedure reports (a part of a model, or its couplings).
     fn awake_fractions(&self) -> Vec<f64> {
-        self.models()
-            .map_or_else(Vec::new, ModelSet::awake_fractions)
+        let mut a = self
+            .models()
+            .map_or_else(Vec::new, ModelSet::awake_fractions);
+        a.resize(a.len().max(self.model_reports().len()), 1.0);
+        a
     }
     /// Keeps every point of every model stepping from now on (benchmarks).
     fn stay_awake(&mut self) {
@@ -412,6 +443,37 @@ pub trait Procedure: Send {
 /// of its `scenario` field's `dt_s`, and step and snapshot by its own methods of those names.
 #[macro_export]
 macro_rules! procedure_basics {
+    (
+        $info:expr,
+        report(errors: $($errors:ident).+),
+        models: [$($owner:ident).*] $(,)?
+    ) => {
+        $crate::procedure_basics!($info, report(errors: $($errors).+));
+
+        fn models(&self) -> Option<&dyn $crate::sim::ModelSet> {
+            Some(self$(.$owner)*.world())
+        }
+
+        fn models_mut(&mut self) -> Option<&mut dyn $crate::sim::ModelSet> {
+            Some(self$(.$owner)*.world_mut())
+        }
+    };
+    ($info:expr, report(errors: $($errors:ident).+)) => {
+        $crate::procedure_basics!($info);
+
+        /// The report of the procedure's `metrics`, scored by the `score` function beside
+        /// it, with `errors` counted.
+        fn report(&self) -> $crate::sim::ProcedureReport {
+            let (score, parts) = score(&self.scenario, &self.metrics);
+            $crate::sim::ProcedureReport::of(
+                Self::is_completed(self),
+                self.$($errors).+,
+                &self.metrics,
+                &parts,
+                score,
+            )
+        }
+    };
     ($info:expr) => {
         fn info(&self) -> &'static $crate::sim::ProcedureInfo {
             &$info
@@ -434,6 +496,37 @@ macro_rules! procedure_basics {
             Self::snapshot(self, step)
         }
     };
+}
+
+/// The `plan` function of a procedure's scenario module (`INFO.plan`): what a run of
+/// scenario text needs before it is built, its step, snapshot rate and model size (the
+/// scenario's method `$nodes`). `scenario_tables!` writes it.
+#[macro_export]
+macro_rules! scenario_plan {
+    ($nodes:ident) => {
+        /// What a run of scenario text needs before it is built: its step, snapshot rate
+        /// and model size (`INFO.plan`).
+        pub fn plan(
+            file: &str,
+            text: &str,
+        ) -> Result<$crate::sim::Plan, $crate::scenario::InputError> {
+            let s = Scenario::parse(file, text)?;
+            Ok($crate::sim::Plan {
+                dt_s: s.dt_s,
+                publish_hz: s.publish_hz,
+                nodes: s.$nodes(),
+            })
+        }
+    };
+}
+
+/// A score out of 100: each `(points, share)` pair's points times its share (0-1), summed
+/// in order, less `penalty` points, clamped to 0-100.
+pub fn weighted_score(weighted: &[(f32, f32)], penalty: f32) -> f32 {
+    let total = weighted
+        .iter()
+        .fold(0.0, |sum, (points, share)| sum + points * share);
+    (total - penalty).clamp(0.0, 100.0)
 }
 
 /// The share of a checklist of `steps` done when `done` are, 0-1.

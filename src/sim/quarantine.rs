@@ -27,18 +27,28 @@ impl Quarantine {
         if self.frozen {
             return None;
         }
-        if !model.state_is_finite() {
-            model.restore();
-            self.frozen = true;
-            return Some(EventKind::Quarantined {
-                model: model.name().to_string(),
-                restored_step: self.last_good_step,
-            });
+        if let Some(e) = self.check(model) {
+            return Some(e);
         }
         if step.is_multiple_of(self.interval) {
             model.checkpoint();
             self.last_good_step = step;
         }
         None
+    }
+
+    /// Call after a substep that is not the step's last: the state is checked (a coupling
+    /// must not read a NaN before the step ends) but no checkpoint is taken, so a rollback
+    /// always returns to the end of a whole step.
+    pub fn check(&mut self, model: &mut dyn TissueModel) -> Option<EventKind> {
+        if self.frozen || model.state_is_finite() {
+            return None;
+        }
+        model.restore();
+        self.frozen = true;
+        Some(EventKind::Quarantined {
+            model: model.name().to_string(),
+            restored_step: self.last_good_step,
+        })
     }
 }

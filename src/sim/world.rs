@@ -2,15 +2,19 @@
 //! them this step, the interactions between them, and a quarantine per model.
 //!
 //! A step runs in three phases, always in the same order:
-//! 1. interactions (attachments, adhesions, couplings), in the order they were added, read
-//!    every model's points and leave forces for the models' points;
-//! 2. every model that is not quarantined steps with its contacts and forces, in parallel
-//!    (rayon); a model only touches its own slot, so the thread count cannot change a bit;
+//! 1. interactions (attachments, adhesions), in the order they were added, read every
+//!    model's points and leave forces for the models' points;
+//! 2. stage by stage (see [`super::coupling`]), the caller's couplings run with mutable
+//!    access to the models, then every model of the stage that is not quarantined steps with
+//!    its contacts and forces, in parallel (rayon); a model only touches its own slot, so the
+//!    thread count cannot change a bit. A stage may take several substeps, the couplings
+//!    running before each. After the last stage the couplings run once more;
 //! 3. in model order, reactions are summed per tool and events collected.
 //!
 //! A model whose state goes non-finite is rolled back to its last checkpoint and frozen; it is
 //! reported once, and the other models go on.
 
+use super::coupling::{Couplings, Models, Phase, Uncoupled};
 use super::{
     Contact, CutStroke, EventKind, ModelOutput, ModelReport, ModelSnapshot, Quarantine,
     SurfaceRole, TissueModel, ToolId,
@@ -80,9 +84,10 @@ pub trait Interaction: Send {
     );
 }
 
-struct Slot<M> {
-    model: M,
-    guard: Quarantine,
+pub(super) struct Slot<M> {
+    pub(super) model: M,
+    pub(super) guard: Quarantine,
+    stage: u32,
     contacts: Vec<Contact>,
     output: ModelOutput,
     /// This step's reaction on each tool from this model, newtons.
@@ -100,6 +105,10 @@ pub struct World<M> {
     interactions: Vec<Box<dyn Interaction>>,
     forces: PointForces,
     reactions: [Vec3; 2],
+    /// Substeps of each stage (1 unless set).
+    substeps: Vec<u32>,
+    /// Wall-clock seconds in the couplings (benchmarks only).
+    coupling_s: f64,
 }
 
 impl<M: TissueModel> Default for World<M> {
@@ -127,15 +136,26 @@ impl<M: TissueModel> World<M> {
             interactions: Vec::new(),
             forces: PointForces::default(),
             reactions: [Vec3::ZERO; 2],
+            substeps: vec![1],
+            coupling_s: 0.0,
         }
     }
 
-    /// Adds a model; it steps from the next step on.
+    /// Adds a model to stage 0; it steps from the next step on.
     pub fn add(&mut self, model: M) -> ModelId {
+        self.add_to(0, model)
+    }
+
+    /// Adds a model to stage `stage`: it steps after the models of the stages before it.
+    pub fn add_to(&mut self, stage: u32, model: M) -> ModelId {
         let id = ModelId(self.slots.len() as u32);
+        if self.substeps.len() <= stage as usize {
+            self.substeps.resize(stage as usize + 1, 1);
+        }
         self.slots.push(Slot {
             model,
             guard: Quarantine::new(CHECKPOINT_STEPS),
+            stage,
             contacts: Vec::new(),
             output: ModelOutput::default(),
             reactions: [Vec3::ZERO; 2],
@@ -145,6 +165,33 @@ impl<M: TissueModel> World<M> {
         });
         self.forces.per_model.push(Vec::new());
         id
+    }
+
+    /// Every model as couplings see them, outside a step (a scene placing what its first
+    /// step needs).
+    pub fn coupled(&mut self) -> Models<'_, M> {
+        Models {
+            slots: &mut self.slots,
+        }
+    }
+
+    /// Stage `stage` takes `substeps` substeps of `dt / substeps` a step, its couplings
+    /// running before each.
+    pub fn set_substeps(&mut self, stage: u32, substeps: u32) {
+        if self.substeps.len() <= stage as usize {
+            self.substeps.resize(stage as usize + 1, 1);
+        }
+        self.substeps[stage as usize] = substeps.max(1);
+    }
+
+    /// How many stages the world's step runs.
+    pub fn stages(&self) -> u32 {
+        self.substeps.len() as u32
+    }
+
+    /// The couplings' share of the wall-clock time, seconds (benchmarks only).
+    pub fn coupling_time(&self) -> f64 {
+        self.coupling_s
     }
 
     /// Adds an interaction; it applies after those added before it.
@@ -218,6 +265,18 @@ impl<M: TissueModel> World<M> {
     /// Advances every model one step of `dt_s` (see the module's phases); `step` is the
     /// step's number (for checkpoints). Events go to `events` in model order.
     pub fn step(&mut self, dt_s: f32, step: u64, events: &mut Vec<EventKind>) {
+        self.step_coupled(dt_s, step, events, &mut Uncoupled);
+    }
+
+    /// [`World::step`] with `couplings` run before each stage's substeps and after the last
+    /// stage.
+    pub fn step_coupled(
+        &mut self,
+        dt_s: f32,
+        step: u64,
+        events: &mut Vec<EventKind>,
+        couplings: &mut dyn Couplings<M>,
+    ) {
         let _span = tracing::debug_span!("world_step", step, models = self.slots.len()).entered();
         for list in &mut self.forces.per_model {
             list.clear();
@@ -227,13 +286,77 @@ impl<M: TissueModel> World<M> {
             let _s = tracing::debug_span!("interaction", name = interaction.name()).entered();
             interaction.apply(dt_s, &points, &mut self.forces, events);
         }
+        for slot in &mut self.slots {
+            slot.output.clear();
+            slot.reactions = [Vec3::ZERO; 2];
+        }
+        let stages = self.stages();
+        for stage in 0..stages {
+            let substeps = self.substeps[stage as usize];
+            let h = if substeps == 1 {
+                dt_s
+            } else {
+                dt_s / substeps as f32
+            };
+            for substep in 0..substeps {
+                let phase = Phase {
+                    stage,
+                    substep,
+                    substeps,
+                };
+                self.couple(phase, dt_s, events, couplings);
+                let last = substep + 1 == substeps;
+                self.step_stage(stage, h, step, last);
+            }
+        }
+        let after = Phase {
+            stage: stages,
+            substep: 0,
+            substeps: 1,
+        };
+        self.couple(after, dt_s, events, couplings);
+        self.reactions = [Vec3::ZERO; 2];
+        for slot in &mut self.slots {
+            let n = self.substeps[slot.stage as usize];
+            if n > 1 {
+                // The mean over the substeps.
+                let share = 1.0 / n as f32;
+                slot.reactions = slot.reactions.map(|r| r * share);
+            }
+            for (sum, r) in self.reactions.iter_mut().zip(slot.reactions) {
+                *sum += r;
+            }
+            events.append(&mut slot.output.events);
+            slot.contacts.clear();
+        }
+    }
+
+    fn couple(
+        &mut self,
+        phase: Phase,
+        dt_s: f32,
+        events: &mut Vec<EventKind>,
+        couplings: &mut dyn Couplings<M>,
+    ) {
+        let _s = tracing::debug_span!("coupling", stage = phase.stage, substep = phase.substep)
+            .entered();
+        let t0 = std::time::Instant::now();
+        let mut models = Models {
+            slots: &mut self.slots,
+        };
+        couplings.couple(phase, dt_s, &mut models, events);
+        self.coupling_s += t0.elapsed().as_secs_f64();
+    }
+
+    /// One substep of `h` of stage `stage`'s models, in parallel; `last`: the step's last
+    /// substep of the stage (checkpoints are taken only there).
+    fn step_stage(&mut self, stage: u32, h: f32, step: u64, last: bool) {
         let forces = &self.forces.per_model;
         self.slots
             .par_iter_mut()
             .zip(forces.par_iter())
+            .filter(|(slot, _)| slot.stage == stage)
             .for_each(|(slot, forces)| {
-                slot.output.clear();
-                slot.reactions = [Vec3::ZERO; 2];
                 if slot.guard.is_frozen() {
                     return;
                 }
@@ -244,12 +367,18 @@ impl<M: TissueModel> World<M> {
                 )
                 .entered();
                 let t0 = std::time::Instant::now();
+                let reactions_before = slot.output.reactions.len();
                 slot.model.apply_point_forces(forces);
-                slot.model.step(dt_s, &slot.contacts, &mut slot.output);
+                slot.model.step(h, &slot.contacts, &mut slot.output);
                 slot.time_s += t0.elapsed().as_secs_f64();
                 slot.awake_sum += f64::from(slot.model.awake_fraction());
                 slot.stepped += 1;
-                if let Some(e) = slot.guard.after_step(&mut slot.model, step) {
+                let quarantined = if last {
+                    slot.guard.after_step(&mut slot.model, step)
+                } else {
+                    slot.guard.check(&mut slot.model)
+                };
+                if let Some(e) = quarantined {
                     tracing::warn!(
                         model = slot.model.name(),
                         step,
@@ -258,19 +387,13 @@ impl<M: TissueModel> World<M> {
                     slot.output.events.push(e);
                     // A rolled-back model pushes nothing on the tools.
                     slot.output.reactions.clear();
+                    slot.reactions = [Vec3::ZERO; 2];
+                    return;
                 }
-                for (tool, f) in &slot.output.reactions {
+                for (tool, f) in &slot.output.reactions[reactions_before..] {
                     slot.reactions[tool.index()] += *f;
                 }
             });
-        self.reactions = [Vec3::ZERO; 2];
-        for slot in &mut self.slots {
-            for (sum, r) in self.reactions.iter_mut().zip(slot.reactions) {
-                *sum += r;
-            }
-            events.append(&mut slot.output.events);
-            slot.contacts.clear();
-        }
     }
 
     /// The force the tissue put on each tool (left, right) in the last step, newtons: the sum
@@ -343,7 +466,7 @@ impl<M: TissueModel> World<M> {
                     vertices: s.vertices,
                     triangles: s.triangles,
                     constraints: s.constraints,
-                    mass_spring: Default::default(),
+                    mass_spring: m.mass_spring(),
                 }
             })
             .collect()
@@ -405,7 +528,7 @@ pub trait ModelSet: Send {
     fn stay_awake(&mut self);
     fn state_hash(&self) -> u64;
     /// Puts a NaN into model `index` (in the order of [`ModelSet::model_reports`]); false
-    /// when there is no such model.
+    /// when there is no such model, or it holds no state the next step would meet now.
     fn inject_nan(&mut self, index: usize) -> bool;
 }
 
@@ -430,10 +553,7 @@ impl<M: TissueModel> ModelSet for World<M> {
     }
     fn inject_nan(&mut self, index: usize) -> bool {
         match self.slots.get_mut(index) {
-            Some(slot) => {
-                slot.model.inject_nan();
-                true
-            }
+            Some(slot) => slot.model.inject_nan(),
             None => false,
         }
     }

@@ -196,7 +196,7 @@ impl Recording {
     /// procedure names for them. `file` names it in errors.
     pub fn resolve(&mut self, catalog: &crate::sim::Catalog, file: &str) -> Result<(), InputError> {
         let info = catalog.lookup(file, "procedure", &self.procedure)?;
-        self.name_legacy_tunings(file, info.legacy_tuned_model)
+        self.name_legacy_tunings(file, info.options.legacy_tuned_model)
     }
 
     /// Gives the tunings that name no model (versions 1 and 2) to `model`; an error naming

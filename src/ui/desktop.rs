@@ -155,8 +155,8 @@ impl DesktopHands {
             depth_m: [0.15, 0.15],
             frame,
             tools: info.tools,
-            scope_hand: info.scope_hand,
-            swap: info.swap,
+            scope_hand: info.options.scope_hand,
+            swap: info.options.swap,
             ports: info.desk_park,
             offset: [Vec3::ZERO; 2],
             origin_offset: [Vec3::ZERO; 2],
@@ -527,9 +527,12 @@ mod hand_tests {
         let info = reg
             .iter()
             .copied()
-            .find(|p| !p.swap.is_empty() && p.scope_hand.is_some())
+            .find(|p| !p.options.swap.is_empty() && p.options.scope_hand.is_some())
             .expect("a procedure with both");
-        let (swap, scope) = (info.swap[0], info.scope_hand.expect("scope"));
+        let (swap, scope) = (
+            info.options.swap[0],
+            info.options.scope_hand.expect("scope"),
+        );
         let view = OrbitCamera::at(&info.view).view(16.0 / 9.0);
         let mut h = DesktopHands::parked(info);
         let both = Pointer {
@@ -557,7 +560,9 @@ mod hand_tests {
             .iter()
             .copied()
             .find(|p| {
-                p.swap.is_empty() && p.scope_hand.is_none() && p.tools[0].kind == ToolKind::Grasper
+                p.options.swap.is_empty()
+                    && p.options.scope_hand.is_none()
+                    && p.tools[0].kind == ToolKind::Grasper
             })
             .expect("a plain procedure");
         let mut h = DesktopHands::parked(plain);

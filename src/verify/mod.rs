@@ -138,7 +138,7 @@ pub fn run(cases: &[Case]) -> Vec<CaseResult> {
 pub fn cases_in(catalog: &crate::sim::Catalog) -> Vec<Case> {
     let mut all = cases();
     for p in catalog.iter() {
-        all.extend((p.cases)());
+        all.extend((p.options.cases)());
     }
     all
 }

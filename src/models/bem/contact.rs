@@ -77,6 +77,17 @@ impl Pending {
     }
 }
 
+/// What of [`Contacts`] changes as they are updated: the set, its factors, the tractions
+/// and the relaxation's memory (a checkpoint to roll back to).
+#[derive(Clone, Default)]
+pub struct ContactState {
+    set: Vec<usize>,
+    lu: Option<Factored>,
+    q_el: Vec<f64>,
+    memory: Vec<f64>,
+    q: Vec<f64>,
+}
+
 /// The most contact elements at once.
 pub const MOST_CONTACTS: usize = 64;
 
@@ -132,6 +143,61 @@ impl Contacts {
             q: Vec::new(),
             prony,
         }
+    }
+
+    /// Saves what updates change into `to`, reusing its buffers.
+    pub fn save(&self, to: &mut ContactState) {
+        to.set.clone_from(&self.set);
+        to.lu.clone_from(&self.lu);
+        to.q_el.clone_from(&self.q_el);
+        to.memory.clone_from(&self.memory);
+        to.q.clone_from(&self.q);
+    }
+
+    /// Returns to a saved state.
+    pub fn load(&mut self, from: &ContactState) {
+        self.set.clone_from(&from.set);
+        self.lu.clone_from(&from.lu);
+        self.q_el.clone_from(&from.q_el);
+        self.memory.clone_from(&from.memory);
+        self.q.clone_from(&from.q);
+    }
+
+    /// Adds the contact set and its tractions to a digest.
+    pub fn digest(&self, h: &mut crate::sim::Fnv) {
+        h.write(self.set.len() as u32);
+        for (k, &e) in self.set.iter().enumerate() {
+            h.write(e as u32);
+            for x in self.traction(k).to_array() {
+                let b = x.to_bits();
+                h.write(b as u32);
+                h.write((b >> 32) as u32);
+            }
+        }
+    }
+
+    /// Whether every traction and the relaxation's memory are finite.
+    pub fn is_finite(&self) -> bool {
+        self.q
+            .iter()
+            .chain(&self.q_el)
+            .chain(&self.memory)
+            .all(|v| v.is_finite())
+    }
+
+    /// Puts a NaN into the relaxation's memory and the tractions, where the next update
+    /// meets them (fault injection); false when no element is in contact (there is no
+    /// state to spoil).
+    pub fn inject_nan(&mut self) -> bool {
+        let mut spoiled = false;
+        for v in [self.memory.first_mut(), self.q.first_mut()]
+            .into_iter()
+            .flatten()
+        {
+            *v = f64::NAN;
+            spoiled = true;
+        }
+        spoiled
     }
 
     pub fn precomputed(&self) -> &Precomputed {

@@ -18,9 +18,13 @@ pub mod cache;
 pub mod contact;
 pub mod incision;
 pub mod kelvin;
+mod model;
+pub mod palpation;
 pub mod reference;
 pub mod surface;
 pub mod system;
+
+pub use model::Palpated;
 
 pub use kelvin::Material;
 pub use surface::{Element, Face, Sector, Surface};

@@ -399,6 +399,19 @@ impl CosseratRod {
     }
 
     /// Whether every position, velocity and frame is finite.
+    /// Puts a NaN into the middle node's velocity, where the next step meets it (fault
+    /// injection: a failing solve would leave one); false for a rod with no free node.
+    pub fn inject_nan(&mut self) -> bool {
+        let mid = self.v.len() / 2;
+        match self.v.get_mut(mid) {
+            Some(v) if mid > 0 && mid + 1 < self.x.len() => {
+                v.x = f64::NAN;
+                true
+            }
+            _ => false,
+        }
+    }
+
     pub fn is_finite(&self) -> bool {
         self.x
             .iter()

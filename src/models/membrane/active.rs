@@ -319,7 +319,7 @@ impl Membrane {
     }
 
     /// Wakes tile `t`: its nodes start where their anchors carry them.
-    fn wake(&mut self, t: usize) {
+    pub(super) fn wake(&mut self, t: usize) {
         let Some(mut a) = self.activity.take() else {
             return;
         };

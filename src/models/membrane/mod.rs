@@ -29,6 +29,7 @@ mod active;
 mod anchors;
 mod forces;
 mod integrate;
+mod model;
 #[cfg(test)]
 mod tests;
 
@@ -201,6 +202,12 @@ pub struct Membrane {
     /// Run the kernels on the baseline vector unit even where a wider one exists (tests
     /// compare the two).
     baseline_vectors: bool,
+    /// As a model of a world (see `model.rs`): the share of the explicit limit each substep
+    /// takes, the substeps and awake share of the last step, the last good state.
+    substep_safety: f32,
+    last_substeps: usize,
+    last_share: f32,
+    saved: Option<Box<model::Saved>>,
 }
 
 impl Membrane {
@@ -264,6 +271,10 @@ impl Membrane {
             step_limit: f32::INFINITY,
             activity: None,
             baseline_vectors: false,
+            substep_safety: model::SUBSTEP_SAFETY,
+            last_substeps: 0,
+            last_share: 1.0,
+            saved: None,
         };
         // Each node's share of its layer's area: a quarter of each cell around it, the cell
         // spanned by its neighbours along and around (half a spring each way).

@@ -17,6 +17,7 @@ pub mod chain;
 pub mod cloth;
 pub mod contacts;
 pub mod shape;
+pub mod solver;
 
 use glam::Vec3;
 

@@ -13,8 +13,10 @@ pub mod bending;
 pub mod catheter;
 pub mod collision;
 pub mod contact;
-pub mod scene;
+pub mod in_vessel;
+pub mod model;
 pub mod vessel;
+pub mod wall;
 
 use glam::DVec3;
 

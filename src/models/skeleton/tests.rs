@@ -246,7 +246,7 @@ fn twisting_transmits_and_the_tip_bends_along_the_arc() {
 
 /// The paper's vessel and contact law (k 500 N/m, c 0.3 N s/m, t 0.5 N, mu 0.1) with the
 /// default catheter, 10 sub-steps a 1 ms step.
-fn scene(puncture_n: f64, entry: DVec3, axis: DVec3) -> scene::CatheterScene {
+fn scene(puncture_n: f64, entry: DVec3, axis: DVec3) -> in_vessel::CatheterInVessel {
     let vessel = Vessel::new(&VesselParams::default());
     let catheter = Catheter::new(&CatheterParams::default(), entry, axis);
     let law = ContactLaw {
@@ -255,7 +255,7 @@ fn scene(puncture_n: f64, entry: DVec3, axis: DVec3) -> scene::CatheterScene {
         preload_n: 0.5,
         friction: 0.1,
     };
-    scene::CatheterScene::new(catheter, vessel, law, puncture_n, 10)
+    in_vessel::CatheterInVessel::new(catheter, vessel, law, puncture_n, 10)
 }
 
 /// Pushed at 20 mm/s with its tip bent towards +y from the bifurcation on, the catheter
@@ -276,7 +276,7 @@ fn the_bent_catheter_enters_the_branch_it_points_to_within_the_papers_forces() {
             twist_rad: 0.0,
             bend: if insertion > 0.045 { 1.0 } else { 0.0 },
         };
-        let out = s.step(&drive, 0.001);
+        let out = s.step(&drive, 0.001, k as u64, &mut Vec::new());
         assert!(out.punctures.is_empty(), "punctured at {t} s");
         if out.head_normal_n > 0.0 {
             touched += 1;
@@ -285,10 +285,10 @@ fn the_bent_catheter_enters_the_branch_it_points_to_within_the_papers_forces() {
     }
     eprintln!("largest head force {largest} N over {touched} steps in contact");
     assert!(touched > 0 && (0.5..=3.5).contains(&largest), "{largest} N");
-    let tip = s.catheter.tip();
-    let branch = &s.vessel.tubes[1];
+    let tip = s.catheter().tip();
+    let branch = &s.vessel().tubes[1];
     assert!(
-        branch.along(tip) > 0.01 && branch.from_axis(tip) < s.vessel.mid_radius_m,
+        branch.along(tip) > 0.01 && branch.from_axis(tip) < s.vessel().mid_radius_m,
         "tip at {tip}"
     );
 }
@@ -308,7 +308,7 @@ fn a_puncture_fires_above_its_threshold_and_not_below() {
                 twist_rad: 0.0,
                 bend: 0.0,
             };
-            let out = s.step(&drive, 0.001);
+            let out = s.step(&drive, 0.001, k as u64, &mut Vec::new());
             largest = largest.max(out.largest_push_n);
             punctures.extend(out.punctures);
         }

@@ -416,10 +416,12 @@ impl TissueModel for SoftBody {
     }
 
     /// The first point moved to NaN and woken.
-    fn inject_nan(&mut self) {
-        if !self.x.is_empty() {
-            self.set_position(0, Vec3::NAN);
+    fn inject_nan(&mut self) -> bool {
+        if self.x.is_empty() {
+            return false;
         }
+        self.set_position(0, Vec3::NAN);
+        true
     }
 
     fn state_hash(&self) -> u64 {

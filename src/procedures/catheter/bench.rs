@@ -26,12 +26,12 @@ pub fn extra() -> Result<Vec<BenchLine>, BenchError> {
         for k in 0..steps {
             let f = trace.sample(k as f64 * dt);
             let drive = p.drive(&f);
-            tests += p.scene.step(&drive, dt).pair_tests;
+            tests += p.scene.step(&drive, s.dt_s, k, &mut Vec::new()).pair_tests;
         }
         out.push(BenchLine {
-            vertices: p.scene.vessel.balls.len(),
+            vertices: p.scene.vessel().balls.len(),
             constraints: (tests / steps.max(1)) as usize,
-            ..BenchLine::repeated(name, steps, p.scene.times[2])
+            ..BenchLine::repeated(name, steps, p.scene.times()[2])
         });
     }
     Ok(out)

@@ -4,15 +4,14 @@
 use super::procedure::{Catheterisation, Metrics, STEPS};
 use super::scenario::{self, NAME, Scenario};
 use crate::models::skeleton::catheter::Catheter;
-use crate::models::skeleton::scene::CatheterScene;
+use crate::models::skeleton::in_vessel::CatheterInVessel;
 use crate::models::skeleton::vessel::Vessel;
 use crate::procedures::{
-    BuildError, MassSpring, ModelReport, Plan, Procedure, ProcedureInfo, ProcedureReport,
-    TaskStatus, ToolInfo, ToolKind, Viewpoint,
+    BuildError, MassSpring, ModelReport, Procedure, ProcedureInfo, TaskStatus, ToolInfo, ToolKind,
+    Viewpoint,
 };
-use crate::scenario::InputError;
 use crate::sim::Hand;
-use crate::sim::{completion_share, time_efficiency};
+use crate::sim::{completion_share, time_efficiency, weighted_score};
 use glam::{DVec3, Vec3};
 use serde::Serialize;
 
@@ -46,32 +45,20 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
     },
     // The handle's hand at the catheter's end, the other aside.
     desk_park: [Vec3::new(-0.05, -0.04, 0.03), Vec3::new(-0.1, 0.0, 0.0)],
-    profile_reference: None,
     param_tables: scenario::PARAM_TABLES,
-    bench_all_awake_s: 1.0,
-    scope_hand: None,
-    swap: &[],
-    legacy_tuned_model: None,
     assessment: include_str!("../../../assets/assessment/catheter.toml"),
     field: super::field::field,
     blank_metrics: || serde_json::to_value(Metrics::default()).unwrap_or_default(),
-    // The paper's Novint Falcon (9 N, 1 kHz).
-    haptic_device: crate::sim::DeviceChoice::Falcon,
-    bench_extra: Some(super::bench::extra),
-    cases: Vec::new,
-    precompute: None,
-    plan,
+    plan: scenario::plan,
     build,
+    options: crate::sim::Options {
+        bench_all_awake_s: 1.0,
+        // The paper's Novint Falcon (9 N, 1 kHz).
+        haptic_device: crate::sim::DeviceChoice::Falcon,
+        bench_extra: Some(super::bench::extra),
+        ..crate::sim::Options::NONE
+    },
 };
-
-fn plan(file: &str, text: &str) -> Result<Plan, InputError> {
-    let s = Scenario::parse(file, text)?;
-    Ok(Plan {
-        dt_s: s.dt_s,
-        publish_hz: s.publish_hz,
-        nodes: s.balls(),
-    })
-}
 
 fn build(file: &str, text: &str) -> Result<Box<dyn Procedure>, BuildError> {
     let s = Scenario::parse(file, text)?;
@@ -80,10 +67,10 @@ fn build(file: &str, text: &str) -> Result<Box<dyn Procedure>, BuildError> {
 
 /// The scene for a checked scenario: the vessel, the catheter straight in its introducer
 /// with its tip at the inlet, pointing along the trunk.
-pub fn build_scene(s: &Scenario) -> CatheterScene {
+pub fn build_scene(s: &Scenario) -> CatheterInVessel {
     let vessel = Vessel::new(&s.vessel_params());
     let catheter = Catheter::new(&s.catheter_params(), DVec3::ZERO, DVec3::X);
-    CatheterScene::new(
+    CatheterInVessel::new(
         catheter,
         vessel,
         s.law(),
@@ -129,15 +116,16 @@ pub fn score(s: &Scenario, m: &Metrics) -> (f32, ScoreParts) {
         penalty: PUNCTURE_PENALTY * m.punctures as f32
             + WRONG_BRANCH_PENALTY * m.wrong_branch as f32,
     };
-    let total = COMPLETION_POINTS * parts.completion
-        + EFFICIENCY_POINTS * parts.efficiency
-        + GENTLENESS_POINTS * parts.gentleness
-        - parts.penalty;
-    (total.clamp(0.0, 100.0), parts)
+    let weighted = [
+        (COMPLETION_POINTS, parts.completion),
+        (EFFICIENCY_POINTS, parts.efficiency),
+        (GENTLENESS_POINTS, parts.gentleness),
+    ];
+    (weighted_score(&weighted, parts.penalty), parts)
 }
 
 impl Procedure for Catheterisation {
-    crate::procedure_basics!(INFO);
+    crate::procedure_basics!(INFO, report(errors: metrics.errors), models: [scene]);
 
     fn status(&self, _near_m: f32) -> TaskStatus {
         let m = &self.metrics;
@@ -165,24 +153,13 @@ impl Procedure for Catheterisation {
         }
     }
 
-    fn report(&self) -> ProcedureReport {
-        let (score, parts) = score(&self.scenario, &self.metrics);
-        ProcedureReport::of(
-            self.is_completed(),
-            self.metrics.errors,
-            &self.metrics,
-            &parts,
-            score,
-        )
-    }
-
     fn reactions(&self) -> [Vec3; 2] {
         [Vec3::ZERO, self.reaction().as_vec3()]
     }
 
     fn contacts_now(&self) -> [Option<(Vec3, Vec3)>; 2] {
         let r = self.reaction();
-        let tip = self.scene.catheter.tip().as_vec3();
+        let tip = self.scene.catheter().tip().as_vec3();
         [
             None,
             (r.length() > 0.0).then(|| (tip, r.normalize_or(DVec3::Y).as_vec3())),
@@ -207,16 +184,16 @@ impl Procedure for Catheterisation {
             report(
                 "catheter",
                 "skeleton_springs",
-                s.catheter.balls.len(),
-                s.catheter.springs.len() + s.catheter.angles.len(),
+                s.catheter().balls.len(),
+                s.catheter().springs.len() + s.catheter().angles.len(),
             ),
             ModelReport {
-                triangles: self.scene.vessel.triangles().len(),
+                triangles: self.scene.vessel().triangles().len(),
                 ..report(
                     "vessel",
                     "skeleton_springs",
-                    s.vessel.balls.len(),
-                    s.vessel.springs.len(),
+                    s.vessel().balls.len(),
+                    s.vessel().springs.len(),
                 )
             },
             ModelReport {
@@ -227,22 +204,16 @@ impl Procedure for Catheterisation {
     }
 
     fn model_times(&self) -> Vec<f64> {
-        self.scene.times.to_vec()
+        self.scene.times().to_vec()
     }
-
-    fn awake_fractions(&self) -> Vec<f64> {
-        vec![1.0; 3]
-    }
-
-    fn stay_awake(&mut self) {}
 
     fn memory(&self) -> Vec<(&'static str, usize)> {
         let s = &self.scene;
         vec![
-            ("catheter", s.catheter.balls.heap_bytes()),
+            ("catheter", s.catheter().balls.heap_bytes()),
             (
                 "vessel",
-                s.vessel.balls.heap_bytes() + s.vessel.springs.capacity() * 40,
+                s.vessel().balls.heap_bytes() + s.vessel().springs.capacity() * 40,
             ),
         ]
     }

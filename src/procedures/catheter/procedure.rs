@@ -10,7 +10,7 @@
 
 use super::scenario::Scenario;
 use crate::models::skeleton::catheter::Drive;
-use crate::models::skeleton::scene::CatheterScene;
+use crate::models::skeleton::in_vessel::CatheterInVessel;
 use crate::procedures::TaskStep;
 use crate::sim::Fnv;
 use crate::sim::{
@@ -77,7 +77,7 @@ pub struct Metrics {
 
 pub struct Catheterisation {
     pub scenario: Scenario,
-    pub scene: CatheterScene,
+    pub scene: CatheterInVessel,
     pub metrics: Metrics,
     reaction: DVec3,
     tool: ToolSnapshot,
@@ -91,8 +91,8 @@ pub struct Catheterisation {
 }
 
 impl Catheterisation {
-    pub fn new(scenario: Scenario, scene: CatheterScene) -> Catheterisation {
-        let triangles = scene.vessel.triangles();
+    pub fn new(scenario: Scenario, scene: CatheterInVessel) -> Catheterisation {
+        let triangles = scene.vessel().triangles();
         Catheterisation {
             scenario,
             scene,
@@ -128,7 +128,7 @@ impl Catheterisation {
     /// trigger and grip.
     pub fn drive(&self, input: &InputFrame) -> Drive {
         let h = input.hand(Hand::Right);
-        let c = &self.scene.catheter;
+        let c = &self.scene.catheter();
         let length = c.params.length_m;
         let p = h.pose.position.as_dvec3();
         let insertion = if p.is_finite() {
@@ -148,12 +148,12 @@ impl Catheterisation {
     pub fn step(&mut self, input: &InputFrame, step: u64, events: &mut Vec<SimEvent>) {
         let dt = f64::from(self.scenario.dt_s);
         let drive = self.drive(input);
-        let out = self.scene.step(&drive, dt);
-        self.reaction = out.reaction;
         let mut ev: Vec<EventKind> = Vec::new();
+        let out = self.scene.step(&drive, self.scenario.dt_s, step, &mut ev);
+        self.reaction = out.reaction;
         let now_s = self.time_s(step + 1);
         let hand = input.hand(Hand::Right).pose.position;
-        let tip = self.scene.catheter.tip();
+        let tip = self.scene.catheter().tip();
         let m = &mut self.metrics;
         if let Some((h0, t0)) = self.prev
             && hand.is_finite()
@@ -203,7 +203,7 @@ impl Catheterisation {
         }
         // Where the tip is: which branch, how far along.
         let target = self.scenario.task.branch as usize;
-        let v = &self.scene.vessel;
+        let v = &self.scene.vessel();
         let in_branch = |k: usize| {
             let t = &v.tubes[k];
             let along = t.along(tip);
@@ -234,7 +234,7 @@ impl Catheterisation {
         if m.steps_done.len() == STEPS.len() && m.completion_time_s.is_none() {
             m.completion_time_s = Some(now_s);
         }
-        let c = &self.scene.catheter;
+        let c = &self.scene.catheter();
         self.tool = ToolSnapshot {
             tip: c.balls.x[0].as_vec3(),
             direction: c.axis.as_vec3(),
@@ -267,8 +267,8 @@ impl Catheterisation {
     /// The wall through its balls (translucent, as the paper draws it), without the
     /// triangles at punctured balls.
     fn vessel_mesh(&self) -> ModelSnapshot {
-        let b = &self.scene.vessel.balls;
-        let holes = &self.scene.holes;
+        let b = &self.scene.vessel().balls;
+        let holes = &self.scene.holes();
         let tris: Vec<[u32; 3]> = self
             .triangles
             .iter()
@@ -301,7 +301,7 @@ impl Catheterisation {
     /// The catheter as a tube through its balls (8 sides), closed at the tip.
     fn catheter_mesh(&self) -> ModelSnapshot {
         const SIDES: usize = 8;
-        let c = &self.scene.catheter;
+        let c = &self.scene.catheter();
         let x = &c.balls.x;
         let r = 0.5 * c.params.diameter_m;
         let mut m = ModelSnapshot {

@@ -13,23 +13,6 @@ use serde::Deserialize;
 /// The name scenarios and traces give this procedure.
 pub const NAME: &str = "catheter";
 
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Scenario {
-    /// Always [`NAME`].
-    pub procedure: String,
-    pub dt_s: f32,
-    pub publish_hz: f32,
-    /// What a headset shows (`[headset]`; optional).
-    #[serde(default)]
-    pub headset: crate::scenario::Headset,
-    pub vessel: VesselTable,
-    pub catheter: CatheterTable,
-    pub contact: ContactTable,
-    pub device: DeviceTable,
-    pub task: Task,
-}
-
 /// The bifurcating vessel.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -357,6 +340,7 @@ impl Params for Task {
 crate::scenario_tables! {
     name: NAME,
     dt: (0.001, "the simulation step: the Falcon's 1 kHz servo period"),
+    nodes: balls,
     tables: [
         ("vessel", vessel, VesselTable),
         ("catheter", catheter, CatheterTable),

@@ -5,12 +5,12 @@ use super::procedure::{Cholecystectomy, Metrics, STEPS};
 use super::scenario::{self, NAME, Scenario};
 use super::scene::CholeScene;
 use crate::procedures::{
-    BuildError, MassSpring, ModelReport, Plan, Procedure, ProcedureInfo, ProcedureReport,
-    TaskStatus, ToolInfo, ToolKind, Viewpoint,
+    BuildError, MassSpring, ModelReport, Procedure, ProcedureInfo, TaskStatus, ToolInfo, ToolKind,
+    Viewpoint,
 };
 use crate::scenario::InputError;
 use crate::sim::Hand;
-use crate::sim::{completion_share, time_efficiency};
+use crate::sim::{completion_share, time_efficiency, weighted_score};
 use glam::Vec3;
 use serde::Serialize;
 
@@ -68,33 +68,21 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
     },
     // In front of the field, pointing up and away from it.
     desk_park: [Vec3::new(0.03, -0.02, 0.06), Vec3::new(-0.05, -0.02, 0.06)],
-    profile_reference: None,
     param_tables: scenario::PARAM_TABLES,
-    bench_all_awake_s: 1.0,
-    // The paper's camera tool: the left device drives the laparoscope while its primary
-    // button is held (the grasper waits where it was).
-    scope_hand: Some(Hand::Left),
-    swap: &RIGHT_CYCLE,
-    legacy_tuned_model: None,
     assessment: include_str!("../../../assets/assessment/cholecystectomy.toml"),
     field: super::field::field,
     blank_metrics: || serde_json::to_value(Metrics::default()).unwrap_or_default(),
-    haptic_device: crate::sim::DeviceChoice::Phantom,
-    bench_extra: None,
-    cases: Vec::new,
-    precompute: None,
-    plan,
+    plan: scenario::plan,
     build,
+    options: crate::sim::Options {
+        bench_all_awake_s: 1.0,
+        // The paper's camera tool: the left device drives the laparoscope while its primary
+        // button is held (the grasper waits where it was).
+        scope_hand: Some(Hand::Left),
+        swap: &RIGHT_CYCLE,
+        ..crate::sim::Options::NONE
+    },
 };
-
-fn plan(file: &str, text: &str) -> Result<Plan, InputError> {
-    let s = Scenario::parse(file, text)?;
-    Ok(Plan {
-        dt_s: s.dt_s,
-        publish_hz: s.publish_hz,
-        nodes: s.particles(),
-    })
-}
 
 fn build(file: &str, text: &str) -> Result<Box<dyn Procedure>, BuildError> {
     let s = Scenario::parse(file, text)?;
@@ -149,20 +137,21 @@ pub fn score(s: &Scenario, m: &Metrics) -> (f32, ScoreParts) {
         },
         penalty: ERROR_PENALTY * m.errors as f32,
     };
-    let total = COMPLETION_POINTS * parts.completion
-        + EFFICIENCY_POINTS * parts.efficiency
-        + SAFETY_POINTS * parts.safe_cuts
-        - parts.penalty;
-    (total.clamp(0.0, 100.0), parts)
+    let weighted = [
+        (COMPLETION_POINTS, parts.completion),
+        (EFFICIENCY_POINTS, parts.efficiency),
+        (SAFETY_POINTS, parts.safe_cuts),
+    ];
+    (weighted_score(&weighted, parts.penalty), parts)
 }
 
 impl Procedure for Cholecystectomy {
-    crate::procedure_basics!(INFO);
+    crate::procedure_basics!(INFO, report(errors: metrics.errors), models: [scene]);
 
     fn status(&self, near_m: f32) -> TaskStatus {
         let m = &self.metrics;
         let (score, _) = score(&self.scenario, m);
-        let a = &self.scene.adhesion;
+        let a = &self.scene.solver().adhesion;
         let liver = self
             .scene
             .touching(super::anatomy::body::LIVER, self.tool_tip(1), near_m)
@@ -204,17 +193,6 @@ impl Procedure for Cholecystectomy {
         }
     }
 
-    fn report(&self) -> ProcedureReport {
-        let (score, parts) = score(&self.scenario, &self.metrics);
-        ProcedureReport::of(
-            self.is_completed(),
-            self.metrics.errors,
-            &self.metrics,
-            &parts,
-            score,
-        )
-    }
-
     fn reactions(&self) -> [Vec3; 2] {
         Cholecystectomy::reactions(self)
     }
@@ -244,7 +222,7 @@ impl Procedure for Cholecystectomy {
                 "shape_matching",
                 "shape_matching_clusters",
                 organs,
-                s.shape.clusters(),
+                s.solver().shape.clusters(),
             ),
             report("vessels", "particle_chains", chain_particles, 0),
             ModelReport {
@@ -253,20 +231,20 @@ impl Procedure for Cholecystectomy {
                     "fascia",
                     "xpbd_cloth",
                     s.anatomy.fascia.len(),
-                    s.fascia.edges() + s.fascia.hinges(),
+                    s.solver().cloth.edges() + s.solver().cloth.hinges(),
                 )
             },
             report(
                 "adhesion",
                 "breakable_strands",
-                s.adhesion.strands() + s.fat_bonds.strands(),
-                s.adhesion.segments() + s.fat_bonds.segments(),
+                s.solver().adhesion.strands() + s.solver().bonds.strands(),
+                s.solver().adhesion.segments() + s.solver().bonds.segments(),
             ),
             // The particles the contacts test (not `vertices`: the totals would count them
             // twice).
             ModelReport {
                 mass_spring: MassSpring {
-                    nodes: Some(s.contacts.members()),
+                    nodes: Some(s.solver().contacts.members()),
                     ..MassSpring::default()
                 },
                 ..report("contacts", "particle_contacts_and_tools", 0, 0)
@@ -275,25 +253,19 @@ impl Procedure for Cholecystectomy {
     }
 
     fn model_times(&self) -> Vec<f64> {
-        self.scene.times.to_vec()
+        self.scene.times().to_vec()
     }
-
-    fn awake_fractions(&self) -> Vec<f64> {
-        vec![1.0; 5]
-    }
-
-    fn stay_awake(&mut self) {}
 
     fn memory(&self) -> Vec<(&'static str, usize)> {
         let s = &self.scene;
         vec![
-            ("particles", s.particles.heap_bytes()),
-            ("shape_matching", s.shape.heap_bytes()),
-            ("contacts", s.contacts.heap_bytes()),
-            ("fascia", s.fascia.heap_bytes()),
+            ("particles", s.solver().particles.heap_bytes()),
+            ("shape_matching", s.solver().shape.heap_bytes()),
+            ("contacts", s.solver().contacts.heap_bytes()),
+            ("fascia", s.solver().cloth.heap_bytes()),
             (
                 "adhesion",
-                s.adhesion.heap_bytes() + s.fat_bonds.heap_bytes(),
+                s.solver().adhesion.heap_bytes() + s.solver().bonds.heap_bytes(),
             ),
         ]
     }

@@ -362,7 +362,7 @@ impl Cholecystectomy {
                     self.coagulate(end, f64::from(dt), now_s, &mut ev);
                     let d = self.scene.dissect(end, t.dissect_radius_m);
                     cut_strands = d.adhesions;
-                    fat_cut = d.fat_strands.len();
+                    fat_cut = d.bonds.len();
                     self.metrics.current_steps += 1;
                     // The capsule is touched where a liver particle's sphere comes within
                     // the current's reach of the hook's end.
@@ -387,7 +387,7 @@ impl Cholecystectomy {
                         }
                     }
                     self.burning = on_liver;
-                    if !cut_strands.is_empty() || d.fascia > 0 || fat_cut > 0 {
+                    if !cut_strands.is_empty() || d.cloth > 0 || fat_cut > 0 {
                         self.smoke.record(now_s, end, EmissionKind::Smoke);
                     }
                 }
@@ -397,7 +397,7 @@ impl Cholecystectomy {
             RightTool::Scissors if pressed && !self.divide(jaw, now_s, &mut ev) => {
                 let d = self.scene.dissect(jaw, t.dissect_radius_m);
                 cut_strands = d.adhesions;
-                fat_cut = d.fat_strands.len();
+                fat_cut = d.bonds.len();
             }
             _ => {}
         }
@@ -405,7 +405,7 @@ impl Cholecystectomy {
             self.burning = false;
         }
         let was_held = !self.scene.held(0).is_empty();
-        let out = self.scene.step(dt, &[left_tool, right_tool]);
+        let out = self.scene.step(dt, &[left_tool, right_tool], step, &mut ev);
         self.retraction(was_held, &mut ev);
         for b in &cut_strands {
             self.metrics.adhesions_cut += 1;
@@ -415,7 +415,7 @@ impl Cholecystectomy {
             self.metrics.adhesions_torn += 1;
             ev.push(strand_event(b, "torn"));
         }
-        self.metrics.fat_strands_broken += (fat_cut + out.fat_breaks.len()) as u32;
+        self.metrics.fat_strands_broken += (fat_cut + out.bond_breaks.len()) as u32;
         let m = &mut self.metrics;
         m.max_left_force_n = m.max_left_force_n.max(out.reactions[0].length());
         m.max_right_force_n = m.max_right_force_n.max(out.reactions[1].length());
@@ -466,8 +466,8 @@ impl Cholecystectomy {
         let held = self.scene.held(0);
         let on_gallbladder: Vec<Vec3> = held
             .iter()
-            .filter(|&&i| self.scene.particles.body[i as usize] == body::GALLBLADDER)
-            .map(|&i| self.scene.particles.x[i as usize])
+            .filter(|&&i| self.scene.solver().particles.body[i as usize] == body::GALLBLADDER)
+            .map(|&i| self.scene.solver().particles.x[i as usize])
             .collect();
         let mean = (!on_gallbladder.is_empty())
             .then(|| on_gallbladder.iter().sum::<Vec3>() / on_gallbladder.len() as f32);
@@ -522,11 +522,14 @@ impl Cholecystectomy {
             return;
         };
         let s = &self.scene;
-        match self
-            .metrics
-            .clips
-            .clip(&s.vessels, &s.particles, &v, jaw, reach, now_s)
-        {
+        match self.metrics.clips.clip(
+            &s.solver().chains,
+            &s.solver().particles,
+            &v,
+            jaw,
+            reach,
+            now_s,
+        ) {
             Some(c) => {
                 // A clip on the patient's side of a bleeding cut stops it.
                 for b in self.bleeds.iter_mut().filter(|b| {
@@ -557,11 +560,11 @@ impl Cholecystectomy {
         let Some(v) = self.nearest_vessel(jaw) else {
             return false;
         };
-        let s = &mut self.scene;
+        let sv = self.scene.solver_mut();
         let Some(c) = self
             .metrics
             .clips
-            .cut(&mut s.vessels, &s.particles, &v, jaw, reach, now_s)
+            .cut(&mut sv.chains, &sv.particles, &v, jaw, reach, now_s)
         else {
             return false;
         };
@@ -618,8 +621,9 @@ impl Cholecystectomy {
         s.clippable()
             .into_iter()
             .filter_map(|v| {
-                s.vessels
-                    .nearest_segment(&s.particles, v.chain, q)
+                s.solver()
+                    .chains
+                    .nearest_segment(&s.solver().particles, v.chain, q)
                     .map(|(_, d)| (d, v))
             })
             .min_by(|a, b| a.0.total_cmp(&b.0))
@@ -632,7 +636,7 @@ impl Cholecystectomy {
         let m = &self.metrics;
         let [duct, artery] = self.scene.clippable();
         let cut = |name: &str| m.clips.cuts.iter().any(|c| c.vessel == name);
-        let a = &self.scene.adhesion;
+        let a = &self.scene.solver().adhesion;
         let broken = a.strands() - a.intact_strands();
         let done = [
             m.retraction_m >= k.retract_m,
@@ -652,7 +656,7 @@ impl Cholecystectomy {
 
     pub fn snapshot(&mut self, step: u64) -> Snapshot {
         let s = &self.scene;
-        let p = &s.particles;
+        let p = &s.solver().particles;
         let a = &s.anatomy;
         let mut models = vec![
             skin_mesh(p, &self.skins[0], "liver", SurfaceRole::Tissue),
@@ -660,12 +664,12 @@ impl Cholecystectomy {
             skin_mesh(p, &self.skins[2], "fat", SurfaceRole::Fat),
         ];
         // Vessels: the ducts (region 0) and the artery (region 1), intact segments only.
-        let vessels = (0..s.vessels.chains()).flat_map(|c| {
+        let vessels = (0..s.solver().chains.chains()).flat_map(|c| {
             let v = &a.vessels[c];
             let region = u8::from(v.body == body::CYSTIC_ARTERY);
-            (0..s.vessels.segments(c))
-                .filter(move |&k| s.vessels.is_intact(c, k))
-                .filter_map(move |k| s.vessels.segment_ends(c, k))
+            (0..s.solver().chains.segments(c))
+                .filter(move |&k| s.solver().chains.is_intact(c, k))
+                .filter_map(move |k| s.solver().chains.segment_ends(c, k))
                 .map(move |e| (e, region, v.radius_m))
         });
         models.push(tubes(
@@ -675,16 +679,18 @@ impl Cholecystectomy {
             vec![SurfaceRole::Duct, SurfaceRole::Artery],
         ));
         let alive: HashSet<(u32, u32)> = s
-            .fascia
+            .solver()
+            .cloth
             .stretch_constraints()
             .iter()
             .map(|c| (c.a.min(c.b), c.a.max(c.b)))
             .collect();
         models.push(fascia_mesh(p, &a.fascia_triangles, &alive));
         let strands = s
+            .solver()
             .adhesion
             .segments_for_drawing()
-            .chain(s.fat_bonds.segments_for_drawing())
+            .chain(s.solver().bonds.segments_for_drawing())
             .map(|e| (e, 0, STRAND_RADIUS_M));
         models.push(tubes(p, strands, "strands", vec![SurfaceRole::Membrane]));
         let time_s = self.time_s(step);

@@ -59,7 +59,7 @@ impl Run {
         let s = &self.c.scene;
         let chain = &s.anatomy.vessels[v].chain;
         let k = ((f * (chain.len() - 1) as f32).round() as usize).min(chain.len() - 1);
-        s.particles.x[chain[k] as usize]
+        s.solver().particles.x[chain[k] as usize]
     }
 
     fn named(&self, name: &str) -> Vec<&crate::sim::ProcedureEvent> {
@@ -162,14 +162,14 @@ fn the_live_hook_on_the_liver_is_an_injury_once_per_contact() {
         .surface
         .iter()
         .copied()
-        .filter(|&i| s.particles.w[i as usize] > 0.0)
+        .filter(|&i| s.solver().particles.w[i as usize] > 0.0)
         .max_by(|&a, &b| {
-            s.particles.x[a as usize]
+            s.solver().particles.x[a as usize]
                 .z
-                .total_cmp(&s.particles.x[b as usize].z)
+                .total_cmp(&s.solver().particles.x[b as usize].z)
         })
         .expect("a free liver particle");
-    let target = s.particles.x[front as usize];
+    let target = s.solver().particles.x[front as usize];
     let pose = Pose::looking_at(target, target - Vec3::Z);
     let hook = Instrument::l_hook(target, pose.orientation).expect("hook");
     let end = hook.cylinders()[1].p1();

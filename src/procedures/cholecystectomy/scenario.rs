@@ -4,6 +4,7 @@
 
 use super::anatomy::AnatomyParams;
 use super::scene::SceneParams;
+use crate::models::particles::solver::SolverParams;
 use crate::param_fields;
 use crate::params::{ParamSpec, Params};
 use crate::scenario::InputError;
@@ -11,28 +12,6 @@ use serde::Deserialize;
 
 /// The name scenarios and traces give this procedure.
 pub const NAME: &str = "cholecystectomy";
-
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Scenario {
-    /// Always [`NAME`].
-    pub procedure: String,
-    pub dt_s: f32,
-    pub publish_hz: f32,
-    /// What a headset shows (`[headset]`; optional).
-    #[serde(default)]
-    pub headset: crate::scenario::Headset,
-    pub anatomy: AnatomyTable,
-    pub tissue: TissueTable,
-    pub solver: SolverTable,
-    pub adhesion: AdhesionTable,
-    pub tools: Tools,
-    pub task: Task,
-    /// Optional: the organs' closed surfaces from files (OBJ, glTF or GLB; metres, in the
-    /// anatomy's frame), replacing the generated ellipsoids.
-    #[serde(default)]
-    pub surfaces: Surfaces,
-}
 
 /// The `[surfaces]` table: a file for any of the three organs; a relative path is read from
 /// the scenario file's folder.
@@ -448,6 +427,7 @@ impl Params for Task {
 crate::scenario_tables! {
     name: NAME,
     dt: (0.001, "simulation step (0.001: the haptic rate; the solver's substeps divide it)"),
+    nodes: particles,
     tables: [
         ("anatomy", anatomy, AnatomyTable),
         ("tissue", tissue, TissueTable),
@@ -455,6 +435,12 @@ crate::scenario_tables! {
         ("adhesion", adhesion, AdhesionTable),
         ("tools", tools, Tools),
         ("task", task, Task),
+    ],
+    extra: [
+        /// Optional: the organs' closed surfaces from files (OBJ, glTF or GLB; metres, in the
+        /// anatomy's frame), replacing the generated ellipsoids.
+        #[serde(default)]
+        surfaces: Surfaces,
     ],
 }
 
@@ -520,11 +506,14 @@ impl Scenario {
             fat_modulus_pa: t.fat_modulus_pa,
             vessel_modulus_pa: t.vessel_modulus_pa,
             fascia_modulus_pa: t.fascia_modulus_pa,
-            damping_per_s: t.damping_per_s,
-            iterations: s.iterations,
-            substeps: s.substeps,
-            grasp_reach_m: k.grasp_reach_m,
-            grasp_stiffness_n_per_m: k.grasp_stiffness_n_per_m,
+            solver: SolverParams {
+                damping_per_s: t.damping_per_s,
+                iterations: s.iterations,
+                substeps: s.substeps,
+                grasp_reach_m: k.grasp_reach_m,
+                grasp_stiffness_n_per_m: k.grasp_stiffness_n_per_m,
+                ..d.solver
+            },
             adhesion: crate::models::particles::adhesion::AdhesionParams {
                 stiffness_n_per_m: a.stiffness_n_per_m,
                 break_stretch: a.break_stretch,

@@ -18,16 +18,16 @@
 
 use super::anatomy::{Anatomy, body};
 use super::clips::{Clippable, CutError, PatientEnd};
-use crate::collision::Instrument;
-use crate::models::particles::Particles;
-use crate::models::particles::adhesion::{Adhesion, AdhesionBreak, AdhesionParams};
+use crate::models::particles::adhesion::{Adhesion, AdhesionParams};
 use crate::models::particles::chain::Chains;
 use crate::models::particles::cloth::{Cloth, ClothParams};
-use crate::models::particles::contacts::{BodyContacts, Grasp, ToolPush};
+use crate::models::particles::contacts::BodyContacts;
 use crate::models::particles::shape::{ShapeMatching, frequency_for, lattice_clusters};
-use crate::models::xpbd::{self, Stretch};
+pub use crate::models::particles::solver::{Dissection, HandTool, StepOutcome};
+use crate::models::particles::solver::{ParticleSolver, SolverParams, SolverParts};
+use crate::models::xpbd::Stretch;
+use crate::sim::{EventKind, ModelId, World};
 use glam::Vec3;
-use std::time::Instant;
 
 /// Young's modulus (Pa) of each tissue, and the other figures of the step.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -40,30 +40,18 @@ pub struct SceneParams {
     /// Clusters every `cluster_stride` lattice steps, reaching `cluster_reach` lattice steps.
     pub cluster_stride: u32,
     pub cluster_reach: f32,
-    /// Sweeps per substep, and substeps per step. Substeps converge far better than sweeps
-    /// for the same cost (Macklin et al., "Small steps in physics simulation", 2019): the
-    /// gallbladder hanging by its strands settles with its strands strained 0.6 % at 8
-    /// sweeps, 36 % at 2 (unconverged: the strands then tear under a gentle pull), and with
-    /// 2 sweeps in each of 2 substeps a retraction tears them where 6 sweeps in one step do.
-    pub iterations: u32,
-    pub substeps: u32,
-    /// Point damping, 1/s.
-    pub damping_per_s: f32,
-    pub gravity_m_per_s2: Vec3,
-    /// The floor of the field (the structures behind and below it: duodenum, colon,
-    /// retroperitoneum), m: no particle goes below this height. A body cut or torn free
-    /// comes to rest on it instead of falling for ever.
-    pub floor_y_m: f32,
-    /// The ties' stiffness (vessel ends in their organs, the fascia's edges), N/m.
-    pub tie_stiffness_n_per_m: f32,
+    /// The solver's sweeps, substeps, damping, gravity, floor, ties and grasps. Substeps
+    /// converge far better than sweeps for the same cost (Macklin et al., "Small steps in
+    /// physics simulation", 2019): the gallbladder hanging by its strands settles with its
+    /// strands strained 0.6 % at 8 sweeps, 36 % at 2 (unconverged: the strands then tear
+    /// under a gentle pull), and with 2 sweeps in each of 2 substeps a retraction tears them
+    /// where 6 sweeps in one step do. The floor is the field's (the structures behind and
+    /// below it: duodenum, colon, retroperitoneum): a body cut or torn free comes to rest on
+    /// it. The ties hold the vessels' ends in their organs and the fascia's edges.
+    pub solver: SolverParams,
     /// The contacts' particle radius and the Verlet margin, m.
     pub contact_radius_m: f32,
     pub contact_margin_m: f32,
-    /// A closed grasper takes the particles within this reach of its jaw (at most
-    /// `grasp_most`), each by a spring of `grasp_stiffness_n_per_m`.
-    pub grasp_reach_m: f32,
-    pub grasp_most: u32,
-    pub grasp_stiffness_n_per_m: f32,
     pub adhesion: AdhesionParams,
     pub adhesion_seed: u64,
     /// The fat's strands to the organs and vessels (softer: pulling the fat away tears them).
@@ -80,17 +68,19 @@ impl Default for SceneParams {
             fascia_modulus_pa: 20_000.0,
             cluster_stride: 3,
             cluster_reach: 2.5,
-            iterations: 2,
-            substeps: 2,
-            damping_per_s: 5.0,
-            gravity_m_per_s2: Vec3::new(0.0, -9.81, 0.0),
-            floor_y_m: -0.08,
-            tie_stiffness_n_per_m: 200.0,
+            solver: SolverParams {
+                iterations: 2,
+                substeps: 2,
+                damping_per_s: 5.0,
+                gravity_m_per_s2: Vec3::new(0.0, -9.81, 0.0),
+                floor_y_m: -0.08,
+                tie_stiffness_n_per_m: 200.0,
+                grasp_reach_m: 0.004,
+                grasp_most: 12,
+                grasp_stiffness_n_per_m: 100.0,
+            },
             contact_radius_m: 0.001,
             contact_margin_m: 0.001,
-            grasp_reach_m: 0.004,
-            grasp_most: 12,
-            grasp_stiffness_n_per_m: 100.0,
             adhesion: AdhesionParams {
                 segments: 4,
                 strand_mass_kg: 2e-6,
@@ -127,56 +117,13 @@ pub enum SceneError {
     Adhesion(#[from] crate::models::particles::adhesion::AdhesionError),
 }
 
-/// One hand's instrument this step: its cylinders, its jaw (where a grasp takes hold), and
-/// whether the jaws are closed.
-#[derive(Debug, Clone)]
-pub struct HandTool {
-    pub instrument: Instrument,
-    pub jaw: Vec3,
-    pub closed: bool,
-}
-
-/// What a cut of the hook or the scissors took.
-#[derive(Debug, Clone, Default)]
-pub struct Dissection {
-    /// Fascia constraints removed.
-    pub fascia: usize,
-    /// Adhesion strands and fat strands cut.
-    pub adhesions: Vec<AdhesionBreak>,
-    pub fat_strands: Vec<AdhesionBreak>,
-}
-
-/// What a step did.
-#[derive(Debug, Clone, Default)]
-pub struct StepOutcome {
-    /// The tissue's force on each hand's instrument, N.
-    pub reactions: [Vec3; 2],
-    /// Particles each instrument pushed, and each grasp holds.
-    pub pushed: [usize; 2],
-    pub held: [usize; 2],
-    /// Adhesion strands torn this step, and the fat's strands.
-    pub breaks: Vec<AdhesionBreak>,
-    pub fat_breaks: Vec<AdhesionBreak>,
-}
+/// The one model: every body of the anatomy in one particle solver.
+pub const PARTICLES: ModelId = ModelId(0);
 
 pub struct CholeScene {
     pub params: SceneParams,
-    pub particles: Particles,
     pub anatomy: Anatomy,
-    pub shape: ShapeMatching,
-    pub vessels: Chains,
-    ties: Vec<Stretch>,
-    tie_lambda: Vec<f32>,
-    pub fascia: Cloth,
-    pub adhesion: Adhesion,
-    pub fat_bonds: Adhesion,
-    pub contacts: BodyContacts,
-    pushes: [ToolPush; 2],
-    grasps: [Option<Grasp>; 2],
-    /// Wall-clock seconds spent so far in the shape matching, the vessels and ties, the
-    /// cloth fascia, the adhesion and fat strands, and the instruments and contacts
-    /// (benchmarks only).
-    pub times: [f64; 5],
+    world: World<ParticleSolver>,
 }
 
 impl CholeScene {
@@ -205,11 +152,11 @@ impl CholeScene {
             ));
         }
         let shape = ShapeMatching::new(&p, specs)?;
-        let mut vessels = Chains::new();
+        let mut chains = Chains::new();
         for v in &anatomy.vessels {
             let a = v.radius_m;
             let k = params.vessel_modulus_pa * std::f32::consts::PI * a * a / (2.0 * a);
-            vessels.add(&p, &v.chain, k, k / 20.0);
+            chains.add(&p, &v.chain, k, k / 20.0);
         }
         let ties: Vec<Stretch> = anatomy
             .ties
@@ -220,7 +167,7 @@ impl CholeScene {
                 rest_m: p.x[a as usize].distance(p.x[b as usize]),
             })
             .collect();
-        let fascia = Cloth::new(
+        let cloth = Cloth::new(
             &p,
             &anatomy.fascia_triangles,
             ClothParams {
@@ -234,7 +181,7 @@ impl CholeScene {
             params.adhesion,
             params.adhesion_seed,
         )?;
-        let fat_bonds = Adhesion::new(
+        let bonds = Adhesion::new(
             &mut p,
             &anatomy.fat_pairs,
             params.fat_bonds,
@@ -251,73 +198,67 @@ impl CholeScene {
         let mut contacts =
             BodyContacts::new(members, params.contact_radius_m, params.contact_margin_m);
         contacts.ignore_present_overlaps(&p);
-        let pushes = [
-            ToolPush::new(&p, params.contact_radius_m),
-            ToolPush::new(&p, params.contact_radius_m),
-        ];
-        Ok(CholeScene {
-            tie_lambda: vec![0.0; ties.len()],
-            ties,
-            params,
+        let parts = SolverParts {
             particles: p,
-            anatomy,
             shape,
-            vessels,
-            fascia,
+            chains,
+            ties,
+            cloth,
             adhesion,
-            fat_bonds,
+            bonds,
             contacts,
-            pushes,
-            grasps: [None, None],
-            times: [0.0; 5],
+            contact_radius_m: params.contact_radius_m,
+        };
+        let mut world = World::new();
+        let id = world.add(ParticleSolver::new("particles", parts, params.solver));
+        debug_assert_eq!(id, PARTICLES);
+        Ok(CholeScene {
+            params,
+            anatomy,
+            world,
         })
     }
 
-    /// Lays the patient out: `seconds` of steps with no instrument, `iterations` sweeps,
-    /// heavy point damping (`damping_per_s`) and no strand weakened or torn, then every
-    /// velocity to zero. The bodies start where gravity and their attachments hold them, not
-    /// where the generator put them (a body hanging from others otherwise falls while the
-    /// support reaches it through the sweeps, and tears what holds it). Returns the largest
-    /// displacement, m.
+    /// The particle solver.
+    pub fn solver(&self) -> &ParticleSolver {
+        self.world.model(PARTICLES)
+    }
+
+    pub fn solver_mut(&mut self) -> &mut ParticleSolver {
+        self.world.model_mut(PARTICLES)
+    }
+
+    /// The world the solver steps in (the procedure's model figures).
+    pub fn world(&self) -> &World<ParticleSolver> {
+        &self.world
+    }
+
+    pub fn world_mut(&mut self) -> &mut World<ParticleSolver> {
+        &mut self.world
+    }
+
+    /// Lays the patient out (see [`ParticleSolver::settle`]); the largest displacement, m.
     pub fn settle(&mut self, seconds: f32, iterations: u32, damping_per_s: f32) -> f32 {
-        let start = self.particles.x.clone();
-        let keep = self.params;
-        self.params.iterations = iterations;
-        self.params.damping_per_s = damping_per_s;
-        let steps = (seconds / 1e-3).ceil() as usize;
-        for _ in 0..steps {
-            self.advance(1e-3, &[None, None], false);
-        }
-        self.params = keep;
-        self.times = [0.0; 5];
-        self.particles.v.iter_mut().for_each(|v| *v = Vec3::ZERO);
-        self.particles
-            .x
-            .iter()
-            .zip(&start)
-            .map(|(a, b)| a.distance(*b))
-            .fold(0.0, f32::max)
+        self.solver_mut().settle(seconds, iterations, damping_per_s)
     }
 
     /// The hook's current (or the scissors) at `at`: cuts the fascia's constraints, the
     /// adhesion strands and the fat's strands within `radius_m`.
     pub fn dissect(&mut self, at: Vec3, radius_m: f32) -> Dissection {
-        Dissection {
-            fascia: self.fascia.cut_near(at, radius_m, &self.particles),
-            adhesions: self.adhesion.cut_near(at, radius_m, &self.particles),
-            fat_strands: self.fat_bonds.cut_near(at, radius_m, &self.particles),
+        if self.world.is_frozen(PARTICLES) {
+            return Dissection::default();
         }
+        self.solver_mut().dissect(at, radius_m)
     }
 
     /// Particles of body `b` within `radius_m` of `at` (the hook on the liver's capsule).
     pub fn touching(&self, b: u16, at: Vec3, radius_m: f32) -> usize {
-        let r2 = radius_m * radius_m;
-        self.particles
-            .x
-            .iter()
-            .zip(&self.particles.body)
-            .filter(|(x, body)| **body == b && x.distance_squared(at) <= r2)
-            .count()
+        self.solver().touching(b, at, radius_m)
+    }
+
+    /// The particles hand `h`'s grasp holds.
+    pub fn held(&self, h: usize) -> Vec<u32> {
+        self.solver().held(h)
     }
 
     /// The vessels that take clips and cuts: the cystic duct (the patient towards the
@@ -349,11 +290,11 @@ impl CholeScene {
             return 0.0;
         };
         let [a, b, c] = self.anatomy.calot;
-        let fat: Vec<Vec3> = self
-            .particles
+        let particles = &self.solver().particles;
+        let fat: Vec<Vec3> = particles
             .x
             .iter()
-            .zip(&self.particles.body)
+            .zip(&particles.body)
             .filter(|(_, b)| **b == body::FAT)
             .map(|(x, _)| *x)
             .collect();
@@ -374,127 +315,32 @@ impl CholeScene {
         seen as f32 / all as f32
     }
 
-    /// The particles hand `h`'s grasp holds.
-    pub fn held(&self, h: usize) -> Vec<u32> {
-        self.grasps
-            .get(h)
-            .and_then(|g| g.as_ref())
-            .map_or_else(Vec::new, |g| g.particles().collect())
+    /// One step of `dt_s` (step number `step`) with the hands' instruments `tools`; the
+    /// world's events (a quarantined model) go to `events`.
+    pub fn step(
+        &mut self,
+        dt_s: f32,
+        tools: &[Option<HandTool>; 2],
+        step: u64,
+        events: &mut Vec<EventKind>,
+    ) -> StepOutcome {
+        self.solver_mut().set_tools(tools.clone());
+        self.world.step(dt_s, step, events);
+        if self.world.is_frozen(PARTICLES) {
+            return StepOutcome::default();
+        }
+        self.solver().outcome().clone()
     }
 
-    /// One step of `dt_s` with the hands' instruments `tools`: `substeps` substeps. The
-    /// reactions are their mean (the force over the step), the breaks all of theirs.
-    pub fn step(&mut self, dt_s: f32, tools: &[Option<HandTool>; 2]) -> StepOutcome {
-        let n = self.params.substeps.max(1);
-        let mut out = StepOutcome::default();
-        for _ in 0..n {
-            let o = self.advance(dt_s / n as f32, tools, true);
-            for h in 0..2 {
-                out.reactions[h] += o.reactions[h] / n as f32;
-                out.pushed[h] = out.pushed[h].max(o.pushed[h]);
-            }
-            out.held = o.held;
-            out.breaks.extend(o.breaks);
-            out.fat_breaks.extend(o.fat_breaks);
-        }
-        out
-    }
-
-    fn advance(&mut self, dt_s: f32, tools: &[Option<HandTool>; 2], tearing: bool) -> StepOutcome {
-        let params = self.params;
-        let mut out = StepOutcome::default();
-        // Grasps close on what is within reach and open when the jaws do.
-        for (h, t) in tools.iter().enumerate() {
-            match t {
-                Some(t) if t.closed => {
-                    if self.grasps[h].is_none() {
-                        let g = Grasp::take(
-                            &self.particles,
-                            t.jaw,
-                            params.grasp_reach_m,
-                            params.grasp_most as usize,
-                            params.grasp_stiffness_n_per_m,
-                        );
-                        self.grasps[h] = Some(g);
-                    }
-                }
-                _ => self.grasps[h] = None,
-            }
-        }
-        let p = &mut self.particles;
-        p.predict(dt_s, params.gravity_m_per_s2);
-        let mut clock = Instant::now();
-        self.contacts.refresh(p);
-        self.shape.begin_step();
-        self.vessels.begin_step();
-        self.tie_lambda.fill(0.0);
-        self.fascia.begin_step();
-        self.adhesion.begin_step();
-        self.fat_bonds.begin_step();
-        for push in &mut self.pushes {
-            push.begin_step();
-        }
-        for g in self.grasps.iter_mut().flatten() {
-            g.begin_step();
-        }
-        let tie_compliance = 1.0 / params.tie_stiffness_n_per_m.max(1e-9);
-        let mut lap = |times: &mut [f64; 5], k: usize| {
-            let now = Instant::now();
-            times[k] += now.duration_since(clock).as_secs_f64();
-            clock = now;
-        };
-        // The contacts' refresh and the multipliers' reset are the contacts' part.
-        lap(&mut self.times, 4);
-        for _ in 0..params.iterations.max(1) {
-            self.shape.project(p, dt_s);
-            lap(&mut self.times, 0);
-            self.vessels.project(p, dt_s);
-            for (t, l) in self.ties.iter().zip(&mut self.tie_lambda) {
-                *l += xpbd::project_stretch(&mut p.x, &p.w, t, tie_compliance, dt_s, *l);
-            }
-            lap(&mut self.times, 1);
-            self.fascia.project(p, dt_s);
-            lap(&mut self.times, 2);
-            self.adhesion.project(p, dt_s);
-            self.fat_bonds.project(p, dt_s);
-            lap(&mut self.times, 3);
-            for (h, t) in tools.iter().enumerate() {
-                let Some(t) = t else { continue };
-                match &mut self.grasps[h] {
-                    Some(g) if !g.is_empty() => g.project(p, t.jaw, dt_s),
-                    _ => {
-                        out.pushed[h] = self.pushes[h].project(&t.instrument, p, dt_s);
-                    }
-                }
-            }
-            self.contacts.project(p);
-            for (x, w) in p.x.iter_mut().zip(&p.w) {
-                if *w > 0.0 && x.y < params.floor_y_m {
-                    x.y = params.floor_y_m;
-                }
-            }
-            lap(&mut self.times, 4);
-        }
-        p.finish(dt_s, params.damping_per_s);
-        if tearing {
-            out.breaks = self.adhesion.update(p);
-            out.fat_breaks = self.fat_bonds.update(p);
-        }
-        for h in 0..2 {
-            let grasp = self.grasps[h]
-                .as_ref()
-                .map_or(Vec3::ZERO, |g| g.reaction_n(dt_s));
-            out.reactions[h] = self.pushes[h].reaction_n() + grasp;
-            out.held[h] = self.grasps[h].as_ref().map_or(0, Grasp::len);
-        }
-        out
+    /// Wall-clock seconds in the shape matching, the vessels and ties, the cloth fascia,
+    /// the strands, and the instruments and contacts (benchmarks only).
+    pub fn times(&self) -> [f64; 5] {
+        self.solver().times
     }
 
     /// A digest of the particles' state and the adhesions' progress.
     pub fn state_hash(&self) -> u64 {
-        let mut h = crate::sim::Fnv(self.particles.state_hash());
-        h.write(self.adhesion.torn_segments() as u32);
-        h.0
+        self.solver().digest()
     }
 }
 

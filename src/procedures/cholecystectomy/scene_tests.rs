@@ -1,4 +1,5 @@
 use super::*;
+use crate::collision::Instrument;
 use crate::procedures::cholecystectomy::AnatomyParams;
 use glam::Quat;
 
@@ -12,12 +13,13 @@ fn scene() -> CholeScene {
 }
 
 fn largest_move(s: &CholeScene, from: &[Vec3], bodies: std::ops::RangeInclusive<u16>) -> f32 {
-    s.particles
+    s.solver()
+        .particles
         .x
         .iter()
         .zip(from)
         .enumerate()
-        .filter(|(i, _)| bodies.contains(&s.particles.body[*i]))
+        .filter(|(i, _)| bodies.contains(&s.solver().particles.body[*i]))
         .map(|(_, (a, b))| a.distance(*b))
         .fold(0.0, f32::max)
 }
@@ -25,22 +27,22 @@ fn largest_move(s: &CholeScene, from: &[Vec3], bodies: std::ops::RangeInclusive<
 #[test]
 fn laid_out_and_left_alone_the_scene_stays_put() {
     let mut s = scene();
-    let start = s.particles.x.clone();
+    let start = s.solver().particles.x.clone();
     let none = [None, None];
     for _ in 0..400 {
-        let out = s.step(1e-3, &none);
+        let out = s.step(1e-3, &none, 0, &mut Vec::new());
         assert!(out.breaks.is_empty(), "a gallbladder strand tore by itself");
     }
-    assert!(s.particles.is_finite());
+    assert!(s.solver().particles.is_finite());
     // Organs, vessels and fascia stay within 3 mm; the fat's strands hold (a few may creep
     // past their tear strain).
     let moved = largest_move(&s, &start, body::LIVER..=body::FASCIA);
     assert!(moved < 0.003, "{moved}");
     assert!(
-        s.fat_bonds.torn_segments() * 20 < s.fat_bonds.strands(),
+        s.solver().bonds.torn_segments() * 20 < s.solver().bonds.strands(),
         "{} of {}",
-        s.fat_bonds.torn_segments(),
-        s.fat_bonds.strands()
+        s.solver().bonds.torn_segments(),
+        s.solver().bonds.strands()
     );
 }
 
@@ -58,7 +60,7 @@ fn grasper(jaw: Vec3, closed: bool) -> HandTool {
 fn pulling_the_fundus_away_tears_the_adhesions_and_is_felt() {
     let mut s = scene();
     // The fundus: the gallbladder's surface particle furthest along +x.
-    let p = &s.particles;
+    let p = &s.solver().particles;
     let gb = &s.anatomy.organs[1];
     let fundus = gb
         .surface
@@ -72,7 +74,7 @@ fn pulling_the_fundus_away_tears_the_adhesions_and_is_felt() {
     let mut reaction = Vec3::ZERO;
     for k in 0..200 {
         let jaw = start - Vec3::Y * (0.001 * (k as f32 / 199.0));
-        let out = s.step(1e-3, &[None, Some(grasper(jaw, true))]);
+        let out = s.step(1e-3, &[None, Some(grasper(jaw, true))], 0, &mut Vec::new());
         torn += out.breaks.len();
         reaction = out.reactions[1];
         assert!(out.held[1] > 0, "the grasp holds particles");
@@ -87,13 +89,13 @@ fn pulling_the_fundus_away_tears_the_adhesions_and_is_felt() {
     for k in 0..2000 {
         let t = k as f32 / 1999.0;
         let jaw = start - Vec3::Y * (0.001 + 0.04 * t) + Vec3::X * 0.01 * t;
-        let out = s.step(1e-3, &[None, Some(grasper(jaw, true))]);
+        let out = s.step(1e-3, &[None, Some(grasper(jaw, true))], 0, &mut Vec::new());
         torn += out.breaks.len();
         steps_with_tears += usize::from(!out.breaks.is_empty());
     }
     assert!(torn >= 10, "{torn}");
     assert!(steps_with_tears >= 5, "not all at once: {steps_with_tears}");
-    assert!(s.particles.is_finite());
+    assert!(s.solver().particles.is_finite());
 }
 
 #[test]
@@ -104,7 +106,7 @@ fn one_or_two_threads_give_the_same_bytes() {
             let mut s = CholeScene::new(a, SceneParams::default()).expect("scene");
             s.settle(0.05, 4, 60.0);
             for _ in 0..50 {
-                s.step(1e-3, &[None, None]);
+                s.step(1e-3, &[None, None], 0, &mut Vec::new());
             }
             s.state_hash()
         })
@@ -117,19 +119,19 @@ fn the_hook_cuts_what_is_near_it_and_knows_the_liver_when_it_touches_it() {
     let mut s = scene();
     // On a fascia node in the middle of the sheet: its constraints go, no strand far away.
     let mid = s.anatomy.fascia[s.anatomy.fascia.len() / 2];
-    let at = s.particles.x[mid as usize];
-    let edges = s.fascia.edges();
+    let at = s.solver().particles.x[mid as usize];
+    let edges = s.solver().cloth.edges();
     let cut = s.dissect(at, 0.0015);
-    assert!(cut.fascia > 0);
-    assert!(s.fascia.edges() < edges && edges - s.fascia.edges() <= cut.fascia);
+    assert!(cut.cloth > 0);
+    assert!(s.solver().cloth.edges() < edges && edges - s.solver().cloth.edges() <= cut.cloth);
     // At an adhesion strand's middle: that strand is cut.
-    let strand = s.adhesion.strand_particles(0);
-    let middle = s.particles.x[strand[strand.len() / 2] as usize];
+    let strand = s.solver().adhesion.strand_particles(0);
+    let middle = s.solver().particles.x[strand[strand.len() / 2] as usize];
     let cut = s.dissect(middle, 0.0005);
     assert!(cut.adhesions.iter().any(|b| b.strand == 0), "{cut:?}");
     // The liver's capsule: a liver surface particle is touched, a point 2 cm below the
     // gallbladder touches nothing of the liver.
-    let on_liver = s.particles.x[s.anatomy.organs[0].surface[0] as usize];
+    let on_liver = s.solver().particles.x[s.anatomy.organs[0].surface[0] as usize];
     assert!(s.touching(body::LIVER, on_liver, 0.001) >= 1);
     assert_eq!(
         s.touching(body::LIVER, Vec3::new(0.0, -0.04, 0.0), 0.002),
@@ -148,7 +150,8 @@ fn calots_triangle_is_hidden_by_its_fat_until_the_fat_is_cleared() {
     let covered = s.calot_exposure(towards_camera, 12, 0.002);
     assert!(covered < 0.5, "{covered}");
     // The fat taken away (moved 10 cm aside): all of it seen.
-    for (x, b) in s.particles.x.iter_mut().zip(&s.particles.body) {
+    let p = &mut s.solver_mut().particles;
+    for (x, b) in p.x.iter_mut().zip(&p.body) {
         if *b == body::FAT {
             x.x += 0.1;
         }

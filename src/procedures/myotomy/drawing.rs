@@ -5,8 +5,8 @@
 //! cut's own edges sink into the wall as deep as they were cut.
 
 use super::anatomy::Esophagus;
-use super::palpation::Palpation;
 use crate::models::bem::incision::Incision;
+use crate::models::bem::palpation::Palpation;
 use crate::sim::{ModelSnapshot, SurfaceRole};
 use glam::{DVec3, Vec3};
 

@@ -7,7 +7,8 @@ pub mod anatomy;
 mod bench;
 mod drawing;
 mod field;
-pub mod palpation;
+#[cfg(test)]
+mod palpation_tests;
 mod plugin;
 mod precompute;
 mod procedure;

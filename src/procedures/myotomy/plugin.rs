@@ -3,18 +3,17 @@
 //! the first run), and its score.
 
 use super::anatomy::Esophagus;
-use super::palpation::Palpation;
 use super::procedure::{Metrics, Myotomy, STEPS};
 use super::scenario::{self, NAME, Scenario};
 use crate::models::bem::cache;
 use crate::models::bem::contact::Contacts;
+use crate::models::bem::palpation::Palpation;
 use crate::procedures::{
-    BuildError, MassSpring, ModelReport, Plan, Procedure, ProcedureInfo, ProcedureReport,
-    TaskStatus, ToolInfo, ToolKind, Viewpoint,
+    BuildError, MassSpring, ModelReport, Procedure, ProcedureInfo, TaskStatus, ToolInfo, ToolKind,
+    Viewpoint,
 };
-use crate::scenario::InputError;
 use crate::sim::Hand;
-use crate::sim::{completion_share, time_efficiency};
+use crate::sim::{completion_share, time_efficiency, weighted_score};
 use glam::Vec3;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -50,31 +49,19 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
     },
     // Above the field, to either side.
     desk_park: [Vec3::new(-0.03, 0.04, 0.03), Vec3::new(0.03, 0.04, 0.03)],
-    profile_reference: None,
     param_tables: scenario::PARAM_TABLES,
-    bench_all_awake_s: 1.0,
-    scope_hand: None,
-    swap: &[],
-    legacy_tuned_model: None,
     assessment: include_str!("../../../assets/assessment/myotomy.toml"),
     field: super::field::field,
     blank_metrics: || serde_json::to_value(Metrics::default()).unwrap_or_default(),
-    haptic_device: crate::sim::DeviceChoice::Phantom,
-    bench_extra: Some(super::bench::extra),
-    cases: Vec::new,
-    precompute: Some(&super::PRECOMPUTE),
-    plan,
+    plan: scenario::plan,
     build,
+    options: crate::sim::Options {
+        bench_all_awake_s: 1.0,
+        bench_extra: Some(super::bench::extra),
+        precompute: Some(&super::PRECOMPUTE),
+        ..crate::sim::Options::NONE
+    },
 };
-
-fn plan(file: &str, text: &str) -> Result<Plan, InputError> {
-    let s = Scenario::parse(file, text)?;
-    Ok(Plan {
-        dt_s: s.dt_s,
-        publish_hz: s.publish_hz,
-        nodes: s.triangles(),
-    })
-}
 
 fn build(file: &str, text: &str) -> Result<Box<dyn Procedure>, BuildError> {
     let s = Scenario::parse(file, text)?;
@@ -145,15 +132,16 @@ pub fn score(s: &Scenario, m: &Metrics) -> (f32, ScoreParts) {
         },
         penalty: ERROR_PENALTY * m.errors as f32,
     };
-    let total = COMPLETION_POINTS * parts.completion
-        + EFFICIENCY_POINTS * parts.efficiency
-        + DIVISION_POINTS * parts.division
-        - parts.penalty;
-    (total.clamp(0.0, 100.0), parts)
+    let weighted = [
+        (COMPLETION_POINTS, parts.completion),
+        (EFFICIENCY_POINTS, parts.efficiency),
+        (DIVISION_POINTS, parts.division),
+    ];
+    (weighted_score(&weighted, parts.penalty), parts)
 }
 
 impl Procedure for Myotomy {
-    crate::procedure_basics!(INFO);
+    crate::procedure_basics!(INFO, report(errors: metrics.errors), models: []);
 
     fn status(&self, _near_m: f32) -> TaskStatus {
         let m = &self.metrics;
@@ -198,17 +186,6 @@ impl Procedure for Myotomy {
         }
     }
 
-    fn report(&self) -> ProcedureReport {
-        let (score, parts) = score(&self.scenario, &self.metrics);
-        ProcedureReport::of(
-            self.is_completed(),
-            self.metrics.errors,
-            &self.metrics,
-            &parts,
-            score,
-        )
-    }
-
     fn reactions(&self) -> [Vec3; 2] {
         Myotomy::reactions(self)
     }
@@ -221,7 +198,7 @@ impl Procedure for Myotomy {
 
     fn model_reports(&self) -> Vec<ModelReport> {
         let e = &self.esophagus;
-        let pre = self.palpation.contacts.precomputed();
+        let pre = self.palpation().contacts.precomputed();
         vec![
             // Its step is the contact update from the precomputed responses.
             ModelReport {
@@ -249,14 +226,8 @@ impl Procedure for Myotomy {
         self.times.to_vec()
     }
 
-    fn awake_fractions(&self) -> Vec<f64> {
-        vec![1.0; 2]
-    }
-
-    fn stay_awake(&mut self) {}
-
     fn memory(&self) -> Vec<(&'static str, usize)> {
-        let pre = self.palpation.contacts.precomputed();
+        let pre = self.palpation().contacts.precomputed();
         let f3 = 3 * pre.field.len();
         vec![
             ("responses", 8 * (pre.response.len() + pre.y0.len())),

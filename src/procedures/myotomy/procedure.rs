@@ -12,15 +12,17 @@
 
 use super::anatomy::Esophagus;
 use super::drawing::Drawing;
-use super::palpation::{Palpation, Tip, Touch};
 use super::scenario::Scenario;
+use crate::models::bem::Palpated;
 use crate::models::bem::incision::Incision;
+use crate::models::bem::palpation::{Palpation, Tip, Touch};
 use crate::procedures::TaskStep;
 use crate::sim::Fnv;
 use crate::sim::{
     EmissionKind, EmissionLog, EventKind, Hand, InputFrame, InstrumentShape, ProcedureEvent,
     SimEvent, Snapshot, ToolSnapshot,
 };
+use crate::sim::{ModelId, World};
 use glam::{DVec3, Vec3};
 use serde::Serialize;
 use std::time::Instant;
@@ -89,10 +91,14 @@ pub struct Metrics {
     pub steps_done: Vec<String>,
 }
 
+/// The wall's place in the myotomy's world.
+const WALL: ModelId = ModelId(0);
+
 pub struct Myotomy {
     pub scenario: Scenario,
     pub esophagus: Esophagus,
-    pub palpation: Palpation,
+    /// The world the palpated wall steps in.
+    world: World<Palpated>,
     pub incision: Incision,
     pub metrics: Metrics,
     /// The deepest cut in each band along the tube, m.
@@ -124,6 +130,9 @@ impl Myotomy {
         let bands = (e.length_m / BAND_M).ceil() as usize;
         let k = &scenario.task;
         let drawing = Drawing::new(&esophagus);
+        let mut world = World::new();
+        let wall = world.add(Palpated::new("esophagus", palpation));
+        debug_assert_eq!(wall, WALL);
         Myotomy {
             metrics: Metrics {
                 original_triangles: s.triangles.len() as u32,
@@ -135,7 +144,7 @@ impl Myotomy {
             cut_depth: vec![0.0; s.vertices.len()],
             scenario,
             esophagus,
-            palpation,
+            world,
             incision,
             touches: Default::default(),
             reactions: [Vec3::ZERO; 2],
@@ -149,6 +158,20 @@ impl Myotomy {
             times: [0.0; 2],
             drawing,
         }
+    }
+
+    /// The palpation of the wall.
+    pub fn palpation(&self) -> &Palpation {
+        self.world.model(WALL).palpation()
+    }
+
+    /// The world the wall steps in (the procedure's model figures).
+    pub fn world(&self) -> &World<Palpated> {
+        &self.world
+    }
+
+    pub fn world_mut(&mut self) -> &mut World<Palpated> {
+        &mut self.world
     }
 
     pub fn is_completed(&self) -> bool {
@@ -175,7 +198,6 @@ impl Myotomy {
 
     /// Advances one step.
     pub fn step(&mut self, input: &InputFrame, step: u64, events: &mut Vec<SimEvent>) {
-        let dt = f64::from(self.scenario.dt_s);
         let t = self.scenario.tools;
         let (left, right) = (input.hand(Hand::Left), input.hand(Hand::Right));
         let mut ev: Vec<EventKind> = Vec::new();
@@ -212,23 +234,28 @@ impl Myotomy {
             shaft(1, &right.pose),
         ];
         let grasp = [left.buttons.grip >= t.grip_threshold, false, false, false];
+        let owners = [Hand::Left, Hand::Right, Hand::Left, Hand::Right];
+        let set: Vec<(Tip, bool, Hand)> = (0..4).map(|k| (tips[k], grasp[k], owners[k])).collect();
+        self.world.model_mut(WALL).set_tips(&set);
         let t0 = Instant::now();
+        self.world.step(self.scenario.dt_s, step, &mut ev);
+        self.times[0] += t0.elapsed().as_secs_f64();
         let mut shafts = [DVec3::ZERO; 2];
-        match self.palpation.update_tips(&tips, &grasp, dt) {
-            Ok(touches) => {
-                for (k, touch) in touches.into_iter().enumerate() {
+        match self.world.model(WALL).touches() {
+            Some(touches) if !self.world.is_frozen(WALL) => {
+                for (k, touch) in touches.iter().enumerate() {
                     match k {
-                        0 | 1 => self.touches[k] = touch,
+                        0 | 1 => self.touches[k] = touch.clone(),
                         _ => shafts[k - 2] = touch.force_n,
                     }
                 }
             }
-            Err(_) => {
+            Some(_) => self.touches = Default::default(),
+            None => {
                 self.touches = Default::default();
                 self.metrics.contact_failures += 1;
             }
         }
-        self.times[0] += t0.elapsed().as_secs_f64();
         // The instruments feel minus what the tissue takes from their ends and shafts.
         self.reactions = [0, 1].map(|k| (-(self.touches[k].force_n + shafts[k])).as_vec3());
         let m = &mut self.metrics;
@@ -411,7 +438,7 @@ impl Myotomy {
     pub fn snapshot(&mut self, step: u64) -> Snapshot {
         let models = self.drawing.models(
             &self.esophagus,
-            &self.palpation,
+            self.world.model(WALL).palpation(),
             &self.incision,
             &self.cut_depth,
         );
@@ -432,16 +459,7 @@ impl Myotomy {
     /// Digest of the contact state, the incision and the task's progress.
     pub fn state_hash(&self) -> u64 {
         let mut h = Fnv::default();
-        let c = &self.palpation.contacts;
-        h.write(c.set().len() as u32);
-        for (k, &e) in c.set().iter().enumerate() {
-            h.write(e as u32);
-            for x in c.traction(k).to_array() {
-                let b = x.to_bits();
-                h.write(b as u32);
-                h.write((b >> 32) as u32);
-            }
-        }
+        self.palpation().contacts.digest(&mut h);
         for &d in &self.depth_bands {
             h.write(d.to_bits() as u32);
         }

@@ -73,7 +73,7 @@ impl Run {
         let e = &self.m.esophagus;
         e.field
             .iter()
-            .map(|&i| self.m.palpation.rest(i))
+            .map(|&i| self.m.palpation().rest(i))
             .filter(|p| (p.z - z).abs() < 0.003 && p.x.abs() < 0.004)
             .map(|p| p.y as f32)
             .fold(0.0, f32::max)

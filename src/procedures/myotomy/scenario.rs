@@ -12,22 +12,6 @@ use serde::Deserialize;
 /// The name scenarios and traces give this procedure.
 pub const NAME: &str = "myotomy";
 
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Scenario {
-    /// Always [`NAME`].
-    pub procedure: String,
-    pub dt_s: f32,
-    pub publish_hz: f32,
-    /// What a headset shows (`[headset]`; optional).
-    #[serde(default)]
-    pub headset: crate::scenario::Headset,
-    pub esophagus: EsophagusTable,
-    pub relaxation: RelaxationTable,
-    pub tools: Tools,
-    pub task: Task,
-}
-
 /// The esophagus's size, resolution, tissue and pressure.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -288,6 +272,7 @@ impl Params for Task {
 crate::scenario_tables! {
     name: NAME,
     dt: (0.001, "the simulation step: every step updates the contacts from the precomputed responses"),
+    nodes: triangles,
     tables: [
         ("esophagus", esophagus, EsophagusTable),
         ("relaxation", relaxation, RelaxationTable),

@@ -88,32 +88,20 @@ pub const INFO: super::ProcedureInfo = super::ProcedureInfo {
         Vec3::new(-0.03135, 0.04888, 0.14317),
         Vec3::new(0.09865, 0.04888, 0.14317),
     ],
-    // Tables 2 and 3 of the paper.
-    profile_reference: Some(|| [crate::profiler::paper_cpu(), crate::profiler::paper_gpu()]),
     param_tables: scenario::PARAM_TABLES,
-    bench_all_awake_s: crate::sim::ALL_AWAKE_S,
-    scope_hand: None,
-    swap: &[],
-    legacy_tuned_model: Some(TUNED_MODEL),
     assessment: include_str!("../../../assets/assessment/nephrectomy.toml"),
     field: field::field,
     blank_metrics: || serde_json::to_value(Metrics::default()).unwrap_or_default(),
-    haptic_device: crate::sim::DeviceChoice::Phantom,
-    bench_extra: None,
-    cases: cases::cases,
-    precompute: None,
-    plan,
+    plan: scenario::plan,
     build,
+    options: crate::sim::Options {
+        // Tables 2 and 3 of the paper.
+        profile_reference: Some(|| [crate::profiler::paper_cpu(), crate::profiler::paper_gpu()]),
+        legacy_tuned_model: Some(TUNED_MODEL),
+        cases: cases::cases,
+        ..crate::sim::Options::NONE
+    },
 };
-
-fn plan(file: &str, text: &str) -> Result<super::Plan, crate::scenario::InputError> {
-    let s = Scenario::parse(file, text)?;
-    Ok(super::Plan {
-        dt_s: s.dt_s,
-        publish_hz: s.publish_hz,
-        nodes: s.estimated_nodes(),
-    })
-}
 
 fn build(file: &str, text: &str) -> Result<Box<dyn super::Procedure>, super::BuildError> {
     let s = Scenario::parse(file, text)?;

@@ -15,27 +15,6 @@ pub const VULNERABLE_MODELS: [&str; 3] = ["renal_artery", "renal_vein", "ureter"
 
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct Scenario {
-    /// A registered procedure's name.
-    pub procedure: String,
-    /// Simulation step, s (the top-level [`Timing`] table).
-    pub dt_s: f32,
-    /// Snapshot publication rate for renderers, Hz.
-    pub publish_hz: f32,
-    /// What a headset shows (`[headset]`; optional).
-    #[serde(default)]
-    pub headset: crate::scenario::Headset,
-    pub anatomy: Anatomy,
-    pub kidney: SoftBodyParams,
-    pub vessels: SoftBodyParams,
-    pub tools: Tools,
-    pub task: Task,
-    pub vulnerable: Vec<Vulnerable>,
-    pub weights: Weights,
-}
-
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
 pub struct Anatomy {
     /// Icosphere subdivision level of kidney and tumour (5 = full scene, 3 = coarse).
     pub level: u32,
@@ -411,6 +390,7 @@ impl Params for Weights {
 crate::scenario_tables! {
     name: super::INFO.name,
     dt: (0.004, "simulation step (0.004: 250 Hz; a force-feedback servo renders at 1 kHz between steps)"),
+    nodes: estimated_nodes,
     tables: [
         ("anatomy", anatomy, Anatomy),
         ("kidney", kidney, SoftBodyParams),
@@ -418,6 +398,9 @@ crate::scenario_tables! {
         ("tools", tools, Tools),
         ("task", task, Task),
         ("weights", weights, Weights),
+    ],
+    extra: [
+        vulnerable: Vec<Vulnerable>,
     ],
 }
 

@@ -35,8 +35,8 @@ fn load_on_rod() -> Measured {
     let Ok(mut s) = RectumScene::new(&a, SceneParams::default()) else {
         return Measured::not_run(reference);
     };
-    s.membrane.detach_layer(LAYERS - 1);
-    s.membrane.stay_awake();
+    s.membrane_mut().detach_layer(LAYERS - 1);
+    s.membrane_mut().stay_awake();
     let patch = s.top_patch(1, 2);
     let idle = ToolState {
         hook: None,
@@ -48,9 +48,9 @@ fn load_on_rod() -> Measured {
     let mut on_rod = Vec3::ZERO;
     for _ in 0..steps {
         for &n in &patch {
-            s.membrane.add_force(n, load / patch.len() as f32);
+            s.membrane_mut().add_force(n, load / patch.len() as f32);
         }
-        on_rod = s.step(1e-3, &idle).membrane_on_rod_n;
+        on_rod = s.step(1e-3, &idle, 0, &mut Vec::new()).membrane_on_rod_n;
     }
     // The load's component along itself: what the rod takes of it.
     let along = on_rod.as_dvec3().dot(load.as_dvec3().normalize());

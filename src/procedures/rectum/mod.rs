@@ -5,6 +5,7 @@
 
 pub mod anatomy;
 mod cases;
+mod coupling;
 mod field;
 mod plugin;
 mod procedure;

@@ -4,12 +4,12 @@
 use super::procedure::{Metrics, Rectum, STEPS};
 use super::scenario::{self, NAME, Scenario};
 use crate::procedures::{
-    BuildError, MassSpring, ModelReport, Plan, Procedure, ProcedureInfo, ProcedureReport,
-    TaskStatus, ToolInfo, ToolKind, Viewpoint,
+    BuildError, MassSpring, ModelReport, Procedure, ProcedureInfo, TaskStatus, ToolInfo, ToolKind,
+    Viewpoint,
 };
 use crate::scenario::InputError;
 use crate::sim::{Hand, TissueModel};
-use crate::sim::{completion_share, time_efficiency};
+use crate::sim::{completion_share, time_efficiency, weighted_score};
 use glam::Vec3;
 use serde::Serialize;
 
@@ -46,39 +46,28 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
     },
     // Over the anterior field, out of the tissue, pointing down.
     desk_park: [Vec3::new(0.05, 0.06, 0.03), Vec3::new(0.1, 0.06, 0.03)],
-    profile_reference: None,
     param_tables: scenario::PARAM_TABLES,
-    // 20 steps: each all-awake step is some 40 explicit steps of all 960,000 nodes.
-    bench_all_awake_s: 0.02,
-    // The paper: "The left haptic device can also be used as a navigation camera".
-    scope_hand: Some(Hand::Left),
-    // The paper's test: one L-hook and two graspers; the right hand changes between them.
-    swap: &[ToolInfo {
-        hand: Hand::Right,
-        name: "right grasper",
-        kind: ToolKind::Grasper,
-        full_scale_n: 5.0,
-    }],
-    legacy_tuned_model: None,
     assessment: include_str!("../../../assets/assessment/rectum.toml"),
     field: super::field::field,
     blank_metrics: || serde_json::to_value(Metrics::default()).unwrap_or_default(),
-    haptic_device: crate::sim::DeviceChoice::Phantom,
-    bench_extra: None,
-    cases: super::cases::cases,
-    precompute: None,
-    plan,
+    plan: scenario::plan,
     build,
+    options: crate::sim::Options {
+        // 20 steps: each all-awake step is some 40 explicit steps of all 960,000 nodes.
+        bench_all_awake_s: 0.02,
+        // The paper: "The left haptic device can also be used as a navigation camera".
+        scope_hand: Some(Hand::Left),
+        // The paper's test: one L-hook and two graspers; the right hand changes between them.
+        swap: &[ToolInfo {
+            hand: Hand::Right,
+            name: "right grasper",
+            kind: ToolKind::Grasper,
+            full_scale_n: 5.0,
+        }],
+        cases: super::cases::cases,
+        ..crate::sim::Options::NONE
+    },
 };
-
-fn plan(file: &str, text: &str) -> Result<Plan, InputError> {
-    let s = Scenario::parse(file, text)?;
-    Ok(Plan {
-        dt_s: s.dt_s,
-        publish_hz: s.publish_hz,
-        nodes: s.nodes(),
-    })
-}
 
 fn build(file: &str, text: &str) -> Result<Box<dyn Procedure>, BuildError> {
     let s = Scenario::parse(file, text)?;
@@ -117,15 +106,16 @@ pub fn score(s: &Scenario, m: &Metrics) -> (f32, ScoreParts) {
         precision: m.correct_cut_ratio,
         penalty: ALARM_PENALTY * m.alarms as f32,
     };
-    let total = COMPLETION_POINTS * parts.completion
-        + EFFICIENCY_POINTS * parts.efficiency
-        + PRECISION_POINTS * parts.precision
-        - parts.penalty;
-    (total.clamp(0.0, 100.0), parts)
+    let weighted = [
+        (COMPLETION_POINTS, parts.completion),
+        (EFFICIENCY_POINTS, parts.efficiency),
+        (PRECISION_POINTS, parts.precision),
+    ];
+    (weighted_score(&weighted, parts.penalty), parts)
 }
 
 impl Procedure for Rectum {
-    crate::procedure_basics!(INFO);
+    crate::procedure_basics!(INFO, report(errors: metrics.alarms), models: [scene]);
 
     fn status(&self, near_m: f32) -> TaskStatus {
         let m = &self.metrics;
@@ -155,17 +145,6 @@ impl Procedure for Rectum {
         }
     }
 
-    fn report(&self) -> ProcedureReport {
-        let (score, parts) = score(&self.scenario, &self.metrics);
-        ProcedureReport::of(
-            self.is_completed(),
-            self.metrics.alarms,
-            &self.metrics,
-            &parts,
-            score,
-        )
-    }
-
     fn reactions(&self) -> [Vec3; 2] {
         Rectum::reactions(self)
     }
@@ -177,8 +156,8 @@ impl Procedure for Rectum {
     }
 
     fn model_reports(&self) -> Vec<ModelReport> {
-        let rod = &self.scene.rod;
-        let m = &self.scene.membrane;
+        let rod = self.scene.rod();
+        let m = self.scene.membrane();
         vec![
             ModelReport {
                 name: "rectum".to_string(),
@@ -219,24 +198,17 @@ impl Procedure for Rectum {
         ]
     }
 
+    /// The world's (the rod, the membrane), then the couplings' as the collision's.
     fn model_times(&self) -> Vec<f64> {
-        let [rod, collision, membrane] = self.scene.times;
+        let [rod, collision, membrane] = self.scene.times();
         vec![rod, membrane, collision]
     }
 
+    /// The collision works on the membrane's awake tiles.
     fn awake_fractions(&self) -> Vec<f64> {
-        let a = self.scene.membrane.awake_fraction();
-        vec![1.0, a, a]
-    }
-
-    fn stay_awake(&mut self) {
-        self.scene.membrane.stay_awake();
-    }
-
-    fn memory(&self) -> Vec<(&'static str, usize)> {
-        let mut out = TissueModel::memory(&self.scene.rod);
-        out.push(("membrane", self.scene.membrane.heap_bytes()));
-        out
+        let mut a = self.scene.world().awake_fractions();
+        a.push(a[1]);
+        a
     }
 
     fn state_hash(&self) -> u64 {

@@ -260,14 +260,14 @@ impl Rectum {
             grasper: Some((grasper.pose.position, grasper.pose.orientation, closed)),
             grasper_right: (!with_hook).then_some((right_pose.0, right_pose.1, right_closed)),
         };
-        let was_held = [0, 1].map(|h| self.scene.rod.grip(h).is_some());
-        let out = self.scene.step(dt, &tools);
-        let held = [0, 1].map(|h| self.scene.rod.grip(h).is_some());
+        let was_held = [0, 1].map(|h| self.scene.rod().grip(h).is_some());
+        let out = self.scene.step(dt, &tools, step, &mut ev);
+        let held = [0, 1].map(|h| self.scene.rod().grip(h).is_some());
         self.lift_now_m = None;
         for hand in 0..2 {
             let name = ["grasper", "right grasper"][hand];
             if held[hand] && !was_held[hand] {
-                self.grasp_from[hand] = self.scene.rod.held_point(hand);
+                self.grasp_from[hand] = self.scene.rod().held_point(hand);
                 ev.push(EventKind::Grasp {
                     tool: name.to_string(),
                     model: "rectum".to_string(),
@@ -280,7 +280,7 @@ impl Rectum {
                 });
             }
             if let (Some(from), Some(now)) =
-                (self.grasp_from[hand], self.scene.rod.held_point(hand))
+                (self.grasp_from[hand], self.scene.rod().held_point(hand))
             {
                 let lift = now.distance(from);
                 self.max_lift_m = self.max_lift_m.max(lift);
@@ -293,7 +293,7 @@ impl Rectum {
         let held = held[0];
         let end = self.hook_end(&tools);
         self.measure(&out, end, hook.pose.forward(), held, dt, &mut ev);
-        let held_right = self.scene.rod.grip(1).is_some();
+        let held_right = self.scene.rod().grip(1).is_some();
         self.tools = [
             ToolSnapshot {
                 tip: grasper.pose.position,
@@ -526,8 +526,8 @@ impl Rectum {
     }
 
     pub fn snapshot(&mut self, step: u64) -> Snapshot {
-        let rectum = TissueModel::render_mesh(&mut self.scene.rod);
-        let m = &self.scene.membrane;
+        let rectum = TissueModel::render_mesh(self.scene.rod_mut());
+        let m = self.scene.membrane();
         let fascia = grid_mesh(
             m,
             &[1, 2],
@@ -576,8 +576,8 @@ impl Rectum {
     pub fn state_hash(&self) -> u64 {
         let mut h = Fnv::default();
         for v in [
-            TissueModel::state_hash(&self.scene.rod),
-            self.scene.membrane.state_hash(),
+            TissueModel::state_hash(self.scene.rod()),
+            self.scene.membrane().state_hash(),
         ] {
             h.write(v as u32);
             h.write((v >> 32) as u32);
@@ -613,7 +613,7 @@ struct SpringCut {
 /// m, and the angle between the shaft's axis `axis` and that line, degrees (0 to 90; none
 /// when no cells were cut).
 fn plane_geometry(scene: &RectumScene, end: Vec3, axis: Vec3, cells: &[u32]) -> (f32, Option<f32>) {
-    let m = &scene.membrane;
+    let m = &scene.membrane();
     let cols = m.cols();
     if cells.is_empty() {
         return (0.0, None);

@@ -24,7 +24,7 @@ fn from_above() -> Quat {
 
 /// The hook's corner for its end to sit between the fasciae at row `i`, column `j`.
 fn in_plane(r: &Rectum, i: usize, j: usize) -> Vec3 {
-    let m = &r.scene.membrane;
+    let m = &r.scene.membrane();
     0.5 * (m.position(m.node(1, i, j)) + m.position(m.node(2, i, j))) + Vec3::new(0.0, 0.0, 0.006)
 }
 
@@ -72,7 +72,7 @@ fn the_shipped_scenario_is_the_papers_grid_and_bad_values_name_their_key() {
 #[test]
 fn cutting_in_the_target_counts_correct_cuts_and_raises_spring_cut_events() {
     let mut r = rectum(coarse(|t| t));
-    let (rows, cols) = (r.scene.membrane.rows(), r.scene.membrane.cols());
+    let (rows, cols) = (r.scene.membrane().rows(), r.scene.membrane().cols());
     let (cut0, total) = r.scene.target_progress();
     assert_eq!(cut0, 0);
     // The target: rows 0.475-0.525 of 60 (rows 28-31), 80 degrees of 48 columns round the
@@ -111,8 +111,8 @@ fn cutting_in_the_target_counts_correct_cuts_and_raises_spring_cut_events() {
 #[test]
 fn the_hook_on_a_ureter_raises_an_alarm_event_in_that_step() {
     let mut r = rectum(coarse(|t| t));
-    let (rows, cols) = (r.scene.membrane.rows(), r.scene.membrane.cols());
-    let m = &r.scene.membrane;
+    let (rows, cols) = (r.scene.membrane().rows(), r.scene.membrane().cols());
+    let m = &r.scene.membrane();
     let ureter = m.position(m.node(3, rows / 5, cols / 4)) + Vec3::new(0.0, 0.0, 0.006);
     let mut events = Vec::new();
     r.step(&hook_at(ureter, false), 0, &mut events);
@@ -131,7 +131,7 @@ fn the_hook_on_a_ureter_raises_an_alarm_event_in_that_step() {
 #[test]
 fn the_drawn_layers_show_the_dissection_and_the_vulnerable_structures() {
     let mut r = rectum(coarse(|t| t));
-    let rows = r.scene.membrane.rows();
+    let rows = r.scene.membrane().rows();
     let corner = in_plane(&r, rows / 2, 0);
     let mut events = Vec::new();
     r.step(&hook_at(corner, true), 0, &mut events);
@@ -172,7 +172,7 @@ fn springs_cut(events: &[SimEvent], step: u64) -> u64 {
 #[test]
 fn cutting_gives_off_smoke_at_the_hooks_end_that_is_forgotten_after_two_seconds() {
     let mut r = rectum(coarse(|t| t));
-    let rows = r.scene.membrane.rows();
+    let rows = r.scene.membrane().rows();
     let mut events = Vec::new();
     let corner = in_plane(&r, rows / 2, 0);
     r.step(&hook_at(corner, false), 0, &mut events);
@@ -294,8 +294,8 @@ fn changes(events: &[SimEvent]) -> Vec<String> {
 #[test]
 fn the_right_hand_changes_hook_for_grasper_and_instrument_selection_follows_the_task() {
     let mut r = rectum(coarse(|t| t));
-    let rows = r.scene.membrane.rows();
-    let m = &r.scene.membrane;
+    let rows = r.scene.membrane().rows();
+    let m = &r.scene.membrane();
     let top = m.position(m.node(0, rows / 2, 0));
     let mut events = Vec::new();
     // The primary button pressed and held for three steps: one change, to the grasper.
@@ -320,8 +320,8 @@ fn the_right_hand_changes_hook_for_grasper_and_instrument_selection_follows_the_
             break;
         }
     }
-    assert!(r.scene.rod.grip(1).is_some(), "the right grasper holds");
-    assert!(r.scene.rod.grip(0).is_none(), "the left one does not");
+    assert!(r.scene.rod().grip(1).is_some(), "the right grasper holds");
+    assert!(r.scene.rod().grip(0).is_none(), "the left one does not");
     assert!(
         events.iter().any(|e| matches!(&e.kind,
             EventKind::Grasp { tool, .. } if tool == "right grasper")),
@@ -355,7 +355,7 @@ fn the_right_hand_changes_hook_for_grasper_and_instrument_selection_follows_the_
     r.step(&input, step, &mut events);
     assert_eq!(changes(&events), ["right grasper", "hook"]);
     assert_eq!(r.metrics.instrument_changes, 2);
-    assert!(r.scene.rod.grip(1).is_none());
+    assert!(r.scene.rod().grip(1).is_none());
     assert_eq!(r.snapshot(step + 1).tools[1].instrument, 0);
     assert!(events.iter().any(|e| matches!(&e.kind,
         EventKind::Release { tool } if tool == "right grasper")));

@@ -163,12 +163,9 @@ impl TissueModel for RectumRod {
         self.rod.is_finite()
     }
 
-    /// A NaN force on the first node for the next step (past `add_node_force`, which
-    /// refuses one).
-    fn inject_nan(&mut self) {
-        if let Some(f) = self.load.first_mut() {
-            *f = DVec3::NAN;
-        }
+    /// A NaN speed on the rod's middle node (the given loads refuse a NaN force).
+    fn inject_nan(&mut self) -> bool {
+        self.rod.inject_nan()
     }
 
     /// The rod's digest, then each grasp's material point and jaw.

@@ -13,24 +13,6 @@ use serde::Deserialize;
 /// The name scenarios and traces give this procedure.
 pub const NAME: &str = "rectum";
 
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Scenario {
-    /// Always [`NAME`].
-    pub procedure: String,
-    /// Simulation step, s.
-    pub dt_s: f32,
-    /// Snapshots published for renderers per second, Hz.
-    pub publish_hz: f32,
-    /// What a headset shows (`[headset]`; optional).
-    #[serde(default)]
-    pub headset: crate::scenario::Headset,
-    pub anatomy: AnatomyTable,
-    pub membrane: MembraneTable,
-    pub tools: Tools,
-    pub task: Task,
-}
-
 /// The generated anatomy ([`AnatomyParams`]).
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -371,6 +353,7 @@ crate::scenario_tables! {
     name: NAME,
     dt: (0.001, "simulation step (0.001: the paper's 1 kHz force loop; the membrane takes as many \
          explicit substeps within it as its stability needs)"),
+    nodes: nodes,
     tables: [
         ("anatomy", anatomy, AnatomyTable),
         ("membrane", membrane, MembraneTable),

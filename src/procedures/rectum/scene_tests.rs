@@ -1,4 +1,6 @@
 use super::*;
+use crate::collision::{Instrument, PointCloud};
+use crate::procedures::rectum::regions::RegionKind;
 use crate::procedures::rectum::{Anatomy, AnatomyParams};
 
 /// A coarse anatomy (60 rows x 48 columns) and its scene.
@@ -20,13 +22,13 @@ fn from_above() -> Quat {
 #[test]
 fn lifting_the_rectum_carries_layer_zero_and_leaves_the_pelvis() {
     let mut s = scene();
-    let (rows, cols) = (s.membrane.rows(), s.membrane.cols());
+    let (rows, cols) = (s.membrane().rows(), s.membrane().cols());
     let mid = rows / 2;
-    let start: Vec<Vec3> = (0..s.membrane.len())
-        .map(|n| s.membrane.position(n))
+    let start: Vec<Vec3> = (0..s.membrane().len())
+        .map(|n| s.membrane().position(n))
         .collect();
     // The grasper closes on the top of the rectum (column 0 faces +y) and lifts 6 mm in 0.3 s.
-    let top = start[s.membrane.node(0, mid, 0)];
+    let top = start[s.membrane().node(0, mid, 0)];
     let mut tools = ToolState {
         hook: None,
         cutting: false,
@@ -36,12 +38,12 @@ fn lifting_the_rectum_carries_layer_zero_and_leaves_the_pelvis() {
     for k in 0..300 {
         let lift = 0.006 * (k as f32 / 299.0);
         tools.grasper = Some((top + Vec3::Y * lift, from_above(), true));
-        s.step(1e-3, &tools);
+        s.step(1e-3, &tools, 0, &mut Vec::new());
     }
     s.place_everything();
     let moved = |l: usize, i: usize, j: usize| {
-        let n = s.membrane.node(l, i, j);
-        s.membrane.position(n) - start[n]
+        let n = s.membrane().node(l, i, j);
+        s.membrane().position(n) - start[n]
     };
     // Under the grasp layer 0 rose most of the lift; near the clamped ends hardly at all.
     let under = moved(0, mid, 0).y;
@@ -58,11 +60,11 @@ fn lifting_the_rectum_carries_layer_zero_and_leaves_the_pelvis() {
 #[test]
 fn the_hook_pushes_the_membrane_and_feels_it_and_cuts_the_plane() {
     let mut s = scene();
-    let mid = s.membrane.rows() / 2;
+    let mid = s.membrane().rows() / 2;
     // The dissection plane on top of the rectum, half way between layers 1 and 2.
     let plane = 0.5
-        * (s.membrane.position(s.membrane.node(1, mid, 0))
-            + s.membrane.position(s.membrane.node(2, mid, 0)));
+        * (s.membrane().position(s.membrane().node(1, mid, 0))
+            + s.membrane().position(s.membrane().node(2, mid, 0)));
     // The hook's end there, its shaft coming down from above through layers 2 and 3.
     let corner = plane + Vec3::new(0.0, 0.0, 0.006);
     let tools = ToolState {
@@ -71,7 +73,7 @@ fn the_hook_pushes_the_membrane_and_feels_it_and_cuts_the_plane() {
         grasper: None,
         grasper_right: None,
     };
-    let out = s.step(1e-3, &tools);
+    let out = s.step(1e-3, &tools, 0, &mut Vec::new());
     assert!(out.hook_contacts > 0, "{out:?}");
     assert!(out.hook_n.length() > 0.0 && out.substeps >= 1, "{out:?}");
     // With the current on, the plane springs around the hook's end go.
@@ -81,24 +83,26 @@ fn the_hook_pushes_the_membrane_and_feels_it_and_cuts_the_plane() {
             cutting: true,
             ..tools
         },
+        1,
+        &mut Vec::new(),
     );
     assert!(cut.cut > 0, "{cut:?}");
-    assert!(!s.membrane.link_alive(1, mid, 0));
+    assert!(!s.membrane().link_alive(1, mid, 0));
     // Links 1-2 elsewhere are still there.
-    assert!(s.membrane.link_alive(1, 2, s.membrane.cols() / 2));
-    assert!(s.membrane.link_alive(0, mid, 0));
+    assert!(s.membrane().link_alive(1, 2, s.membrane().cols() / 2));
+    assert!(s.membrane().link_alive(0, mid, 0));
 }
 
 /// The hook's corner for its end to sit on node `(l, i, j)`, shaft from above.
 fn hook_on(s: &RectumScene, l: usize, i: usize, j: usize) -> Vec3 {
-    s.membrane.position(s.membrane.node(l, i, j)) + Vec3::new(0.0, 0.0, 0.006)
+    s.membrane().position(s.membrane().node(l, i, j)) + Vec3::new(0.0, 0.0, 0.006)
 }
 
 #[test]
 fn regions_lie_where_the_anatomy_says() {
     let s = scene();
-    let (rows, cols) = (s.membrane.rows(), s.membrane.cols());
-    let name = |l, i, j| regions::region(s.region_of(s.membrane.node(l, i, j))).map(|r| r.name);
+    let (rows, cols) = (s.membrane().rows(), s.membrane().cols());
+    let name = |l, i, j| regions::region(s.region_of(s.membrane().node(l, i, j))).map(|r| r.name);
     // The plane (layers 1 and 2) in the middle, all round; not at the ends, not layer 0.
     assert_eq!(name(1, rows / 2, 0), Some("dissection_plane"));
     assert_eq!(name(2, rows / 2, cols / 2), Some("dissection_plane"));
@@ -115,19 +119,19 @@ fn regions_lie_where_the_anatomy_says() {
 #[test]
 fn touching_a_ureter_raises_its_alarm_at_once_and_only_once() {
     let mut s = scene();
-    let (rows, cols) = (s.membrane.rows(), s.membrane.cols());
+    let (rows, cols) = (s.membrane().rows(), s.membrane().cols());
     let (l, i, j) = (3, rows / 5, cols / 4);
-    let ureter = 1 << s.region_of(s.membrane.node(l, i, j));
+    let ureter = 1 << s.region_of(s.membrane().node(l, i, j));
     let tools = ToolState {
         hook: Some((hook_on(&s, l, i, j), from_above())),
         cutting: false,
         grasper: None,
         grasper_right: None,
     };
-    let first = s.step(1e-3, &tools);
+    let first = s.step(1e-3, &tools, 0, &mut Vec::new());
     assert!(first.hook_contacts > 0, "{first:?}");
     assert_eq!(first.alarms & ureter, ureter, "{first:?}");
-    let second = s.step(1e-3, &tools);
+    let second = s.step(1e-3, &tools, 0, &mut Vec::new());
     assert_eq!(second.touching & ureter, ureter, "{second:?}");
     assert_eq!(second.alarms, 0, "{second:?}");
 }
@@ -135,17 +139,17 @@ fn touching_a_ureter_raises_its_alarm_at_once_and_only_once() {
 #[test]
 fn cutting_on_the_rectal_wall_raises_an_alarm_and_cutting_in_the_plane_does_not() {
     let mut s = scene();
-    let mid = s.membrane.rows() / 2;
+    let mid = s.membrane().rows() / 2;
     let plane = 0.5
-        * (s.membrane.position(s.membrane.node(1, mid, 0))
-            + s.membrane.position(s.membrane.node(2, mid, 0)));
+        * (s.membrane().position(s.membrane().node(1, mid, 0))
+            + s.membrane().position(s.membrane().node(2, mid, 0)));
     let in_plane = ToolState {
         hook: Some((plane + Vec3::new(0.0, 0.0, 0.006), from_above())),
         cutting: true,
         grasper: None,
         grasper_right: None,
     };
-    let out = s.step(1e-3, &in_plane);
+    let out = s.step(1e-3, &in_plane, 0, &mut Vec::new());
     assert!(out.cut > 0 && out.alarms == 0, "{out:?}");
     let mut s = scene();
     let wall = ToolState {
@@ -154,7 +158,7 @@ fn cutting_on_the_rectal_wall_raises_an_alarm_and_cutting_in_the_plane_does_not(
         grasper: None,
         grasper_right: None,
     };
-    let out = s.step(1e-3, &wall);
+    let out = s.step(1e-3, &wall, 0, &mut Vec::new());
     assert_eq!(out.alarms & ALARM_RECTAL_WALL, ALARM_RECTAL_WALL, "{out:?}");
 }
 
@@ -166,14 +170,14 @@ fn cutting_on_the_rectal_wall_raises_an_alarm_and_cutting_in_the_plane_does_not(
 fn carry(load: Vec3, steps: usize, direct: bool, wall: bool) -> (f64, Vec3) {
     let mut s = scene();
     if !wall {
-        s.membrane.detach_layer(LAYERS - 1);
+        s.membrane_mut().detach_layer(LAYERS - 1);
     }
-    s.membrane.stay_awake();
-    let (rows, cols) = (s.membrane.rows(), s.membrane.cols());
+    s.membrane_mut().stay_awake();
+    let (rows, cols) = (s.membrane().rows(), s.membrane().cols());
     let mid = rows / 2;
     let patch = s.top_patch(1, 2);
-    let rest: Vec<glam::DVec3> = s.rod.rod().positions().to_vec();
-    let (e, u, _) = s.skin.binding(mid * cols).expect("bound");
+    let rest: Vec<glam::DVec3> = s.rod().rod().positions().to_vec();
+    let (e, u, _) = s.skin_binding(mid * cols).expect("bound");
     let idle = ToolState {
         hook: None,
         cutting: false,
@@ -183,21 +187,21 @@ fn carry(load: Vec3, steps: usize, direct: bool, wall: bool) -> (f64, Vec3) {
     let mut pull = Vec3::ZERO;
     for _ in 0..steps {
         if direct {
-            let x = s.rod.rod().positions();
+            let x = s.rod().rod().positions();
             let axis = x[e] + (x[e + 1] - x[e]) * f64::from(u);
-            let at = s.membrane.anchor_pull(mid, 0).expect("node").0.as_dvec3();
-            s.rod
+            let at = s.membrane().anchor_pull(mid, 0).expect("node").0.as_dvec3();
+            s.rod_mut()
                 .add_surface_force(e, f64::from(u), at - axis, load.as_dvec3(), 0.0);
         } else {
             for &n in &patch {
-                s.membrane.add_force(n, load / patch.len() as f32);
+                s.membrane_mut().add_force(n, load / patch.len() as f32);
             }
         }
-        pull = s.step(1e-3, &idle).membrane_on_rod_n;
+        pull = s.step(1e-3, &idle, 0, &mut Vec::new()).membrane_on_rod_n;
     }
     let along = load.as_dvec3().normalize();
     let most = s
-        .rod
+        .rod()
         .rod()
         .positions()
         .iter()
@@ -248,12 +252,12 @@ fn the_broad_phase_finds_what_testing_every_node_finds() {
     // the same contacts as every node, and the same nearest vulnerable node within the near
     // distance (none at the front).
     let mut s = scene();
-    s.membrane.stay_awake();
-    let (rows, cols) = (s.membrane.rows(), s.membrane.cols());
+    s.membrane_mut().stay_awake();
+    let (rows, cols) = (s.membrane().rows(), s.membrane().cols());
     let mid = rows / 2;
     let plane = 0.5
-        * (s.membrane.position(s.membrane.node(1, mid, 0))
-            + s.membrane.position(s.membrane.node(2, mid, 0)));
+        * (s.membrane().position(s.membrane().node(1, mid, 0))
+            + s.membrane().position(s.membrane().node(2, mid, 0)));
     let corners = [
         plane + Vec3::new(0.0, 0.0, 0.006),
         hook_on(&s, 3, rows / 5, cols / 4),
@@ -266,20 +270,21 @@ fn the_broad_phase_finds_what_testing_every_node_finds() {
             grasper_right: None,
         };
         for _ in 0..3 {
-            s.step(1e-3, &tools);
+            s.step(1e-3, &tools, 0, &mut Vec::new());
         }
         let hook = Instrument::l_hook(corner, from_above()).expect("hook");
-        s.near_vulnerable = None;
+        s.joints.near_vulnerable = None;
         s.press_membrane(&hook);
         let mut near: Vec<u32> = s
+            .joints
             .contacts
             .iter()
-            .map(|c| s.nodes[c.vertex as usize])
+            .map(|c| s.joints.nodes[c.vertex as usize])
             .collect();
         near.sort_unstable();
-        let tested = s.nodes.len();
-        let everything: Vec<Vec3> = (0..s.membrane.len())
-            .map(|n| s.membrane.position(n))
+        let tested = s.joints.nodes.len();
+        let everything: Vec<Vec3> = (0..s.membrane().len())
+            .map(|n| s.membrane().position(n))
             .collect();
         let mut all = Vec::new();
         hook.contacts_all(PointCloud::from_points(&everything), &mut all);
@@ -288,20 +293,20 @@ fn the_broad_phase_finds_what_testing_every_node_finds() {
         assert_eq!(near, all, "corner {k}");
         assert!(k == 1 || !all.is_empty(), "corner {k}: the hook touches");
         assert!(
-            tested < s.membrane.len() / 4,
+            tested < s.membrane().len() / 4,
             "corner {k}: {tested} nodes tested"
         );
         let end = hook.cylinders()[1].p1();
-        let nearest = (0..s.membrane.len())
+        let nearest = (0..s.membrane().len())
             .filter(|&n| {
                 regions::region(s.region_of(n)).is_some_and(|r| r.kind == RegionKind::Vulnerable)
             })
-            .map(|n| (s.region_of(n), s.membrane.position(n).distance(end)))
+            .map(|n| (s.region_of(n), s.membrane().position(n).distance(end)))
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .filter(|n| n.1 <= s.params.near_m);
         assert_eq!(nearest.is_some(), k == 1, "corner {k}: {nearest:?}");
         assert_eq!(
-            s.near_vulnerable.filter(|n| n.1 <= s.params.near_m),
+            s.joints.near_vulnerable.filter(|n| n.1 <= s.params.near_m),
             nearest
         );
     }

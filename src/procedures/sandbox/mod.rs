@@ -82,21 +82,13 @@ pub const INFO: ProcedureInfo = ProcedureInfo {
     },
     // Where the demo trace starts the instruments: over the block's front corners, in view.
     desk_park: [Vec3::new(-0.04, 0.06, 0.03), Vec3::new(0.04, 0.06, 0.03)],
-    profile_reference: None,
     param_tables: scenario::PARAM_TABLES,
-    bench_all_awake_s: crate::sim::ALL_AWAKE_S,
-    scope_hand: None,
-    swap: &[],
-    legacy_tuned_model: None,
     assessment: include_str!("../../../assets/assessment/sandbox.toml"),
     field: field::field,
     blank_metrics: || serde_json::to_value(Metrics::default()).unwrap_or_default(),
-    haptic_device: crate::sim::DeviceChoice::Phantom,
-    bench_extra: None,
-    cases: Vec::new,
-    precompute: None,
-    plan,
+    plan: scenario::plan,
     build,
+    options: crate::sim::Options::NONE,
 };
 
 /// The role of each region, by region index.
@@ -112,15 +104,6 @@ pub(super) const BLOCK: ModelId = ModelId(0);
 const MAX_HELD: usize = 24;
 /// A tip within this many radii of the surface is handed to the model as a contact.
 const NEAR_RADII: f32 = 1.5;
-
-fn plan(file: &str, text: &str) -> Result<super::Plan, crate::scenario::InputError> {
-    let s = Scenario::parse(file, text)?;
-    Ok(super::Plan {
-        dt_s: s.dt_s,
-        publish_hz: s.publish_hz,
-        nodes: s.points(),
-    })
-}
 
 fn build(file: &str, text: &str) -> Result<Box<dyn super::Procedure>, super::BuildError> {
     Ok(Box::new(Sandbox::new(Scenario::parse(file, text)?)?))

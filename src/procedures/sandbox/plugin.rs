@@ -3,7 +3,7 @@
 use super::{INFO, MODEL, Metrics, STEPS, Sandbox, Scenario};
 use crate::params::TuneError;
 use crate::procedures::soft_tissue;
-use crate::procedures::{Procedure, ProcedureReport, TaskStatus, Tunable};
+use crate::procedures::{Procedure, TaskStatus, Tunable};
 use crate::sim::{ModelSet, completion_share, time_efficiency};
 use glam::Vec3;
 use serde::Serialize;
@@ -29,12 +29,15 @@ pub fn score(s: &Scenario, m: &Metrics) -> (f32, ScoreParts) {
         completion: completion_share(m.steps_done.len(), STEPS.len()),
         efficiency: time_efficiency(f64::from(s.task.target_time_s), m.completion_time_s),
     };
-    let total = COMPLETION_POINTS * parts.completion + EFFICIENCY_POINTS * parts.efficiency;
-    (total.clamp(0.0, 100.0), parts)
+    let weighted = [
+        (COMPLETION_POINTS, parts.completion),
+        (EFFICIENCY_POINTS, parts.efficiency),
+    ];
+    (crate::sim::weighted_score(&weighted, 0.0), parts)
 }
 
 impl Procedure for Sandbox {
-    crate::procedure_basics!(INFO);
+    crate::procedure_basics!(INFO, report(errors: metrics.grasper_overloads));
 
     fn status(&self, _near_m: f32) -> TaskStatus {
         let m = &self.metrics;
@@ -58,17 +61,6 @@ impl Procedure for Sandbox {
             touching: [false; 2],
             near: [None, None],
         }
-    }
-
-    fn report(&self) -> ProcedureReport {
-        let (score, parts) = score(&self.scenario, &self.metrics);
-        ProcedureReport::of(
-            self.is_completed(),
-            self.metrics.grasper_overloads,
-            &self.metrics,
-            &parts,
-            score,
-        )
     }
 
     fn reactions(&self) -> [Vec3; 2] {

@@ -16,25 +16,6 @@ pub const MODEL: &str = "block";
 
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct Scenario {
-    /// Always [`NAME`].
-    pub procedure: String,
-    /// Simulation step, s.
-    pub dt_s: f32,
-    /// Snapshots published for renderers per second, Hz.
-    pub publish_hz: f32,
-    /// What a headset shows (`[headset]`; optional).
-    #[serde(default)]
-    pub headset: crate::scenario::Headset,
-    pub geometry: Geometry,
-    /// The block's soft body.
-    pub block: SoftBodyParams,
-    pub tools: Tools,
-    pub task: Task,
-}
-
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
 pub struct Geometry {
     /// Width (x), height (y) and depth (z) of the block, m. It rests on the table top (y = 0),
     /// centred on the origin in x and z.
@@ -198,8 +179,10 @@ impl Params for Task {
 crate::scenario_tables! {
     name: NAME,
     dt: default,
+    nodes: points,
     tables: [
         ("geometry", geometry, Geometry),
+        /// The block's soft body.
         (MODEL, block, SoftBodyParams),
         ("tools", tools, Tools),
         ("task", task, Task),
