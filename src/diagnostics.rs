@@ -70,9 +70,17 @@ pub fn init(level: Option<&str>, trace: Option<&Path>) -> Result<TraceGuard, Dia
         None => None,
     };
     let chrome = sink.clone().map(|sink| ChromeLayer { sink });
+    // Without a trace file nothing wants the spans below the log's level: they are then
+    // never created (an absent layer would otherwise take every one, and the registry would
+    // allocate each model step's span for nobody).
+    let spans = if chrome.is_some() {
+        LevelFilter::TRACE
+    } else {
+        LevelFilter::OFF
+    };
     let _ = tracing_subscriber::registry()
         .with(log)
-        .with(chrome.with_filter(LevelFilter::TRACE))
+        .with(chrome.with_filter(spans))
         .try_init();
     Ok(TraceGuard { sink })
 }

@@ -189,7 +189,8 @@ impl<M: TissueModel> World<M> {
         self.substeps.len() as u32
     }
 
-    /// The couplings' share of the wall-clock time, seconds (benchmarks only).
+    /// The couplings' share of the wall-clock time, seconds (benchmarks only): the stages'
+    /// time less the models' own steps (so the world's own checks count here too).
     pub fn coupling_time(&self) -> f64 {
         self.coupling_s
     }
@@ -290,6 +291,10 @@ impl<M: TissueModel> World<M> {
             slot.output.clear();
             slot.reactions = [Vec3::ZERO; 2];
         }
+        // The couplings' time is the stages' less the models' own (two clock readings a step,
+        // not two a phase).
+        let t0 = std::time::Instant::now();
+        let models_before: f64 = self.slots.iter().map(|s| s.time_s).sum();
         let stages = self.stages();
         for stage in 0..stages {
             let substeps = self.substeps[stage as usize];
@@ -315,6 +320,8 @@ impl<M: TissueModel> World<M> {
             substeps: 1,
         };
         self.couple(after, dt_s, events, couplings);
+        let models_after: f64 = self.slots.iter().map(|s| s.time_s).sum();
+        self.coupling_s += (t0.elapsed().as_secs_f64() - (models_after - models_before)).max(0.0);
         self.reactions = [Vec3::ZERO; 2];
         for slot in &mut self.slots {
             let n = self.substeps[slot.stage as usize];
@@ -340,60 +347,35 @@ impl<M: TissueModel> World<M> {
     ) {
         let _s = tracing::debug_span!("coupling", stage = phase.stage, substep = phase.substep)
             .entered();
-        let t0 = std::time::Instant::now();
         let mut models = Models {
             slots: &mut self.slots,
         };
         couplings.couple(phase, dt_s, &mut models, events);
-        self.coupling_s += t0.elapsed().as_secs_f64();
     }
 
-    /// One substep of `h` of stage `stage`'s models, in parallel; `last`: the step's last
-    /// substep of the stage (checkpoints are taken only there).
+    /// One substep of `h` of stage `stage`'s models, in parallel where the stage has more
+    /// than one (a lone model, as a catheter taking ten substeps a step, is not worth a
+    /// hand-over to the pool); `last`: the step's last substep of the stage (checkpoints are
+    /// taken only there).
     fn step_stage(&mut self, stage: u32, h: f32, step: u64, last: bool) {
         let forces = &self.forces.per_model;
-        self.slots
-            .par_iter_mut()
-            .zip(forces.par_iter())
-            .filter(|(slot, _)| slot.stage == stage)
-            .for_each(|(slot, forces)| {
-                if slot.guard.is_frozen() {
-                    return;
-                }
-                let _s = tracing::debug_span!(
-                    "model_step",
-                    model = slot.model.name(),
-                    kind = slot.model.kind()
-                )
-                .entered();
-                let t0 = std::time::Instant::now();
-                let reactions_before = slot.output.reactions.len();
-                slot.model.apply_point_forces(forces);
-                slot.model.step(h, &slot.contacts, &mut slot.output);
-                slot.time_s += t0.elapsed().as_secs_f64();
-                slot.awake_sum += f64::from(slot.model.awake_fraction());
-                slot.stepped += 1;
-                let quarantined = if last {
-                    slot.guard.after_step(&mut slot.model, step)
-                } else {
-                    slot.guard.check(&mut slot.model)
-                };
-                if let Some(e) = quarantined {
-                    tracing::warn!(
-                        model = slot.model.name(),
-                        step,
-                        "a non-finite state: rolled back to the last checkpoint and frozen"
-                    );
-                    slot.output.events.push(e);
-                    // A rolled-back model pushes nothing on the tools.
-                    slot.output.reactions.clear();
-                    slot.reactions = [Vec3::ZERO; 2];
-                    return;
-                }
-                for (tool, f) in &slot.output.reactions[reactions_before..] {
-                    slot.reactions[tool.index()] += *f;
-                }
-            });
+        let in_stage = self.slots.iter().filter(|s| s.stage == stage).count();
+        let one = |(slot, forces): (&mut Slot<M>, &Vec<(u32, Vec3)>)| {
+            step_slot(slot, forces, h, step, last);
+        };
+        if in_stage > 1 {
+            self.slots
+                .par_iter_mut()
+                .zip(forces.par_iter())
+                .filter(|(slot, _)| slot.stage == stage)
+                .for_each(one);
+        } else {
+            self.slots
+                .iter_mut()
+                .zip(forces.iter())
+                .filter(|(slot, _)| slot.stage == stage)
+                .for_each(one);
+        }
     }
 
     /// The force the tissue put on each tool (left, right) in the last step, newtons: the sum
@@ -515,6 +497,53 @@ impl<M: TissueModel> World<M> {
             h.write((v >> 32) as u32);
         }
         h.0
+    }
+}
+
+/// One model's substep of `h` with its contacts and forces, timed and checked (see
+/// [`World::step_stage`]).
+fn step_slot<M: TissueModel>(
+    slot: &mut Slot<M>,
+    forces: &[(u32, Vec3)],
+    h: f32,
+    step: u64,
+    last: bool,
+) {
+    if slot.guard.is_frozen() {
+        return;
+    }
+    let _s = tracing::debug_span!(
+        "model_step",
+        model = slot.model.name(),
+        kind = slot.model.kind()
+    )
+    .entered();
+    let t0 = std::time::Instant::now();
+    let reactions_before = slot.output.reactions.len();
+    slot.model.apply_point_forces(forces);
+    slot.model.step(h, &slot.contacts, &mut slot.output);
+    slot.time_s += t0.elapsed().as_secs_f64();
+    slot.awake_sum += f64::from(slot.model.awake_fraction());
+    slot.stepped += 1;
+    let quarantined = if last {
+        slot.guard.after_step(&mut slot.model, step)
+    } else {
+        slot.guard.check(&mut slot.model)
+    };
+    if let Some(e) = quarantined {
+        tracing::warn!(
+            model = slot.model.name(),
+            step,
+            "a non-finite state: rolled back to the last checkpoint and frozen"
+        );
+        slot.output.events.push(e);
+        // A rolled-back model pushes nothing on the tools.
+        slot.output.reactions.clear();
+        slot.reactions = [Vec3::ZERO; 2];
+        return;
+    }
+    for (tool, f) in &slot.output.reactions[reactions_before..] {
+        slot.reactions[tool.index()] += *f;
     }
 }
 

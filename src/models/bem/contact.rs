@@ -77,12 +77,12 @@ impl Pending {
     }
 }
 
-/// What of [`Contacts`] changes as they are updated: the set, its factors, the tractions
-/// and the relaxation's memory (a checkpoint to roll back to).
+/// What of [`Contacts`] changes as they are updated: the set, the tractions and the
+/// relaxation's memory (a checkpoint to roll back to; the set's factors are worked out again
+/// from the set on a rollback, the same bytes, rather than copied at every checkpoint).
 #[derive(Clone, Default)]
 pub struct ContactState {
     set: Vec<usize>,
-    lu: Option<Factored>,
     q_el: Vec<f64>,
     memory: Vec<f64>,
     q: Vec<f64>,
@@ -148,7 +148,6 @@ impl Contacts {
     /// Saves what updates change into `to`, reusing its buffers.
     pub fn save(&self, to: &mut ContactState) {
         to.set.clone_from(&self.set);
-        to.lu.clone_from(&self.lu);
         to.q_el.clone_from(&self.q_el);
         to.memory.clone_from(&self.memory);
         to.q.clone_from(&self.q);
@@ -156,8 +155,11 @@ impl Contacts {
 
     /// Returns to a saved state.
     pub fn load(&mut self, from: &ContactState) {
-        self.set.clone_from(&from.set);
-        self.lu.clone_from(&from.lu);
+        if self.set_contacts(&from.set).is_err() {
+            // A saved set was a valid one; should it not be, nothing is held.
+            self.set.clear();
+            self.lu = None;
+        }
         self.q_el.clone_from(&from.q_el);
         self.memory.clone_from(&from.memory);
         self.q.clone_from(&from.q);

@@ -61,10 +61,11 @@ impl Palpated {
         }
     }
 
-    /// What the last step found at each tip (in [`Palpated::set_tips`]' order); none when
-    /// it failed.
-    pub fn touches(&self) -> Option<&[Touch]> {
-        (!self.failed).then_some(self.touches.as_slice())
+    /// What the last step found at each tip (in [`Palpated::set_tips`]' order), taken out of
+    /// the model; none when it failed.
+    pub fn take_touches(&mut self) -> Option<Vec<Touch>> {
+        let touches = std::mem::take(&mut self.touches);
+        (!self.failed).then_some(touches)
     }
 }
 

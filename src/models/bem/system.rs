@@ -222,7 +222,6 @@ pub fn assemble(
 }
 
 /// `A^T`'s LU factors (in place) and row permutation.
-#[derive(Clone)]
 pub struct Factored {
     pub n: usize,
     lu: Vec<f64>,

@@ -22,6 +22,8 @@
 
 mod blocks;
 pub mod reference;
+pub mod skin;
+pub mod skinned;
 pub mod so3;
 mod step;
 #[cfg(test)]

@@ -208,6 +208,9 @@ pub struct Membrane {
     last_substeps: usize,
     last_share: f32,
     saved: Option<Box<model::Saved>>,
+    /// A cut changed the springs since the last checkpoint (only then does a checkpoint copy
+    /// them).
+    springs_cut: bool,
 }
 
 impl Membrane {
@@ -275,6 +278,7 @@ impl Membrane {
             last_substeps: 0,
             last_share: 1.0,
             saved: None,
+            springs_cut: true,
         };
         // Each node's share of its layer's area: a quarter of each cell around it, the cell
         // spanned by its neighbours along and around (half a spring each way).
@@ -566,6 +570,7 @@ impl Membrane {
     /// [`Membrane::cut_plane`], also putting the grid cell `i * cols + j` of every link cut
     /// into `cut` (cleared first, ascending).
     pub fn cut_plane_into(&mut self, center: Vec3, radius_m: f32, cut: &mut Vec<u32>) -> u32 {
+        self.springs_cut = true;
         let per = self.rows * self.cols;
         let plane = 1;
         cut.clear();

@@ -51,7 +51,9 @@ pub struct VesselModel {
     pub vessel: Vessel,
     /// The force on each wall ball for the next step, N.
     pub external: Vec<DVec3>,
-    saved: Balls,
+    /// The balls' places and speeds at the last checkpoint (the rest of the wall never
+    /// changes).
+    saved: (Vec<DVec3>, Vec<DVec3>),
 }
 
 impl VesselModel {
@@ -59,7 +61,7 @@ impl VesselModel {
         let n = vessel.balls.len();
         VesselModel {
             external: vec![DVec3::ZERO; n],
-            saved: vessel.balls.clone(),
+            saved: (vessel.balls.x.clone(), vessel.balls.v.clone()),
             vessel,
         }
     }
@@ -75,8 +77,10 @@ fn hash_balls(h: &mut Fnv, b: &Balls) {
     }
 }
 
+/// Whether every ball's place is finite: a step moves each ball by its speed (semi-implicit
+/// Euler, speeds first), so a non-finite speed makes its place non-finite in the same step.
 fn finite(b: &Balls) -> bool {
-    b.x.iter().chain(&b.v).all(|p| p.is_finite())
+    b.x.iter().all(|p| p.is_finite())
 }
 
 /// The balls as points (what a generic view of the world shows; the procedure draws the
@@ -222,11 +226,13 @@ impl TissueModel for VesselModel {
     }
 
     fn checkpoint(&mut self) {
-        self.saved.clone_from(&self.vessel.balls);
+        self.saved.0.clone_from(&self.vessel.balls.x);
+        self.saved.1.clone_from(&self.vessel.balls.v);
     }
 
     fn restore(&mut self) {
-        self.vessel.balls.clone_from(&self.saved);
+        self.vessel.balls.x.clone_from(&self.saved.0);
+        self.vessel.balls.v.clone_from(&self.saved.1);
     }
 
     fn state_is_finite(&self) -> bool {

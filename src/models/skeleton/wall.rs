@@ -64,6 +64,8 @@ pub struct WallContact {
     on_wall: Vec<DVec3>,
     wall_mean: Vec<DVec3>,
     touched: Vec<u32>,
+    /// The wall balls the vessel's force buffer holds forces on (from the last hand-over).
+    handed: Vec<u32>,
     on_catheter: Vec<DVec3>,
 }
 
@@ -81,6 +83,7 @@ impl WallContact {
             on_wall: vec![DVec3::ZERO; wall_balls],
             wall_mean: vec![DVec3::ZERO; wall_balls],
             touched: Vec::new(),
+            handed: Vec::new(),
             on_catheter: vec![DVec3::ZERO; catheter_balls],
         }
     }
@@ -167,14 +170,25 @@ impl WallContact {
         }
     }
 
-    /// Before the vessel's step: the mean reaction over the catheter's substeps.
+    /// Before the vessel's step: the mean reaction over the catheter's substeps. The buffers
+    /// are swapped, not copied: the vessel's last one comes back, cleared where it was used.
     fn hand_to_vessel(&mut self, models: &mut Models<'_, Skeleton>) {
-        if let Some(Skeleton::Vessel(v)) = models.get_mut(VESSEL) {
-            v.external.copy_from_slice(&self.wall_mean);
-        }
-        for &w in &self.touched {
+        let handed = match models.get_mut(VESSEL) {
+            Some(Skeleton::Vessel(v)) => {
+                std::mem::swap(&mut v.external, &mut self.wall_mean);
+                true
+            }
+            _ => false,
+        };
+        let stale = if handed {
+            std::mem::replace(&mut self.handed, std::mem::take(&mut self.touched))
+        } else {
+            std::mem::take(&mut self.touched)
+        };
+        for &w in &stale {
             self.wall_mean[w as usize] = DVec3::ZERO;
         }
+        self.touched = stale;
         self.touched.clear();
     }
 

@@ -241,11 +241,12 @@ impl Myotomy {
         self.world.step(self.scenario.dt_s, step, &mut ev);
         self.times[0] += t0.elapsed().as_secs_f64();
         let mut shafts = [DVec3::ZERO; 2];
-        match self.world.model(WALL).touches() {
-            Some(touches) if !self.world.is_frozen(WALL) => {
-                for (k, touch) in touches.iter().enumerate() {
+        let frozen = self.world.is_frozen(WALL);
+        match self.world.model_mut(WALL).take_touches() {
+            Some(touches) if !frozen => {
+                for (k, touch) in touches.into_iter().enumerate() {
                     match k {
-                        0 | 1 => self.touches[k] = touch.clone(),
+                        0 | 1 => self.touches[k] = touch,
                         _ => shafts[k - 2] = touch.force_n,
                     }
                 }

@@ -10,12 +10,12 @@
 
 use super::anatomy::Anatomy;
 use super::regions::{self, RegionId, RegionKind};
-use super::rod::RectumRod;
 use super::scene::{
     ALARM_RECTAL_WALL, MEMBRANE, ROD, RectumModel, SceneParams, StepOutcome, ToolState,
 };
-use super::skin::{Selection, Skin};
 use crate::collision::{Instrument, PointCloud, ToolContact, VertexAreas, penalty_forces};
+use crate::models::cosserat::skin::{Selection, Skin};
+use crate::models::cosserat::skinned::SkinnedRod;
 use crate::models::membrane::{LAYERS, Membrane};
 use crate::sim::{Couplings, EventKind, Models, Phase};
 use glam::Vec3;
@@ -62,7 +62,7 @@ pub(super) struct Joints {
 impl Joints {
     pub(super) fn new(
         anatomy: &Anatomy,
-        rod: &RectumRod,
+        rod: &SkinnedRod,
         membrane: &Membrane,
         params: SceneParams,
     ) -> Joints {
@@ -126,7 +126,7 @@ impl Joints {
     }
 
     /// Before the rod steps: the graspers and the hook on the rod.
-    fn on_rod(&mut self, rod: &mut RectumRod) {
+    fn on_rod(&mut self, rod: &mut SkinnedRod) {
         let tools = self.tools;
         for (hand, g) in [tools.grasper, tools.grasper_right].into_iter().enumerate() {
             match g {
@@ -145,7 +145,7 @@ impl Joints {
     }
 
     /// Before the membrane steps: wake, targets, the hook's press and cut, the alarms.
-    fn on_membrane(&mut self, rod: &RectumRod, membrane: &mut Membrane) {
+    fn on_membrane(&mut self, rod: &SkinnedRod, membrane: &mut Membrane) {
         let tools = self.tools;
         let hook = self.hook.clone();
         let mut boxes = Vec::new();
@@ -202,7 +202,7 @@ impl Joints {
     /// Sets layer 0's targets on tiles `tiles` from the rod's skin.
     pub(super) fn place_targets(
         &mut self,
-        rod: &RectumRod,
+        rod: &SkinnedRod,
         membrane: &mut Membrane,
         tiles: &[usize],
     ) {
@@ -250,9 +250,9 @@ impl Joints {
     /// The membrane loads the rod: what the rest of the membrane does to each awake layer-0
     /// node ([`Membrane::anchor_loads`]: at rest, what its attachment hands on) acts on the
     /// rod's surface where the skin binds the node, split onto the element's nodes with its
-    /// couple ([`RectumRod::add_surface_force`]), in the next rod step. Sleeping tiles lie
+    /// couple ([`SkinnedRod::add_surface_force`]), in the next rod step. Sleeping tiles lie
     /// on their anchors at rest and load it with nothing. Returns the sum, N.
-    pub(super) fn load_rod(&mut self, rod: &mut RectumRod, membrane: &mut Membrane) -> Vec3 {
+    pub(super) fn load_rod(&mut self, rod: &mut SkinnedRod, membrane: &mut Membrane) -> Vec3 {
         let cols = membrane.cols();
         let (tr, tc) = membrane.tiles();
         let awake: Vec<usize> = (0..tr * tc).filter(|&t| membrane.tile_awake(t)).collect();

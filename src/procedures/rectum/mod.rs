@@ -10,10 +10,10 @@ mod field;
 mod plugin;
 mod procedure;
 pub mod regions;
-pub mod rod;
+#[cfg(test)]
+mod rod_tests;
 pub mod scenario;
 pub mod scene;
-pub mod skin;
 #[cfg(test)]
 mod tests;
 

@@ -1,8 +1,11 @@
-use super::*;
+//! The skinned rod (`models::cosserat::skinned`) on the rectum's geometry: its skin, contact,
+//! grasps, determinism and checkpoints, and its parameters refused by name.
+
 use crate::collision::{Instrument, ToolCylinder};
-use crate::mesh::{TubeSpec, tube};
+use crate::mesh::{TriMesh, TubeSpec, tube};
+use crate::models::cosserat::skin::{RodPose, Selection, Skin};
+use crate::models::cosserat::skinned::*;
 use crate::procedures::rectum::anatomy::{AnatomyParams, medial_axis};
-use crate::procedures::rectum::skin::{RodPose, Selection, Skin};
 use crate::sim::{Contact, ContactKind, Hand, ModelOutput, TissueModel, on_threads};
 use glam::{DMat3, DQuat, DVec3, Quat, Vec3};
 
@@ -19,13 +22,13 @@ fn sacral() -> (Vec<Vec3>, TriMesh) {
     (axis, surface)
 }
 
-fn sacral_rod(params: RectumRodParams) -> RectumRod {
+fn sacral_rod(params: SkinnedRodParams) -> SkinnedRod {
     let (axis, surface) = sacral();
-    RectumRod::new(&axis, &surface, params).expect("a rod")
+    SkinnedRod::new(&axis, &surface, params).expect("a rod")
 }
 
 /// A straight 15 cm rod along +x from the origin.
-fn straight_rod(elements: usize) -> RectumRod {
+fn straight_rod(elements: usize) -> SkinnedRod {
     let axis = [Vec3::ZERO, Vec3::new(0.15, 0.0, 0.0)];
     let surface = tube(&TubeSpec {
         path: axis.to_vec(),
@@ -33,11 +36,11 @@ fn straight_rod(elements: usize) -> RectumRod {
         segments: 24,
         rings: 16,
     });
-    let params = RectumRodParams {
+    let params = SkinnedRodParams {
         elements,
-        ..RectumRodParams::default()
+        ..SkinnedRodParams::default()
     };
-    RectumRod::new(&axis, &surface, params).expect("a rod")
+    SkinnedRod::new(&axis, &surface, params).expect("a rod")
 }
 
 fn place_all(skin: &Skin, pose: RodPose<'_>) -> Vec<Vec3> {
@@ -48,7 +51,7 @@ fn place_all(skin: &Skin, pose: RodPose<'_>) -> Vec<Vec3> {
 }
 
 /// Bends the rod by `force` (N) on its middle node for `steps` steps of 1 ms.
-fn bend(rod: &mut RectumRod, force: DVec3, steps: usize) {
+fn bend(rod: &mut SkinnedRod, force: DVec3, steps: usize) {
     let mid = rod.rod().elements() / 2;
     for _ in 0..steps {
         rod.add_node_force(mid, force);
@@ -58,7 +61,7 @@ fn bend(rod: &mut RectumRod, force: DVec3, steps: usize) {
 
 #[test]
 fn the_skin_at_rest_puts_every_point_where_it_was_bound() {
-    let rod = sacral_rod(RectumRodParams::default());
+    let rod = sacral_rod(SkinnedRodParams::default());
     let surface = rod.surface().clone();
     let placed = place_all(rod.skin(), RodPose::of(rod.rod()));
     let worst = placed
@@ -108,7 +111,7 @@ fn the_skin_at_rest_puts_every_point_where_it_was_bound() {
 
 #[test]
 fn a_rigid_motion_of_the_rod_moves_every_skinned_point_rigidly() {
-    let mut rod = sacral_rod(RectumRodParams::default());
+    let mut rod = sacral_rod(SkinnedRodParams::default());
     // Bent first, so that the frames differ from element to element.
     bend(&mut rod, DVec3::new(0.0, 0.0, 2.0), 300);
     let bent = place_all(rod.skin(), RodPose::of(rod.rod()));
@@ -155,7 +158,7 @@ fn a_rigid_motion_of_the_rod_moves_every_skinned_point_rigidly() {
 
 #[test]
 fn a_bent_rod_carries_the_skin_across_element_boundaries_without_a_seam() {
-    let mut rod = sacral_rod(RectumRodParams::default());
+    let mut rod = sacral_rod(SkinnedRodParams::default());
     let mid = rod.rod().elements() / 2;
     let c = rod.rod().positions()[mid];
     let tangent = (rod.rod().positions()[mid + 1] - rod.rod().positions()[mid - 1]).normalize();
@@ -229,7 +232,7 @@ fn a_pressed_cylinder_pushes_with_k_times_the_integral_of_depth_at_any_resolutio
         .expect("a cylinder"),
     ])
     .expect("a tool");
-    let k = RectumRodParams::default().contact_stiffness_pa;
+    let k = SkinnedRodParams::default().contact_stiffness_pa;
     let (depth_integral, across_integral) = crossing_integrals(rs, rt, h);
     let (want, want_down) = (k * depth_integral, k * across_integral);
     let mut totals = Vec::new();
@@ -280,7 +283,7 @@ fn a_flat_tool_end_pushes_with_its_face_and_its_rim() {
     ])
     .expect("a tool");
     rod.press(&tool, 0);
-    let k = RectumRodParams::default().contact_stiffness_pa;
+    let k = SkinnedRodParams::default().contact_stiffness_pa;
     let l = rod.length_shares()[15];
     let f = rod.pending_forces();
     let face = DVec3::new(0.0, -k * 0.001 * l, 0.0);
@@ -300,7 +303,7 @@ fn a_flat_tool_end_pushes_with_its_face_and_its_rim() {
 
 #[test]
 fn a_grasp_lifts_the_mid_surface_and_the_clamped_ends_stay() {
-    let mut rod = sacral_rod(RectumRodParams::default());
+    let mut rod = sacral_rod(SkinnedRodParams::default());
     let n = rod.rod().elements();
     let start: Vec<DVec3> = rod.rod().positions().to_vec();
     let mid = n / 2;
@@ -350,7 +353,7 @@ fn a_grasp_lifts_the_mid_surface_and_the_clamped_ends_stay() {
 
 /// 200 world steps of 2 ms: a grasp on the mid surface pulled up and sideways, a tip pressing
 /// near one end, renders between.
-fn world_run(rod: &mut RectumRod) -> (u64, Vec<Vec3>, Vec<(Hand, Vec3)>) {
+fn world_run(rod: &mut SkinnedRod) -> (u64, Vec<Vec3>, Vec<(Hand, Vec3)>) {
     let mid = rod.rod().elements() / 2;
     let top = (rod.rod().positions()[mid] + rod.rod().frames()[mid].x_axis * 0.02).as_vec3();
     let tip0 = rod.rod().positions()[5].as_vec3() + Vec3::Y * 0.021;
@@ -390,7 +393,7 @@ fn one_and_two_threads_step_to_the_same_bits_and_checkpoints_restore_exactly() {
         .into_iter()
         .map(|threads| {
             on_threads(threads, || {
-                let mut rod = sacral_rod(RectumRodParams::default());
+                let mut rod = sacral_rod(SkinnedRodParams::default());
                 world_run(&mut rod)
             })
         })
@@ -407,7 +410,7 @@ fn one_and_two_threads_step_to_the_same_bits_and_checkpoints_restore_exactly() {
         .expect("right");
     assert!(left.1.y < 0.0 && right.1.y > 0.0, "{reactions:?}");
     // Checkpoint, go on, restore: the same bits as at the checkpoint.
-    let mut rod = sacral_rod(RectumRodParams::default());
+    let mut rod = sacral_rod(SkinnedRodParams::default());
     world_run(&mut rod);
     assert!(rod.state_is_finite());
     rod.checkpoint();
@@ -435,11 +438,11 @@ fn one_and_two_threads_step_to_the_same_bits_and_checkpoints_restore_exactly() {
 
 #[test]
 fn the_model_reports_its_sizes_collider_and_surface() {
-    let mut rod = sacral_rod(RectumRodParams::default());
+    let mut rod = sacral_rod(SkinnedRodParams::default());
     let sizes = rod.sizes();
     assert_eq!(sizes.vertices, 31);
     assert_eq!(sizes.triangles, rod.surface().triangles.len());
-    assert_eq!((rod.name(), rod.kind()), ("rectum", "cosserat_rod"));
+    assert_eq!((rod.name(), rod.kind()), ("rod", "cosserat_rod"));
     // Down the first director onto the mid node: the tube's anterior side, 2 cm out.
     let mid = rod.rod().positions()[15].as_vec3();
     let d1 = rod.rod().frames()[15].x_axis.as_vec3();
@@ -462,7 +465,7 @@ fn the_model_reports_its_sizes_collider_and_surface() {
 #[test]
 fn a_grasp_lifting_the_rod_is_felt_as_its_spring() {
     // The rod's step rate is `vesalius bench rectum`'s line; here, what the pull does.
-    let mut rod = sacral_rod(RectumRodParams::default());
+    let mut rod = sacral_rod(SkinnedRodParams::default());
     let k_g = rod.params().grasp_stiffness_n_per_m;
     let mid = rod.rod().elements() / 2;
     let top = (rod.rod().positions()[mid] + rod.rod().frames()[mid].x_axis * 0.02).as_vec3();
@@ -496,43 +499,43 @@ fn a_grasp_lifting_the_rod_is_felt_as_its_spring() {
 
 #[test]
 fn bad_parameters_and_inputs_are_refused_by_name() {
-    let d = RectumRodParams::default();
+    let d = SkinnedRodParams::default();
     assert_eq!(d.validate(), Ok(()));
-    let field = |p: RectumRodParams| match p.validate() {
+    let field = |p: SkinnedRodParams| match p.validate() {
         Err(RodModelError::BadParameter { field, .. }) => field,
         other => panic!("{other:?}"),
     };
-    assert_eq!(field(RectumRodParams { elements: 1, ..d }), "elements");
+    assert_eq!(field(SkinnedRodParams { elements: 1, ..d }), "elements");
     assert_eq!(
-        field(RectumRodParams {
+        field(SkinnedRodParams {
             youngs_modulus_pa: -1.0,
             ..d
         }),
         "youngs_modulus_pa"
     );
     assert_eq!(
-        field(RectumRodParams {
+        field(SkinnedRodParams {
             poisson_ratio: 0.5,
             ..d
         }),
         "poisson_ratio"
     );
-    assert_eq!(field(RectumRodParams { wall_m: 0.03, ..d }), "wall_m");
+    assert_eq!(field(SkinnedRodParams { wall_m: 0.03, ..d }), "wall_m");
     assert_eq!(
-        field(RectumRodParams {
+        field(SkinnedRodParams {
             grasp_stiffness_n_per_m: f64::NAN,
             ..d
         }),
         "grasp_stiffness_n_per_m"
     );
     assert_eq!(
-        field(RectumRodParams {
+        field(SkinnedRodParams {
             gravity_m_per_s2: DVec3::new(0.0, f64::INFINITY, 0.0),
             ..d
         }),
         "gravity_m_per_s2"
     );
-    let msg = RectumRodParams {
+    let msg = SkinnedRodParams {
         contact_stiffness_pa: -5.0,
         ..d
     }
@@ -547,24 +550,24 @@ fn bad_parameters_and_inputs_are_refused_by_name() {
     );
     let (axis, surface) = sacral();
     assert!(matches!(
-        RectumRod::new(&axis, &surface, RectumRodParams { elements: 0, ..d }),
+        SkinnedRod::new(&axis, &surface, SkinnedRodParams { elements: 0, ..d }),
         Err(RodModelError::BadParameter {
             field: "elements",
             ..
         })
     ));
     assert!(matches!(
-        RectumRod::new(&axis[..1], &surface, d),
+        SkinnedRod::new(&axis[..1], &surface, d),
         Err(RodModelError::ShortAxis { points: 1, .. })
     ));
     assert!(matches!(
-        RectumRod::new(&[Vec3::ONE, Vec3::ONE], &surface, d),
+        SkinnedRod::new(&[Vec3::ONE, Vec3::ONE], &surface, d),
         Err(RodModelError::ShortAxis { points: 2, .. })
     ));
     let mut bent = axis.clone();
     bent[7].y = f32::NAN;
     assert!(matches!(
-        RectumRod::new(&bent, &surface, d),
+        SkinnedRod::new(&bent, &surface, d),
         Err(RodModelError::NonFinite {
             what: "axis point",
             index: 7,
@@ -574,7 +577,7 @@ fn bad_parameters_and_inputs_are_refused_by_name() {
     let mut holed = surface.clone();
     holed.positions[3] = Vec3::INFINITY;
     assert!(matches!(
-        RectumRod::new(&axis, &holed, d),
+        SkinnedRod::new(&axis, &holed, d),
         Err(RodModelError::NonFinite {
             what: "surface vertex",
             index: 3,
@@ -589,7 +592,7 @@ fn the_skin_places_the_membranes_first_layer_alike_on_one_and_two_threads() {
         .expect("the anatomy");
     let axis: Vec<Vec3> = anatomy.axis.iter().map(|f| f.point).collect();
     let mut rod =
-        RectumRod::new(&axis, &anatomy.rectum, RectumRodParams::default()).expect("a rod");
+        SkinnedRod::new(&axis, &anatomy.rectum, SkinnedRodParams::default()).expect("a rod");
     let layer = &anatomy.membrane.positions[0];
     assert_eq!(layer.len(), 240_000);
     let t0 = std::time::Instant::now();
@@ -646,7 +649,7 @@ fn the_skin_places_the_membranes_first_layer_alike_on_one_and_two_threads() {
 fn a_grasp_holds_steadily_at_the_scenarios_longest_step() {
     // The nephrectomy's 4 ms step: the rod takes substeps (module docs), so the grasp spring
     // stays stable and holds as at 1 ms.
-    let mut rod = sacral_rod(RectumRodParams::default());
+    let mut rod = sacral_rod(SkinnedRodParams::default());
     let mid = rod.rod().elements() / 2;
     let top = (rod.rod().positions()[mid] + rod.rod().frames()[mid].x_axis * 0.02).as_vec3();
     let mut out = ModelOutput::default();
@@ -700,27 +703,30 @@ fn a_surface_force_is_statically_the_force_at_its_point() {
     let lever = DVec3::new(0.0, 0.02, 0.005);
     let f = DVec3::new(0.3, -1.2, 0.7);
     rod.add_surface_force(e, t, lever, f, 50.0);
-    let sum: DVec3 = rod.load.iter().copied().sum();
+    let sum: DVec3 = rod.pending_forces().iter().copied().sum();
     assert!((sum - f).length() < 1e-12, "{sum} vs {f}");
     let about = DVec3::new(0.1, -0.3, 0.2);
     let moment: DVec3 = rod
-        .load
+        .pending_forces()
         .iter()
         .zip(&x)
         .map(|(g, p)| (*p - about).cross(*g))
         .sum::<DVec3>()
-        + rod.couples.iter().copied().sum::<DVec3>();
+        + rod.pending_couples().iter().copied().sum::<DVec3>();
     let expected = (axis + lever - about).cross(f);
     assert!(
         (moment - expected).length() < 1e-12,
         "{moment} vs {expected}"
     );
     // The stiffness is shared as the force is.
-    assert!((rod.load_k[e] - 35.0).abs() < 1e-12 && (rod.load_k[e + 1] - 15.0).abs() < 1e-12);
+    assert!(
+        (rod.pending_stiffness()[e] - 35.0).abs() < 1e-12
+            && (rod.pending_stiffness()[e + 1] - 15.0).abs() < 1e-12
+    );
     // A bad element or value is ignored.
     rod.add_surface_force(99, t, lever, f, 1.0);
     rod.add_surface_force(e, t, lever, DVec3::NAN, 1.0);
-    let again: DVec3 = rod.load.iter().copied().sum();
+    let again: DVec3 = rod.pending_forces().iter().copied().sum();
     assert_eq!(again, sum);
 }
 

@@ -22,9 +22,9 @@
 use super::anatomy::Anatomy;
 use super::coupling::Joints;
 use super::regions::{self, RegionId};
-use super::rod::{RectumRod, RectumRodParams, RodModelError};
 #[cfg(test)]
 use crate::collision::Instrument;
+use crate::models::cosserat::skinned::{RodModelError, SkinnedRod, SkinnedRodParams};
 use crate::models::membrane::{
     ActivityParams, Integrator, LAYERS, LayerMaterial, Membrane, MembraneError, MembraneParams,
 };
@@ -66,7 +66,7 @@ pub fn membrane_params() -> MembraneParams {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SceneParams {
     pub membrane: MembraneParams,
-    pub rod: RectumRodParams,
+    pub rod: SkinnedRodParams,
     pub activity: ActivityParams,
     /// The hook's penalty on membrane nodes, per unit of their area, Pa/m.
     pub hook_stiffness_pa_per_m: f32,
@@ -93,9 +93,9 @@ impl Default for SceneParams {
             // the mesorectum and the pelvic floor (the membrane's sleeping tiles, which load
             // the rod with nothing), so the rod is weightless here rather than sagging
             // between its clamps.
-            rod: RectumRodParams {
+            rod: SkinnedRodParams {
                 gravity_m_per_s2: glam::DVec3::ZERO,
-                ..RectumRodParams::default()
+                ..SkinnedRodParams::default()
             },
             activity: ActivityParams::default(),
             hook_stiffness_pa_per_m: 1e6,
@@ -169,7 +169,7 @@ pub const ALARM_RECTAL_WALL: u32 = 1 << 7;
 crate::tissue_models! {
     /// The rectum's models: the rod (stage 0) and the membrane (stage 1).
     pub enum RectumModel {
-        Rod(RectumRod),
+        Rod(SkinnedRod),
         Membrane(Membrane),
     }
 }
@@ -189,7 +189,7 @@ impl RectumScene {
     /// Builds the scene on the anatomy, the membrane at rest with its active set on.
     pub fn new(anatomy: &Anatomy, params: SceneParams) -> Result<RectumScene, SceneError> {
         let axis: Vec<Vec3> = anatomy.axis.iter().map(|f| f.point).collect();
-        let rod = RectumRod::new(&axis, &anatomy.rectum, params.rod)?;
+        let rod = SkinnedRod::new(&axis, &anatomy.rectum, params.rod)?.with_name("rectum");
         let mut membrane = Membrane::new(anatomy.membrane.clone(), params.membrane)?;
         membrane.use_active_set(params.activity);
         membrane.set_substep_safety(params.substep_safety);
@@ -206,14 +206,14 @@ impl RectumScene {
     }
 
     /// The rod.
-    pub fn rod(&self) -> &RectumRod {
+    pub fn rod(&self) -> &SkinnedRod {
         match self.world.model(ROD) {
             RectumModel::Rod(r) => r,
             RectumModel::Membrane(_) => unreachable!("model 0 is the rod"),
         }
     }
 
-    pub fn rod_mut(&mut self) -> &mut RectumRod {
+    pub fn rod_mut(&mut self) -> &mut SkinnedRod {
         match self.world.model_mut(ROD) {
             RectumModel::Rod(r) => r,
             RectumModel::Membrane(_) => unreachable!("model 0 is the rod"),

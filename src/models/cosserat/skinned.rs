@@ -26,7 +26,7 @@
 //! which is stable while `k_g dt^2 / m < 4` for the mass `m` moved (symplectic Euler's bound)
 //! and, for contact, `k dt^2 / (rho A) < 4` (per unit length: node mass `rho A l_i` against
 //! stiffness `k l_i`). The world's step may be longer than a grasp allows (2-4 ms in the
-//! scenarios), so the rod takes substeps no longer than [`RectumRodParams::max_substep_s`] nor
+//! scenarios), so the rod takes substeps no longer than [`SkinnedRodParams::max_substep_s`] nor
 //! `sqrt(2 m_min / k_g)` (ratio 2 on the lightest free node); the grasp spring is evaluated
 //! again at every substep, while contact forces (computed once by the caller for the step) are
 //! held over the step's substeps. A world step within those bounds is one rod step.
@@ -39,12 +39,12 @@ use glam::{DVec3, Vec3};
 
 /// Substeps per world step at most (a stiffer grasp than this allows is stepped anyway).
 const MAX_SUBSTEPS: usize = 64;
-/// The model's name in the world, and the name its events carry.
-const NAME: &str = "rectum";
+/// The model's name in the world unless given another ([`SkinnedRod::with_name`]).
+const NAME: &str = "rod";
 
 /// The rectum rod's figures. SI units throughout.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RectumRodParams {
+pub struct SkinnedRodParams {
     /// Rod elements between the clamped ends (nodes: one more). Default 30: 5 mm elements on
     /// the 15 cm section, a quarter of its 2 cm radius, enough for the smooth bends a grasper
     /// makes, at about 70 us per rod step.
@@ -97,9 +97,9 @@ pub struct RectumRodParams {
     pub max_substep_s: f64,
 }
 
-impl Default for RectumRodParams {
+impl Default for SkinnedRodParams {
     fn default() -> Self {
-        RectumRodParams {
+        SkinnedRodParams {
             elements: 30,
             youngs_modulus_pa: 200e3,
             poisson_ratio: 0.45,
@@ -152,7 +152,7 @@ pub enum RodModelError {
     },
 }
 
-impl RectumRodParams {
+impl SkinnedRodParams {
     /// Checks every field; the error names the first bad one.
     pub fn validate(&self) -> Result<(), RodModelError> {
         let bad = |field, value, expected| {
@@ -233,10 +233,12 @@ pub struct Grip {
     pub jaw: DVec3,
 }
 
-/// The rectum's rod, its bounding spheres, its grasps and its skinned surface.
+/// A tubular organ as a rod: its bounding spheres, its grasps and its skinned surface.
 #[derive(Debug, Clone)]
-pub struct RectumRod {
-    params: RectumRodParams,
+pub struct SkinnedRod {
+    /// Its name in a world, and in its events.
+    name: String,
+    params: SkinnedRodParams,
     rod: CosseratRod,
     /// Node positions as built, m.
     rest: Vec<DVec3>,
@@ -250,7 +252,7 @@ pub struct RectumRod {
     load: Vec<DVec3>,
     /// Couples waiting for the next step, per element, N m.
     couples: Vec<DVec3>,
-    /// The stiffness of the waiting loads per node, N/m ([`RectumRod::add_surface_force`]).
+    /// The stiffness of the waiting loads per node, N/m ([`SkinnedRod::add_surface_force`]).
     load_k: Vec<f64>,
     grips: [Option<Grip>; 2],
     /// Grips the world's grasp contacts took (released when their contact stops).
@@ -351,14 +353,14 @@ fn sphere_into_cylinder(cyl: &ToolCylinder, c: DVec3, rs: f64) -> Option<(f64, D
     (depth > 0.0).then_some((depth, dir))
 }
 
-impl RectumRod {
+impl SkinnedRod {
     /// The rod along the polyline `axis` (m; e.g. the anatomy's axis points), resampled evenly
     /// by length into `elements + 1` nodes, clamped at both ends, its first director towards
     /// +y (anterior) made normal to the axis; `surface` (the rectum's mesh) is skinned to it.
     pub fn new(
         axis: &[Vec3],
         surface: &TriMesh,
-        params: RectumRodParams,
+        params: SkinnedRodParams,
     ) -> Result<Self, RodModelError> {
         params.validate()?;
         if let Some((index, &value)) = surface
@@ -395,7 +397,8 @@ impl RectumRod {
             params.max_substep_s
         };
         let centre = rest.iter().map(|p| p.as_vec3()).collect();
-        Ok(RectumRod {
+        Ok(SkinnedRod {
+            name: NAME.to_string(),
             params,
             centre,
             radii: vec![params.radius_m as f32; n + 1],
@@ -418,7 +421,24 @@ impl RectumRod {
         })
     }
 
-    pub fn params(&self) -> &RectumRodParams {
+    /// The same rod named `name` (in its world, and in its events).
+    pub fn with_name(mut self, name: &str) -> Self {
+        self.name = name.to_string();
+        self
+    }
+
+    /// The couples on each element waiting for the next step, N m.
+    pub fn pending_couples(&self) -> &[DVec3] {
+        &self.couples
+    }
+
+    /// The stiffness of the loads waiting on each node, N/m
+    /// ([`SkinnedRod::add_surface_force`]).
+    pub fn pending_stiffness(&self) -> &[f64] {
+        &self.load_k
+    }
+
+    pub fn params(&self) -> &SkinnedRodParams {
         &self.params
     }
 
@@ -721,9 +741,5 @@ impl RectumRod {
     }
 }
 
-#[path = "rod_model.rs"]
+#[path = "skinned_model.rs"]
 mod model;
-
-#[cfg(test)]
-#[path = "rod_tests.rs"]
-mod tests;

@@ -1,9 +1,9 @@
 //! The rectum rod as a tissue model: the world's contacts, the step, the collider, the
 //! skinned surface, checkpoints and the digest.
 
-use super::{NAME, RectumRod};
+use super::SkinnedRod;
 use crate::collision::GeneralizedCylinder;
-use crate::procedures::rectum::skin::Selection;
+use crate::models::cosserat::skin::Selection;
 use crate::sim::Fnv;
 use crate::sim::{
     Collider, Contact, ContactKind, EventKind, ModelOutput, ModelSizes, ModelSnapshot, SurfaceRole,
@@ -11,12 +11,12 @@ use crate::sim::{
 };
 use glam::{DVec3, Vec3};
 
-impl RectumRod {
+impl SkinnedRod {
     /// The world's contacts: a `Sphere` (an instrument tip) presses the bounding spheres as
-    /// [`RectumRod::press_sphere`]; a `Grasp` takes hold within the contact's radius of the
+    /// [`SkinnedRod::press_sphere`]; a `Grasp` takes hold within the contact's radius of the
     /// surface (if its hand holds nothing) and pulls to the contact's point while it keeps
     /// coming, and lets go on the first step without one (with `Grasp` and `Release` events).
-    /// A grasp taken through [`RectumRod::grasp`] stays the caller's: a `Grasp` contact for its
+    /// A grasp taken through [`SkinnedRod::grasp`] stays the caller's: a `Grasp` contact for its
     /// hand moves its jaw but never lets it go. `Press` (a pressure over a surface patch, the
     /// soft body's contact) is ignored: the rod meets tools through its spheres.
     fn take_contacts(&mut self, contacts: &[Contact], out: &mut ModelOutput) {
@@ -39,7 +39,7 @@ impl RectumRod {
                         self.world_grip[hand] = true;
                         out.events.push(EventKind::Grasp {
                             tool: c.tool.name().to_string(),
-                            model: NAME.to_string(),
+                            model: self.name.clone(),
                             vertices: 1,
                         });
                     }
@@ -88,9 +88,9 @@ impl RectumRod {
     }
 }
 
-impl TissueModel for RectumRod {
+impl TissueModel for SkinnedRod {
     fn name(&self) -> &str {
-        NAME
+        &self.name
     }
 
     fn kind(&self) -> &'static str {
@@ -133,7 +133,7 @@ impl TissueModel for RectumRod {
         let cut_edge = vec![false; positions.len()];
         ModelSnapshot {
             seared: Vec::new(),
-            name: NAME.to_string(),
+            name: self.name.clone(),
             positions,
             normals,
             indices: self.surface.triangles.iter().flatten().copied().collect(),

@@ -1,5 +1,5 @@
-//! Skinning on the rectum's rod: points (the surface mesh's vertices, the membrane's first
-//! layer) bound once to the rod's centreline and carried by it as it deforms.
+//! Skinning on a rod: points (a surface mesh's vertices, another model's first layer)
+//! bound once to the rod's centreline and carried by it as it deforms.
 //!
 //! A point `p` is bound to the nearest place of the centreline, element `e` at parameter
 //! `t` in `[0, 1]` (the projection on the element's segment, clamped; ties to the lower
@@ -30,7 +30,7 @@
 //! computed in f64 and the rotated offset (a few centimetres) in f32, rounded to f32 once at
 //! the end.
 
-use super::rod::{RectumRod, RodModelError};
+use super::skinned::{RodModelError, SkinnedRod};
 use crate::models::cosserat::CosseratRod;
 use glam::{DMat3, DQuat, DVec3, Quat, Vec3};
 use rayon::prelude::*;
@@ -151,7 +151,7 @@ pub(super) fn nearest_place(x: &[DVec3], p: DVec3) -> (usize, f64, f64) {
 impl Skin {
     /// Binds `points` (m) to `rod` as it is now (normally at rest); see the module docs. A
     /// non-finite point is bound to the first node with no offset (it is placed there).
-    pub fn bind(rod: &RectumRod, points: &[Vec3]) -> Skin {
+    pub fn bind(rod: &SkinnedRod, points: &[Vec3]) -> Skin {
         Self::bind_pose(RodPose::of(rod.rod()), points)
     }
 
@@ -228,7 +228,7 @@ impl Skin {
     /// selected point (`out` as long as the selection).
     pub fn place(
         &self,
-        rod: &RectumRod,
+        rod: &SkinnedRod,
         which: Selection<'_>,
         out: &mut [Vec3],
     ) -> Result<(), RodModelError> {
