@@ -190,7 +190,7 @@ impl TissueModel for Box<dyn TissueModel> {
 ///
 /// ```ignore
 /// tissue_models! {
-///     pub enum SceneModel { Rod(Rod), Membrane(Membrane) }
+///     pub enum SceneModel { Solid(SoftBody), Sheet(Sheet) }
 /// }
 /// ```
 #[macro_export]

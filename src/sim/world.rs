@@ -354,7 +354,7 @@ impl<M: TissueModel> World<M> {
     }
 
     /// One substep of `h` of stage `stage`'s models, in parallel where the stage has more
-    /// than one (a lone model, as a catheter taking ten substeps a step, is not worth a
+    /// than one (a lone model taking ten substeps a step is not worth a
     /// hand-over to the pool); `last`: the step's last substep of the stage (checkpoints are
     /// taken only there).
     fn step_stage(&mut self, stage: u32, h: f32, step: u64, last: bool) {
