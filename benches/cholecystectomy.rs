@@ -75,7 +75,7 @@ fn scene(c: &mut Criterion) {
         s.solver().shape.clusters()
     );
     g.bench_function("scene_step_1ms_all_awake", |b| {
-        b.iter(|| s.step(1e-3, &[None, None], 0, &mut Vec::new()))
+        b.iter(|| s.step(1e-3, [None, None], 0, &mut Vec::new()))
     });
 }
 

@@ -405,7 +405,7 @@ impl Cholecystectomy {
             self.burning = false;
         }
         let was_held = !self.scene.held(0).is_empty();
-        let out = self.scene.step(dt, &[left_tool, right_tool], step, &mut ev);
+        let out = self.scene.step(dt, [left_tool, right_tool], step, &mut ev);
         self.retraction(was_held, &mut ev);
         for b in &cut_strands {
             self.metrics.adhesions_cut += 1;

@@ -320,11 +320,11 @@ impl CholeScene {
     pub fn step(
         &mut self,
         dt_s: f32,
-        tools: &[Option<HandTool>; 2],
+        tools: [Option<HandTool>; 2],
         step: u64,
         events: &mut Vec<EventKind>,
     ) -> StepOutcome {
-        self.solver_mut().set_tools(tools.clone());
+        self.solver_mut().set_tools(tools);
         self.world.step(dt_s, step, events);
         if self.world.is_frozen(PARTICLES) {
             return StepOutcome::default();

@@ -28,9 +28,8 @@ fn largest_move(s: &CholeScene, from: &[Vec3], bodies: std::ops::RangeInclusive<
 fn laid_out_and_left_alone_the_scene_stays_put() {
     let mut s = scene();
     let start = s.solver().particles.x.clone();
-    let none = [None, None];
     for _ in 0..400 {
-        let out = s.step(1e-3, &none, 0, &mut Vec::new());
+        let out = s.step(1e-3, [None, None], 0, &mut Vec::new());
         assert!(out.breaks.is_empty(), "a gallbladder strand tore by itself");
     }
     assert!(s.solver().particles.is_finite());
@@ -74,7 +73,7 @@ fn pulling_the_fundus_away_tears_the_adhesions_and_is_felt() {
     let mut reaction = Vec3::ZERO;
     for k in 0..200 {
         let jaw = start - Vec3::Y * (0.001 * (k as f32 / 199.0));
-        let out = s.step(1e-3, &[None, Some(grasper(jaw, true))], 0, &mut Vec::new());
+        let out = s.step(1e-3, [None, Some(grasper(jaw, true))], 0, &mut Vec::new());
         torn += out.breaks.len();
         reaction = out.reactions[1];
         assert!(out.held[1] > 0, "the grasp holds particles");
@@ -89,7 +88,7 @@ fn pulling_the_fundus_away_tears_the_adhesions_and_is_felt() {
     for k in 0..2000 {
         let t = k as f32 / 1999.0;
         let jaw = start - Vec3::Y * (0.001 + 0.04 * t) + Vec3::X * 0.01 * t;
-        let out = s.step(1e-3, &[None, Some(grasper(jaw, true))], 0, &mut Vec::new());
+        let out = s.step(1e-3, [None, Some(grasper(jaw, true))], 0, &mut Vec::new());
         torn += out.breaks.len();
         steps_with_tears += usize::from(!out.breaks.is_empty());
     }
@@ -106,7 +105,7 @@ fn one_or_two_threads_give_the_same_bytes() {
             let mut s = CholeScene::new(a, SceneParams::default()).expect("scene");
             s.settle(0.05, 4, 60.0);
             for _ in 0..50 {
-                s.step(1e-3, &[None, None], 0, &mut Vec::new());
+                s.step(1e-3, [None, None], 0, &mut Vec::new());
             }
             s.state_hash()
         })

@@ -235,7 +235,7 @@ impl Myotomy {
         ];
         let grasp = [left.buttons.grip >= t.grip_threshold, false, false, false];
         let owners = [Hand::Left, Hand::Right, Hand::Left, Hand::Right];
-        let set: Vec<(Tip, bool, Hand)> = (0..4).map(|k| (tips[k], grasp[k], owners[k])).collect();
+        let set: [(Tip, bool, Hand); 4] = std::array::from_fn(|k| (tips[k], grasp[k], owners[k]));
         self.world.model_mut(WALL).set_tips(&set);
         let t0 = Instant::now();
         self.world.step(self.scenario.dt_s, step, &mut ev);
