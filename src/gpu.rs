@@ -2,6 +2,8 @@
 //! renderer, the window, the headset and tissue models' compute, and eye textures that can be
 //! read back to PNG. A leaf: it names no model and no renderer.
 
+pub mod compute;
+
 use crate::profiler::{Category, Ledger, Tracked};
 use std::path::Path;
 use std::sync::Arc;
@@ -65,7 +67,17 @@ impl Gpu {
         if multiview {
             required_features |= wgpu::Features::MULTIVIEW;
         }
+        // Timestamps time the compute kernels where the adapter has them.
+        if adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY) {
+            required_features |= wgpu::Features::TIMESTAMP_QUERY;
+        }
         let mut required_limits = wgpu::Limits::default().using_resolution(adapter.limits());
+        // Tissue models' state buffers may pass the default 128 MiB a binding.
+        let most = adapter.limits();
+        required_limits.max_storage_buffer_binding_size = most
+            .max_storage_buffer_binding_size
+            .max(required_limits.max_storage_buffer_binding_size);
+        required_limits.max_buffer_size = most.max_buffer_size.max(required_limits.max_buffer_size);
         if multiview {
             required_limits.max_multiview_view_count = 2;
         }
@@ -315,31 +327,15 @@ pub fn read_texture(
         );
     }
     gpu.queue.submit([encoder.finish()]);
-    let (tx, rx) = std::sync::mpsc::channel();
-    buffer.slice(..).map_async(wgpu::MapMode::Read, move |r| {
-        let _ = tx.send(r);
-    });
-    gpu.device
-        .poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| RenderError::Readback(e.to_string()))?;
-    rx.recv()
-        .map_err(|e| RenderError::Readback(e.to_string()))?
-        .map_err(|e| RenderError::Readback(e.to_string()))?;
+    let data = compute::map_read(gpu, &buffer, layer_bytes * layers as u64)?;
     let mut out = vec![Vec::new(); layers as usize];
-    {
-        let data = buffer
-            .slice(..)
-            .get_mapped_range()
-            .map_err(|e| RenderError::Readback(e.to_string()))?;
-        for (layer, img) in out.iter_mut().enumerate() {
-            img.reserve_exact((row * h) as usize);
-            for y in 0..h as usize {
-                let start = layer * layer_bytes as usize + y * padded as usize;
-                img.extend_from_slice(&data[start..start + row as usize]);
-            }
+    for (layer, img) in out.iter_mut().enumerate() {
+        img.reserve_exact((row * h) as usize);
+        for y in 0..h as usize {
+            let start = layer * layer_bytes as usize + y * padded as usize;
+            img.extend_from_slice(&data[start..start + row as usize]);
         }
     }
-    buffer.unmap();
     Ok(out)
 }
 

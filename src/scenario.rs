@@ -24,6 +24,16 @@ impl Timing {
         ParamSpec::new("dt_s", "s", default_s, DT_RANGE_S, doc)
     }
 
+    /// A task table's `target_time_s` entry, an expert's time against which efficiency is
+    /// scored, with a procedure's own default and words (the range is the same for all).
+    pub const fn target_time(default_s: f64, doc: &'static str) -> ParamSpec {
+        ParamSpec::new("target_time_s", "s", default_s, (1.0, 7200.0), doc)
+    }
+
+    /// The words most procedures give their `target_time_s` (see [`Timing::target_time`]).
+    pub const TARGET_TIME_DOC: &'static str =
+        "time an expert needs: the efficiency component is full at or below it";
+
     /// The `publish_hz` entry.
     pub const PUBLISH_HZ: ParamSpec = ParamSpec::new(
         "publish_hz",
@@ -301,32 +311,50 @@ pub fn check_cost(file: &str, nodes: u64, steps: u64) -> Result<(), InputError> 
     Ok(())
 }
 
-/// The part of a procedure's scenario reader every procedure writes alike, from its name,
-/// its step (`dt: (default, why)`, or `dt: default` for [`Timing::SPECS`]) and its tables
-/// `(key, field, type)` in file order: the top-level `TIMING` table, `PARAM_TABLES` (what
-/// `ProcedureInfo::param_tables` lists), and on `Scenario` `parse` (which runs the
-/// procedure's own `validate`), `timing` and `validate_tables` (the name, the timing and every
-/// table's ranges), which the procedure's `validate` calls before its rules between values.
+/// Refuses a scenario that asks for more than `max` of something (`count`, as its simulated
+/// points); the error names `file` and `key` and says `asked(count)`.
+pub fn check_size(
+    file: &str,
+    key: &str,
+    count: u64,
+    max: u64,
+    asked: impl FnOnce(u64) -> String,
+) -> Result<(), InputError> {
+    if count > max {
+        return Err(InputError::new(file, key, asked(count)));
+    }
+    Ok(())
+}
+
+/// The part of a procedure's scenario reader every procedure writes alike, from its step
+/// (`dt: (default, why)`, or `dt: default` for [`Timing::SPECS`]), the method that counts its
+/// simulated points (`nodes`) and its tables `field: Type` in file order (each read from the
+/// scenario table of its field's name; `extra:` fields have no table of specs): the top-level
+/// `TIMING` table, `PARAM_TABLES` (what `ProcedureInfo::param_tables` lists), `plan`, and on
+/// `Scenario` `parse` (which runs the procedure's own `validate`), `timing` and
+/// `validate_tables` (the name, the timing and every table's ranges), which the procedure's
+/// `validate` calls before its rules between values. The procedure's name is the `NAME`
+/// beside the call.
 #[macro_export]
 macro_rules! scenario_tables {
-    (name: $name:expr, dt: ($dt:expr, $why:expr), $($rest:tt)*) => {
+    (dt: ($dt:expr, $why:expr), $($rest:tt)*) => {
         /// The top level: the simulation step and the snapshot rate.
         const TIMING: &[$crate::params::ParamSpec] = &[
             $crate::scenario::Timing::dt_spec($dt, $why),
             $crate::scenario::Timing::PUBLISH_HZ,
         ];
-        $crate::scenario_tables!(@rest $name, $($rest)*);
+        $crate::scenario_tables!(@rest $($rest)*);
     };
-    (name: $name:expr, dt: default, $($rest:tt)*) => {
+    (dt: default, $($rest:tt)*) => {
         /// The top level: the default step and snapshot rate.
         const TIMING: &[$crate::params::ParamSpec] =
             <$crate::scenario::Timing as $crate::params::Params>::SPECS;
-        $crate::scenario_tables!(@rest $name, $($rest)*);
+        $crate::scenario_tables!(@rest $($rest)*);
     };
     (
-        @rest $name:expr,
+        @rest
         nodes: $nodes:ident,
-        tables: [$($(#[$tm:meta])* ($key:expr, $field:ident, $ty:ty)),* $(,)?],
+        tables: [$($(#[$tm:meta])* $field:ident: $ty:ty),* $(,)?],
         $(extra: [$($(#[$em:meta])* $efield:ident: $ety:ty),* $(,)?],)?
     ) => {
         /// A scenario file: the procedure's name, the timing, what a headset shows, and the
@@ -350,7 +378,7 @@ macro_rules! scenario_tables {
         /// The scenario's tables with specs, as `INFO.param_tables` lists them (file order).
         pub const PARAM_TABLES: &[(&str, &[$crate::params::ParamSpec])] = &[
             ($crate::params::TOP_LEVEL, TIMING),
-            $(($key, <$ty as $crate::params::Params>::SPECS)),*
+            $((stringify!($field), <$ty as $crate::params::Params>::SPECS)),*
         ];
 
         $crate::scenario_plan!($nodes);
@@ -371,9 +399,9 @@ macro_rules! scenario_tables {
 
             /// The procedure's name, the timing and every table's ranges.
             fn validate_tables(&self, file: &str) -> Result<(), $crate::scenario::InputError> {
-                $crate::scenario::expect_procedure(file, &self.procedure, $name)?;
+                $crate::scenario::expect_procedure(file, &self.procedure, NAME)?;
                 $crate::params::validate(file, $crate::params::TOP_LEVEL, &self.timing())?;
-                $($crate::params::validate(file, $key, &self.$field)?;)*
+                $($crate::params::validate(file, stringify!($field), &self.$field)?;)*
                 Ok(())
             }
         }

@@ -30,6 +30,19 @@ pub fn run(procedure: &str) -> Result<Vec<BenchLine>, BenchError> {
     Ok(out)
 }
 
+/// The lines of the procedure's GPU compute path on `gpu` (an error for a procedure that
+/// has none yet).
+pub fn run_gpu(procedure: &str, gpu: &vesalius::gpu::Gpu) -> Result<Vec<BenchLine>, BenchError> {
+    let info = CATALOG
+        .find(procedure)
+        .ok_or_else(|| BenchError::NoSuchProcedure(procedure.to_string()))?;
+    let lines = info
+        .options
+        .gpu_bench
+        .ok_or_else(|| BenchError::NoGpuPath(procedure.to_string()))?;
+    lines(gpu)
+}
+
 /// One timed run of `seconds` of the trace; `all_awake` keeps every point stepping.
 fn pass(
     info: &ProcedureInfo,
@@ -75,6 +88,7 @@ fn pass(
             all_awake,
             mass_spring: Default::default(),
             once: Once::default(),
+            compute: Default::default(),
         }
     };
     let models = p.model_reports();

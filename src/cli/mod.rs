@@ -94,6 +94,11 @@ enum Command {
         /// One JSON object a line.
         #[arg(long)]
         json: bool,
+        /// Where the tissue models step: `cpu` (the demo's own lines), or `gpu`: the GPU
+        /// compute path's lines of the models that have one, on the first Vulkan adapter
+        /// (a real GPU, else lavapipe), checked against the CPU's step.
+        #[arg(long, value_enum, default_value_t = ComputeArg::Cpu)]
+        compute: ComputeArg,
     },
     /// Render the demo mid-task and print the Unity-profiler counters beside the paper's.
     Profile {
@@ -120,6 +125,10 @@ enum Command {
         /// separately; they do not fail the command).
         #[arg(long)]
         known_failures: bool,
+        /// `gpu`: the cases of the models' GPU compute path instead, on the first Vulkan
+        /// adapter (a real GPU, else lavapipe).
+        #[arg(long, value_enum, default_value_t = ComputeArg::Cpu)]
+        compute: ComputeArg,
     },
     /// The 1 kHz force-feedback servo loop against a procedure stepping on its own thread;
     /// prints rate_hz, period_p50_error_ms, period_p99_error_ms, max_force_n, clamps and
@@ -188,6 +197,13 @@ enum XrSimCommand {
         #[arg(long, value_name = "FILE")]
         out: Option<PathBuf>,
     },
+}
+
+/// `--compute`: where the tissue models step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum ComputeArg {
+    Cpu,
+    Gpu,
 }
 
 /// `--xr-coupling`.
@@ -512,7 +528,11 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
             assessment,
         } => session::replay(&recording, &out, frames, eye_size, assessment.as_deref()),
         Command::Check { files } => tools::check(&files),
-        Command::Bench { procedure, json } => tools::bench(procedure.as_deref(), json),
+        Command::Bench {
+            procedure,
+            json,
+            compute,
+        } => tools::bench(procedure.as_deref(), json, compute),
         Command::Profile {
             procedure,
             json,
@@ -527,7 +547,8 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
         Command::Verify {
             json,
             known_failures,
-        } => tools::verify(json, known_failures),
+            compute,
+        } => tools::verify(json, known_failures, compute),
         Command::Haptics {
             device,
             hd_name,

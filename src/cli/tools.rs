@@ -1,6 +1,6 @@
 //! `check`, `bench`, `profile` and `xr-sim manifest`.
 
-use super::{CliError, bench};
+use super::{CliError, ComputeArg, bench};
 use std::path::{Path, PathBuf};
 use vesalius::scenario::InputError;
 use vesalius::trace::{KeyTrace, Recording};
@@ -104,13 +104,28 @@ fn check_one(path: &Path) -> Result<&'static str, InputError> {
 }
 
 /// `bench [procedure]`: every registered procedure, or the one named.
-pub fn bench(procedure: Option<&str>, json: bool) -> Result<(), CliError> {
+pub fn bench(procedure: Option<&str>, json: bool, compute: ComputeArg) -> Result<(), CliError> {
     let names: Vec<&str> = match procedure {
         Some(p) => vec![p],
         None => vesalius::registry::names().collect(),
     };
+    // One device for every procedure's GPU lines.
+    let gpu = match compute {
+        ComputeArg::Gpu => Some(vesalius::gpu::Gpu::headless(false)?),
+        ComputeArg::Cpu => None,
+    };
     for p in names {
-        let lines = bench::run(p)?;
+        let lines = match &gpu {
+            None => bench::run(p)?,
+            Some(gpu) => match bench::run_gpu(p, gpu) {
+                // Benching every procedure: those without a GPU path are passed over.
+                Err(vesalius::sim::BenchError::NoGpuPath(name)) if procedure.is_none() => {
+                    tell!("{name}: no GPU compute path yet");
+                    continue;
+                }
+                other => other?,
+            },
+        };
         for l in &lines {
             if json {
                 say!("{}", serde_json::to_string(l).unwrap_or_default());
@@ -132,6 +147,20 @@ pub fn bench(procedure: Option<&str>, json: bool) -> Result<(), CliError> {
                     l.constraints,
                     l.threads
                 );
+                if let Some(adapter) = &l.compute.adapter {
+                    let c = &l.compute;
+                    let or_dash = |v: Option<f64>, f: fn(f64) -> String| v.map_or("-".into(), f);
+                    say!(
+                        "{:<14} on {adapter}: {} substeps/s by the wall, {} by the GPU's clock, {} GB/s ({} bytes a substep), step latency p99 {} ms, off the CPU by {}",
+                        "",
+                        or_dash(c.substeps_per_s, |v| format!("{v:.0}")),
+                        or_dash(c.kernel_substeps_per_s, |v| format!("{v:.0}")),
+                        or_dash(c.gb_per_s, |v| format!("{v:.0}")),
+                        c.bytes_per_substep.unwrap_or(0),
+                        or_dash(c.latency_p99_ms, |v| format!("{v:.3}")),
+                        or_dash(c.check_rel_err, |v| format!("{v:.1e}")),
+                    );
+                }
             }
         }
     }
@@ -272,9 +301,16 @@ pub fn profile(
 }
 
 /// `verify`: the reference cases as a table or JSON lines; fails when one is out of tolerance.
-pub fn verify(json: bool, known_failures: bool) -> Result<(), CliError> {
+pub fn verify(json: bool, known_failures: bool, compute: ComputeArg) -> Result<(), CliError> {
     use vesalius::verify;
-    let results = verify::run_all(&vesalius::registry::CATALOG);
+    let results = match compute {
+        ComputeArg::Cpu => verify::run_all(&vesalius::registry::CATALOG),
+        ComputeArg::Gpu => {
+            // A clear error where there is no adapter at all, before the cases say "not run".
+            vesalius::gpu::Gpu::headless(false)?;
+            verify::run(&verify::gpu_cases())
+        }
+    };
     let print = |results: &[verify::CaseResult]| -> Result<(), CliError> {
         if json {
             for r in results {

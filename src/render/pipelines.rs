@@ -38,25 +38,14 @@ fn specialise(source: &str, multiview: bool) -> String {
     }
 }
 
-/// Compiles the WGSL `source` of file `file`. A compile error is returned naming the file:
-/// left to the device's error handler it would only leave every frame empty.
+/// Compiles the WGSL `source` of file `file`, a compile error naming the file (left to the
+/// device's error handler it would only leave every frame empty).
 pub(super) fn compile(
     device: &wgpu::Device,
     file: &str,
     source: String,
 ) -> Result<wgpu::ShaderModule, RenderError> {
-    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some(file),
-        source: wgpu::ShaderSource::Wgsl(source.into()),
-    });
-    match pollster::block_on(scope.pop()) {
-        Some(e) => Err(RenderError::Shader {
-            file: file.to_string(),
-            message: e.to_string(),
-        }),
-        None => Ok(module),
-    }
+    crate::gpu::compute::compile(device, file, &source)
 }
 
 /// Standard "over" blending of straight alpha; the target's alpha stays 1 where it was.

@@ -27,6 +27,45 @@ pub struct BenchLine {
     /// A one-off computation's particulars (a precomputation's stages).
     #[serde(flatten)]
     pub once: Once,
+    /// Where it ran and what the hardware did, for a line of a GPU compute path.
+    #[serde(flatten)]
+    pub compute: ComputeFigures,
+}
+
+/// A GPU compute line's particulars (each left out of the JSON when absent): the backend and
+/// adapter, the substeps and their rate by the wall clock and by the GPU's own clock, the
+/// bytes a substep must move at the least and the bandwidth that makes, the latency from
+/// submitting a step to having its results on the CPU, and how far the GPU's result is from
+/// the CPU's on the same start.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct ComputeFigures {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub backend: Option<&'static str>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub adapter: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub substeps_per_step: Option<usize>,
+    /// Substeps a wall-clock second, submissions and readbacks included.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub substeps_per_s: Option<f64>,
+    /// Substeps a second of the GPU's own clock (timestamp queries).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub kernel_substeps_per_s: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bytes_per_substep: Option<u64>,
+    /// The bytes moved over the GPU's time, GB/s.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gb_per_s: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub kernel_s: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub wall_s: Option<f64>,
+    /// The 99th percentile of a step's time from its submission to its results on the CPU.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub latency_p99_ms: Option<f64>,
+    /// The relative difference from the CPU's result on the same start.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub check_rel_err: Option<f64>,
 }
 
 /// A one-off computation's seconds, size and rate, beside the machine's peak (each left out
@@ -48,6 +87,9 @@ pub struct Once {
 /// A procedure's own benchmarks, beyond stepping its demo.
 pub type ExtraBench = fn() -> Result<Vec<BenchLine>, BenchError>;
 
+/// A procedure's benchmarks of its GPU compute path, on the device given.
+pub type GpuBench = fn(&crate::gpu::Gpu) -> Result<Vec<BenchLine>, BenchError>;
+
 impl BenchLine {
     /// A line for `count` repetitions of something that took `seconds` in all (`steps` are
     /// the repetitions, `steps_per_s` their rate; no time step).
@@ -66,6 +108,7 @@ impl BenchLine {
             all_awake: true,
             mass_spring: Default::default(),
             once: Once::default(),
+            compute: ComputeFigures::default(),
         }
     }
 }
@@ -136,4 +179,10 @@ pub enum BenchError {
     /// A model's own failure.
     #[error(transparent)]
     Model(#[from] super::ModelError),
+    /// The GPU refused or lost the work.
+    #[error(transparent)]
+    Gpu(#[from] crate::gpu::RenderError),
+    /// `--compute gpu` for a procedure none of whose models has a GPU path yet.
+    #[error("{0} has no GPU compute path yet (run it with --compute cpu)")]
+    NoGpuPath(String),
 }

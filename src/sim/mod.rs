@@ -18,6 +18,7 @@ mod haptic;
 mod hash;
 mod input;
 mod model;
+mod plugin;
 pub mod precompute;
 mod procedure;
 mod quarantine;
@@ -27,7 +28,9 @@ mod world;
 /// What tools, rays and cuts see of a model: collision's words, used by every model.
 pub use crate::collision::{Collider, MeshSurface, TriangleSource};
 pub use attachment::{Attachment, Link, LinkSpring};
-pub use bench::{ALL_AWAKE_S, BenchError, BenchLine, ExtraBench, Once, peak_gflops};
+pub use bench::{
+    ALL_AWAKE_S, BenchError, BenchLine, ComputeFigures, ExtraBench, GpuBench, Once, peak_gflops,
+};
 pub use cases::{Case, Measured};
 pub use catalog::Catalog;
 pub use clock::{Clock, Pacing};
@@ -38,11 +41,11 @@ pub use haptic::{HapticFrame, HapticSlot, SeqWords, ToolHaptics};
 pub use hash::Fnv;
 pub use input::{Buttons, Hand, HandInput, InputFrame, Pose};
 pub use model::{Contact, ContactKind, CutStroke, ModelOutput, ModelSizes, TissueModel, ToolId};
+pub use plugin::{ChecklistScore, completion_share, time_efficiency, weighted_score};
 pub use procedure::{
     BuildError, BuildFn, DeviceChoice, MassSpring, ModelError, ModelReport, Options, Plan,
     Procedure, ProcedureInfo, ProcedureReport, SessionStatus, TaskStatus, TaskStep, ToolInfo,
-    ToolKind, Tunable, Viewpoint, completion_share, out_of_order, tick_off, time_efficiency,
-    weighted_score,
+    ToolKind, Tunable, Viewpoint, out_of_order, tick_off,
 };
 pub use quarantine::Quarantine;
 pub use snapshot::{

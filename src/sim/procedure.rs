@@ -230,6 +230,9 @@ pub struct Options {
     /// Benchmarks of its own beyond the stepping (a precomputation, a haptic-rate update at
     /// its largest), appended to `vesalius bench`'s lines; none for most.
     pub bench_extra: Option<super::bench::ExtraBench>,
+    /// The benchmark lines of its models' GPU compute path (`vesalius bench --compute gpu`),
+    /// on the device it is given; none where no model of it has one yet.
+    pub gpu_bench: Option<super::bench::GpuBench>,
     /// Its reference cases that need its whole scene (the models' own are `vesalius
     /// verify`'s already); `vesalius verify` runs them after the models'.
     pub cases: fn() -> Vec<super::Case>,
@@ -249,6 +252,7 @@ impl Options {
         legacy_tuned_model: None,
         haptic_device: DeviceChoice::Phantom,
         bench_extra: None,
+        gpu_bench: None,
         cases: Vec::new,
         precompute: None,
     };
@@ -437,106 +441,6 @@ pub trait Procedure: Send {
     }
     /// Whether the task is done.
     fn is_completed(&self) -> bool;
-}
-
-/// The part of `impl Procedure` every plug-in writes alike: its description `$info`, the step
-/// of its `scenario` field's `dt_s`, and step and snapshot by its own methods of those names.
-#[macro_export]
-macro_rules! procedure_basics {
-    (
-        $info:expr,
-        report(errors: $($errors:ident).+),
-        models: [$($owner:ident).*] $(,)?
-    ) => {
-        $crate::procedure_basics!($info, report(errors: $($errors).+));
-
-        fn models(&self) -> Option<&dyn $crate::sim::ModelSet> {
-            Some(self$(.$owner)*.world())
-        }
-
-        fn models_mut(&mut self) -> Option<&mut dyn $crate::sim::ModelSet> {
-            Some(self$(.$owner)*.world_mut())
-        }
-    };
-    ($info:expr, report(errors: $($errors:ident).+)) => {
-        $crate::procedure_basics!($info);
-
-        /// The report of the procedure's `metrics`, scored by the `score` function beside
-        /// it, with `errors` counted.
-        fn report(&self) -> $crate::sim::ProcedureReport {
-            let (score, parts) = score(&self.scenario, &self.metrics);
-            $crate::sim::ProcedureReport::of(
-                Self::is_completed(self),
-                self.$($errors).+,
-                &self.metrics,
-                &parts,
-                score,
-            )
-        }
-    };
-    ($info:expr) => {
-        fn info(&self) -> &'static $crate::sim::ProcedureInfo {
-            &$info
-        }
-
-        fn dt_s(&self) -> f32 {
-            self.scenario.dt_s
-        }
-
-        fn step(
-            &mut self,
-            input: &$crate::sim::InputFrame,
-            step: u64,
-            events: &mut Vec<$crate::sim::SimEvent>,
-        ) {
-            Self::step(self, input, step, events);
-        }
-
-        fn snapshot(&mut self, step: u64) -> $crate::sim::Snapshot {
-            Self::snapshot(self, step)
-        }
-    };
-}
-
-/// The `plan` function of a procedure's scenario module (`INFO.plan`): what a run of
-/// scenario text needs before it is built, its step, snapshot rate and model size (the
-/// scenario's method `$nodes`). `scenario_tables!` writes it.
-#[macro_export]
-macro_rules! scenario_plan {
-    ($nodes:ident) => {
-        /// What a run of scenario text needs before it is built: its step, snapshot rate
-        /// and model size (`INFO.plan`).
-        pub fn plan(
-            file: &str,
-            text: &str,
-        ) -> Result<$crate::sim::Plan, $crate::scenario::InputError> {
-            let s = Scenario::parse(file, text)?;
-            Ok($crate::sim::Plan {
-                dt_s: s.dt_s,
-                publish_hz: s.publish_hz,
-                nodes: s.$nodes(),
-            })
-        }
-    };
-}
-
-/// A score out of 100: each `(points, share)` pair's points times its share (0-1), summed
-/// in order, less `penalty` points, clamped to 0-100.
-pub fn weighted_score(weighted: &[(f32, f32)], penalty: f32) -> f32 {
-    let total = weighted
-        .iter()
-        .fold(0.0, |sum, (points, share)| sum + points * share);
-    (total - penalty).clamp(0.0, 100.0)
-}
-
-/// The share of a checklist of `steps` done when `done` are, 0-1.
-pub fn completion_share(done: usize, steps: usize) -> f32 {
-    done.min(steps) as f32 / steps.max(1) as f32
-}
-
-/// An expert's `target_s` over the completion time, at most 1; zero until completed.
-pub fn time_efficiency(target_s: f64, completion_s: Option<f64>) -> f32 {
-    completion_s.map_or(0.0, |t| (target_s / t.max(1e-9)).min(1.0) as f32)
 }
 
 impl ProcedureReport {

@@ -101,6 +101,15 @@ pub(crate) const FREED: (usize, usize, f32) = (21, 11, 0.002);
 /// (eq 5's residual strain 0.1), overdamped and stepped 4 s at half the explicit limit; and
 /// the time it stepped, s. None if it could not be built.
 pub(crate) fn freed_sheet() -> Option<(Membrane, f64)> {
+    let (mut m, steps, dt) = freed_start()?;
+    for _ in 0..steps {
+        m.step(dt);
+    }
+    Some((m, steps as f64 * f64::from(dt)))
+}
+
+/// The freed sheet before it steps, with the steps (4 s) and the step (half the limit).
+fn freed_start() -> Option<(Membrane, usize, f32)> {
     let (rows, cols, spacing) = FREED;
     let mut p = fat(300.0, 0.5);
     p.link_modulus_pa = [0.0; LAYERS - 1];
@@ -115,17 +124,55 @@ pub(crate) fn freed_sheet() -> Option<(Membrane, f64)> {
     }
     let dt = 0.5 * m.explicit_step_limit();
     let steps = (4.0 / dt) as usize;
-    for _ in 0..steps {
-        m.step(dt);
-    }
-    Some((m, steps as f64 * f64::from(dt)))
+    Some((m, steps, dt))
 }
 
 fn residual_shrink() -> Measured {
-    let (rows, cols, spacing) = FREED;
-    let Some((m, simulated_s)) = freed_sheet() else {
-        return Measured::not_run(0.1);
+    match freed_sheet() {
+        Some((m, simulated_s)) => shrink_of(&m, simulated_s),
+        None => Measured::not_run(0.1),
+    }
+}
+
+/// The cases of the models' GPU compute path (`vesalius verify --compute gpu`), run on the
+/// first Vulkan adapter (a real GPU, else lavapipe).
+pub(super) fn gpu_cases() -> Vec<Case> {
+    vec![Case {
+        model: "mass-spring membrane, gpu",
+        case: "membrane_residual_shrink_gpu",
+        description: "membrane_residual_shrink's freed sheet stepped by the GPU kernel \
+                      (shaders/membrane.wgsl, 500 substeps a submission): its relative shrink \
+                      along vs eq 5's residual strain 0.1; tolerance 15 % of it, as on the CPU",
+        unit: "",
+        tolerance: 0.15,
+        run: residual_shrink_gpu,
+    }]
+}
+
+fn residual_shrink_gpu() -> Measured {
+    use crate::models::membrane::gpu::MembraneGpu;
+    let run = || -> Option<(Membrane, f64)> {
+        let gpu = crate::gpu::Gpu::headless(false).ok()?;
+        let (mut m, steps, dt) = freed_start()?;
+        let mut k = MembraneGpu::new(&gpu, &m).ok()?;
+        let mut left = steps;
+        while left > 0 {
+            let n = left.min(500);
+            k.advance(&mut m, n as f32 * dt, n).ok()?;
+            left -= n;
+        }
+        k.download(&mut m).ok()?;
+        Some((m, steps as f64 * f64::from(dt)))
     };
+    match run() {
+        Some((m, simulated_s)) => shrink_of(&m, simulated_s),
+        None => Measured::not_run(0.1),
+    }
+}
+
+/// The freed sheet's relative shrink along its middle column, against eq 5's 0.1.
+fn shrink_of(m: &Membrane, simulated_s: f64) -> Measured {
+    let (rows, cols, spacing) = FREED;
     let (a, b) = (m.node(1, 0, cols / 2), m.node(1, rows - 1, cols / 2));
     let span = m.position(b).distance(m.position(a));
     let shrink = 1.0 - span / ((rows - 1) as f32 * spacing);

@@ -110,6 +110,12 @@ pub fn cases() -> Vec<Case> {
     all
 }
 
+/// The cases of the models' GPU compute path (`vesalius verify --compute gpu`): the same
+/// references as their CPU cases, stepped by the GPU kernels.
+pub fn gpu_cases() -> Vec<Case> {
+    membrane_cases::gpu_cases()
+}
+
 /// Cases where the model, while following its paper, disagrees with physics. Kept apart
 /// from [`cases`] so that the registered table stays green; run them with [`run`] to see
 /// by how much.
@@ -327,6 +333,16 @@ mod tests {
         assert!(relative_error(1.0, f64::INFINITY, 0.0).is_nan());
         assert!(!passes(f64::NAN, 1.0));
         assert!(passes(0.01, 0.01));
+    }
+
+    #[test]
+    fn the_gpu_cases_pass_on_the_adapter_there_is() {
+        // CI: lavapipe. The same references and tolerances as the CPU's cases.
+        let results = run(&gpu_cases());
+        assert!(!results.is_empty());
+        for r in results {
+            assert!(r.passed, "{}: {} vs {}", r.case, r.measured, r.reference);
+        }
     }
 
     #[test]

@@ -28,6 +28,9 @@
 mod active;
 mod anchors;
 mod forces;
+pub mod gpu;
+#[cfg(test)]
+mod gpu_tests;
 mod integrate;
 mod model;
 #[cfg(test)]
@@ -671,12 +674,7 @@ impl Membrane {
         } else {
             0.9
         };
-        let limit = safety * self.step_limit;
-        let n = if limit.is_finite() && limit > 0.0 {
-            ((dt / limit).ceil() as usize).clamp(1, 100_000)
-        } else {
-            1
-        };
+        let n = self.substeps_for(dt, safety);
         let all = self.activity.as_ref().is_none_or(|a| a.all_awake);
         if all {
             for _ in 0..n {
@@ -694,6 +692,17 @@ impl Membrane {
         }
         self.external.clear();
         n
+    }
+
+    /// The equal explicit substeps a step of `dt_s` takes at `safety` of the explicit limit
+    /// (at least 1, at most 100,000).
+    pub fn substeps_for(&self, dt_s: f32, safety: f32) -> usize {
+        let limit = safety * self.step_limit;
+        if limit.is_finite() && limit > 0.0 {
+            ((dt_s / limit).ceil() as usize).clamp(1, 100_000)
+        } else {
+            1
+        }
     }
 
     /// Runs `op` on the widest vector unit the CPU has (AVX2 on x86-64 where present), or on

@@ -7,7 +7,7 @@ fn sheet(rows: usize, cols: usize, spacing: f32, gap: f32) -> MembraneShape {
 }
 
 /// A straight tube along x: layer l a ring of radius `radii[l]`.
-fn tube(rows: usize, cols: usize, length: f32, radii: [f32; LAYERS]) -> MembraneShape {
+pub(super) fn tube(rows: usize, cols: usize, length: f32, radii: [f32; LAYERS]) -> MembraneShape {
     let positions = std::array::from_fn(|l| {
         (0..rows * cols)
             .map(|k| {
@@ -26,7 +26,7 @@ fn tube(rows: usize, cols: usize, length: f32, radii: [f32; LAYERS]) -> Membrane
     }
 }
 
-fn params(integrator: Integrator) -> MembraneParams {
+pub(super) fn params(integrator: Integrator) -> MembraneParams {
     let fat = LayerMaterial {
         youngs_modulus_pa: 2e3,
         thickness_m: 2e-3,

@@ -9,6 +9,6 @@ mod plugin;
 mod procedure;
 pub mod scenario;
 
-pub use plugin::{INFO, ScoreParts, build_procedure, build_scene, score};
+pub use plugin::{INFO, build_procedure, build_scene, score};
 pub use procedure::{Catheterisation, Metrics, STEPS};
 pub use scenario::Scenario;

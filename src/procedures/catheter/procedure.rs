@@ -13,6 +13,7 @@ use crate::models::skeleton::catheter::Drive;
 use crate::models::skeleton::in_vessel::CatheterInVessel;
 use crate::procedures::TaskStep;
 use crate::sim::Fnv;
+use crate::sim::TaskStatus;
 use crate::sim::{
     EventKind, Hand, InputFrame, ModelSnapshot, ProcedureEvent, SimEvent, Snapshot, SurfaceRole,
     ToolSnapshot,
@@ -368,4 +369,34 @@ struct PunctureEvent {
 #[derive(Serialize)]
 struct WrongBranch {
     branch: u32,
+}
+
+impl Catheterisation {
+    /// The panel's live part: the handle's path, the force, the peak force, the wall
+    /// contacts and the reach into the branch (nothing here is vulnerable to touch).
+    pub(super) fn panel(&self, _near_m: f32) -> TaskStatus {
+        let m = &self.metrics;
+        TaskStatus {
+            path_m: [0.0, m.handle_path_m as f32],
+            figures: vec![
+                (
+                    "force".to_string(),
+                    format!("{:.2} N", self.reaction().length()),
+                ),
+                ("peak force".to_string(), format!("{:.2} N", m.peak_force_n)),
+                ("wall contacts".to_string(), m.wall_contacts.to_string()),
+                (
+                    "into the branch".to_string(),
+                    format!("{:.0} mm", 1e3 * m.reach_m),
+                ),
+            ],
+            ..TaskStatus::default()
+        }
+    }
+
+    /// Reaction force on each instrument (left, right) after the last step: none on the
+    /// introducer, the vessel's on the catheter.
+    pub fn reactions(&self) -> [Vec3; 2] {
+        [Vec3::ZERO, self.reaction().as_vec3()]
+    }
 }

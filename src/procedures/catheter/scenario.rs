@@ -332,22 +332,16 @@ impl Params for Task {
     const SPECS: &'static [ParamSpec] = &[
         ParamSpec::new("branch", "1", 2.0, (1.0, 2.0), "the target branch: 1 leaves towards +y, 2 towards -y (the tip bends towards +y untwisted)").whole(),
         ParamSpec::new("reach_m", "m", 0.030, (0.005, 1.0), "how far into the branch the tip must go"),
-        ParamSpec::new("target_time_s", "s", 10.0, (1.0, 7200.0), "an expert's time"),
+        crate::scenario::Timing::target_time(10.0, "an expert's time"),
     ];
     param_fields!(branch, reach_m, target_time_s);
 }
 
 crate::scenario_tables! {
-    name: NAME,
     dt: (0.001, "the simulation step: the Falcon's 1 kHz servo period"),
     nodes: balls,
-    tables: [
-        ("vessel", vessel, VesselTable),
-        ("catheter", catheter, CatheterTable),
-        ("contact", contact, ContactTable),
-        ("device", device, DeviceTable),
-        ("task", task, Task),
-    ],
+    tables: [vessel: VesselTable, catheter: CatheterTable, contact: ContactTable,
+        device: DeviceTable, task: Task],
 }
 
 impl Scenario {

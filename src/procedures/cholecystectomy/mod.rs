@@ -13,6 +13,6 @@ pub mod scenario;
 pub mod scene;
 
 pub use anatomy::{Anatomy, AnatomyError, AnatomyParams};
-pub use plugin::{INFO, ScoreParts, build_procedure, score};
+pub use plugin::{INFO, build_procedure, score};
 pub use procedure::{Cholecystectomy, Metrics, RightTool, STEPS};
 pub use scenario::Scenario;

@@ -406,13 +406,7 @@ impl Params for Task {
             "the gallbladder is off its bed when this share of the adhesion strands is torn \
              or cut",
         ),
-        ParamSpec::new(
-            "target_time_s",
-            "s",
-            60.0,
-            (1.0, 7200.0),
-            "an expert's time for the whole task",
-        ),
+        crate::scenario::Timing::target_time(60.0, "an expert's time for the whole task"),
     ];
     param_fields!(
         retract_m,
@@ -425,17 +419,10 @@ impl Params for Task {
 }
 
 crate::scenario_tables! {
-    name: NAME,
     dt: (0.001, "simulation step (0.001: the haptic rate; the solver's substeps divide it)"),
     nodes: particles,
-    tables: [
-        ("anatomy", anatomy, AnatomyTable),
-        ("tissue", tissue, TissueTable),
-        ("solver", solver, SolverTable),
-        ("adhesion", adhesion, AdhesionTable),
-        ("tools", tools, Tools),
-        ("task", task, Task),
-    ],
+    tables: [anatomy: AnatomyTable, tissue: TissueTable, solver: SolverTable,
+        adhesion: AdhesionTable, tools: Tools, task: Task],
     extra: [
         /// Optional: the organs' closed surfaces from files (OBJ, glTF or GLB; metres, in the
         /// anatomy's frame), replacing the generated ellipsoids.

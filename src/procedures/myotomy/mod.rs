@@ -14,7 +14,7 @@ mod precompute;
 mod procedure;
 pub mod scenario;
 
-pub use plugin::{INFO, ScoreParts, build_procedure, cache_file, score};
+pub use plugin::{INFO, build_procedure, cache_file, score};
 pub use precompute::PRECOMPUTE;
 pub use procedure::{BAND_M, Metrics, Myotomy, STEPS};
 pub use scenario::Scenario;

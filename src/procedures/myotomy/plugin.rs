@@ -3,70 +3,32 @@
 //! the first run), and its score.
 
 use super::anatomy::Esophagus;
+use super::field;
 use super::procedure::{Metrics, Myotomy, STEPS};
 use super::scenario::{self, NAME, Scenario};
 use crate::models::bem::cache;
 use crate::models::bem::contact::Contacts;
 use crate::models::bem::palpation::Palpation;
-use crate::procedures::{
-    BuildError, MassSpring, ModelReport, Procedure, ProcedureInfo, TaskStatus, ToolInfo, ToolKind,
-    Viewpoint,
-};
-use crate::sim::Hand;
-use crate::sim::{completion_share, time_efficiency, weighted_score};
+use crate::procedures::{BuildError, ModelReport, Procedure, ProcedureInfo};
+use crate::sim::ChecklistScore;
 use glam::Vec3;
-use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 /// The registry's entry.
-pub const INFO: ProcedureInfo = ProcedureInfo {
-    name: NAME,
+pub const INFO: ProcedureInfo = crate::procedure_info! {
+    stem: "myotomy", paper: "esophageal-myotomy.txt",
     title: "Laparoscopic Heller myotomy (esophagogastric junction)",
-    paper: "esophageal-myotomy.txt",
-    scenario: include_str!("../../../assets/scenarios/myotomy.toml"),
-    demo_trace: include_str!("../../../assets/traces/myotomy-demo.toml"),
-    steps: &STEPS,
-    tools: [
-        ToolInfo {
-            hand: Hand::Left,
-            name: "grasper",
-            kind: ToolKind::Grasper,
-            // Palpating the sphincter takes a few hundred millinewtons at most.
-            full_scale_n: 0.5,
-        },
-        ToolInfo {
-            hand: Hand::Right,
-            name: "hook",
-            kind: ToolKind::Hook,
-            full_scale_n: 0.5,
-        },
-    ],
+    build: |_, s| build_procedure(s, &cache::default_dir())?,
+    // Palpating the sphincter takes a few hundred millinewtons at most.
+    tools: [("grasper", Grasper, 0.5), ("hook", Hook, 0.5)],
     // The laparoscope above the anterior wall of the abdominal esophagus, looking down at
     // the junction, the diaphragm at the top of the view.
-    view: Viewpoint {
-        eye: Vec3::new(0.0, 0.075, 0.045),
-        target: Vec3::new(0.0, 0.008, 0.035),
-    },
+    view: (0.0, 0.075, 0.045) -> (0.0, 0.008, 0.035),
     // Above the field, to either side.
-    desk_park: [Vec3::new(-0.03, 0.04, 0.03), Vec3::new(0.03, 0.04, 0.03)],
-    param_tables: scenario::PARAM_TABLES,
-    assessment: include_str!("../../../assets/assessment/myotomy.toml"),
-    field: super::field::field,
-    blank_metrics: || serde_json::to_value(Metrics::default()).unwrap_or_default(),
-    plan: scenario::plan,
-    build,
-    options: crate::sim::Options {
-        bench_all_awake_s: 1.0,
-        bench_extra: Some(super::bench::extra),
-        precompute: Some(&super::PRECOMPUTE),
-        ..crate::sim::Options::NONE
-    },
+    desk_park: [(-0.03, 0.04, 0.03), (0.03, 0.04, 0.03)],
+    bench_extra: Some(super::bench::extra),
+    precompute: Some(&super::PRECOMPUTE),
 };
-
-fn build(file: &str, text: &str) -> Result<Box<dyn Procedure>, BuildError> {
-    let s = Scenario::parse(file, text)?;
-    Ok(Box::new(build_procedure(s, &cache::default_dir())?))
-}
 
 /// The cache file in `dir` for this esophagus (named by its key: esophagi of other sizes or
 /// tissues keep their own files).
@@ -101,94 +63,8 @@ pub fn build_procedure(s: Scenario, cache_dir: &Path) -> Result<Myotomy, BuildEr
     Ok(Myotomy::new(s, e, palpation))
 }
 
-/// Weight of the checklist done, of the speed and of the muscle divided, points.
-const COMPLETION_POINTS: f32 = 60.0;
-const EFFICIENCY_POINTS: f32 = 20.0;
-const DIVISION_POINTS: f32 = 20.0;
-/// Points taken off per error (a perforation).
-const ERROR_PENALTY: f32 = 20.0;
-
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct ScoreParts {
-    /// Fraction of the checklist done.
-    pub completion: f32,
-    /// Target time / completion time, at most 1; zero until completed.
-    pub efficiency: f32,
-    /// Share of the myotomy's span with its muscle divided.
-    pub division: f32,
-    pub penalty: f32,
-}
-
-/// The score, 0-100: 60 x completion + 20 x efficiency + 20 x division, less 20 per
-/// perforation (a flat score until the assessment trees of #12).
-pub fn score(s: &Scenario, m: &Metrics) -> (f32, ScoreParts) {
-    let parts = ScoreParts {
-        completion: completion_share(m.steps_done.len(), STEPS.len()),
-        efficiency: time_efficiency(s.task.target_time_s, m.completion_time_s),
-        division: if m.required_m > 0.0 {
-            (m.divided_m / m.required_m).min(1.0) as f32
-        } else {
-            1.0
-        },
-        penalty: ERROR_PENALTY * m.errors as f32,
-    };
-    let weighted = [
-        (COMPLETION_POINTS, parts.completion),
-        (EFFICIENCY_POINTS, parts.efficiency),
-        (DIVISION_POINTS, parts.division),
-    ];
-    (weighted_score(&weighted, parts.penalty), parts)
-}
-
 impl Procedure for Myotomy {
     crate::procedure_basics!(INFO, report(errors: metrics.errors), models: []);
-
-    fn status(&self, _near_m: f32) -> TaskStatus {
-        let m = &self.metrics;
-        let (score, _) = score(&self.scenario, m);
-        TaskStatus {
-            steps_done: m.steps_done.clone(),
-            completed: self.is_completed(),
-            score,
-            errors: m.errors,
-            path_m: [m.path_length_left_m, m.path_length_right_m],
-            figures: vec![
-                (
-                    "muscle divided".to_string(),
-                    format!("{:.0} of {:.0} mm", 1e3 * m.divided_m, 1e3 * m.required_m),
-                ),
-                (
-                    "deepest cut".to_string(),
-                    format!(
-                        "{:.1} mm (muscle {:.1}, wall {:.1})",
-                        1e3 * m.deepest_cut_m,
-                        1e3 * self.scenario.task.muscle_m,
-                        1e3 * self.scenario.esophagus.wall_m
-                    ),
-                ),
-                (
-                    "polygons".to_string(),
-                    format!("{} (from {})", m.triangles, m.original_triangles),
-                ),
-                (
-                    "grasper force".to_string(),
-                    format!("{:.3} N", self.reactions()[0].length()),
-                ),
-                (
-                    "hook force".to_string(),
-                    format!("{:.3} N", self.reactions()[1].length()),
-                ),
-            ],
-            // Nothing here is a vulnerable structure an instrument may not touch: the mucosa
-            // is guarded by the perforation's own alarm.
-            touching: [false; 2],
-            near: [None, None],
-        }
-    }
-
-    fn reactions(&self) -> [Vec3; 2] {
-        Myotomy::reactions(self)
-    }
 
     fn contacts_now(&self) -> [Option<(Vec3, Vec3)>; 2] {
         let r = Myotomy::reactions(self);
@@ -200,25 +76,23 @@ impl Procedure for Myotomy {
         let e = &self.esophagus;
         let pre = self.palpation().contacts.precomputed();
         vec![
-            // Its step is the contact update from the precomputed responses.
-            ModelReport {
-                name: "esophagus".to_string(),
-                kind: "boundary_elements".to_string(),
-                vertices: e.surface.vertices.len(),
-                triangles: e.surface.triangles.len(),
-                // The dense system's unknowns.
-                constraints: pre.n,
-                mass_spring: MassSpring::default(),
-            },
-            ModelReport {
-                name: "incision".to_string(),
-                kind: "surface_subdivision".to_string(),
-                vertices: self.incision.vertices.len() - e.surface.vertices.len(),
-                // What the incision added to the surface.
-                triangles: self.incision.triangles.len() - e.surface.triangles.len(),
-                constraints: self.incision.cuts().len(),
-                mass_spring: MassSpring::default(),
-            },
+            // Its step is the contact update from the precomputed responses; its
+            // constraints are the dense system's unknowns.
+            ModelReport::new(
+                "esophagus",
+                "boundary_elements",
+                e.surface.vertices.len(),
+                pre.n,
+            )
+            .with_triangles(e.surface.triangles.len()),
+            // What the incision added to the surface.
+            ModelReport::new(
+                "incision",
+                "surface_subdivision",
+                self.incision.vertices.len() - e.surface.vertices.len(),
+                self.incision.cuts().len(),
+            )
+            .with_triangles(self.incision.triangles.len() - e.surface.triangles.len()),
         ]
     }
 
@@ -238,12 +112,22 @@ impl Procedure for Myotomy {
             ),
         ]
     }
+}
 
-    fn state_hash(&self) -> u64 {
-        Myotomy::state_hash(self)
-    }
+/// Points taken off per error (a perforation).
+const ERROR_PENALTY: f32 = 20.0;
 
-    fn is_completed(&self) -> bool {
-        Myotomy::is_completed(self)
-    }
+/// The score, 0-100: 60 x completion + 20 x efficiency + 20 x division (the share of the
+/// myotomy's span with its muscle divided; all of it where none is required), less 20 per
+/// perforation (a flat score until the assessment trees of #12).
+pub fn score(s: &Scenario, m: &Metrics) -> (f32, ChecklistScore) {
+    let time = (s.task.target_time_s, m.completion_time_s);
+    let penalty = ERROR_PENALTY * m.errors as f32;
+    let divided = if m.required_m > 0.0 {
+        (m.divided_m / m.required_m).min(1.0) as f32
+    } else {
+        1.0
+    };
+    let division = ("division", divided);
+    ChecklistScore::new(&m.steps_done, &STEPS, time, division, penalty).scored()
 }

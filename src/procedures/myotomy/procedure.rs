@@ -18,6 +18,7 @@ use crate::models::bem::incision::Incision;
 use crate::models::bem::palpation::{Palpation, Tip, Touch};
 use crate::procedures::TaskStep;
 use crate::sim::Fnv;
+use crate::sim::TaskStatus;
 use crate::sim::{
     EmissionKind, EmissionLog, EventKind, Hand, InputFrame, InstrumentShape, ProcedureEvent,
     SimEvent, Snapshot, ToolSnapshot,
@@ -492,3 +493,43 @@ struct Perforation {
 #[cfg(test)]
 #[path = "procedure_tests.rs"]
 mod tests;
+
+impl Myotomy {
+    /// The panel's live part: the paths, the muscle divided, the deepest cut, the polygons
+    /// and each instrument's force. Nothing here is a vulnerable structure an instrument may
+    /// not touch: the mucosa is guarded by the perforation's own alarm.
+    pub(super) fn panel(&self, _near_m: f32) -> TaskStatus {
+        let m = &self.metrics;
+        TaskStatus {
+            path_m: [m.path_length_left_m, m.path_length_right_m],
+            figures: vec![
+                (
+                    "muscle divided".to_string(),
+                    format!("{:.0} of {:.0} mm", 1e3 * m.divided_m, 1e3 * m.required_m),
+                ),
+                (
+                    "deepest cut".to_string(),
+                    format!(
+                        "{:.1} mm (muscle {:.1}, wall {:.1})",
+                        1e3 * m.deepest_cut_m,
+                        1e3 * self.scenario.task.muscle_m,
+                        1e3 * self.scenario.esophagus.wall_m
+                    ),
+                ),
+                (
+                    "polygons".to_string(),
+                    format!("{} (from {})", m.triangles, m.original_triangles),
+                ),
+                (
+                    "grasper force".to_string(),
+                    format!("{:.3} N", self.reactions()[0].length()),
+                ),
+                (
+                    "hook force".to_string(),
+                    format!("{:.3} N", self.reactions()[1].length()),
+                ),
+            ],
+            ..TaskStatus::default()
+        }
+    }
+}

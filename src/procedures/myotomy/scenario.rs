@@ -251,13 +251,7 @@ impl Params for Task {
             (0.001, 5.0),
             "the force the grasper presses the sphincter with to feel it",
         ),
-        ParamSpec::new(
-            "target_time_s",
-            "s",
-            30.0,
-            (1.0, 7200.0),
-            "an expert's time",
-        ),
+        crate::scenario::Timing::target_time(30.0, "an expert's time"),
     ];
     param_fields!(
         junction_m,
@@ -270,15 +264,9 @@ impl Params for Task {
 }
 
 crate::scenario_tables! {
-    name: NAME,
     dt: (0.001, "the simulation step: every step updates the contacts from the precomputed responses"),
     nodes: triangles,
-    tables: [
-        ("esophagus", esophagus, EsophagusTable),
-        ("relaxation", relaxation, RelaxationTable),
-        ("tools", tools, Tools),
-        ("task", task, Task),
-    ],
+    tables: [esophagus: EsophagusTable, relaxation: RelaxationTable, tools: Tools, task: Task],
 }
 
 impl Scenario {

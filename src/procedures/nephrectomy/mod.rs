@@ -37,76 +37,49 @@ const IDENTIFY_DWELL_S: f32 = 1.0;
 const LASER_MOVED_M: f32 = 0.005;
 const LASER_TURNED_RAD: f32 = 0.05;
 
+/// The name scenarios and traces give this procedure.
+pub const NAME: &str = "nephrectomy";
+
+/// The task's steps, in order.
+pub const STEPS: [super::TaskStep; 4] = [
+    super::TaskStep {
+        id: "identify",
+        text: "Identify the tumour with the laser",
+    },
+    super::TaskStep {
+        id: "mark",
+        text: "Mark the resection margin",
+    },
+    super::TaskStep {
+        id: "cut",
+        text: "Cut around the tumour",
+    },
+    super::TaskStep {
+        id: "remove",
+        text: "Lift the tumour out",
+    },
+];
+
 /// The registry's entry.
-pub const INFO: super::ProcedureInfo = super::ProcedureInfo {
-    name: "nephrectomy",
+pub const INFO: super::ProcedureInfo = crate::procedure_info! {
+    stem: "nephrectomy", paper: "partial-nephrectomy-vive.txt",
     title: "Laparoscopic partial nephrectomy",
-    paper: "partial-nephrectomy-vive.txt",
-    scenario: include_str!("../../../assets/scenarios/nephrectomy.toml"),
-    demo_trace: include_str!("../../../assets/traces/nephrectomy-demo.toml"),
-    steps: &[
-        super::TaskStep {
-            id: "identify",
-            text: "Identify the tumour with the laser",
-        },
-        super::TaskStep {
-            id: "mark",
-            text: "Mark the resection margin",
-        },
-        super::TaskStep {
-            id: "cut",
-            text: "Cut around the tumour",
-        },
-        super::TaskStep {
-            id: "remove",
-            text: "Lift the tumour out",
-        },
-    ],
-    tools: [
-        super::ToolInfo {
-            hand: Hand::Left,
-            name: "grasper",
-            kind: super::ToolKind::Grasper,
-            // The top of the 0.5-3.5 N range tissue takes (catheter paper, section 3.1).
-            full_scale_n: 3.5,
-        },
-        super::ToolInfo {
-            hand: Hand::Right,
-            name: "laser",
-            kind: super::ToolKind::Laser,
-            full_scale_n: 1.0,
-        },
-    ],
+    build: |_, s| Nephrectomy::new(s)?,
+    // Left: the top of the 0.5-3.5 N range tissue takes (catheter paper, section 3.1).
+    tools: [("grasper", Grasper, 3.5), ("laser", Laser, 1.0)],
     // Above and in front of the kidney's lateral face, where a surgeon's head would be over
     // the port site.
-    view: super::Viewpoint {
-        eye: Vec3::new(0.0, 0.07, 0.16),
-        target: Vec3::new(0.005, 0.01, 0.0),
-    },
+    view: (0.0, 0.07, 0.16) -> (0.005, 0.01, 0.0),
     // Where the demo trace starts the instruments, on the default camera's view.
     desk_park: [
-        Vec3::new(-0.03135, 0.04888, 0.14317),
-        Vec3::new(0.09865, 0.04888, 0.14317),
+        (-0.03135, 0.04888, 0.14317),
+        (0.09865, 0.04888, 0.14317),
     ],
-    param_tables: scenario::PARAM_TABLES,
-    assessment: include_str!("../../../assets/assessment/nephrectomy.toml"),
-    field: field::field,
-    blank_metrics: || serde_json::to_value(Metrics::default()).unwrap_or_default(),
-    plan: scenario::plan,
-    build,
-    options: crate::sim::Options {
-        // Tables 2 and 3 of the paper.
-        profile_reference: Some(|| [crate::profiler::paper_cpu(), crate::profiler::paper_gpu()]),
-        legacy_tuned_model: Some(TUNED_MODEL),
-        cases: cases::cases,
-        ..crate::sim::Options::NONE
-    },
+    // Tables 2 and 3 of the paper.
+    profile_reference: Some(|| [crate::profiler::paper_cpu(), crate::profiler::paper_gpu()]),
+    legacy_tuned_model: Some(TUNED_MODEL),
+    cases: cases::cases,
 };
-
-fn build(file: &str, text: &str) -> Result<Box<dyn super::Procedure>, super::BuildError> {
-    let s = Scenario::parse(file, text)?;
-    Ok(Box::new(Nephrectomy::new(s)?))
-}
 
 /// The model whose parameters the supervisor tunes live.
 pub const TUNED_MODEL: &str = "kidney";

@@ -4,6 +4,7 @@
 //! the tables check the ranges, and the checks that tie values together follow by hand. An
 //! error names the file, the key and what is expected.
 
+use super::NAME;
 use crate::models::SoftBodyParams;
 use crate::params::{ParamSpec, Params};
 use crate::scenario::{InputError, MAX_NODES, MIN_DIRECTION_LENGTH};
@@ -331,13 +332,7 @@ impl Params for Task {
             (1e-3, 0.3),
             "the freed tumour counts as removed once lifted this far out of its bed",
         ),
-        ParamSpec::new(
-            "target_time_s",
-            "s",
-            60.0,
-            (1.0, 7200.0),
-            "time an expert needs: the efficiency component is full at or below it",
-        ),
+        crate::scenario::Timing::target_time(60.0, crate::scenario::Timing::TARGET_TIME_DOC),
     ];
 
     crate::param_fields!(
@@ -388,17 +383,10 @@ impl Params for Weights {
 }
 
 crate::scenario_tables! {
-    name: super::INFO.name,
     dt: (0.004, "simulation step (0.004: 250 Hz; a force-feedback servo renders at 1 kHz between steps)"),
     nodes: estimated_nodes,
-    tables: [
-        ("anatomy", anatomy, Anatomy),
-        ("kidney", kidney, SoftBodyParams),
-        ("vessels", vessels, SoftBodyParams),
-        ("tools", tools, Tools),
-        ("task", task, Task),
-        ("weights", weights, Weights),
-    ],
+    tables: [anatomy: Anatomy, kidney: SoftBodyParams, vessels: SoftBodyParams, tools: Tools,
+        task: Task, weights: Weights],
     extra: [
         vulnerable: Vec<Vulnerable>,
     ],

@@ -7,6 +7,7 @@ pub mod anatomy;
 mod cases;
 mod coupling;
 mod field;
+mod gpu_bench;
 mod plugin;
 mod procedure;
 pub mod regions;
@@ -18,7 +19,7 @@ pub mod scene;
 mod tests;
 
 pub use anatomy::{Anatomy, AnatomyError, AnatomyParams};
-pub use plugin::{INFO, ScoreParts, score};
+pub use plugin::{INFO, score};
 pub use procedure::{JUMP_M, Metrics, Rectum, STEPS};
 pub use scenario::Scenario;
 pub use scene::{RectumScene, SceneError, SceneParams, StepOutcome, ToolState};

@@ -11,6 +11,7 @@ use super::scene::{ALARM_RECTAL_WALL, RectumScene, StepOutcome, ToolState};
 use crate::models::membrane::{LAYERS, Membrane};
 use crate::procedures::scope::Scope;
 use crate::sim::Fnv;
+use crate::sim::TaskStatus;
 use crate::sim::{
     EmissionKind, EmissionLog, EventKind, Hand, HandInput, InputFrame, InstrumentShape,
     ModelSnapshot, ProcedureEvent, SimEvent, Snapshot, SurfaceRole, TissueModel, ToolSnapshot,
@@ -704,3 +705,31 @@ fn grid_mesh(
 #[cfg(test)]
 #[path = "procedure_tests.rs"]
 mod tests;
+
+impl Rectum {
+    /// The panel's live part: the paths, the plane cut, the right instrument's force, the
+    /// share of correct cuts, what the right instrument touches or nears within `near_m`.
+    pub(super) fn panel(&self, near_m: f32) -> TaskStatus {
+        let m = &self.metrics;
+        let (cut, total) = self.scene.target_progress();
+        let near = self.near_now().filter(|(_, d)| *d <= near_m);
+        TaskStatus {
+            path_m: [m.path_length_left_m, m.path_length_right_m],
+            figures: vec![
+                ("plane cut".to_string(), format!("{cut} of {total} springs")),
+                (
+                    format!("{} force", self.right_name()),
+                    format!("{:.2} N", self.reactions()[1].length()),
+                ),
+                (
+                    "correct cuts".to_string(),
+                    format!("{:.0} %", 100.0 * m.correct_cut_ratio),
+                ),
+                ("right hand".to_string(), self.right_name().to_string()),
+            ],
+            touching: [false, self.touching_now()],
+            near: [None, near.map(|(n, d)| (n.to_string(), d))],
+            ..TaskStatus::default()
+        }
+    }
+}

@@ -133,33 +133,15 @@ impl Params for AnatomyTable {
         .whole(),
     ];
 
-    fn get(&self, key: &str) -> Option<f64> {
-        Some(match key {
-            "length_m" => self.length_m.into(),
-            "rectum_radius_m" => self.rectum_radius_m.into(),
-            "pelvis_radius_m" => self.pelvis_radius_m.into(),
-            "fat_depth_m" => self.fat_depth_m.into(),
-            "wall_depth_m" => self.wall_depth_m.into(),
-            "rows" => self.rows.into(),
-            "cols" => self.cols.into(),
-            _ => return None,
-        })
-    }
-
-    fn set(&mut self, key: &str, v: f64) -> bool {
-        let f = v as f32;
-        match key {
-            "length_m" => self.length_m = f,
-            "rectum_radius_m" => self.rectum_radius_m = f,
-            "pelvis_radius_m" => self.pelvis_radius_m = f,
-            "fat_depth_m" => self.fat_depth_m = f,
-            "wall_depth_m" => self.wall_depth_m = f,
-            "rows" => self.rows = v as u32,
-            "cols" => self.cols = v as u32,
-            _ => return false,
-        }
-        true
-    }
+    crate::param_fields!(
+        length_m,
+        rectum_radius_m,
+        pelvis_radius_m,
+        fat_depth_m,
+        wall_depth_m,
+        rows,
+        cols,
+    );
 }
 
 impl Params for MembraneTable {
@@ -328,13 +310,7 @@ impl Params for Task {
             "an instrument this close to a vulnerable structure is near it (its forces and \
              speed there are measured)",
         ),
-        ParamSpec::new(
-            "target_time_s",
-            "s",
-            10.0,
-            (1.0, 7200.0),
-            "time an expert needs: the efficiency component is full at or below it",
-        ),
+        crate::scenario::Timing::target_time(10.0, crate::scenario::Timing::TARGET_TIME_DOC),
     ];
 
     crate::param_fields!(
@@ -350,16 +326,10 @@ impl Params for Task {
 }
 
 crate::scenario_tables! {
-    name: NAME,
     dt: (0.001, "simulation step (0.001: the paper's 1 kHz force loop; the membrane takes as many \
          explicit substeps within it as its stability needs)"),
     nodes: nodes,
-    tables: [
-        ("anatomy", anatomy, AnatomyTable),
-        ("membrane", membrane, MembraneTable),
-        ("tools", tools, Tools),
-        ("task", task, Task),
-    ],
+    tables: [anatomy: AnatomyTable, membrane: MembraneTable, tools: Tools, task: Task],
 }
 
 impl Scenario {
@@ -427,15 +397,9 @@ impl Scenario {
     pub fn validate(&self, file: &str) -> Result<(), InputError> {
         let err = |key: &str, message: String| InputError::new(file, key, message);
         self.validate_tables(file)?;
-        if self.nodes() > MAX_NODES {
-            return Err(err(
-                "anatomy.rows",
-                format!(
-                    "rows x cols x 4 layers is {} membrane nodes; at most {MAX_NODES}",
-                    self.nodes()
-                ),
-            ));
-        }
+        crate::scenario::check_size(file, "anatomy.rows", self.nodes(), MAX_NODES, |n| {
+            format!("rows x cols x 4 layers is {n} membrane nodes; at most {MAX_NODES}")
+        })?;
         let a = &self.anatomy;
         if a.pelvis_radius_m <= a.rectum_radius_m + a.fat_depth_m + a.wall_depth_m {
             return Err(err(

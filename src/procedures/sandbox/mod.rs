@@ -10,6 +10,7 @@
 //! within 0.5 mm). Pinning the bottom points would need a hook the model does not have.
 
 use crate::models::{Fnv, SimplexMesh, SoftBody};
+use crate::sim::TaskStatus;
 use crate::sim::{
     Contact, ContactKind, EventKind, Hand, InputFrame, InstrumentShape, ModelId, SimEvent,
     Snapshot, SurfaceRole, TissueModel, ToolSnapshot, World,
@@ -29,7 +30,7 @@ pub use crate::mesh::block::{
 pub use plugin::{ScoreParts, score};
 pub use scenario::{Geometry, MODEL, NAME, Scenario, Task, Tools};
 
-use super::{ProcedureInfo, TaskStep, ToolInfo, ToolKind, Viewpoint};
+use super::{ProcedureInfo, TaskStep};
 
 /// The task, in order.
 pub const STEPS: [TaskStep; 4] = [
@@ -52,43 +53,17 @@ pub const STEPS: [TaskStep; 4] = [
 ];
 
 /// The registry's entry.
-pub const INFO: ProcedureInfo = ProcedureInfo {
-    name: NAME,
+pub const INFO: ProcedureInfo = crate::procedure_info! {
+    stem: "sandbox", paper: "none (calibration)",
     title: "Sandbox: one soft block, a probe and a grasper",
-    paper: "none (calibration)",
-    scenario: include_str!("../../../assets/scenarios/sandbox.toml"),
-    demo_trace: include_str!("../../../assets/traces/sandbox-demo.toml"),
-    steps: &STEPS,
-    tools: [
-        ToolInfo {
-            hand: Hand::Left,
-            name: "grasper",
-            kind: ToolKind::Grasper,
-            // The top of the 0.5-3.5 N range tissue takes, as for the nephrectomy's grasper.
-            full_scale_n: 3.5,
-        },
-        ToolInfo {
-            hand: Hand::Right,
-            name: "probe",
-            kind: ToolKind::Probe,
-            full_scale_n: 3.5,
-        },
-    ],
+    build: |_, s| Sandbox::new(s)?,
+    // The top of the 0.5-3.5 N range tissue takes, as for the nephrectomy's grasper.
+    tools: [("grasper", Grasper, 3.5), ("probe", Probe, 3.5)],
     // 20 cm from the block's centre, in front and 37 degrees above: the top and the front
     // face both in view.
-    view: Viewpoint {
-        eye: Vec3::new(0.0, 0.135, 0.16),
-        target: Vec3::new(0.0, 0.015, 0.0),
-    },
+    view: (0.0, 0.135, 0.16) -> (0.0, 0.015, 0.0),
     // Where the demo trace starts the instruments: over the block's front corners, in view.
-    desk_park: [Vec3::new(-0.04, 0.06, 0.03), Vec3::new(0.04, 0.06, 0.03)],
-    param_tables: scenario::PARAM_TABLES,
-    assessment: include_str!("../../../assets/assessment/sandbox.toml"),
-    field: field::field,
-    blank_metrics: || serde_json::to_value(Metrics::default()).unwrap_or_default(),
-    plan: scenario::plan,
-    build,
-    options: crate::sim::Options::NONE,
+    desk_park: [(-0.04, 0.06, 0.03), (0.04, 0.06, 0.03)],
 };
 
 /// The role of each region, by region index.
@@ -104,10 +79,6 @@ pub(super) const BLOCK: ModelId = ModelId(0);
 const MAX_HELD: usize = 24;
 /// A tip within this many radii of the surface is handed to the model as a contact.
 const NEAR_RADII: f32 = 1.5;
-
-fn build(file: &str, text: &str) -> Result<Box<dyn super::Procedure>, super::BuildError> {
-    Ok(Box::new(Sandbox::new(Scenario::parse(file, text)?)?))
-}
 
 /// Running metrics of one session.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
@@ -365,5 +336,26 @@ impl Sandbox {
         h.write((v >> 32) as u32);
         h.write(self.metrics.steps_done.len() as u32);
         h.0
+    }
+}
+
+impl Sandbox {
+    /// The panel's live part: the paths, the probe's depth and force, and the lift. Nothing
+    /// here is vulnerable.
+    pub(super) fn panel(&self, _near_m: f32) -> TaskStatus {
+        let m = &self.metrics;
+        let mm = |v: f32| format!("{:.1} mm", v * 1000.0);
+        TaskStatus {
+            path_m: [m.path_length_left_m, m.path_length_right_m],
+            figures: vec![
+                ("probe depth".to_string(), mm(self.probe_depth_m())),
+                (
+                    "probe force".to_string(),
+                    format!("{:.2} N", self.reactions()[1].length()),
+                ),
+                ("lift".to_string(), mm(self.lift_m())),
+            ],
+            ..TaskStatus::default()
+        }
     }
 }

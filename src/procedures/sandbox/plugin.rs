@@ -3,7 +3,7 @@
 use super::{INFO, MODEL, Metrics, STEPS, Sandbox, Scenario};
 use crate::params::TuneError;
 use crate::procedures::soft_tissue;
-use crate::procedures::{Procedure, TaskStatus, Tunable};
+use crate::procedures::{Procedure, Tunable};
 use crate::sim::{ModelSet, completion_share, time_efficiency};
 use glam::Vec3;
 use serde::Serialize;
@@ -39,34 +39,6 @@ pub fn score(s: &Scenario, m: &Metrics) -> (f32, ScoreParts) {
 impl Procedure for Sandbox {
     crate::procedure_basics!(INFO, report(errors: metrics.grasper_overloads));
 
-    fn status(&self, _near_m: f32) -> TaskStatus {
-        let m = &self.metrics;
-        let (score, _) = score(&self.scenario, m);
-        let mm = |v: f32| format!("{:.1} mm", v * 1000.0);
-        TaskStatus {
-            steps_done: m.steps_done.clone(),
-            completed: self.is_completed(),
-            score,
-            errors: m.grasper_overloads,
-            path_m: [m.path_length_left_m, m.path_length_right_m],
-            figures: vec![
-                ("probe depth".to_string(), mm(self.probe_depth_m())),
-                (
-                    "probe force".to_string(),
-                    format!("{:.2} N", self.reactions()[1].length()),
-                ),
-                ("lift".to_string(), mm(self.lift_m())),
-            ],
-            // Nothing here is vulnerable.
-            touching: [false; 2],
-            near: [None, None],
-        }
-    }
-
-    fn reactions(&self) -> [Vec3; 2] {
-        Sandbox::reactions(self)
-    }
-
     fn contacts_now(&self) -> [Option<(Vec3, Vec3)>; 2] {
         // Both instruments are tips: the block pushes each out along its normal.
         [0, 1].map(|k| {
@@ -83,10 +55,6 @@ impl Procedure for Sandbox {
         Some(&mut self.world)
     }
 
-    fn state_hash(&self) -> u64 {
-        Sandbox::state_hash(self)
-    }
-
     fn tunables(&self) -> Vec<Tunable> {
         soft_tissue::tunables(MODEL, &self.scenario.block)
     }
@@ -101,9 +69,5 @@ impl Procedure for Sandbox {
             self.world.model_mut(super::BLOCK),
             values,
         )
-    }
-
-    fn is_completed(&self) -> bool {
-        Sandbox::is_completed(self)
     }
 }

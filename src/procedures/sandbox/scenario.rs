@@ -164,28 +164,21 @@ impl Params for Task {
             (1e-3, 0.05),
             "how far the grasped top must be lifted before it is let go",
         ),
-        ParamSpec::new(
-            "target_time_s",
-            "s",
-            10.0,
-            (1.0, 7200.0),
-            "time an expert needs: the efficiency component is full at or below it",
-        ),
+        crate::scenario::Timing::target_time(10.0, crate::scenario::Timing::TARGET_TIME_DOC),
     ];
 
     crate::param_fields!(probe_depth_m, lift_height_m, target_time_s);
 }
 
 crate::scenario_tables! {
-    name: NAME,
     dt: default,
     nodes: points,
     tables: [
-        ("geometry", geometry, Geometry),
+        geometry: Geometry,
         /// The block's soft body.
-        (MODEL, block, SoftBodyParams),
-        ("tools", tools, Tools),
-        ("task", task, Task),
+        block: SoftBodyParams,
+        tools: Tools,
+        task: Task,
     ],
 }
 
@@ -204,18 +197,17 @@ impl Scenario {
 
     /// The tables' ranges, then the checks that tie values together.
     pub fn validate(&self, file: &str) -> Result<(), InputError> {
-        let err = |key: &str, message: String| InputError::new(file, key, message);
         self.validate_tables(file)?;
         let g = &self.geometry;
-        if self.points() > MAX_POINTS {
-            return Err(err(
-                "geometry.resolution",
-                format!(
-                    "asks for {} simulated points; at most {MAX_POINTS}: lower the resolution",
-                    self.points()
-                ),
-            ));
-        }
+        crate::scenario::check_size(
+            file,
+            "geometry.resolution",
+            self.points(),
+            MAX_POINTS,
+            |n| {
+                format!("asks for {n} simulated points; at most {MAX_POINTS}: lower the resolution")
+            },
+        )?;
         let k = &self.task;
         // The probe may not be asked to go through more than half the block.
         let half_height = 0.5 * g.size_m[1];

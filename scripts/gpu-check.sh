@@ -1,0 +1,69 @@
+#!/usr/bin/env bash
+# The GPU check for a machine with a GPU and no package registry (a lent data-centre GPU):
+# runs the GPU lines of `vesalius bench` for the procedures that have a compute path and
+# prints one JSON summary last. Nothing is compiled here.
+#
+#   scripts/gpu-check.sh [BINARY]     (default: target/release/vesalius)
+#
+# Files go to $GPU_CHECK_OUT (default /tmp/gpu-check); the summary is printed last.
+# Carry a stripped release binary built elsewhere and, where the machine has no Vulkan
+# loader, the loader's .deb files in .gl/ (README, "GPU"): they are unpacked first.
+set -uo pipefail
+bin=${1:-target/release/vesalius}
+out=${GPU_CHECK_OUT:-/tmp/gpu-check}
+mkdir -p "$out"
+# The Vulkan loader and the GL dispatch libraries the NVIDIA driver's Vulkan part needs
+# (libglvnd), carried as .deb files where the machine lacks them.
+for f in .gl/*.deb; do
+    [ -e "$f" ] && dpkg -x "$f" /
+done
+ldconfig
+# The NVIDIA driver's Vulkan manifest, where the loader does not find it by itself.
+icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+if [ -z "${VK_DRIVER_FILES:-}" ] && [ -e "$icd" ]; then
+    export VK_DRIVER_FILES=$icd
+fi
+if command -v nvidia-smi >/dev/null; then
+    nvidia-smi --query-gpu=name,memory.total,driver_version,clocks.max.sm,clocks.max.mem --format=csv,noheader \
+        | tee "$out/gpu.txt"
+fi
+status=0
+echo "== vesalius verify --compute gpu" >&2
+if ! "$bin" verify --compute gpu --json >"$out/verify-gpu.jsonl" 2>"$out/verify-gpu.err"; then
+    status=1
+    cat "$out/verify-gpu.err" >&2
+fi
+for p in rectum; do
+    echo "== vesalius bench $p --compute gpu" >&2
+    if ! "$bin" bench "$p" --compute gpu --json >"$out/$p-gpu.jsonl" 2>"$out/$p-gpu.err"; then
+        status=1
+        cat "$out/$p-gpu.err" >&2
+    fi
+done
+# Every procedure's stereo frame at the Vive's 1080 x 1200 a eye, the simulation beside it
+# (GPU_CHECK_PROFILE=0 leaves them out).
+[ "${GPU_CHECK_PROFILE:-1}" = 1 ] && for p in $("$bin" list --names 2>/dev/null || echo sandbox nephrectomy rectum cholecystectomy catheter myotomy); do
+    echo "== vesalius profile $p" >&2
+    if timeout 150 "$bin" profile "$p" --json >"$out/$p-profile.json" 2>"$out/$p-profile.err"; then
+        python3 -c "import json,sys; d=json.load(open(sys.argv[1])); print(json.dumps({'profile': sys.argv[2], 'device': d.get('device'), 'frame_ms': d.get('frame_ms'), 'cpu': d.get('vesalius', {}).get('cpu')}))" \
+            "$out/$p-profile.json" "$p" >>"$out/profile-gpu.jsonl" || true
+    else
+        status=1
+        tail -5 "$out/$p-profile.err" >&2
+    fi
+done
+# One summary: every line of every procedure, in one JSON array.
+{
+    printf '['
+    first=1
+    for f in "$out"/*-gpu.jsonl; do
+        while IFS= read -r line; do
+            [ -n "$line" ] || continue
+            [ $first -eq 1 ] || printf ','
+            printf '\n%s' "$line"
+            first=0
+        done <"$f"
+    done
+    printf '\n]\n'
+} | tee "$out/summary.json"
+exit $status

@@ -1,0 +1,233 @@
+// The layered membrane's symplectic Euler substep on the GPU: one invocation per node gathers
+// the forces of every spring, tether and attachment that touches it (eqs 3-4, the same terms
+// as `src/models/membrane/forces.rs`) and advances its own velocity and position. Nothing is
+// scattered and nothing is summed across invocations, so there are no atomics and the bytes
+// depend only on the adapter and its compiler. The state is read from one buffer and written
+// to the other (ping-pong): a dispatch is one substep.
+//
+// Layouts are the CPU model's row blocks (block `b = layer * rows + row`, then the column):
+// - state: `(b * 6 + c) * cols + j`, c = position x, y, z, velocity x, y, z;
+// - springs: `(b * 9 + f) * cols + j`, f = stiffness and rest length around (to column j + 1),
+//   along (to row i + 1) and link (to layer l + 1), 1 / mass, shear tether stiffness and place;
+// - attach: `((slot * rows + i) * 4 + c) * cols + j`, slot 0 = layer 0, 1 = layer 3,
+//   c = stiffness, target x, y, z;
+// - beta: per block, the damping time of each spring family (around, along, link, unused).
+
+struct Params {
+    rows: u32,
+    cols: u32,
+    periodic: u32,
+    external_count: u32,
+    gravity: vec3<f32>,
+    damping_per_s: f32,
+    dt: f32,
+    // Workgroups along x of the flat kernel's grid.
+    groups_x: u32,
+    _pad1: f32,
+    _pad2: f32,
+}
+
+// An external force on one node (the tools, the coupling's loads), sorted by node.
+struct External {
+    node: u32,
+    fx: f32,
+    fy: f32,
+    fz: f32,
+}
+
+const LAYERS: u32 = 4u;
+const K_AROUND: u32 = 0u;
+const REST_AROUND: u32 = 1u;
+const K_ALONG: u32 = 2u;
+const REST_ALONG: u32 = 3u;
+const K_LINK: u32 = 4u;
+const REST_LINK: u32 = 5u;
+const INV_MASS: u32 = 6u;
+const SHEAR_K: u32 = 7u;
+const SHEAR_W: u32 = 8u;
+const FIELDS: u32 = 9u;
+
+@group(0) @binding(0) var<uniform> p: Params;
+@group(0) @binding(1) var<storage, read> state_in: array<f32>;
+@group(0) @binding(2) var<storage, read_write> state_out: array<f32>;
+@group(0) @binding(3) var<storage, read> springs: array<f32>;
+@group(0) @binding(4) var<storage, read> attach: array<f32>;
+@group(0) @binding(5) var<storage, read> beta: array<vec4<f32>>;
+@group(0) @binding(6) var<storage, read> externals: array<External>;
+
+fn pos(b: u32, j: u32) -> vec3<f32> {
+    let at = b * 6u * p.cols + j;
+    return vec3<f32>(state_in[at], state_in[at + p.cols], state_in[at + 2u * p.cols]);
+}
+
+fn vel(b: u32, j: u32) -> vec3<f32> {
+    let at = (b * 6u + 3u) * p.cols + j;
+    return vec3<f32>(state_in[at], state_in[at + p.cols], state_in[at + 2u * p.cols]);
+}
+
+fn field(b: u32, f: u32, j: u32) -> f32 {
+    return springs[(b * FIELDS + f) * p.cols + j];
+}
+
+// The force of the spring from `a` to `b` on `a` (the opposite acts on `b`): `k (|d| - L0)`
+// along `d` plus `beta k (dv . d) / |d|` along it.
+fn spring(xa: vec3<f32>, va: vec3<f32>, xb: vec3<f32>, vb: vec3<f32>, k: f32, rest: f32, bt: f32) -> vec3<f32> {
+    let d = xb - xa;
+    let len = sqrt(dot(d, d));
+    let inv = 1.0 / max(len, 1e-20);
+    let along = dot(vb - va, d);
+    let s = k * ((len - rest) + bt * along * inv) * inv;
+    return d * s;
+}
+
+// The sideways pull on a tethered node at `xl` back onto the line from `x0` (its column's
+// layer-0 node) to `x3` (its layer-3 node), at its place `w` along it, stiffness `k`.
+fn tether_of(x0: vec3<f32>, xl: vec3<f32>, x3: vec3<f32>, k: f32, w: f32) -> vec3<f32> {
+    let u = x3 - x0;
+    let inv2 = 1.0 / max(dot(u, u), 1e-30);
+    let d = xl - (x0 + w * u);
+    let along = dot(d, u) * inv2;
+    return -k * (d - along * u);
+}
+
+// The pull on the node of layer `l` (1 or 2) of column (row `i`, `j`).
+fn tether(l: u32, i: u32, j: u32) -> vec3<f32> {
+    let b = l * p.rows + i;
+    let x0 = pos(i, j);
+    let x3 = pos((LAYERS - 1u) * p.rows + i, j);
+    return tether_of(x0, pos(b, j), x3, field(b, SHEAR_K, j), field(b, SHEAR_W, j));
+}
+
+// The springs within the node's layer (block `b`, row `i`, column `j`, at `x` moving at
+// `v`): around to column j + 1 and from j - 1 (round the ring when periodic; a missing spring
+// has stiffness 0 and adds nothing), along to row i + 1 and from i - 1.
+fn in_layer(b: u32, i: u32, j: u32, x: vec3<f32>, v: vec3<f32>) -> vec3<f32> {
+    let cols = p.cols;
+    let bt = beta[b];
+    var f = vec3<f32>(0.0);
+    let jr = select(j + 1u, 0u, j + 1u == cols);
+    let jl = select(j - 1u, cols - 1u, j == 0u);
+    if (j + 1u < cols || p.periodic != 0u) {
+        f += spring(x, v, pos(b, jr), vel(b, jr), field(b, K_AROUND, j), field(b, REST_AROUND, j), bt.x);
+    }
+    if (j > 0u || p.periodic != 0u) {
+        f -= spring(pos(b, jl), vel(b, jl), x, v, field(b, K_AROUND, jl), field(b, REST_AROUND, jl), bt.x);
+    }
+    if (i > 0u) {
+        let bb = b - 1u;
+        f -= spring(pos(bb, j), vel(bb, j), x, v, field(bb, K_ALONG, j), field(bb, REST_ALONG, j), beta[bb].y);
+    }
+    if (i + 1u < p.rows) {
+        f += spring(x, v, pos(b + 1u, j), vel(b + 1u, j), field(b, K_ALONG, j), field(b, REST_ALONG, j), bt.y);
+    }
+    return f;
+}
+
+// The pull of layer `l`'s attachment (slot 0: layer 0 to its targets, slot 1: layer 3 to
+// its rest) on its node at row `i`, column `j`, at `x`.
+fn attachment(slot: u32, i: u32, j: u32, x: vec3<f32>) -> vec3<f32> {
+    let cols = p.cols;
+    let at = (slot * p.rows + i) * 4u * cols + j;
+    let goal = vec3<f32>(attach[at + cols], attach[at + 2u * cols], attach[at + 3u * cols]);
+    return -attach[at] * (x - goal);
+}
+
+// The external forces on `node`: the sorted list bisected, then every entry for it added.
+fn external_force(node: u32) -> vec3<f32> {
+    var f = vec3<f32>(0.0);
+    if (p.external_count > 0u) {
+        var lo = 0u;
+        var hi = p.external_count;
+        while (lo < hi) {
+            let mid = (lo + hi) / 2u;
+            if (externals[mid].node < node) {
+                lo = mid + 1u;
+            } else {
+                hi = mid;
+            }
+        }
+        while (lo < p.external_count && externals[lo].node == node) {
+            let e = externals[lo];
+            f += vec3<f32>(e.fx, e.fy, e.fz);
+            lo++;
+        }
+    }
+    return f;
+}
+
+// Symplectic Euler with the node's own terms (point damping and gravity) as accelerations:
+// the node (block `b`, column `j`) at `x` moving at `v` under the force `f`, written out.
+fn integrate(b: u32, j: u32, x: vec3<f32>, v: vec3<f32>, f: vec3<f32>) {
+    let cols = p.cols;
+    let a = f * field(b, INV_MASS, j) + (p.gravity - p.damping_per_s * v);
+    let nv = v + p.dt * a;
+    let nx = x + p.dt * nv;
+    let at = b * 6u * cols + j;
+    state_out[at] = nx.x;
+    state_out[at + cols] = nx.y;
+    state_out[at + 2u * cols] = nx.z;
+    state_out[at + 3u * cols] = nv.x;
+    state_out[at + 4u * cols] = nv.y;
+    state_out[at + 5u * cols] = nv.z;
+}
+
+// One invocation per column of a row block: workgroups of 64 along a row, one row of
+// workgroups a block (a row's last workgroup idles where the columns are not a multiple of 64).
+@compute @workgroup_size(64, 1, 1)
+fn substep_rows(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (gid.x < p.cols && gid.y < LAYERS * p.rows) {
+        advance(gid.x, gid.y);
+    }
+}
+
+// One invocation per node in the state's order, workgroups of 256 over all of them (a
+// workgroup may span two rows; only the last one idles in part). The grid of workgroups is
+// `groups_x` wide, so more than 65,535 of them fit.
+@compute @workgroup_size(256, 1, 1)
+fn substep_flat(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let node = gid.y * p.groups_x * 256u + gid.x;
+    if (node < LAYERS * p.rows * p.cols) {
+        advance(node % p.cols, node / p.cols);
+    }
+}
+
+// Node (block `b`, column `j`): its forces gathered, its velocity and position advanced.
+fn advance(j: u32, b: u32) {
+    let l = b / p.rows;
+    let i = b % p.rows;
+    let x = pos(b, j);
+    let v = vel(b, j);
+    var f = in_layer(b, i, j, x, v);
+    // Links: from the layer below, to the layer above.
+    if (l > 0u) {
+        let bb = b - p.rows;
+        f -= spring(pos(bb, j), vel(bb, j), x, v, field(bb, K_LINK, j), field(bb, REST_LINK, j), beta[bb].z);
+    }
+    if (l + 1u < LAYERS) {
+        let bb = b + p.rows;
+        f += spring(x, v, pos(bb, j), vel(bb, j), field(b, K_LINK, j), field(b, REST_LINK, j), beta[b].z);
+    }
+    // The shear tethers of layers 1 and 2; their reactions shared by the column's layer-0 and
+    // layer-3 nodes in proportion to where on the line the tethered node sits.
+    if (l == 1u || l == 2u) {
+        f += tether(l, i, j);
+    } else {
+        for (var t = 1u; t < LAYERS - 1u; t++) {
+            let s = tether(t, i, j);
+            let w = field(t * p.rows + i, SHEAR_W, j);
+            if (l == 0u) {
+                f -= (1.0 - w) * s;
+            } else {
+                f -= w * s;
+            }
+        }
+    }
+    if (l == 0u) {
+        f += attachment(0u, i, j, x);
+    }
+    if (l + 1u == LAYERS) {
+        f += attachment(1u, i, j, x);
+    }
+    f += external_force(b * p.cols + j);
+    integrate(b, j, x, v, f);
+}

@@ -1,0 +1,212 @@
+//! What tissue models' compute kernels share: compiling WGSL with its file named in errors,
+//! storage buffers filled from slices, reading a buffer back, and timing a compute pass with
+//! timestamp queries where the adapter has them.
+
+use super::{Gpu, RenderError};
+use wgpu::util::DeviceExt;
+
+/// Compiles the WGSL `source` of file `file`. A compile error is returned naming the file:
+/// left to the device's error handler it would surface far from its cause.
+pub fn compile(
+    device: &wgpu::Device,
+    file: &str,
+    source: &str,
+) -> Result<wgpu::ShaderModule, RenderError> {
+    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(file),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    });
+    match pollster::block_on(scope.pop()) {
+        Some(e) => Err(RenderError::Shader {
+            file: file.to_string(),
+            message: e.to_string(),
+        }),
+        None => Ok(module),
+    }
+}
+
+/// A compute pipeline of `module`'s entry point `entry`, with the layout the shader declares.
+/// A pipeline the device refuses is returned as an error.
+pub fn pipeline(
+    gpu: &Gpu,
+    module: &wgpu::ShaderModule,
+    entry: &str,
+) -> Result<wgpu::ComputePipeline, RenderError> {
+    let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let p = gpu
+        .device
+        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(entry),
+            layout: None,
+            module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+    match pollster::block_on(scope.pop()) {
+        Some(e) => Err(RenderError::Validation(e.to_string())),
+        None => Ok(p),
+    }
+}
+
+/// A storage buffer holding `data` (at least 16 bytes, so an empty list still binds), that
+/// can be copied to and from. Refused with a clear error where it is larger than the device
+/// binds.
+pub fn storage(gpu: &Gpu, label: &str, data: &[u8]) -> Result<wgpu::Buffer, RenderError> {
+    let most = gpu.device.limits().max_storage_buffer_binding_size;
+    if data.len() as u64 > most {
+        return Err(RenderError::Device(format!(
+            "{label} needs {} MB; this device binds at most {} MB a buffer",
+            data.len() >> 20,
+            most >> 20
+        )));
+    }
+    let padded;
+    let contents = if data.len() < 16 {
+        padded = {
+            let mut v = data.to_vec();
+            v.resize(16, 0);
+            v
+        };
+        &padded[..]
+    } else {
+        data
+    };
+    Ok(gpu
+        .device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents,
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_DST
+                | wgpu::BufferUsages::COPY_SRC,
+        }))
+}
+
+/// A uniform buffer of `data`, written again with `queue.write_buffer`.
+pub fn uniform(gpu: &Gpu, label: &str, data: &[u8]) -> wgpu::Buffer {
+    gpu.device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: data,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        })
+}
+
+/// Copies `bytes` bytes of `buffer` from its start into a mappable buffer and reads them
+/// (waiting for everything submitted before).
+pub fn read(gpu: &Gpu, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>, RenderError> {
+    let staging = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("compute readback"),
+        size: bytes.max(4),
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let mut encoder = gpu
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("compute readback"),
+        });
+    encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, bytes);
+    gpu.queue.submit([encoder.finish()]);
+    let out = map_read(gpu, &staging, bytes)?;
+    gpu.check()?;
+    Ok(out)
+}
+
+/// Maps a `MAP_READ` buffer once what was submitted before has run, and copies out its first
+/// `bytes` bytes.
+pub(crate) fn map_read(
+    gpu: &Gpu,
+    staging: &wgpu::Buffer,
+    bytes: u64,
+) -> Result<Vec<u8>, RenderError> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    staging
+        .slice(..bytes)
+        .map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+    gpu.device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| RenderError::Readback(e.to_string()))?;
+    rx.recv()
+        .map_err(|e| RenderError::Readback(e.to_string()))?
+        .map_err(|e| RenderError::Readback(e.to_string()))?;
+    let out = staging
+        .slice(..bytes)
+        .get_mapped_range()
+        .map_err(|e| RenderError::Readback(e.to_string()))?
+        .to_vec();
+    staging.unmap();
+    Ok(out)
+}
+
+/// Times compute passes on the GPU's own clock: a pass's start and end timestamps, resolved
+/// and read back. Only where the device was made with timestamp queries.
+pub struct PassTimer {
+    queries: wgpu::QuerySet,
+    resolved: wgpu::Buffer,
+    staging: wgpu::Buffer,
+    /// Nanoseconds a tick.
+    period_ns: f64,
+}
+
+impl PassTimer {
+    /// A timer, if the device can write timestamps in compute passes.
+    pub fn new(gpu: &Gpu) -> Option<PassTimer> {
+        if !gpu
+            .device
+            .features()
+            .contains(wgpu::Features::TIMESTAMP_QUERY)
+        {
+            return None;
+        }
+        let queries = gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
+            label: Some("pass timer"),
+            ty: wgpu::QueryType::Timestamp,
+            count: 2,
+        });
+        let buffer = |usage| {
+            gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("pass timer"),
+                size: 16,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        Some(PassTimer {
+            queries,
+            resolved: buffer(wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC),
+            staging: buffer(wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ),
+            period_ns: f64::from(gpu.queue.get_timestamp_period()),
+        })
+    }
+
+    /// The pass descriptor's timestamp writes: the pass's start and end.
+    pub fn writes(&self) -> wgpu::ComputePassTimestampWrites<'_> {
+        wgpu::ComputePassTimestampWrites {
+            query_set: &self.queries,
+            beginning_of_pass_write_index: Some(0),
+            end_of_pass_write_index: Some(1),
+        }
+    }
+
+    /// After the pass, in the same encoder: the timestamps into the readable buffer.
+    pub fn resolve(&self, encoder: &mut wgpu::CommandEncoder) {
+        encoder.resolve_query_set(&self.queries, 0..2, &self.resolved, 0);
+        encoder.copy_buffer_to_buffer(&self.resolved, 0, &self.staging, 0, 16);
+    }
+
+    /// The last timed pass's length, seconds (waits for it).
+    pub fn seconds(&self, gpu: &Gpu) -> Result<f64, RenderError> {
+        let bytes = map_read(gpu, &self.staging, 16)?;
+        let tick = |k: usize| {
+            let mut b = [0u8; 8];
+            b.copy_from_slice(&bytes[8 * k..8 * k + 8]);
+            u64::from_le_bytes(b)
+        };
+        Ok(tick(1).saturating_sub(tick(0)) as f64 * self.period_ns * 1e-9)
+    }
+}
