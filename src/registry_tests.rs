@@ -282,3 +282,77 @@ fn every_procedures_own_cases_pass_with_unique_ids() {
         );
     }
 }
+
+/// A preset lays its keys over the scenario and leaves the rest: the merged text is a valid
+/// scenario of the procedure, smaller than its own, with every key the preset names and the
+/// others as they were.
+#[test]
+fn every_cpu_preset_makes_a_smaller_valid_scenario() {
+    let mut presets = 0;
+    for p in REGISTRY {
+        let Some(overlay) = p.options.cpu_preset else {
+            continue;
+        };
+        presets += 1;
+        let merged = crate::scenario::with_preset("builtin", p.scenario, "preset", overlay)
+            .expect("the preset lays over the scenario");
+        let (_, own) = super::CATALOG.plan("builtin", p.scenario).expect("own");
+        let (_, coarse) = super::CATALOG.plan("preset", &merged).expect("valid");
+        assert!(
+            coarse.nodes < own.nodes,
+            "{}: {} nodes",
+            p.name,
+            coarse.nodes
+        );
+        let (base, over, out): (toml::Table, toml::Table, toml::Table) = (
+            toml::from_str(p.scenario).expect("toml"),
+            toml::from_str(overlay).expect("toml"),
+            toml::from_str(&merged).expect("toml"),
+        );
+        for (table, keys) in &base {
+            let Some(keys) = keys.as_table() else {
+                assert_eq!(out.get(table), Some(keys), "{}: {table}", p.name);
+                continue;
+            };
+            for (key, value) in keys {
+                let want = over.get(table).and_then(|t| t.get(key)).unwrap_or(value);
+                assert_eq!(out[table].get(key), Some(want), "{}: {table}.{key}", p.name);
+            }
+        }
+    }
+    assert!(presets >= 1, "the rectum's");
+}
+
+/// Each CPU preset still plays its procedure's demo trace to the task's end.
+#[test]
+fn every_cpu_preset_plays_its_demo_to_completion() {
+    for p in REGISTRY {
+        let Some(overlay) = p.options.cpu_preset else {
+            continue;
+        };
+        let merged = crate::scenario::with_preset("builtin", p.scenario, "preset", overlay)
+            .expect("the preset lays over the scenario");
+        let mut procedure = (p.build)("preset", &merged).expect("builds");
+        let trace = crate::trace::KeyTrace::parse("demo", p.demo_trace).expect("the demo");
+        let dt = f64::from(procedure.dt_s());
+        let steps = (trace.duration_s() / dt).ceil() as u64;
+        let mut events = Vec::new();
+        for step in 0..steps {
+            procedure.step(&trace.sample(step as f64 * dt), step, &mut events);
+            events.clear();
+        }
+        assert!(
+            procedure.is_completed(),
+            "{}: the demo did not finish",
+            p.name
+        );
+    }
+}
+
+#[test]
+fn a_preset_that_is_not_toml_is_named_in_the_error() {
+    let sandbox = super::find("sandbox").map_or("", |p| p.scenario);
+    let e = crate::scenario::with_preset("builtin", sandbox, "my preset", "[anatomy\nrows = 1")
+        .expect_err("not toml");
+    assert_eq!(e.file, "my preset");
+}

@@ -311,6 +311,36 @@ pub fn check_cost(file: &str, nodes: u64, steps: u64) -> Result<(), InputError> 
     Ok(())
 }
 
+/// `text` (a scenario, named `file` in errors) with `overlay`'s keys laid over it: a table in
+/// both is merged key by key, any other value of the overlay replaces the scenario's. The
+/// result is a whole scenario (without the comments), what a session records and replays.
+/// `preset` names the overlay in errors.
+pub fn with_preset(
+    file: &str,
+    text: &str,
+    preset: &str,
+    overlay: &str,
+) -> Result<String, InputError> {
+    let base: toml::Table = toml::from_str(text).map_err(|e| InputError::toml(file, &e))?;
+    let over: toml::Table = toml::from_str(overlay).map_err(|e| InputError::toml(preset, &e))?;
+    let merged = merge_tables(base, over);
+    toml::to_string(&merged).map_err(|e| InputError::new(preset, "", e.to_string()))
+}
+
+/// `over`'s keys laid over `base`, tables merged key by key.
+fn merge_tables(mut base: toml::Table, over: toml::Table) -> toml::Table {
+    for (key, value) in over {
+        let merged = match (base.remove(&key), value) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(o)) => {
+                toml::Value::Table(merge_tables(b, o))
+            }
+            (_, v) => v,
+        };
+        base.insert(key, merged);
+    }
+    base
+}
+
 /// Refuses a scenario that asks for more than `max` of something (`count`, as its simulated
 /// points); the error names `file` and `key` and says `asked(count)`.
 pub fn check_size(

@@ -9,17 +9,18 @@ use vesalius::registry::CATALOG;
 use vesalius::sim::{BenchError, BenchLine, Clock, Once, Pacing, ProcedureInfo};
 use vesalius::trace::KeyTrace;
 
-/// Runs the procedure's demo trace once on its default scenario, timing every model and the
-/// whole step; then again over its first seconds (the procedure's `bench_all_awake_s`) with
-/// every point awake.
-pub fn run(procedure: &str) -> Result<Vec<BenchLine>, BenchError> {
+/// Runs the procedure's demo trace once on `scenario` (its default, or a preset laid over
+/// it), timing every model and the whole step; then again over its first seconds (the
+/// procedure's `bench_all_awake_s`) with every point awake.
+pub fn run(procedure: &str, scenario: &str) -> Result<Vec<BenchLine>, BenchError> {
     let info = CATALOG
         .find(procedure)
         .ok_or_else(|| BenchError::NoSuchProcedure(procedure.to_string()))?;
     let trace = KeyTrace::parse(&format!("builtin {procedure} demo trace"), info.demo_trace)?;
-    let mut out = pass(info, &trace, trace.duration_s(), false)?;
+    let mut out = pass(info, scenario, &trace, trace.duration_s(), false)?;
     out.extend(pass(
         info,
+        scenario,
         &trace,
         info.options.bench_all_awake_s.min(trace.duration_s()),
         true,
@@ -46,14 +47,15 @@ pub fn run_gpu(procedure: &str, gpu: &vesalius::gpu::Gpu) -> Result<Vec<BenchLin
 /// One timed run of `seconds` of the trace; `all_awake` keeps every point stepping.
 fn pass(
     info: &ProcedureInfo,
+    scenario: &str,
     trace: &KeyTrace,
     seconds: f64,
     all_awake: bool,
 ) -> Result<Vec<BenchLine>, BenchError> {
     let file = format!("builtin {} scenario", info.name);
-    let (_, plan) = CATALOG.plan(&file, info.scenario)?;
+    let (_, plan) = CATALOG.plan(&file, scenario)?;
     let dt = plan.dt_s;
-    let mut p = (info.build)(&file, info.scenario)?;
+    let mut p = (info.build)(&file, scenario)?;
     if all_awake {
         p.stay_awake();
     }
@@ -127,7 +129,7 @@ mod tests {
 
     #[test]
     fn an_unknown_procedure_is_named() {
-        let e = run("appendectomy").expect_err("no such procedure");
+        let e = run("appendectomy", "").expect_err("no such procedure");
         assert!(matches!(&e, BenchError::NoSuchProcedure(p) if p == "appendectomy"));
         assert_eq!(e.to_string(), "no procedure 'appendectomy'");
     }

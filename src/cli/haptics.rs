@@ -123,7 +123,8 @@ pub fn run_with_devices(a: &RunArgs) -> Result<(), CliError> {
             "--screenshot needs a window: no DISPLAY (try xvfb-run), or drop --no-window".into(),
         ));
     }
-    let (file, text) = super::session::scenario_text(&a.procedure, a.scenario.as_deref())?;
+    let (file, text) =
+        super::session::scenario_text(&a.procedure, a.scenario.as_deref(), a.preset)?;
     if let Some(dir) = &a.out {
         vesalius::session::prepare(dir)?;
     }

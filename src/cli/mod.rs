@@ -57,6 +57,9 @@ enum Command {
         /// DIR/records.sqlite).
         #[arg(long, value_name = "FILE")]
         records: Option<PathBuf>,
+        /// `cpu`: each procedure's preset for machines without a GPU, where it has one.
+        #[arg(long, value_enum)]
+        preset: Option<PresetArg>,
     },
     /// A session: in a desktop window (default), headless with a trace, or in a headset.
     Run(Box<RunArgs>),
@@ -94,6 +97,9 @@ enum Command {
         /// One JSON object a line.
         #[arg(long)]
         json: bool,
+        /// `cpu`: the procedure's preset for machines without a GPU, where it has one.
+        #[arg(long, value_enum)]
+        preset: Option<PresetArg>,
         /// Where the tissue models step: `cpu` (the demo's own lines), or `gpu`: the GPU
         /// compute path's lines of the models that have one, on the first Vulkan adapter
         /// (a real GPU, else lavapipe), checked against the CPU's step.
@@ -199,6 +205,13 @@ enum XrSimCommand {
     },
 }
 
+/// `--preset`: a procedure's scenario preset.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum PresetArg {
+    /// For machines without a GPU: coarser models, faster on the CPU.
+    Cpu,
+}
+
 /// `--compute`: where the tissue models step.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub(crate) enum ComputeArg {
@@ -227,6 +240,10 @@ struct RunArgs {
     /// The procedure.
     #[arg(value_parser = procedures())]
     procedure: String,
+    /// `cpu`: the procedure's preset for machines without a GPU (coarser models, faster on
+    /// the CPU), laid over the scenario; the recording embeds the result.
+    #[arg(long, value_enum)]
+    preset: Option<PresetArg>,
     /// No window: play --trace as fast as possible.
     #[arg(long, conflicts_with_all = ["xr", "xr_sim"])]
     headless: bool,
@@ -518,7 +535,11 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
     vesalius::session::interrupt::install()
         .map_err(|e| CliError::Failed(format!("cannot install signal handlers: {e}")))?;
     match cli.command {
-        Command::Demo { out, records } => session::demo(&out, records.as_deref()),
+        Command::Demo {
+            out,
+            records,
+            preset,
+        } => session::demo(&out, records.as_deref(), preset),
         Command::Run(args) => session::run(*args),
         Command::Replay {
             recording,
@@ -531,8 +552,9 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
         Command::Bench {
             procedure,
             json,
+            preset,
             compute,
-        } => tools::bench(procedure.as_deref(), json, compute),
+        } => tools::bench(procedure.as_deref(), json, preset, compute),
         Command::Profile {
             procedure,
             json,

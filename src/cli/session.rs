@@ -8,12 +8,14 @@ use vesalius::session::{self, Input, Options, interrupt};
 use vesalius::sim::Pacing;
 use vesalius::trace::{KeyTrace, Recording, Tail};
 
-/// The scenario a run uses: the file given, or the procedure's built-in one.
+/// The scenario a run uses: the file given, or the procedure's built-in one; with `--preset`,
+/// the preset's keys laid over it.
 pub(super) fn scenario_text(
     procedure: &str,
     scenario: Option<&Path>,
+    preset: Option<super::PresetArg>,
 ) -> Result<(String, String), CliError> {
-    Ok(match scenario {
+    let (file, text) = match scenario {
         Some(f) => (
             f.display().to_string(),
             std::fs::read_to_string(f)
@@ -23,7 +25,32 @@ pub(super) fn scenario_text(
             format!("builtin {procedure} scenario"),
             builtin(procedure).unwrap_or_default().to_string(),
         ),
-    })
+    };
+    with_preset(procedure, file, text, preset)
+}
+
+/// `text` (the scenario `file`) with `preset`'s keys laid over it; unchanged, with a word on
+/// standard error, for a procedure without that preset.
+pub(super) fn with_preset(
+    procedure: &str,
+    file: String,
+    text: String,
+    preset: Option<super::PresetArg>,
+) -> Result<(String, String), CliError> {
+    let Some(super::PresetArg::Cpu) = preset else {
+        return Ok((file, text));
+    };
+    match vesalius::registry::find(procedure).and_then(|p| p.options.cpu_preset) {
+        Some(overlay) => {
+            let name = format!("the {procedure} cpu preset (assets/presets/cpu/{procedure}.toml)");
+            let merged = vesalius::scenario::with_preset(&file, &text, &name, overlay)?;
+            Ok((format!("{file} with {name}"), merged))
+        }
+        None => {
+            tell!("{procedure}: no cpu preset; it runs at its own sizes");
+            Ok((file, text))
+        }
+    }
 }
 
 /// A keyframed trace, checked to be for `procedure` and no longer than `max_s`.
@@ -134,7 +161,7 @@ pub fn run(a: RunArgs) -> Result<(), CliError> {
     let Some(trace) = &a.trace else {
         return Err(CliError::Usage("run --headless needs --trace FILE".into()));
     };
-    let (file, text) = scenario_text(&a.procedure, a.scenario.as_deref())?;
+    let (file, text) = scenario_text(&a.procedure, a.scenario.as_deref(), a.preset)?;
     let keys = load_trace(trace, &a.procedure, a.max_session)?;
     let tree = load_tree(a.assessment.as_deref(), &a.procedure)?;
     let frames = a.frames.unwrap_or(0);
@@ -211,7 +238,7 @@ pub(super) fn run_window(
     devices: Option<vesalius::ui::window::WindowDevices>,
 ) -> Result<(), CliError> {
     let procedure = a.procedure.as_str();
-    let (file, text) = scenario_text(procedure, a.scenario.as_deref())?;
+    let (file, text) = scenario_text(procedure, a.scenario.as_deref(), a.preset)?;
     let trace = match &a.trace {
         Some(t) => {
             let keys = load_trace(t, procedure, a.max_session)?;
@@ -318,7 +345,7 @@ fn run_xr(a: &RunArgs) -> Result<(), CliError> {
     if let Some(dir) = &a.out {
         session::prepare(dir)?;
     }
-    let (file, text) = scenario_text(&a.procedure, a.scenario.as_deref())?;
+    let (file, text) = scenario_text(&a.procedure, a.scenario.as_deref(), a.preset)?;
     let run = vesalius::xr::run(&text, &file, opts, a.out.as_deref())?;
     say!(
         "XR runtime '{}' on {}: {} stereo frames at {}x{} per eye, {} session(s)",
@@ -396,6 +423,9 @@ fn run_xr_sim(a: &RunArgs, trace: &Path) -> Result<(), CliError> {
         .env(vesalius_sim_runtime::CONFIG_ENV, &config);
     if let Some(f) = &a.scenario {
         cmd.arg("--scenario").arg(f);
+    }
+    if let Some(super::PresetArg::Cpu) = a.preset {
+        cmd.args(["--preset", "cpu"]);
     }
     if let Some(f) = &a.assessment {
         // Checked here, so a bad tree is named before the runtime starts.
@@ -511,7 +541,11 @@ const DEMO_EYE_SIZE: (u32, u32) = (540, 600);
 
 /// `demo`: every registered procedure's demo trace, headless, into DIR/<procedure>/, each
 /// session stored for trainee 'demo' in the records (`records`, default DIR/records.sqlite).
-pub fn demo(out: &Path, records: Option<&Path>) -> Result<(), CliError> {
+pub fn demo(
+    out: &Path,
+    records: Option<&Path>,
+    preset: Option<super::PresetArg>,
+) -> Result<(), CliError> {
     let db = records.map_or_else(|| out.join("records.sqlite"), Path::to_path_buf);
     for p in vesalius::registry::REGISTRY {
         let keys = KeyTrace::parse(&format!("builtin {} demo trace", p.name), p.demo_trace)?;
@@ -521,8 +555,13 @@ pub fn demo(out: &Path, records: Option<&Path>) -> Result<(), CliError> {
             frames_wanted: DEMO_FRAMES,
             ..Options::default()
         };
-        let file = format!("builtin {} scenario", p.name);
-        let outcome = session::run_with(p.scenario, &file, Input::Keys(keys), &opts)?;
+        let (file, text) = with_preset(
+            p.name,
+            format!("builtin {} scenario", p.name),
+            p.scenario.to_string(),
+            preset,
+        )?;
+        let outcome = session::run_with(&text, &file, Input::Keys(keys), &opts)?;
         finish(&outcome, Some(&dir))?;
         interrupted()?;
         // A few stereo frames of the monitor image, and a contact sheet of them for people.

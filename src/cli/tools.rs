@@ -1,6 +1,6 @@
 //! `check`, `bench`, `profile` and `xr-sim manifest`.
 
-use super::{CliError, ComputeArg, bench};
+use super::{CliError, ComputeArg, PresetArg, bench};
 use std::path::{Path, PathBuf};
 use vesalius::scenario::InputError;
 use vesalius::trace::{KeyTrace, Recording};
@@ -104,7 +104,12 @@ fn check_one(path: &Path) -> Result<&'static str, InputError> {
 }
 
 /// `bench [procedure]`: every registered procedure, or the one named.
-pub fn bench(procedure: Option<&str>, json: bool, compute: ComputeArg) -> Result<(), CliError> {
+pub fn bench(
+    procedure: Option<&str>,
+    json: bool,
+    preset: Option<PresetArg>,
+    compute: ComputeArg,
+) -> Result<(), CliError> {
     let names: Vec<&str> = match procedure {
         Some(p) => vec![p],
         None => vesalius::registry::names().collect(),
@@ -116,7 +121,17 @@ pub fn bench(procedure: Option<&str>, json: bool, compute: ComputeArg) -> Result
     };
     for p in names {
         let lines = match &gpu {
-            None => bench::run(p)?,
+            None => {
+                let (_, text) = super::session::with_preset(
+                    p,
+                    String::new(),
+                    vesalius::registry::builtin(p)
+                        .unwrap_or_default()
+                        .to_string(),
+                    preset,
+                )?;
+                bench::run(p, &text)?
+            }
             Some(gpu) => match bench::run_gpu(p, gpu) {
                 // Benching every procedure: those without a GPU path are passed over.
                 Err(vesalius::sim::BenchError::NoGpuPath(name)) if procedure.is_none() => {

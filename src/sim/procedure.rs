@@ -233,6 +233,10 @@ pub struct Options {
     /// The benchmark lines of its models' GPU compute path (`vesalius bench --compute gpu`),
     /// on the device it is given; none where no model of it has one yet.
     pub gpu_bench: Option<super::bench::GpuBench>,
+    /// Its preset for machines without a GPU (`--preset cpu`): the scenario keys that differ
+    /// from its own scenario (TOML text, laid over it by [`crate::scenario::with_preset`]);
+    /// none where the default already keeps real time on two cores.
+    pub cpu_preset: Option<&'static str>,
     /// Its reference cases that need its whole scene (the models' own are `vesalius
     /// verify`'s already); `vesalius verify` runs them after the models'.
     pub cases: fn() -> Vec<super::Case>,
@@ -253,6 +257,7 @@ impl Options {
         haptic_device: DeviceChoice::Phantom,
         bench_extra: None,
         gpu_bench: None,
+        cpu_preset: None,
         cases: Vec::new,
         precompute: None,
     };

@@ -35,6 +35,7 @@ pub const INFO: ProcedureInfo = crate::procedure_info! {
     swap: &[ToolInfo::right("right grasper", ToolKind::Grasper, 5.0)],
     cases: super::cases::cases,
     gpu_bench: Some(super::gpu_bench::lines),
+    cpu_preset: Some(include_str!("../../../assets/presets/cpu/rectum.toml")),
 };
 
 impl Procedure for Rectum {
