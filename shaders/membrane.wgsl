@@ -23,8 +23,9 @@ struct Params {
     dt: f32,
     // Workgroups along x of the flat kernel's grid.
     groups_x: u32,
-    _pad1: f32,
-    _pad2: f32,
+    // Tiles across the grid (the active set's kernel).
+    tiles_c: u32,
+    _pad: u32,
 }
 
 // An external force on one node (the tools, the coupling's loads), sorted by node.
@@ -54,6 +55,12 @@ const FIELDS: u32 = 9u;
 @group(0) @binding(4) var<storage, read> attach: array<f32>;
 @group(0) @binding(5) var<storage, read> beta: array<vec4<f32>>;
 @group(0) @binding(6) var<storage, read> externals: array<External>;
+// The awake tiles, each `tile row * tiles_c + tile column` (`substep_tiles` only).
+@group(0) @binding(7) var<storage, read> tiles: array<u32>;
+
+// A tile of the active set (`src/models/membrane/active.rs`): rows, then columns.
+const TILE_ROWS: u32 = 8u;
+const TILE_COLS: u32 = 16u;
 
 fn pos(b: u32, j: u32) -> vec3<f32> {
     let at = b * 6u * p.cols + j;
@@ -188,6 +195,20 @@ fn substep_flat(@builtin(global_invocation_id) gid: vec3<u32>) {
     let node = gid.y * p.groups_x * 256u + gid.x;
     if (node < LAYERS * p.rows * p.cols) {
         advance(node % p.cols, node / p.cols);
+    }
+}
+
+// The active set's substep: one workgroup a tile of the list and a layer, one invocation a
+// node of its 8 rows x 16 columns (an edge tile's missing nodes idle). Nodes outside the
+// awake tiles are not written: they sleep, and both state buffers hold the same values for
+// them.
+@compute @workgroup_size(128, 1, 1)
+fn substep_tiles(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let t = tiles[wg.x];
+    let i = (t / p.tiles_c) * TILE_ROWS + li / TILE_COLS;
+    let j = (t % p.tiles_c) * TILE_COLS + li % TILE_COLS;
+    if (i < p.rows && j < p.cols) {
+        advance(j, wg.y * p.rows + i);
     }
 }
 

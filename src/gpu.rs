@@ -52,6 +52,31 @@ impl Gpu {
     /// `allow_multiview` false the device is made without multiview, to exercise the
     /// two-pass path.
     pub fn headless(allow_multiview: bool) -> Result<Gpu, RenderError> {
+        let (instance, adapter) = Self::first_adapter()?;
+        Self::open(instance, adapter, allow_multiview)
+    }
+
+    /// The device the models with a GPU path step on for `choice`: none for `cpu`, and for
+    /// `auto` where the adapter is a software one (lavapipe) or there is none; `gpu` takes
+    /// whatever adapter there is and is an error without one.
+    pub fn for_compute(choice: crate::scenario::Compute) -> Result<Option<Gpu>, RenderError> {
+        use crate::scenario::Compute;
+        match choice {
+            Compute::Cpu => Ok(None),
+            Compute::Gpu => Self::headless(false).map(Some),
+            Compute::Auto => match Self::first_adapter() {
+                Ok((instance, adapter))
+                    if adapter.get_info().device_type != wgpu::DeviceType::Cpu =>
+                {
+                    Self::open(instance, adapter, false).map(Some)
+                }
+                _ => Ok(None),
+            },
+        }
+    }
+
+    /// The first Vulkan adapter, a real GPU before a software one.
+    fn first_adapter() -> Result<(wgpu::Instance, wgpu::Adapter), RenderError> {
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
         desc.backends = wgpu::Backends::VULKAN;
         let instance = wgpu::Instance::new(desc);
@@ -62,6 +87,15 @@ impl Gpu {
             apply_limit_buckets: false,
         }))
         .map_err(|e| RenderError::NoAdapter(e.to_string()))?;
+        Ok((instance, adapter))
+    }
+
+    /// A device on `adapter` (with multiview where asked for and there).
+    fn open(
+        instance: wgpu::Instance,
+        adapter: wgpu::Adapter,
+        allow_multiview: bool,
+    ) -> Result<Gpu, RenderError> {
         let multiview = allow_multiview && adapter.features().contains(wgpu::Features::MULTIVIEW);
         let mut required_features = wgpu::Features::empty();
         if multiview {

@@ -19,6 +19,21 @@ impl InputError {
         }
     }
 
+    /// Nothing where a rule between a file's values `holds`; else the error at `key` with the
+    /// `message` (built only then).
+    pub fn require(
+        holds: bool,
+        file: &str,
+        key: &str,
+        message: impl FnOnce() -> String,
+    ) -> Result<(), Self> {
+        if holds {
+            Ok(())
+        } else {
+            Err(Self::new(file, key, message()))
+        }
+    }
+
     /// Wraps a TOML error, keeping its line and column.
     pub fn toml(file: &str, e: &toml::de::Error) -> Self {
         let key = match e.span() {

@@ -46,6 +46,18 @@ impl ParamSpec {
         }
     }
 
+    /// A parameter of a family: `family`'s unit and range (and slider), with its own `key`,
+    /// `default` and `doc`. A family is written once as a `ParamSpec` whose key, default and
+    /// words are left empty.
+    pub const fn of(family: ParamSpec, key: &'static str, default: f64, doc: &'static str) -> Self {
+        Self {
+            key,
+            default,
+            doc,
+            ..family
+        }
+    }
+
     /// The same parameter as a whole number (a count).
     pub const fn whole(self) -> Self {
         Self {

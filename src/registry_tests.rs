@@ -55,11 +55,13 @@ fn plan_with(
 }
 
 /// One default per parameter: each shipped scenario holds every table's default, and
-/// every number it holds has its table entry. The soft-body tables are the exception:
-/// one table serves several models (kidney, vessels, block), each with its own values.
+/// every number it holds has its table entry. The soft-body and grasper tables are the
+/// exceptions: one table serves several models (kidney, vessels, block) or procedures, each
+/// with its own values.
 #[test]
 fn shipped_scenarios_hold_the_table_defaults() {
     let soft = <crate::models::SoftBodyParams as Params>::SPECS;
+    let grasper = <crate::scenario::Grasper as Params>::SPECS;
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenarios");
     let mut seen = Vec::new();
     for file in std::fs::read_dir(&dir).expect("assets/scenarios") {
@@ -80,7 +82,7 @@ fn shipped_scenarios_hold_the_table_defaults() {
             for s in *specs {
                 let v = number(entry(t, s.key)).expect("a number");
                 let at = format!("{name}: {}", table_key(table, s.key));
-                if *specs != soft {
+                if *specs != soft && *specs != grasper {
                     assert_eq!(
                         v as f32, s.default as f32,
                         "{at}: the default is {}",
@@ -283,6 +285,30 @@ fn every_procedures_own_cases_pass_with_unique_ids() {
     }
 }
 
+/// The procedures' cases on the GPU compute path pass on the adapter there is (CI: lavapipe),
+/// against the same references and tolerances as on the CPU, with ids unique among all.
+#[test]
+fn every_procedures_gpu_cases_pass_on_the_adapter_there_is() {
+    let mut seen = std::collections::HashSet::new();
+    let all = crate::verify::cases_in(&super::CATALOG);
+    let gpu = crate::verify::gpu_cases_in(&super::CATALOG);
+    for c in all.iter().chain(&gpu) {
+        assert!(seen.insert(c.case), "duplicate case id {}", c.case);
+    }
+    let own: Vec<crate::sim::Case> = REGISTRY
+        .iter()
+        .flat_map(|p| (p.options.gpu_cases)())
+        .collect();
+    assert!(!own.is_empty(), "the rectum's");
+    for r in crate::verify::run(&own) {
+        assert!(
+            r.passed,
+            "{}/{}: reference {} measured {} error {} tolerance {}",
+            r.model, r.case, r.reference, r.measured, r.rel_error, r.tolerance
+        );
+    }
+}
+
 /// A preset lays its keys over the scenario and leaves the rest: the merged text is a valid
 /// scenario of the procedure, smaller than its own, with every key the preset names and the
 /// others as they were.
@@ -321,32 +347,6 @@ fn every_cpu_preset_makes_a_smaller_valid_scenario() {
         }
     }
     assert!(presets >= 1, "the rectum's");
-}
-
-/// Each CPU preset still plays its procedure's demo trace to the task's end.
-#[test]
-fn every_cpu_preset_plays_its_demo_to_completion() {
-    for p in REGISTRY {
-        let Some(overlay) = p.options.cpu_preset else {
-            continue;
-        };
-        let merged = crate::scenario::with_preset("builtin", p.scenario, "preset", overlay)
-            .expect("the preset lays over the scenario");
-        let mut procedure = (p.build)("preset", &merged).expect("builds");
-        let trace = crate::trace::KeyTrace::parse("demo", p.demo_trace).expect("the demo");
-        let dt = f64::from(procedure.dt_s());
-        let steps = (trace.duration_s() / dt).ceil() as u64;
-        let mut events = Vec::new();
-        for step in 0..steps {
-            procedure.step(&trace.sample(step as f64 * dt), step, &mut events);
-            events.clear();
-        }
-        assert!(
-            procedure.is_completed(),
-            "{}: the demo did not finish",
-            p.name
-        );
-    }
 }
 
 #[test]

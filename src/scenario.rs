@@ -65,6 +65,33 @@ pub enum HeadsetView {
     Monitor,
 }
 
+/// Where the models that have a GPU path step (the scenario's optional top-level `compute`;
+/// `--compute` on `run` and `demo` sets it). A model without one steps on the CPU whatever it
+/// says.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Compute {
+    /// The GPU where the adapter is a real one; the CPU on a software adapter (lavapipe) or
+    /// without any.
+    #[default]
+    Auto,
+    /// The CPU.
+    Cpu,
+    /// The GPU, on whatever adapter there is, lavapipe included; none is an error.
+    Gpu,
+}
+
+impl Compute {
+    /// The word a scenario and the command line use.
+    pub fn name(self) -> &'static str {
+        match self {
+            Compute::Auto => "auto",
+            Compute::Cpu => "cpu",
+            Compute::Gpu => "gpu",
+        }
+    }
+}
+
 /// The `[headset]` table of scenario text of any procedure (the default where there is none);
 /// an error names `file` and the key.
 pub fn headset_of(file: &str, text: &str) -> Result<Headset, InputError> {
@@ -216,16 +243,126 @@ pub fn procedure_of(file: &str, text: &str) -> Result<String, InputError> {
     }
 }
 
-/// Reads scenario text of any procedure's type and runs its own checks: a TOML error or a
-/// failed check names `file` and the key.
+/// Keys that older scenario files held elsewhere: `(table, key)` then, `(table, key)` now.
+/// Recordings embed their scenario, so a session recorded before a key moved still replays.
+pub type Moved = [((&'static str, &'static str), (&'static str, &'static str))];
+
+/// Reads scenario text of any procedure's type (moving the `moved` keys of an older file to
+/// where they are now) and runs its own checks: a TOML error or a failed check names `file`
+/// and the key.
 pub fn parse_checked<T: serde::de::DeserializeOwned>(
     file: &str,
     text: &str,
+    moved: &Moved,
     validate: impl FnOnce(&T, &str) -> Result<(), InputError>,
 ) -> Result<T, InputError> {
-    let s: T = toml::from_str(text).map_err(|e| InputError::toml(file, &e))?;
+    let s: T = match with_moved_keys(text, moved) {
+        // An older file: read from the moved table (its errors name keys, not lines).
+        Some(root) => root.try_into().map_err(|e| InputError::toml(file, &e))?,
+        None => toml::from_str(text).map_err(|e| InputError::toml(file, &e))?,
+    };
     validate(&s, file)?;
     Ok(s)
+}
+
+/// The text's tables with every `moved` key that it holds at its old place, and not at its
+/// new one, moved; none when nothing moves (or the text is not TOML, which the caller's
+/// reading reports).
+fn with_moved_keys(text: &str, moved: &Moved) -> Option<toml::Table> {
+    if moved.is_empty() {
+        return None;
+    }
+    let mut root: toml::Table = toml::from_str(text).ok()?;
+    let mut any = false;
+    for &((old_table, old_key), (new_table, new_key)) in moved {
+        let taken = match root.get(new_table) {
+            Some(toml::Value::Table(t)) if t.contains_key(new_key) => None,
+            Some(v) if !v.is_table() => None,
+            _ => match root.get_mut(old_table) {
+                Some(toml::Value::Table(t)) => t.remove(old_key),
+                _ => None,
+            },
+        };
+        if let Some(v) = taken {
+            let entry = root
+                .entry(new_table)
+                .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+            if let toml::Value::Table(t) = entry {
+                t.insert(new_key.to_string(), v);
+                any = true;
+            }
+        }
+    }
+    any.then_some(root)
+}
+
+/// A grasper's jaws on a soft body (the scenario's `[grasper]` table), the same for every
+/// procedure that has one.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Grasper {
+    /// Radius of the open grasper's tip, a rigid collision sphere, m.
+    pub tip_radius_m: f32,
+    /// Reach of the closing jaws: points this close to the tip are held, m.
+    pub grasp_radius_m: f32,
+    /// Grip value (0 to 1) at or above which the jaws close.
+    pub grip_threshold: f32,
+}
+
+impl Grasper {
+    /// Where files before the `[grasper]` table held its keys: in `[tools]`.
+    pub const MOVED_FROM_TOOLS: &'static Moved = &[
+        (
+            ("tools", "grasper_tip_radius_m"),
+            ("grasper", "tip_radius_m"),
+        ),
+        (("tools", "grasp_radius_m"), ("grasper", "grasp_radius_m")),
+        (("tools", "grip_threshold"), ("grasper", "grip_threshold")),
+    ];
+}
+
+/// One table serves every procedure with a grasper, each with its own values (the defaults
+/// are the nephrectomy's).
+impl Params for Grasper {
+    const SPECS: &'static [ParamSpec] = &[
+        ParamSpec::new(
+            "tip_radius_m",
+            "m",
+            0.003,
+            (1e-4, 0.02),
+            "radius of the open grasper's tip, a rigid collision sphere",
+        ),
+        ParamSpec::new(
+            "grasp_radius_m",
+            "m",
+            0.008,
+            (1e-4, 0.05),
+            "reach of the closing jaws: points this close to the tip are held",
+        ),
+        ParamSpec::new(
+            "grip_threshold",
+            "",
+            0.5,
+            (0.01, 1.0),
+            "grip value (0 to 1) at or above which the jaws close",
+        ),
+    ];
+
+    crate::param_fields!(tip_radius_m, grasp_radius_m, grip_threshold);
+}
+
+/// That a tube's wall (`key`, `wall_m`) is thinner than `fraction` of a size of the tube
+/// (`size_m`, which `of` names, as in "80 % of the outer radius").
+pub fn check_wall(
+    file: &str,
+    key: &str,
+    wall_m: f64,
+    (fraction, size_m): (f64, f64),
+    of: &str,
+) -> Result<(), InputError> {
+    InputError::require(wall_m < fraction * size_m, file, key, || {
+        format!("expected a wall thinner than {of} ({size_m} m), got {wall_m} m")
+    })
 }
 
 /// That a file read as procedure `expected`'s scenario names it in its `procedure` key.
@@ -386,6 +523,7 @@ macro_rules! scenario_tables {
         nodes: $nodes:ident,
         tables: [$($(#[$tm:meta])* $field:ident: $ty:ty),* $(,)?],
         $(extra: [$($(#[$em:meta])* $efield:ident: $ety:ty),* $(,)?],)?
+        $(moved: $moved:expr,)?
     ) => {
         /// A scenario file: the procedure's name, the timing, what a headset shows, and the
         /// procedure's tables.
@@ -401,6 +539,9 @@ macro_rules! scenario_tables {
             /// What a headset shows (`[headset]`; optional).
             #[serde(default)]
             pub headset: $crate::scenario::Headset,
+            /// Where models with a GPU path step (`compute`; optional, `auto`).
+            #[serde(default)]
+            pub compute: $crate::scenario::Compute,
             $($(#[$tm])* pub $field: $ty,)*
             $($($(#[$em])* pub $efield: $ety,)*)?
         }
@@ -413,10 +554,13 @@ macro_rules! scenario_tables {
 
         $crate::scenario_plan!($nodes);
 
+        /// Keys older files of this procedure held elsewhere.
+        const MOVED: &$crate::scenario::Moved = $crate::scenario_moved!($($moved)?);
+
         impl Scenario {
             /// Parses and checks scenario text; `file` names it in errors.
             pub fn parse(file: &str, text: &str) -> Result<Self, $crate::scenario::InputError> {
-                $crate::scenario::parse_checked(file, text, Scenario::validate)
+                $crate::scenario::parse_checked(file, text, MOVED, Scenario::validate)
             }
 
             /// The top-level timing.
@@ -435,5 +579,17 @@ macro_rules! scenario_tables {
                 Ok(())
             }
         }
+    };
+}
+
+/// The `moved:` keys of [`scenario_tables!`], none when it names none.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! scenario_moved {
+    () => {
+        &[]
+    };
+    ($moved:expr) => {
+        $moved
     };
 }

@@ -252,7 +252,7 @@ fn depth(m: &ModelSnapshot, origin: Vec3, dir: Vec3) -> Option<f32> {
 #[test]
 fn a_grasper_pressed_side_on_dents_the_kidney_along_its_shaft() {
     let s = Scenario::parse("builtin nephrectomy scenario", INFO.scenario).expect("scenario");
-    press_side_on(Hand::Left, s.tools.grasper_tip_radius_m);
+    press_side_on(Hand::Left, s.grasper.tip_radius_m);
 }
 
 /// The laser probe's 5 mm body pushed side-on into the kidney dents it as the grasper does

@@ -28,7 +28,7 @@ fn key(hand: &str, t_s: f64, position: Vec3, target: Vec3) -> String {
 fn a_press_is_felt_with_its_force_point_normal_and_stiffness() {
     let text = coarse();
     let scenario = Scenario::parse("coarse", &text).expect("scenario");
-    let tip_r = scenario.tools.grasper_tip_radius_m;
+    let tip_r = scenario.grasper.tip_radius_m;
     // The kidney's surface point furthest along d (its normal there is d), at rest.
     let d = Vec3::new(0.45, -0.85, 0.3).normalize();
     let rest = vesalius::procedures::Nephrectomy::new(scenario).expect("anatomy");

@@ -1,7 +1,8 @@
 //! The rectum through the command line on a coarse grid (60 x 48 nodes per layer; the full
 //! 960,000-node grid runs once, in `vesalius demo`): the demo trace cuts the plane, the
 //! report counts `spring_cut` events and carries the membrane's nodes and springs, 1 and 2
-//! worker threads give the same bytes, and the recording replays byte for byte.
+//! worker threads give the same bytes, and the recording replays byte for byte; with the
+//! membrane on the GPU a session cuts, and its replay on the CPU says the bytes may differ.
 
 mod common;
 use common::{bin, report, tmp, without_id};
@@ -81,4 +82,80 @@ fn the_demo_cuts_the_plane_the_same_on_one_and_two_threads_and_replays() {
             "{f}"
         );
     }
+    assert!(report(&d.join("replay")).get("replay_note").is_none());
+}
+
+/// The demo trace's first `seconds`, as a trace file in `dir`.
+fn first_seconds(dir: &Path, seconds: f64) -> std::path::PathBuf {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/traces/rectum-demo.toml");
+    let mut t: toml::Table =
+        toml::from_str(&std::fs::read_to_string(path).expect("the demo")).expect("TOML");
+    for hand in ["left", "right"] {
+        if let Some(toml::Value::Array(keys)) = t.get_mut(hand) {
+            keys.retain(|k| k.get("t_s").and_then(toml::Value::as_float).unwrap_or(0.0) <= seconds);
+        }
+    }
+    let out = dir.join("short.toml");
+    std::fs::write(&out, toml::to_string(&t).expect("writes")).expect("write trace");
+    out
+}
+
+#[test]
+fn on_the_gpu_a_session_cuts_and_its_cpu_replay_says_the_bytes_may_differ() {
+    let d = tmp("rectum", "gpu");
+    let trace = first_seconds(&d, 1.5);
+    let o = bin()
+        .args(["run", "rectum", "--headless", "--compute", "gpu", "--trace"])
+        .arg(&trace)
+        .arg("--scenario")
+        .arg(coarse(&d))
+        .arg("--out")
+        .arg(d.join("gpu"))
+        .output()
+        .expect("runs");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // On the adapter there is (CI: lavapipe), named in the report and the timing.
+    let g = report(&d.join("gpu"));
+    assert_eq!(g["compute"], "gpu", "{g}");
+    let adapter = g["adapter"].as_str().unwrap_or_default().to_string();
+    assert!(!adapter.is_empty(), "{g}");
+    let timing: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("gpu/timing.json")).expect("timing"))
+            .expect("JSON");
+    assert_eq!(
+        (timing["compute"].as_str(), timing["adapter"].as_str()),
+        (Some("gpu"), Some(adapter.as_str()))
+    );
+    assert!(g["events"]["spring_cut"].as_u64().unwrap_or(0) > 0, "{g}");
+    // Replayed on the CPU: it still runs and cuts, and says why its bytes may differ.
+    replay(
+        &d.join("gpu/input.vtrace"),
+        &d.join("cpu"),
+        &["--compute", "cpu"],
+    );
+    let c = report(&d.join("cpu"));
+    assert_eq!(c["compute"], "cpu", "{c}");
+    let note = c["replay_note"].as_str().unwrap_or_default();
+    assert_eq!(
+        note,
+        format!(
+            "recorded on gpu ({adapter}), replayed on cpu: the replay's bytes may differ from \
+             the recording's report (another backend or adapter sums the same forces in \
+             another order)"
+        )
+    );
+    assert!(c["events"]["spring_cut"].as_u64().unwrap_or(0) > 0, "{c}");
+}
+
+/// `vesalius replay RECORDING --out DIR ARGS...`, which must succeed.
+fn replay(recording: &Path, out: &Path, args: &[&str]) {
+    let o = bin()
+        .arg("replay")
+        .arg(recording)
+        .arg("--out")
+        .arg(out)
+        .args(args)
+        .output()
+        .expect("runs");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }

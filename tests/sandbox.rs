@@ -95,11 +95,14 @@ fn bench_and_profile_run_the_sandbox() {
     assert!(c["triangles"].as_u64().unwrap_or(0) >= 3456, "{c}");
 }
 
+/// `vesalius demo` with the CPU presets: every procedure's demo, and every preset's, plays to
+/// the task's end (the rectum's full 960,000-node grid steps in the bench's test run and in
+/// `vesalius demo` without a preset).
 #[test]
 fn demo_plays_every_registered_procedure() {
     let dir = tmp("demo");
     let out = ok(&bin()
-        .args(["demo", "--out"])
+        .args(["demo", "--preset", "cpu", "--out"])
         .arg(&*dir)
         .output()
         .expect("runs"));

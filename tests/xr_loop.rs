@@ -154,7 +154,7 @@ struct Press {
 }
 
 fn press(scenario: &Scenario) -> Press {
-    let r = f64::from(scenario.tools.grasper_tip_radius_m);
+    let r = f64::from(scenario.grasper.tip_radius_m);
     let rest = Nephrectomy::new(scenario.clone()).expect("anatomy");
     let kidney = &rest.kidney();
     let d = Vec3::new(0.45, -0.85, 0.3).normalize();

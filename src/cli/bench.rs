@@ -44,6 +44,27 @@ pub fn run_gpu(procedure: &str, gpu: &vesalius::gpu::Gpu) -> Result<Vec<BenchLin
     lines(gpu)
 }
 
+/// Simulated seconds of the coupled pass on the GPU (`bench --compute gpu`): the demo's
+/// first two, where the rectum's hook cuts.
+pub const COUPLED_GPU_S: f64 = 2.0;
+
+/// The procedure stepped with its models' GPU path on (`scenario` with `compute = "gpu"`)
+/// over the demo trace's first [`COUPLED_GPU_S`] seconds: a line for each model (those on
+/// the GPU name its adapter) and the whole procedure's.
+pub fn run_coupled(procedure: &str, scenario: &str) -> Result<Vec<BenchLine>, BenchError> {
+    let info = CATALOG
+        .find(procedure)
+        .ok_or_else(|| BenchError::NoSuchProcedure(procedure.to_string()))?;
+    let trace = KeyTrace::parse(&format!("builtin {procedure} demo trace"), info.demo_trace)?;
+    pass(
+        info,
+        scenario,
+        &trace,
+        COUPLED_GPU_S.min(trace.duration_s()),
+        false,
+    )
+}
+
 /// One timed run of `seconds` of the trace; `all_awake` keeps every point stepping.
 fn pass(
     info: &ProcedureInfo,
@@ -101,6 +122,7 @@ fn pass(
         .zip(&awake)
         .map(|((m, t), a)| BenchLine {
             mass_spring: m.mass_spring,
+            compute: on_gpu(m.gpu.clone()),
             ..line(
                 m.name.clone(),
                 t,
@@ -119,8 +141,20 @@ fn pass(
         .map(|(m, a)| m.vertices as f64 * a)
         .sum();
     let share = awake_points / (total[0].max(1) as f64);
-    out.push(line("procedure".to_string(), wall, total, share));
+    out.push(BenchLine {
+        compute: on_gpu(models.iter().find_map(|m| m.gpu.clone())),
+        ..line("procedure".to_string(), wall, total, share)
+    });
     Ok(out)
+}
+
+/// A line's backend: the GPU `adapter` names, or (none) the CPU, said by leaving it out.
+fn on_gpu(adapter: Option<String>) -> vesalius::sim::ComputeFigures {
+    vesalius::sim::ComputeFigures {
+        backend: adapter.as_ref().map(|_| "gpu"),
+        adapter,
+        ..Default::default()
+    }
 }
 
 #[cfg(test)]

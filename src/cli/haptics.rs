@@ -124,7 +124,7 @@ pub fn run_with_devices(a: &RunArgs) -> Result<(), CliError> {
         ));
     }
     let (file, text) =
-        super::session::scenario_text(&a.procedure, a.scenario.as_deref(), a.preset)?;
+        super::session::scenario_text(&a.procedure, a.scenario.as_deref(), a.preset, None)?;
     if let Some(dir) = &a.out {
         vesalius::session::prepare(dir)?;
     }

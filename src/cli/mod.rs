@@ -60,6 +60,11 @@ enum Command {
         /// `cpu`: each procedure's preset for machines without a GPU, where it has one.
         #[arg(long, value_enum)]
         preset: Option<PresetArg>,
+        /// Where the models with a GPU path step (default: each scenario's `compute`, `auto`):
+        /// `auto` the GPU on a real one and the CPU on a software adapter, `cpu`, or `gpu` on
+        /// whatever Vulkan adapter there is.
+        #[arg(long, value_enum)]
+        compute: Option<ComputeArg>,
     },
     /// A session: in a desktop window (default), headless with a trace, or in a headset.
     Run(Box<RunArgs>),
@@ -81,6 +86,11 @@ enum Command {
         /// own (assets/assessment/*.toml): an old session scored again.
         #[arg(long, value_name = "FILE")]
         assessment: Option<PathBuf>,
+        /// Where the models with a GPU path step (default: as the recording's scenario says);
+        /// on another backend or adapter than the recording's, the report says that its
+        /// bytes may differ.
+        #[arg(long, value_enum)]
+        compute: Option<ComputeArg>,
     },
     /// Validate scenarios, keyframed traces, recordings, interaction profiles, simulated
     /// runtime settings, assessment trees and questionnaires; errors name the file, the key
@@ -215,8 +225,20 @@ pub(crate) enum PresetArg {
 /// `--compute`: where the tissue models step.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub(crate) enum ComputeArg {
+    /// The GPU where the adapter is a real GPU, the CPU on a software one.
+    Auto,
     Cpu,
     Gpu,
+}
+
+impl From<ComputeArg> for vesalius::scenario::Compute {
+    fn from(c: ComputeArg) -> Self {
+        match c {
+            ComputeArg::Auto => vesalius::scenario::Compute::Auto,
+            ComputeArg::Cpu => vesalius::scenario::Compute::Cpu,
+            ComputeArg::Gpu => vesalius::scenario::Compute::Gpu,
+        }
+    }
 }
 
 /// `--xr-coupling`.
@@ -244,6 +266,11 @@ struct RunArgs {
     /// the CPU), laid over the scenario; the recording embeds the result.
     #[arg(long, value_enum)]
     preset: Option<PresetArg>,
+    /// Where the models with a GPU path step (default: the scenario's `compute`, `auto`):
+    /// `auto` the GPU on a real one and the CPU on a software adapter, `cpu`, or `gpu` on
+    /// whatever Vulkan adapter there is (lavapipe included); the recording embeds the choice.
+    #[arg(long, value_enum)]
+    compute: Option<ComputeArg>,
     /// No window: play --trace as fast as possible.
     #[arg(long, conflicts_with_all = ["xr", "xr_sim"])]
     headless: bool,
@@ -539,7 +566,8 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
             out,
             records,
             preset,
-        } => session::demo(&out, records.as_deref(), preset),
+            compute,
+        } => session::demo(&out, records.as_deref(), preset, compute),
         Command::Run(args) => session::run(*args),
         Command::Replay {
             recording,
@@ -547,7 +575,15 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
             frames,
             eye_size,
             assessment,
-        } => session::replay(&recording, &out, frames, eye_size, assessment.as_deref()),
+            compute,
+        } => session::replay(
+            &recording,
+            &out,
+            frames,
+            eye_size,
+            assessment.as_deref(),
+            compute,
+        ),
         Command::Check { files } => tools::check(&files),
         Command::Bench {
             procedure,

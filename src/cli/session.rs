@@ -14,6 +14,7 @@ pub(super) fn scenario_text(
     procedure: &str,
     scenario: Option<&Path>,
     preset: Option<super::PresetArg>,
+    compute: Option<super::ComputeArg>,
 ) -> Result<(String, String), CliError> {
     let (file, text) = match scenario {
         Some(f) => (
@@ -26,7 +27,28 @@ pub(super) fn scenario_text(
             builtin(procedure).unwrap_or_default().to_string(),
         ),
     };
-    with_preset(procedure, file, text, preset)
+    let (file, text) = with_preset(procedure, file, text, preset)?;
+    with_compute(file, text, compute)
+}
+
+/// `text` (the scenario `file`) with its `compute` key set to `compute`'s choice, where one
+/// is given.
+pub(super) fn with_compute(
+    file: String,
+    text: String,
+    compute: Option<super::ComputeArg>,
+) -> Result<(String, String), CliError> {
+    let Some(c) = compute else {
+        return Ok((file, text));
+    };
+    let name = vesalius::scenario::Compute::from(c).name();
+    let merged = vesalius::scenario::with_preset(
+        &file,
+        &text,
+        "--compute",
+        &format!("compute = \"{name}\""),
+    )?;
+    Ok((format!("{file} with compute = {name}"), merged))
 }
 
 /// `text` (the scenario `file`) with `preset`'s keys laid over it; unchanged, with a word on
@@ -161,7 +183,7 @@ pub fn run(a: RunArgs) -> Result<(), CliError> {
     let Some(trace) = &a.trace else {
         return Err(CliError::Usage("run --headless needs --trace FILE".into()));
     };
-    let (file, text) = scenario_text(&a.procedure, a.scenario.as_deref(), a.preset)?;
+    let (file, text) = scenario_text(&a.procedure, a.scenario.as_deref(), a.preset, a.compute)?;
     let keys = load_trace(trace, &a.procedure, a.max_session)?;
     let tree = load_tree(a.assessment.as_deref(), &a.procedure)?;
     let frames = a.frames.unwrap_or(0);
@@ -238,7 +260,7 @@ pub(super) fn run_window(
     devices: Option<vesalius::ui::window::WindowDevices>,
 ) -> Result<(), CliError> {
     let procedure = a.procedure.as_str();
-    let (file, text) = scenario_text(procedure, a.scenario.as_deref(), a.preset)?;
+    let (file, text) = scenario_text(procedure, a.scenario.as_deref(), a.preset, a.compute)?;
     let trace = match &a.trace {
         Some(t) => {
             let keys = load_trace(t, procedure, a.max_session)?;
@@ -345,7 +367,7 @@ fn run_xr(a: &RunArgs) -> Result<(), CliError> {
     if let Some(dir) = &a.out {
         session::prepare(dir)?;
     }
-    let (file, text) = scenario_text(&a.procedure, a.scenario.as_deref(), a.preset)?;
+    let (file, text) = scenario_text(&a.procedure, a.scenario.as_deref(), a.preset, a.compute)?;
     let run = vesalius::xr::run(&text, &file, opts, a.out.as_deref())?;
     say!(
         "XR runtime '{}' on {}: {} stereo frames at {}x{} per eye, {} session(s)",
@@ -427,6 +449,9 @@ fn run_xr_sim(a: &RunArgs, trace: &Path) -> Result<(), CliError> {
     if let Some(super::PresetArg::Cpu) = a.preset {
         cmd.args(["--preset", "cpu"]);
     }
+    if let Some(c) = a.compute {
+        cmd.args(["--compute", vesalius::scenario::Compute::from(c).name()]);
+    }
     if let Some(f) = &a.assessment {
         // Checked here, so a bad tree is named before the runtime starts.
         load_tree(Some(f), &a.procedure)?;
@@ -483,6 +508,7 @@ pub fn replay(
     frames: Option<u32>,
     eye_size: Option<(u32, u32)>,
     assessment: Option<&Path>,
+    compute: Option<super::ComputeArg>,
 ) -> Result<(), CliError> {
     let mut rec = Recording::read(recorded)?;
     rec.resolve(
@@ -518,20 +544,48 @@ pub fn replay(
         );
     }
     let file = format!("{} (embedded scenario)", recorded.display());
-    let scenario = rec.scenario.clone();
+    let (file, scenario) = with_compute(file, rec.scenario.clone(), compute)?;
     let opts = Options {
         out: Some(out),
         frames_wanted: frames.unwrap_or(0),
         assessment: tree.as_ref().map(|(f, t)| (f.as_str(), t)),
         ..Options::default()
     };
-    let outcome = session::run_with(&scenario, &file, Input::Recorded(rec), &opts)?;
+    let mut outcome = session::run_with(&scenario, &file, Input::Recorded(rec), &opts)?;
+    if let Some(note) = own.and_then(|dir| backend_note(&dir.join(session::REPORT), &outcome)) {
+        tell!("{note}");
+        outcome.report.replay_note = Some(note);
+    }
     finish(&outcome, Some(out))?;
     interrupted()?;
     if frames.is_some() {
         render_frames(&outcome, out, eye_size)?;
     }
     Ok(())
+}
+
+/// Where the recorded session's models stepped (its report beside the recording says; a report
+/// from before the GPU path says nothing, and stepped on the CPU) against where the replay's
+/// did: a note when they differ, since the bytes then may too.
+fn backend_note(recorded_report: &Path, replay: &session::Outcome) -> Option<String> {
+    let text = std::fs::read_to_string(recorded_report).ok()?;
+    let was: serde_json::Value = serde_json::from_str(&text).ok()?;
+    let was_compute = was["compute"].as_str().unwrap_or("cpu");
+    let was_adapter = was["adapter"].as_str();
+    let now = &replay.report;
+    if was_compute == now.compute && was_adapter == now.adapter.as_deref() {
+        return None;
+    }
+    let on = |compute: &str, adapter: Option<&str>| match adapter {
+        Some(a) => format!("{compute} ({a})"),
+        None => compute.to_string(),
+    };
+    Some(format!(
+        "recorded on {}, replayed on {}: the replay's bytes may differ from the recording's \
+         report (another backend or adapter sums the same forces in another order)",
+        on(was_compute, was_adapter),
+        on(now.compute, now.adapter.as_deref())
+    ))
 }
 
 /// Stereo frames `vesalius demo` renders of each procedure, evenly spaced over its session.
@@ -545,6 +599,7 @@ pub fn demo(
     out: &Path,
     records: Option<&Path>,
     preset: Option<super::PresetArg>,
+    compute: Option<super::ComputeArg>,
 ) -> Result<(), CliError> {
     let db = records.map_or_else(|| out.join("records.sqlite"), Path::to_path_buf);
     for p in vesalius::registry::REGISTRY {
@@ -561,6 +616,7 @@ pub fn demo(
             p.scenario.to_string(),
             preset,
         )?;
+        let (file, text) = with_compute(file, text, compute)?;
         let outcome = session::run_with(&text, &file, Input::Keys(keys), &opts)?;
         finish(&outcome, Some(&dir))?;
         interrupted()?;

@@ -117,19 +117,23 @@ pub fn bench(
     // One device for every procedure's GPU lines.
     let gpu = match compute {
         ComputeArg::Gpu => Some(vesalius::gpu::Gpu::headless(false)?),
+        ComputeArg::Auto => vesalius::gpu::Gpu::for_compute(vesalius::scenario::Compute::Auto)?,
         ComputeArg::Cpu => None,
     };
     for p in names {
+        let (_, text) = super::session::with_preset(
+            p,
+            String::new(),
+            vesalius::registry::builtin(p)
+                .unwrap_or_default()
+                .to_string(),
+            preset,
+        )?;
         let lines = match &gpu {
             None => {
-                let (_, text) = super::session::with_preset(
-                    p,
-                    String::new(),
-                    vesalius::registry::builtin(p)
-                        .unwrap_or_default()
-                        .to_string(),
-                    preset,
-                )?;
+                // The CPU's figures: every model on the CPU, whatever the scenario says.
+                let (_, text) =
+                    super::session::with_compute(String::new(), text, Some(ComputeArg::Cpu))?;
                 bench::run(p, &text)?
             }
             Some(gpu) => match bench::run_gpu(p, gpu) {
@@ -138,7 +142,14 @@ pub fn bench(
                     tell!("{name}: no GPU compute path yet");
                     continue;
                 }
-                other => other?,
+                other => {
+                    // The kernel's lines, then the procedure with its models' GPU path on.
+                    let mut lines = other?;
+                    let (_, text) =
+                        super::session::with_compute(String::new(), text, Some(ComputeArg::Gpu))?;
+                    lines.extend(bench::run_coupled(p, &text)?);
+                    lines
+                }
             },
         };
         for l in &lines {
@@ -162,8 +173,11 @@ pub fn bench(
                     l.constraints,
                     l.threads
                 );
-                if let Some(adapter) = &l.compute.adapter {
-                    let c = &l.compute;
+                let c = &l.compute;
+                if let (Some(adapter), None) = (&c.adapter, c.substeps_per_s) {
+                    // A model of the procedure stepping on the GPU.
+                    say!("{:<14} on {adapter}", "");
+                } else if let Some(adapter) = &c.adapter {
                     let or_dash = |v: Option<f64>, f: fn(f64) -> String| v.map_or("-".into(), f);
                     say!(
                         "{:<14} on {adapter}: {} substeps/s by the wall, {} by the GPU's clock, {} GB/s ({} bytes a substep), step latency p99 {} ms, off the CPU by {}",
@@ -318,13 +332,19 @@ pub fn profile(
 /// `verify`: the reference cases as a table or JSON lines; fails when one is out of tolerance.
 pub fn verify(json: bool, known_failures: bool, compute: ComputeArg) -> Result<(), CliError> {
     use vesalius::verify;
-    let results = match compute {
-        ComputeArg::Cpu => verify::run_all(&vesalius::registry::CATALOG),
-        ComputeArg::Gpu => {
-            // A clear error where there is no adapter at all, before the cases say "not run".
-            vesalius::gpu::Gpu::headless(false)?;
-            verify::run(&verify::gpu_cases())
+    let on_gpu = match compute {
+        ComputeArg::Cpu => false,
+        ComputeArg::Gpu => true,
+        ComputeArg::Auto => {
+            vesalius::gpu::Gpu::for_compute(vesalius::scenario::Compute::Auto)?.is_some()
         }
+    };
+    let results = if on_gpu {
+        // A clear error where there is no adapter at all, before the cases say "not run".
+        vesalius::gpu::Gpu::headless(false)?;
+        verify::run(&verify::gpu_cases_in(&vesalius::registry::CATALOG))
+    } else {
+        verify::run_all(&vesalius::registry::CATALOG)
     };
     let print = |results: &[verify::CaseResult]| -> Result<(), CliError> {
         if json {

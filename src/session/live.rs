@@ -519,6 +519,8 @@ impl Live {
         for e in &self.events {
             *counts.entry(e.kind.name().to_string()).or_default() += 1;
         }
+        let models = self.proc_.model_reports();
+        let adapter = models.iter().find_map(|m| m.gpu.clone());
         let report = Report {
             procedure: self.info.name.to_string(),
             session_id: self.session_id,
@@ -528,7 +530,9 @@ impl Live {
             dt_s: self.plan.dt_s,
             steps: self.clock.step(),
             simulated_s: self.clock.time_s(),
-            models: self.proc_.model_reports(),
+            compute: if adapter.is_some() { "gpu" } else { "cpu" },
+            adapter,
+            models,
             events: counts,
             errors: done.errors,
             metrics: done.metrics,
@@ -538,6 +542,7 @@ impl Live {
             assessment,
             timeline: self.timeline,
             state_hash: format!("{:016x}", self.proc_.state_hash()),
+            replay_note: None,
         };
         Ok(Outcome {
             report,

@@ -71,6 +71,11 @@ pub struct Report {
     pub dt_s: f32,
     pub steps: u64,
     pub simulated_s: f64,
+    /// Where the models stepped: `gpu` where any did on a GPU (its adapter beside), else
+    /// `cpu`. A replay on another backend or adapter may give other bytes.
+    pub compute: &'static str,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub adapter: Option<String>,
     pub models: Vec<ModelReport>,
     pub events: BTreeMap<String, u64>,
     /// Errors the procedure counted (vulnerable structures touched, tissue torn, ...).
@@ -88,6 +93,10 @@ pub struct Report {
     pub timeline: Vec<Sample>,
     /// FNV-1a digest of the final simulation state.
     pub state_hash: String,
+    /// A replay's word on its bytes: set where the recorded session stepped on another
+    /// backend or adapter.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub replay_note: Option<String>,
 }
 
 /// One sample of a session's timeline.

@@ -110,6 +110,8 @@ pub fn write_outputs(o: &Outcome, dir: &Path) -> Result<(), SessionError> {
         "steps_per_s": steps_per_s,
         "realtime_factor": steps_per_s * o.report.dt_s as f64,
         "threads": rayon::current_num_threads(),
+        "compute": o.report.compute,
+        "adapter": o.report.adapter,
     });
     let timing = serde_json::to_string_pretty(&timing).unwrap_or_default() + "\n";
     write_whole(dir, TIMING, timing.as_bytes())?;

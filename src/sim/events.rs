@@ -160,6 +160,12 @@ pub enum EventKind {
     SessionLost,
     /// A new XR session took over after a loss.
     SessionRestarted,
+    /// A model's GPU failed (device lost, out of memory, a rejected command): it goes on on
+    /// the CPU from its last good state; `reason` is what the device said.
+    ComputeFallback {
+        model: String,
+        reason: String,
+    },
     /// The supervisor changed a model's tunable parameters (applied from this step on).
     TissueTuned {
         model: String,
@@ -222,6 +228,7 @@ impl EventKind {
             EventKind::ControllerRegained { .. } => "controller_regained",
             EventKind::SessionLost => "session_lost",
             EventKind::SessionRestarted => "session_restarted",
+            EventKind::ComputeFallback { .. } => "compute_fallback",
             EventKind::TissueTuned { .. } => "tissue_tuned",
             EventKind::Procedure(p) => p.name,
             EventKind::HapticClamp { .. } => "haptic_clamp",

@@ -105,6 +105,10 @@ pub trait TissueModel: Send {
     fn mass_spring(&self) -> crate::sim::MassSpring {
         crate::sim::MassSpring::default()
     }
+    /// The GPU adapter the model steps on; none on the CPU (most models).
+    fn gpu_adapter(&self) -> Option<String> {
+        None
+    }
     /// The share of the model's points the last step worked on (1 for a model that never
     /// sleeps).
     fn awake_fraction(&self) -> f32 {
@@ -133,6 +137,9 @@ impl TissueModel for Box<dyn TissueModel> {
     }
     fn kind(&self) -> &'static str {
         (**self).kind()
+    }
+    fn gpu_adapter(&self) -> Option<String> {
+        (**self).gpu_adapter()
     }
     fn sizes(&self) -> ModelSizes {
         (**self).sizes()

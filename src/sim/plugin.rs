@@ -286,6 +286,15 @@ impl ModelReport {
             triangles: 0,
             constraints,
             mass_spring: MassSpring::default(),
+            gpu: None,
+        }
+    }
+
+    /// The same, stepped on the GPU `adapter` names (none: on the CPU).
+    pub fn on_gpu(self, adapter: Option<String>) -> Self {
+        Self {
+            gpu: adapter,
+            ..self
         }
     }
 

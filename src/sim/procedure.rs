@@ -240,6 +240,8 @@ pub struct Options {
     /// Its reference cases that need its whole scene (the models' own are `vesalius
     /// verify`'s already); `vesalius verify` runs them after the models'.
     pub cases: fn() -> Vec<super::Case>,
+    /// The same on the GPU compute path (`vesalius verify --compute gpu`); none for most.
+    pub gpu_cases: fn() -> Vec<super::Case>,
     /// The precomputation it needs before its first session (`vesalius precompute`), if any.
     pub precompute: Option<&'static super::precompute::Precomputable>,
 }
@@ -258,6 +260,7 @@ impl Options {
         bench_extra: None,
         gpu_bench: None,
         cpu_preset: None,
+        gpu_cases: Vec::new,
         cases: Vec::new,
         precompute: None,
     };
@@ -325,6 +328,9 @@ pub struct ModelReport {
     /// A mass-spring model's particulars.
     #[serde(flatten)]
     pub mass_spring: MassSpring,
+    /// The adapter its substeps ran on, where they ran on a GPU (absent: on the CPU).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gpu: Option<String>,
 }
 
 /// A mass-spring model's mass points and springs and its time integrator, for reports and

@@ -449,6 +449,7 @@ impl<M: TissueModel> World<M> {
                     triangles: s.triangles,
                     constraints: s.constraints,
                     mass_spring: m.mass_spring(),
+                    gpu: m.gpu_adapter(),
                 }
             })
             .collect()

@@ -137,16 +137,49 @@ fn residual_shrink() -> Measured {
 /// The cases of the models' GPU compute path (`vesalius verify --compute gpu`), run on the
 /// first Vulkan adapter (a real GPU, else lavapipe).
 pub(super) fn gpu_cases() -> Vec<Case> {
-    vec![Case {
-        model: "mass-spring membrane, gpu",
-        case: "membrane_residual_shrink_gpu",
-        description: "membrane_residual_shrink's freed sheet stepped by the GPU kernel \
-                      (shaders/membrane.wgsl, 500 substeps a submission): its relative shrink \
-                      along vs eq 5's residual strain 0.1; tolerance 15 % of it, as on the CPU",
-        unit: "",
-        tolerance: 0.15,
-        run: residual_shrink_gpu,
-    }]
+    vec![
+        Case {
+            model: "mass-spring membrane, gpu",
+            case: "membrane_spring_force_gpu",
+            description: "membrane_spring_force's displaced node, one substep of the GPU kernel \
+                          from rest (no damping): its mass times the velocity it gained over \
+                          the substep, vs eqs 3-4 by hand; tolerance 1e-4 (f32), as on the CPU",
+            unit: "N",
+            tolerance: 1e-4,
+            run: spring_force_gpu,
+        },
+        Case {
+            model: "mass-spring membrane, gpu",
+            case: "membrane_residual_shrink_gpu",
+            description: "membrane_residual_shrink's freed sheet stepped by the GPU kernel \
+                          (shaders/membrane.wgsl, 500 substeps a submission): its relative \
+                          shrink along vs eq 5's residual strain 0.1; tolerance 15 % of it, as \
+                          on the CPU",
+            unit: "",
+            tolerance: 0.15,
+            run: residual_shrink_gpu,
+        },
+    ]
+}
+
+fn spring_force_gpu() -> Measured {
+    use crate::models::membrane::gpu::MembraneGpu;
+    let cpu = spring_force();
+    let run = || -> Option<f64> {
+        let gpu = crate::gpu::Gpu::headless(false).ok()?;
+        let mut m = Membrane::new(MembraneShape::sheet(3, 3, 0.01, 0.005), fat(0.0, 0.0)).ok()?;
+        let node = m.node(1, 1, 1);
+        m.displace(node, Vec3::new(0.002, 0.0, 0.0));
+        let h = 1e-4f32;
+        let mut k = MembraneGpu::new(&gpu, &m).ok()?;
+        k.advance(&mut m, h, 1).ok()?;
+        k.download(&mut m).ok()?;
+        Some(f64::from(m.mass(node)) * f64::from(m.velocity(node).x) / f64::from(h))
+    };
+    match run() {
+        Some(f) => Measured::at_rest(cpu.reference, f),
+        None => Measured::not_run(cpu.reference),
+    }
 }
 
 fn residual_shrink_gpu() -> Measured {

@@ -116,6 +116,16 @@ pub fn gpu_cases() -> Vec<Case> {
     membrane_cases::gpu_cases()
 }
 
+/// The GPU path's cases of the models, then each procedure's of `catalog` (`vesalius verify
+/// --compute gpu`'s table).
+pub fn gpu_cases_in(catalog: &crate::sim::Catalog) -> Vec<Case> {
+    let mut all = gpu_cases();
+    for p in catalog.iter() {
+        all.extend((p.options.gpu_cases)());
+    }
+    all
+}
+
 /// Cases where the model, while following its paper, disagrees with physics. Kept apart
 /// from [`cases`] so that the registered table stays green; run them with [`run`] to see
 /// by how much.
@@ -229,10 +239,36 @@ pub fn table(results: &[CaseResult]) -> String {
 mod tests {
     use super::*;
     use std::collections::HashSet;
+    use std::sync::OnceLock;
+
+    /// Every model case measured once, with its wall time: the tests that judge, tabulate
+    /// or perturb the measurements share the one run.
+    fn measured() -> &'static [(Measured, f64)] {
+        static RUN: OnceLock<Vec<(Measured, f64)>> = OnceLock::new();
+        RUN.get_or_init(|| {
+            cases()
+                .iter()
+                .map(|c| {
+                    let start = Instant::now();
+                    let m = (c.run)();
+                    (m, start.elapsed().as_secs_f64())
+                })
+                .collect()
+        })
+    }
+
+    /// The shared run's results, judged as [`run`] judges them.
+    fn results() -> Vec<CaseResult> {
+        cases()
+            .iter()
+            .zip(measured())
+            .map(|(c, &(m, wall_s))| CaseResult::judge(c, m, wall_s))
+            .collect()
+    }
 
     #[test]
     fn every_models_case_passes() {
-        let results = run(&cases());
+        let results = results();
         let failed: Vec<String> = results
             .iter()
             .filter(|r| !r.passed)
@@ -249,7 +285,7 @@ mod tests {
 
     #[test]
     fn every_result_field_is_finite() {
-        for r in run(&cases()) {
+        for r in results() {
             for (name, v) in [
                 ("reference", r.reference),
                 ("measured", r.measured),
@@ -279,7 +315,7 @@ mod tests {
 
     #[test]
     fn the_table_has_a_header_one_row_per_case_and_a_summary() {
-        let results = run(&cases());
+        let results = results();
         let text = table(&results);
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(lines.len(), results.len() + 2, "{text}");
@@ -303,8 +339,7 @@ mod tests {
     #[test]
     fn a_perturbed_measurement_fails_through_the_same_judge() {
         let all = cases();
-        for case in &all {
-            let m = (case.run)();
+        for (case, &(m, _)) in all.iter().zip(measured()) {
             let good = CaseResult::judge(case, m, 1.0);
             assert!(good.passed, "{}", case.case);
             // Off by three tolerances (relative to the same scale the case uses).

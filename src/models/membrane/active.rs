@@ -76,7 +76,7 @@ pub(super) struct Activity {
     /// Per run of awake tiles, its new state (rows x layers x 6 x width).
     buffers: Vec<Vec<f32>>,
     /// Awake tiles this step, ascending.
-    list: Vec<u32>,
+    pub list: Vec<u32>,
     /// This step's runs of awake tiles side by side in one row of tiles: (rows, columns).
     runs: Vec<([usize; 2], [usize; 2])>,
     /// Sum of awake node shares over steps, and steps (for the mean awake fraction).
@@ -443,13 +443,16 @@ pub(super) fn step(m: &mut Membrane, dt: f32, substeps: usize) {
             a.runs.push((rs, [c0, c1]));
         }
     }
-    let h = dt / substeps as f32;
-    let mut buffers = std::mem::take(&mut a.buffers);
-    buffers.resize_with(a.runs.len(), Vec::new);
-    for _ in 0..substeps {
-        substep(m, &a, &mut buffers, h);
+    // On the membrane's GPU where it has one, else (or should it fail) here.
+    if !super::device::active_substeps(m, &a, &halo, dt, substeps) {
+        let h = dt / substeps as f32;
+        let mut buffers = std::mem::take(&mut a.buffers);
+        buffers.resize_with(a.runs.len(), Vec::new);
+        for _ in 0..substeps {
+            substep(m, &a, &mut buffers, h);
+        }
+        a.buffers = buffers;
     }
-    a.buffers = buffers;
     // Sleep and wake checks, once per step.
     let nodes_awake: usize = a
         .list

@@ -11,7 +11,7 @@ use crate::gpu::{Gpu, RenderError};
 use bytemuck::Zeroable;
 use std::time::Instant;
 
-const SHADER: &str = include_str!("../../../shaders/membrane.wgsl");
+pub(super) const SHADER: &str = include_str!("../../../shaders/membrane.wgsl");
 
 /// How the nodes are laid out in workgroups (the shader's two entry points).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -53,7 +53,8 @@ struct Params {
     damping_per_s: f32,
     dt: f32,
     groups_x: u32,
-    pad: [f32; 2],
+    tiles_c: u32,
+    pad: u32,
 }
 
 /// The shader's `External`: a force on one node, N.
@@ -64,21 +65,30 @@ struct External {
     force: [f32; 3],
 }
 
+/// Another kernel's substeps over the same buffers: its pipeline, its two ping-pong bind
+/// groups, its workgroups and the tiles across the grid (the active set's, `device.rs`).
+pub(super) struct TileDispatch<'a> {
+    pub pipeline: &'a wgpu::ComputePipeline,
+    pub bind: &'a [wgpu::BindGroup; 2],
+    pub groups: (u32, u32, u32),
+    pub tiles_c: u32,
+}
+
 /// A membrane's state and springs on one device, and the kernel that steps them.
 pub struct MembraneGpu {
     gpu: Gpu,
     pipeline: wgpu::ComputePipeline,
-    params: wgpu::Buffer,
-    state: [wgpu::Buffer; 2],
-    springs: wgpu::Buffer,
-    attach: wgpu::Buffer,
-    beta: wgpu::Buffer,
-    externals: wgpu::Buffer,
+    pub(super) params: wgpu::Buffer,
+    pub(super) state: [wgpu::Buffer; 2],
+    pub(super) springs: wgpu::Buffer,
+    pub(super) attach: wgpu::Buffer,
+    pub(super) beta: wgpu::Buffer,
+    pub(super) externals: wgpu::Buffer,
     external_capacity: usize,
     /// Bind group `k` reads state buffer `k` and writes the other.
     bind: [wgpu::BindGroup; 2],
     /// The state buffer that holds the newest state.
-    current: usize,
+    pub(super) current: usize,
     rows: u32,
     cols: u32,
     periodic: bool,
@@ -220,6 +230,16 @@ impl MembraneGpu {
         dt_s: f32,
         substeps: usize,
     ) -> Result<(), RenderError> {
+        let count = self.upload_externals(m)?.0;
+        self.substeps(m, dt_s, substeps, count, None)
+    }
+
+    /// Sends `m`'s external forces up (taking them), sorted by node: how many, and whether
+    /// their buffer had to grow (a bind group made before then binds the old one).
+    pub(super) fn upload_externals(
+        &mut self,
+        m: &mut Membrane,
+    ) -> Result<(u32, bool), RenderError> {
         let mut ext: Vec<External> = m
             .external
             .drain(..)
@@ -229,7 +249,8 @@ impl MembraneGpu {
             })
             .collect();
         ext.sort_by_key(|e| e.node);
-        if ext.len() > self.external_capacity {
+        let grown = ext.len() > self.external_capacity;
+        if grown {
             self.external_capacity = ext.len().next_power_of_two();
             self.externals = compute::storage(
                 &self.gpu,
@@ -250,6 +271,21 @@ impl MembraneGpu {
         if !ext.is_empty() {
             self.gpu.queue.write_buffer(&self.externals, 0, bytes(&ext));
         }
+        Ok((ext.len() as u32, grown))
+    }
+
+    /// `substeps` substeps of `dt_s / substeps` under the `external_count` forces uploaded,
+    /// in one submission: every node by this kernel's layout, or with `tiles` another
+    /// pipeline (its two ping-pong bind groups, its workgroups and the tiles across the
+    /// grid).
+    pub(super) fn substeps(
+        &mut self,
+        m: &Membrane,
+        dt_s: f32,
+        substeps: usize,
+        external_count: u32,
+        tiles: Option<TileDispatch<'_>>,
+    ) -> Result<(), RenderError> {
         let n = substeps.max(1);
         let groups = self.groups();
         let p = &m.params;
@@ -257,12 +293,13 @@ impl MembraneGpu {
             rows: self.rows,
             cols: self.cols,
             periodic: u32::from(self.periodic),
-            external_count: ext.len() as u32,
+            external_count,
             gravity: p.gravity.to_array(),
             damping_per_s: p.damping_per_s,
             dt: dt_s / n as f32,
             groups_x: groups.0,
-            pad: [0.0; 2],
+            tiles_c: tiles.as_ref().map_or(0, |t| t.tiles_c),
+            pad: 0,
         };
         self.gpu
             .queue
@@ -278,9 +315,13 @@ impl MembraneGpu {
                 label: Some("membrane substeps"),
                 timestamp_writes: self.timer.as_ref().map(PassTimer::writes),
             });
-            pass.set_pipeline(&self.pipeline);
+            let (pipeline, bind, groups) = match tiles {
+                Some(t) => (t.pipeline, t.bind, t.groups),
+                None => (&self.pipeline, &self.bind, groups),
+            };
+            pass.set_pipeline(pipeline);
             for _ in 0..n {
-                pass.set_bind_group(0, &self.bind[self.current], &[]);
+                pass.set_bind_group(0, &bind[self.current], &[]);
                 pass.dispatch_workgroups(groups.0, groups.1, groups.2);
                 self.current = 1 - self.current;
             }

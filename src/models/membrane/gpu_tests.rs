@@ -121,3 +121,126 @@ fn a_cut_uploaded_to_the_gpu_frees_the_tissue_as_on_the_cpu() {
     let err = displacement_error(&start, &dev, &cpu);
     assert!(err < 1e-3, "displacements differ by {err:e} of the largest");
 }
+
+/// The sleepy tube of the active set's tests at a third of its length: the same 0.25 mm
+/// spacing, 6 x 4 tiles.
+fn sleepy(rows: usize, cols: usize) -> Membrane {
+    let mut p = super::tests::params(Integrator::Symplectic);
+    p.gravity = Vec3::ZERO;
+    p.spring_damping_ratio = 0.5;
+    p.damping_per_s = 20.0;
+    let length = 0.032 * rows as f32 / 128.0;
+    let shape = super::tests::tube(rows, cols, length, [0.01, 0.012, 0.013, 0.016]);
+    let mut m = Membrane::new(shape, p).expect("membrane");
+    m.use_active_set(ActivityParams::default());
+    m
+}
+
+/// Step `k` of a session on `m`: a tool near layer 1's node at row 24, column 32 pulls it
+/// along the tube for 40 steps (waking the tiles around it), then lets go.
+fn session_step(m: &mut Membrane, k: usize, out: &mut crate::sim::ModelOutput) {
+    let node = m.node(1, 24, 32);
+    if k < 40 {
+        let p = m.position(node);
+        m.wake_near(&[(p - Vec3::splat(1e-3), p + Vec3::splat(1e-3))]);
+        m.add_force(node, Vec3::X * 2e-4);
+    }
+    out.clear();
+    crate::sim::TissueModel::step(m, 1e-3, &[], out);
+}
+
+/// A device, the sleepy tube, and two copies of it: one on the CPU, one on the device.
+fn on_both() -> (Gpu, Membrane, Membrane, Membrane) {
+    let gpu = device();
+    let start = sleepy(48, 64);
+    let (cpu, mut dev) = (start.clone(), start.clone());
+    dev.use_gpu(&gpu).expect("uploads");
+    (gpu, start, cpu, dev)
+}
+
+fn awake_tiles(m: &Membrane) -> Vec<usize> {
+    let (tr, tc) = m.tiles();
+    (0..tr * tc).filter(|&t| m.tile_awake(t)).collect()
+}
+
+#[test]
+fn the_active_set_steps_on_the_gpu_as_on_the_cpu() {
+    use crate::sim::TissueModel;
+    let (_gpu, start, mut cpu, mut dev) = on_both();
+    let mut out = crate::sim::ModelOutput::default();
+    let mut most = 0;
+    for k in 0..60 {
+        for m in [&mut cpu, &mut dev] {
+            // A cut through the pulled tissue (new springs go up), a checkpoint, and a
+            // rollback to it (everything goes up again).
+            if k == 20 {
+                let at = m.position(m.node(1, 24, 34));
+                assert!(m.cut_plane(at, 0.001) > 0);
+            }
+            if k == 25 {
+                m.checkpoint();
+            }
+            if k == 30 {
+                m.restore();
+            }
+            session_step(m, k, &mut out);
+            assert!(out.events.is_empty(), "{:?}", out.events);
+        }
+        assert_eq!(awake_tiles(&dev), awake_tiles(&cpu), "step {k}");
+        most = most.max(awake_tiles(&dev).len());
+    }
+    let (tr, tc) = dev.tiles();
+    assert!(most >= 2 && most < tr * tc, "{most} tiles woke");
+    let err = displacement_error(&start, &dev, &cpu);
+    assert!(err < 1e-3, "displacements differ by {err:e} of the largest");
+    assert!(dev.gpu_adapter().is_some());
+    assert!(cpu.gpu_adapter().is_none());
+}
+
+#[test]
+fn a_lost_device_hands_the_membrane_to_the_cpu_with_an_event_and_loses_nothing() {
+    // A device of its own: the test destroys it.
+    let (_gpu, start, mut cpu, mut dev) = on_both();
+    let mut out = crate::sim::ModelOutput::default();
+    for k in 0..30 {
+        session_step(&mut cpu, k, &mut out);
+        if k == 10 {
+            assert!(dev.inject_device_loss());
+        }
+        session_step(&mut dev, k, &mut out);
+        let fell_back: Vec<_> = out
+            .events
+            .iter()
+            .filter(|e| matches!(e, crate::sim::EventKind::ComputeFallback { .. }))
+            .collect();
+        assert_eq!(
+            fell_back.len(),
+            usize::from(k == 10),
+            "step {k}: {:?}",
+            out.events
+        );
+    }
+    assert!(dev.gpu_adapter().is_none(), "on the CPU from the loss on");
+    assert_eq!(awake_tiles(&dev), awake_tiles(&cpu));
+    let err = displacement_error(&start, &dev, &cpu);
+    assert!(err < 1e-3, "displacements differ by {err:e} of the largest");
+    assert!(dev.is_finite());
+}
+
+#[test]
+fn on_one_adapter_the_active_set_on_the_gpu_gives_the_same_bytes() {
+    let gpu = device();
+    let run = || {
+        let mut m = sleepy(48, 64);
+        m.use_gpu(&gpu).expect("uploads");
+        let mut out = crate::sim::ModelOutput::default();
+        for k in 0..50 {
+            session_step(&mut m, k, &mut out);
+        }
+        assert!(m.gpu_adapter().is_some());
+        m.state_hash()
+    };
+    let first = run();
+    assert_eq!(first, run());
+    assert_ne!(first, sleepy(48, 64).state_hash(), "it moved");
+}

@@ -380,6 +380,7 @@ impl Membrane {
                 let at = self.state_at(c, node);
                 self.state.data[at] += d[c];
             }
+            self.device.stale();
         }
     }
 }

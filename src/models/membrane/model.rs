@@ -4,7 +4,8 @@
 
 use super::{LAYERS, Membrane};
 use crate::sim::{
-    Collider, Contact, MassSpring, ModelOutput, ModelSizes, ModelSnapshot, SurfaceRole, TissueModel,
+    Collider, Contact, EventKind, MassSpring, ModelOutput, ModelSizes, ModelSnapshot, SurfaceRole,
+    TissueModel,
 };
 use glam::Vec3;
 
@@ -103,9 +104,15 @@ impl TissueModel for Membrane {
 
     /// Tools reach the membrane through their procedure's coupling (it presses and cuts
     /// nodes in its own terms), so contacts are not read here.
-    fn step(&mut self, dt_s: f32, _contacts: &[Contact], _out: &mut ModelOutput) {
+    fn step(&mut self, dt_s: f32, _contacts: &[Contact], out: &mut ModelOutput) {
         let before = self.activity.as_ref().map(|a| a.awake_share);
         self.last_substeps = self.advance(dt_s, self.substep_safety);
+        if let Some(reason) = self.take_device_note() {
+            out.events.push(EventKind::ComputeFallback {
+                model: self.name().to_string(),
+                reason,
+            });
+        }
         self.last_share = match (before, &self.activity) {
             (Some(b), Some(a)) => (a.awake_share - b) as f32,
             _ => 1.0,
@@ -151,6 +158,7 @@ impl TissueModel for Membrane {
             self.released.clone_from(&s.released);
         }
         self.external.clear();
+        self.device.stale();
     }
 
     /// The positions of the awake tiles' nodes (a sleeping tile's nodes do not change), all
@@ -212,6 +220,10 @@ impl TissueModel for Membrane {
 
     fn awake_fraction(&self) -> f32 {
         self.last_share
+    }
+
+    fn gpu_adapter(&self) -> Option<String> {
+        Membrane::gpu_adapter(self)
     }
 
     fn stay_awake(&mut self) {

@@ -349,37 +349,20 @@ impl Scenario {
     pub fn validate(&self, file: &str) -> Result<(), InputError> {
         self.validate_tables(file)?;
         let v = &self.vessel;
-        if v.wall_m >= 0.25 * v.diameter_m {
-            return Err(InputError::new(
-                file,
-                "vessel.wall_m",
-                format!(
-                    "expected a wall thinner than a quarter of the diameter ({} m), got {} m",
-                    v.diameter_m, v.wall_m
-                ),
-            ));
-        }
+        let of = "a quarter of the diameter";
+        crate::scenario::check_wall(file, "vessel.wall_m", v.wall_m, (0.25, v.diameter_m), of)?;
         let lumen = v.diameter_m - 2.0 * v.wall_m;
-        if self.catheter.diameter_m >= lumen {
-            return Err(InputError::new(
-                file,
-                "catheter.diameter_m",
-                format!(
-                    "expected a catheter narrower than the lumen ({lumen} m), got {} m",
-                    self.catheter.diameter_m
-                ),
-            ));
-        }
-        if self.task.reach_m > v.branch_m {
-            return Err(InputError::new(
-                file,
-                "task.reach_m",
-                format!(
-                    "expected a reach within the branch's {} m, got {} m",
-                    v.branch_m, self.task.reach_m
-                ),
-            ));
-        }
+        let c = self.catheter.diameter_m;
+        InputError::require(c < lumen, file, "catheter.diameter_m", || {
+            format!("expected a catheter narrower than the lumen ({lumen} m), got {c} m")
+        })?;
+        let reach = self.task.reach_m;
+        InputError::require(reach <= v.branch_m, file, "task.reach_m", || {
+            format!(
+                "expected a reach within the branch's {} m, got {reach} m",
+                v.branch_m
+            )
+        })?;
         Ok(())
     }
 

@@ -186,8 +186,7 @@ impl Params for Tools {
             "m/kPa",
             0.0015,
             (1e-5, 0.05),
-            "how deep the live hook cuts per kilopascal of contact pressure (its force over \
-             the area it touches)",
+            "how deep the live hook cuts per kPa of contact pressure (force over contact area)",
         ),
     ];
     param_fields!(
@@ -274,38 +273,23 @@ impl Scenario {
     pub fn validate(&self, file: &str) -> Result<(), InputError> {
         self.validate_tables(file)?;
         let e = &self.esophagus;
-        if e.wall_m >= 0.8 * e.outer_radius_m {
-            return Err(InputError::new(
-                file,
-                "esophagus.wall_m",
-                format!(
-                    "expected a wall thinner than 80 % of the outer radius ({} m), got {} m",
-                    e.outer_radius_m, e.wall_m
-                ),
-            ));
-        }
+        let (wall, of) = (e.wall_m, "80 % of the outer radius");
+        crate::scenario::check_wall(file, "esophagus.wall_m", wall, (0.8, e.outer_radius_m), of)?;
         let k = &self.task;
-        if k.muscle_m >= e.wall_m {
-            return Err(InputError::new(
-                file,
-                "task.muscle_m",
-                format!(
-                    "expected the muscle thinner than the wall ({} m), got {} m",
-                    e.wall_m, k.muscle_m
-                ),
-            ));
-        }
-        if k.junction_m - k.above_m < 0.0 || k.junction_m + k.below_m > e.length_m {
-            return Err(InputError::new(
-                file,
-                "task.junction_m",
-                format!(
-                    "expected the myotomy ({} m above to {} m below the junction at {} m) \
-                     within the esophagus's {} m",
-                    k.above_m, k.below_m, k.junction_m, e.length_m
-                ),
-            ));
-        }
+        InputError::require(k.muscle_m < e.wall_m, file, "task.muscle_m", || {
+            format!(
+                "expected the muscle thinner than the wall ({} m), got {} m",
+                e.wall_m, k.muscle_m
+            )
+        })?;
+        let within = k.junction_m - k.above_m >= 0.0 && k.junction_m + k.below_m <= e.length_m;
+        InputError::require(within, file, "task.junction_m", || {
+            format!(
+                "expected the myotomy ({} m above to {} m below the junction at {} m) within \
+                 the esophagus's {} m",
+                k.above_m, k.below_m, k.junction_m, e.length_m
+            )
+        })?;
         Ok(())
     }
 

@@ -382,6 +382,7 @@ impl Nephrectomy {
     pub fn step(&mut self, input: &InputFrame, step: u64, events: &mut Vec<SimEvent>) {
         let dt = self.scenario.dt_s;
         let tools = self.scenario.tools.clone();
+        let jaws = self.scenario.grasper;
         let mut ev: Vec<EventKind> = Vec::new();
         if let Some(prev) = &self.prev_input {
             self.metrics.path_length_left_m += prev.hands[0]
@@ -539,17 +540,17 @@ impl Nephrectomy {
             direction: grasper.pose.forward(),
             beam_end: None,
             beam_reach: None,
-            active: grasper.buttons.grip >= tools.grip_threshold,
+            active: grasper.buttons.grip >= jaws.grip_threshold,
             instrument: 0,
             shape: InstrumentShape::Grasper,
             jaw: 1.0 - grasper.buttons.grip,
             up: grasper.pose.orientation * Vec3::Y,
         };
-        if grasper.buttons.grip >= tools.grip_threshold {
+        if grasper.buttons.grip >= jaws.grip_threshold {
             if self.grasp_model.is_none() {
                 self.grasp_model = self
                     .world
-                    .nearest(tip, tools.grasp_radius_m)
+                    .nearest(tip, jaws.grasp_radius_m)
                     .map(|(m, _, _)| m);
             }
             if let Some(m) = self.grasp_model {
@@ -558,15 +559,14 @@ impl Nephrectomy {
                 }
                 self.world.contact(
                     m,
-                    Contact::grasp(Hand::Left, &grasper.pose, tools.grasp_radius_m),
+                    Contact::grasp(Hand::Left, &grasper.pose, jaws.grasp_radius_m),
                 );
             }
         } else {
             self.grasp_model = None;
             // The tip and the shaft behind it: the whole instrument dents what it presses.
             let forward = grasper.pose.forward();
-            touching_vessel[0] |=
-                self.press_shaft(Hand::Left, tip, forward, tools.grasper_tip_radius_m);
+            touching_vessel[0] |= self.press_shaft(Hand::Left, tip, forward, jaws.tip_radius_m);
         }
         // The laser probe's body (its 5 mm shaft) dents what it is pushed into, as the
         // grasper's does; its beam cuts as above.

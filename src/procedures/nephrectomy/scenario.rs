@@ -55,12 +55,6 @@ pub struct Tools {
     pub cut_threshold: f32,
     /// Pressure the laser applies where it cuts, Pa.
     pub laser_pressure_pa: f32,
-    /// Grasper tip radius (collision sphere), m.
-    pub grasper_tip_radius_m: f32,
-    /// Reach of the closing jaws, m.
-    pub grasp_radius_m: f32,
-    /// Grip value above which the jaws close, 0..1.
-    pub grip_threshold: f32,
 }
 
 #[derive(Debug, Clone, PartialEq, Deserialize)]
@@ -96,15 +90,11 @@ pub struct Weights {
 }
 
 /// A vessel's radius: the same range for the three.
-const fn vessel_radius(key: &'static str, default: f64, doc: &'static str) -> ParamSpec {
-    ParamSpec::new(key, "m", default, (5e-4, 0.02), doc)
-}
+const VESSEL_RADIUS: ParamSpec = ParamSpec::new("", "m", 0.0, (5e-4, 0.02), "");
 
 /// A component of the tumour's direction: any finite size (the direction is normalised on
 /// load, and a hand check refuses one too short to normalise).
-const fn direction(key: &'static str, default: f64, doc: &'static str) -> ParamSpec {
-    ParamSpec::new(key, "", default, (-1e3, 1e3), doc)
-}
+const DIRECTION: ParamSpec = ParamSpec::new("", "", 0.0, (-1e3, 1e3), "");
 
 impl Params for Anatomy {
     const SPECS: &'static [ParamSpec] = &[
@@ -152,18 +142,25 @@ impl Params for Anatomy {
             (0.005, 0.05),
             "tumour radius (the paper's case: a 3-5 cm renal-cell carcinoma; 4 cm here)",
         ),
-        direction(
+        ParamSpec::of(
+            DIRECTION,
             "tumour_direction[0]",
             0.3,
             "direction from the kidney's centre to the tumour site, x (lateral); the \
              direction is normalised on load and must have a length of at least 1e-6",
         ),
-        direction(
+        ParamSpec::of(
+            DIRECTION,
             "tumour_direction[1]",
             0.45,
             "its y (superior) component: the default is the anterior surface of the upper pole",
         ),
-        direction("tumour_direction[2]", 0.85, "its z (anterior) component"),
+        ParamSpec::of(
+            DIRECTION,
+            "tumour_direction[2]",
+            0.85,
+            "its z (anterior) component",
+        ),
         ParamSpec::new(
             "tumour_protrusion",
             "radii",
@@ -188,9 +185,19 @@ impl Params for Anatomy {
             "rings along each vessel (32 x 64: 4096 triangles a vessel)",
         )
         .whole(),
-        vessel_radius("renal_artery_radius_m", 0.003, "renal artery radius"),
-        vessel_radius("renal_vein_radius_m", 0.005, "renal vein radius"),
-        vessel_radius("ureter_radius_m", 0.0025, "ureter radius"),
+        ParamSpec::of(
+            VESSEL_RADIUS,
+            "renal_artery_radius_m",
+            0.003,
+            "renal artery radius",
+        ),
+        ParamSpec::of(
+            VESSEL_RADIUS,
+            "renal_vein_radius_m",
+            0.005,
+            "renal vein radius",
+        ),
+        ParamSpec::of(VESSEL_RADIUS, "ureter_radius_m", 0.0025, "ureter radius"),
     ];
 
     fn get(&self, key: &str) -> Option<f64> {
@@ -267,37 +274,9 @@ impl Params for Tools {
             "trigger value (0 to 1) above which the laser cuts",
         ),
         LASER_PRESSURE,
-        ParamSpec::new(
-            "grasper_tip_radius_m",
-            "m",
-            0.003,
-            (1e-4, 0.02),
-            "radius of the grasper's tip, a rigid collision sphere",
-        ),
-        ParamSpec::new(
-            "grasp_radius_m",
-            "m",
-            0.008,
-            (1e-4, 0.05),
-            "reach of the closing jaws: points this close to the tip are held",
-        ),
-        ParamSpec::new(
-            "grip_threshold",
-            "",
-            0.5,
-            (0.01, 1.0),
-            "grip value (0 to 1) above which the jaws close",
-        ),
     ];
 
-    crate::param_fields!(
-        laser_range_m,
-        cut_threshold,
-        laser_pressure_pa,
-        grasper_tip_radius_m,
-        grasp_radius_m,
-        grip_threshold
-    );
+    crate::param_fields!(laser_range_m, cut_threshold, laser_pressure_pa);
 }
 
 impl Params for Task {
@@ -345,34 +324,37 @@ impl Params for Task {
 }
 
 /// A score component's weight: relative, 0 leaves the component out.
-const fn weight(key: &'static str, default: f64, doc: &'static str) -> ParamSpec {
-    ParamSpec::new(key, "", default, (0.0, 1e3), doc)
-}
+const WEIGHT: ParamSpec = ParamSpec::new("", "", 0.0, (0.0, 1e3), "");
 
 impl Params for Weights {
     const SPECS: &'static [ParamSpec] = &[
-        weight(
+        ParamSpec::of(
+            WEIGHT,
             "completion",
             30.0,
             "weight of the fraction of the four task steps done",
         ),
-        weight(
+        ParamSpec::of(
+            WEIGHT,
             "margin",
             25.0,
             "weight of exp(-mean cut deviation from the margin / 2 mm)",
         ),
-        weight(
+        ParamSpec::of(
+            WEIGHT,
             "preservation",
             15.0,
             "weight of 1 - excess healthy tissue removed / planned",
         ),
-        weight(
+        ParamSpec::of(
+            WEIGHT,
             "safety",
             20.0,
             "weight of 1 / (1 + vessel contacts + torn ties + faces cut into the tumour / 10); \
              at least one weight must be above 0",
         ),
-        weight(
+        ParamSpec::of(
+            WEIGHT,
             "efficiency",
             10.0,
             "weight of target time / completion time (0 if not completed)",
@@ -386,10 +368,11 @@ crate::scenario_tables! {
     dt: (0.004, "simulation step (0.004: 250 Hz; a force-feedback servo renders at 1 kHz between steps)"),
     nodes: estimated_nodes,
     tables: [anatomy: Anatomy, kidney: SoftBodyParams, vessels: SoftBodyParams, tools: Tools,
-        task: Task, weights: Weights],
+        grasper: crate::scenario::Grasper, task: Task, weights: Weights],
     extra: [
         vulnerable: Vec<Vulnerable>,
     ],
+    moved: crate::scenario::Grasper::MOVED_FROM_TOOLS,
 }
 
 impl Scenario {

@@ -22,7 +22,28 @@ pub fn cases() -> Vec<Case> {
     }]
 }
 
+/// `vesalius verify --compute gpu`'s rows for the coupled scene: the same case with the
+/// membrane's substeps on the GPU.
+pub fn gpu_cases() -> Vec<Case> {
+    vec![Case {
+        model: "rectum scene, gpu",
+        case: "membrane_load_on_rod_gpu",
+        description: "membrane_load_on_rod with the membrane's substeps on the first Vulkan \
+                      adapter (every tile awake: the whole membrane's kernel, its state up and \
+                      back each step): the membrane's load on the rod after 0.8 s vs the load; \
+                      tolerance 5 %, as on the CPU",
+        unit: "N",
+        tolerance: 0.05,
+        run: || load_on_rod_on(true),
+    }]
+}
+
 fn load_on_rod() -> Measured {
+    load_on_rod_on(false)
+}
+
+/// The case, with the membrane on the GPU where `on_gpu` (not run without an adapter).
+fn load_on_rod_on(on_gpu: bool) -> Measured {
     let load = Vec3::new(0.0, -0.05, 0.0);
     let reference = f64::from(load.length());
     let Ok(a) = Anatomy::generate(AnatomyParams {
@@ -37,6 +58,12 @@ fn load_on_rod() -> Measured {
     };
     s.membrane_mut().detach_layer(LAYERS - 1);
     s.membrane_mut().stay_awake();
+    if on_gpu {
+        let on = crate::gpu::Gpu::headless(false).and_then(|gpu| s.membrane_mut().use_gpu(&gpu));
+        if on.is_err() {
+            return Measured::not_run(reference);
+        }
+    }
     let patch = s.top_patch(1, 2);
     let idle = ToolState {
         hook: None,
@@ -51,6 +78,10 @@ fn load_on_rod() -> Measured {
             s.membrane_mut().add_force(n, load / patch.len() as f32);
         }
         on_rod = s.step(1e-3, &idle, 0, &mut Vec::new()).membrane_on_rod_n;
+    }
+    if on_gpu && s.membrane().gpu_adapter().is_none() {
+        // The device failed on the way: the CPU finished the case, so the GPU did not pass it.
+        return Measured::not_run(reference);
     }
     // The load's component along itself: what the rod takes of it.
     let along = on_rod.as_dvec3().dot(load.as_dvec3().normalize());

@@ -36,6 +36,7 @@ pub const INFO: ProcedureInfo = crate::procedure_info! {
     cases: super::cases::cases,
     gpu_bench: Some(super::gpu_bench::lines),
     cpu_preset: Some(include_str!("../../../assets/presets/cpu/rectum.toml")),
+    gpu_cases: super::cases::gpu_cases,
 };
 
 impl Procedure for Rectum {
@@ -60,7 +61,8 @@ impl Procedure for Rectum {
             .with_triangles(rod.surface().triangles.len())
             .with_nodes(rod.params().elements + 1),
             ModelReport::new("membrane", "mass_spring_4_layer", m.len(), m.springs())
-                .with_springs(self.scene.params.membrane.integrator.name()),
+                .with_springs(self.scene.params.membrane.integrator.name())
+                .on_gpu(m.gpu_adapter()),
             // The membrane's nodes it tests, as `nodes` (not `vertices`: the procedure's
             // totals would count them twice).
             ModelReport::new("collision", "generalized_cylinders", 0, 0).with_nodes(m.len()),

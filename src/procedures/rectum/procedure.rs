@@ -156,6 +156,9 @@ impl Rectum {
     pub fn new(scenario: Scenario, anatomy: &super::Anatomy) -> Result<Self, super::SceneError> {
         let mut scene = RectumScene::new(anatomy, scenario.scene_params())?;
         scene.place_everything();
+        if let Some(gpu) = crate::gpu::Gpu::for_compute(scenario.compute)? {
+            scene.membrane_mut().use_gpu(&gpu)?;
+        }
         Ok(Rectum {
             scenario,
             scene,

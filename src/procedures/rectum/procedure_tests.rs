@@ -360,3 +360,93 @@ fn the_right_hand_changes_hook_for_grasper_and_instrument_selection_follows_the_
     assert!(events.iter().any(|e| matches!(&e.kind,
         EventKind::Release { tool } if tool == "right grasper")));
 }
+
+/// The demo trace's first `seconds` on the coarse grid with `compute` (the scenario's key):
+/// the procedure, its events, and the hook's reaction at every step.
+fn demo_on(
+    compute: &str,
+    seconds: f64,
+    spoil: impl Fn(&mut Rectum, u64),
+) -> (Rectum, Vec<SimEvent>, Vec<Vec3>) {
+    let key = format!("procedure = \"rectum\"\ncompute = \"{compute}\"");
+    let mut r = rectum(coarse(|t| t.replacen("procedure = \"rectum\"", &key, 1)));
+    let trace = crate::trace::KeyTrace::parse("demo", INFO.demo_trace).expect("demo trace");
+    let mut clock = crate::sim::Clock::new(r.scenario.dt_s, crate::sim::Pacing::AsFastAsPossible);
+    let (mut events, mut hook) = (Vec::new(), Vec::new());
+    while clock.time_s() < seconds {
+        spoil(&mut r, clock.step());
+        r.step(&trace.sample(clock.time_s()), clock.step(), &mut events);
+        hook.push(r.reactions()[1]);
+        clock.tick();
+    }
+    (r, events, hook)
+}
+
+fn of_kind<'a>(events: &'a [SimEvent], name: &str) -> Vec<&'a EventKind> {
+    events
+        .iter()
+        .map(|e| &e.kind)
+        .filter(|k| k.name() == name)
+        .collect()
+}
+
+#[test]
+fn the_membrane_on_the_gpu_dissects_as_on_the_cpu() {
+    use crate::procedures::Procedure;
+    let (cpu, cpu_events, cpu_hook) = demo_on("cpu", 1.5, |_, _| {});
+    let (gpu, gpu_events, gpu_hook) = demo_on("gpu", 1.5, |_, _| {});
+    let adapter = gpu.scene.membrane().gpu_adapter();
+    assert!(adapter.is_some(), "on the adapter there is (CI: lavapipe)");
+    let reports = gpu.model_reports();
+    assert_eq!(reports[1].gpu, adapter);
+    assert_eq!(cpu.model_reports()[1].gpu, None);
+    // The same physics in another order of float sums: the same cuts and events, and the
+    // hook's force within a thousandth of its largest at every step.
+    assert_eq!(gpu.metrics.correct_cuts, cpu.metrics.correct_cuts);
+    assert!(
+        cpu.metrics.correct_cuts > 0,
+        "the demo cuts in its first 1.5 s"
+    );
+    let names = |e: &[SimEvent]| e.iter().map(|e| e.kind.name()).collect::<Vec<_>>();
+    assert_eq!(names(&gpu_events), names(&cpu_events));
+    let most = cpu_hook.iter().map(|f| f.length()).fold(0.0f32, f32::max);
+    assert!(most > 0.0);
+    for (k, (a, b)) in gpu_hook.iter().zip(&cpu_hook).enumerate() {
+        assert!(
+            (*a - *b).length() <= 1e-3 * most,
+            "step {k}: {a} against {b}"
+        );
+    }
+}
+
+#[test]
+fn on_the_gpu_a_nan_is_quarantined_and_a_lost_device_hands_over_to_the_cpu() {
+    use crate::procedures::Procedure;
+    // A NaN put into the membrane mid-session: caught, rolled back, reported; the membrane
+    // stays on the device.
+    let (r, events, _) = demo_on("gpu", 0.6, |r, step| {
+        if step == 300 {
+            assert!(r.models_mut().expect("a world").inject_nan(1));
+        }
+    });
+    assert_eq!(of_kind(&events, "quarantined").len(), 1, "{events:?}");
+    assert!(r.scene.membrane().gpu_adapter().is_some());
+    // The device lost mid-session: the membrane goes on on the CPU from the same state, once
+    // reported, and the session goes on.
+    let (r, events, hook) = demo_on("gpu", 1.0, |r, step| {
+        if step == 300 {
+            assert!(r.scene.membrane_mut().inject_device_loss());
+        }
+    });
+    let fell = of_kind(&events, "compute_fallback");
+    assert_eq!(fell.len(), 1, "{events:?}");
+    assert!(of_kind(&events, "quarantined").is_empty(), "{events:?}");
+    assert!(r.scene.membrane().gpu_adapter().is_none());
+    assert!(r.model_reports()[1].gpu.is_none());
+    assert!(hook.iter().all(|f| f.is_finite()));
+    let (cpu, _, cpu_hook) = demo_on("cpu", 1.0, |_, _| {});
+    assert_eq!(r.metrics.correct_cuts, cpu.metrics.correct_cuts);
+    let most = cpu_hook.iter().map(|f| f.length()).fold(0.0f32, f32::max);
+    let last = (*hook.last().expect("steps") - *cpu_hook.last().expect("steps")).length();
+    assert!(last <= 1e-3 * most.max(1e-6), "{last} N off");
+}

@@ -118,6 +118,8 @@ pub enum SceneError {
     Rod(#[from] RodModelError),
     #[error("membrane: {0}")]
     Membrane(#[from] MembraneError),
+    #[error("the membrane's GPU: {0}")]
+    Gpu(#[from] crate::gpu::RenderError),
 }
 
 /// Where the instruments are this step.

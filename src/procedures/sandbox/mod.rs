@@ -197,6 +197,7 @@ impl Sandbox {
     pub fn step(&mut self, input: &InputFrame, step: u64, events: &mut Vec<SimEvent>) {
         let dt = self.scenario.dt_s;
         let tools = self.scenario.tools;
+        let jaws = self.scenario.grasper;
         if let Some(prev) = &self.prev_input {
             let [left, right] = input.moved_since(prev);
             self.metrics.path_length_left_m += left;
@@ -225,7 +226,7 @@ impl Sandbox {
         // The grasper (left hand): a ball tip while open; closed, it holds what is in reach.
         let grasper = input.hand(Hand::Left);
         let tip = grasper.pose.position;
-        let gripping = grasper.buttons.grip >= tools.grip_threshold;
+        let gripping = grasper.buttons.grip >= jaws.grip_threshold;
         self.tools[0] = ToolSnapshot {
             tip,
             direction: grasper.pose.forward(),
@@ -243,7 +244,7 @@ impl Sandbox {
                 let found = self
                     .body()
                     .collider()
-                    .nearest_within(tip, tools.grasp_radius_m);
+                    .nearest_within(tip, jaws.grasp_radius_m);
                 self.hold = found.first().map(|&(_, nearest)| Hold {
                     points: found.iter().take(MAX_HELD).map(|&(_, f)| f).collect(),
                     on_top: self.body().regions()[nearest as usize] == REGION_TOP,
@@ -254,12 +255,12 @@ impl Sandbox {
             if self.hold.is_some() {
                 self.world.contact(
                     BLOCK,
-                    Contact::grasp(Hand::Left, &grasper.pose, tools.grasp_radius_m),
+                    Contact::grasp(Hand::Left, &grasper.pose, jaws.grasp_radius_m),
                 );
             }
         } else {
             let_go = self.hold.take();
-            let r = tools.grasper_tip_radius_m;
+            let r = jaws.tip_radius_m;
             let forward = grasper.pose.forward();
             if let Some(c) = self.sphere(Hand::Left, tip, forward, r) {
                 self.world.contact(BLOCK, c);

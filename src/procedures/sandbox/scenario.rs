@@ -30,12 +30,6 @@ pub struct Geometry {
 pub struct Tools {
     /// Radius of the probe's rigid ball tip, m.
     pub probe_tip_radius_m: f32,
-    /// Radius of the open grasper's tip (a rigid sphere), m.
-    pub grasper_tip_radius_m: f32,
-    /// Reach of the closing jaws: points this close to the tip are held, m.
-    pub grasp_radius_m: f32,
-    /// Grip value at or above which the jaws close, 0..1.
-    pub grip_threshold: f32,
 }
 
 #[derive(Debug, Clone, PartialEq, Deserialize)]
@@ -53,20 +47,19 @@ pub struct Task {
 pub const MAX_POINTS: u64 = 200_000;
 
 /// A block edge's length, m.
-const fn edge(key: &'static str, default: f64, doc: &'static str) -> ParamSpec {
-    ParamSpec::new(key, "m", default, (0.01, 0.3), doc)
-}
+const EDGE: ParamSpec = ParamSpec::new("", "m", 0.0, (0.01, 0.3), "");
 
 impl Params for Geometry {
     const SPECS: &'static [ParamSpec] = &[
-        edge(
+        ParamSpec::of(
+            EDGE,
             "size_m[0]",
             0.06,
             "the block's width along x; it rests on the table top (y = 0), centred on the \
              origin in x and z",
         ),
-        edge("size_m[1]", 0.03, "its height along y"),
-        edge("size_m[2]", 0.04, "its depth along z"),
+        ParamSpec::of(EDGE, "size_m[1]", 0.03, "its height along y"),
+        ParamSpec::of(EDGE, "size_m[2]", 0.04, "its depth along z"),
         ParamSpec::new(
             "resolution",
             "cells",
@@ -102,43 +95,16 @@ impl Params for Geometry {
     }
 }
 
-/// A tip's radius or reach, m.
-const fn tip(key: &'static str, default: f64, doc: &'static str) -> ParamSpec {
-    ParamSpec::new(key, "m", default, (5e-4, 0.02), doc)
-}
-
 impl Params for Tools {
-    const SPECS: &'static [ParamSpec] = &[
-        tip(
-            "probe_tip_radius_m",
-            0.004,
-            "radius of the probe's rigid ball tip (an 8 mm ball)",
-        ),
-        tip(
-            "grasper_tip_radius_m",
-            0.002,
-            "radius of the open grasper's tip, a rigid sphere (the open jaws as a 4 mm ball)",
-        ),
-        tip(
-            "grasp_radius_m",
-            0.003,
-            "reach of the closing jaws: points this close to the tip are held",
-        ),
-        ParamSpec::new(
-            "grip_threshold",
-            "",
-            0.5,
-            (0.01, 1.0),
-            "grip value (0 to 1) at or above which the jaws close",
-        ),
-    ];
+    const SPECS: &'static [ParamSpec] = &[ParamSpec::new(
+        "probe_tip_radius_m",
+        "m",
+        0.004,
+        (5e-4, 0.02),
+        "radius of the probe's rigid ball tip (an 8 mm ball)",
+    )];
 
-    crate::param_fields!(
-        probe_tip_radius_m,
-        grasper_tip_radius_m,
-        grasp_radius_m,
-        grip_threshold
-    );
+    crate::param_fields!(probe_tip_radius_m);
 }
 
 /// The shallowest press a scenario may ask for, m.
@@ -178,8 +144,10 @@ crate::scenario_tables! {
         /// The block's soft body.
         block: SoftBodyParams,
         tools: Tools,
+        grasper: crate::scenario::Grasper,
         task: Task,
     ],
+    moved: crate::scenario::Grasper::MOVED_FROM_TOOLS,
 }
 
 impl Scenario {

@@ -146,7 +146,7 @@ fn the_scenario_parses_and_a_bad_value_names_its_key() {
         (
             "grip_threshold = 0.5",
             "grip_threshold = 1.5",
-            "tools.grip_threshold",
+            "grasper.grip_threshold",
         ),
         // Deeper than half the block's 3 cm.
         (
@@ -481,4 +481,25 @@ fn a_catalog_builds_plans_and_plays_the_sandbox() {
         Scenario::parse("tuned.toml", &tuned).expect("parses"),
         scenario()
     );
+}
+
+#[test]
+fn a_scenario_from_before_the_grasper_table_reads_the_same() {
+    // Files (and recordings, which embed them) from before `[grasper]` held its keys in
+    // `[tools]`, the tip's radius as `grasper_tip_radius_m`.
+    let new = "\n\n[grasper]\ntip_radius_m";
+    assert!(INFO.scenario.contains(new));
+    let old = INFO.scenario.replacen(new, "\ngrasper_tip_radius_m", 1);
+    let now = Scenario::parse("new.toml", INFO.scenario).expect("valid");
+    assert_eq!(Scenario::parse("old.toml", &old).expect("still read"), now);
+    // Moved keys are still checked, and named where they are now.
+    let bad = old.replacen("grip_threshold = 0.5", "grip_threshold = 1.5", 1);
+    let e = Scenario::parse("old.toml", &bad).expect_err("out of range");
+    assert_eq!(e.key, "grasper.grip_threshold", "{e}");
+    // Both at once: the old place's key is not moved over the new one, and is refused.
+    let both = INFO
+        .scenario
+        .replacen("[tools]\n", "[tools]\ngrasp_radius_m = 0.003\n", 1);
+    let e = Scenario::parse("both.toml", &both).expect_err("a key twice");
+    assert!(e.message.contains("grasp_radius_m"), "{e}");
 }

@@ -1,0 +1,527 @@
+//! The membrane stepped on a GPU inside a world: the CPU keeps the model (the active set,
+//! the couplings' reads and writes, checkpoints, the hash) and the device runs the explicit
+//! substeps of the awake tiles (`substep_tiles` in `shaders/membrane.wgsl`).
+//!
+//! Each step: the awake tiles and the sleeping tiles beside them (the halo) go up packed,
+//! their state into both of the device's state buffers, layer 0's targets, and the springs
+//! when a cut changed them; the substeps run in one submission; the awake tiles come back
+//! packed (`shaders/membrane_sync.wgsl`). A tile outside that set is read by no awake node,
+//! so what the device holds for it may lag the CPU until it joins the set. Anything else
+//! that rewrites the model (a rollback, a detached layer) sends everything up at the next
+//! step.
+//!
+//! Should the device fail (lost, out of memory, a command refused), the step runs on the
+//! CPU from the state the CPU holds, which the failed step has not touched, the device is
+//! dropped and the failure is reported once as an event: the session goes on.
+
+use super::active::{Activity, TILE_COLS, TILE_ROWS};
+use super::gpu::MembraneGpu;
+use super::{LAYERS, Membrane, field};
+use crate::gpu::compute;
+use crate::gpu::{Gpu, RenderError};
+
+const SYNC_SHADER: &str = include_str!("../../../shaders/membrane_sync.wgsl");
+/// Nodes of a tile in one layer (the kernels' workgroup).
+const TILE: usize = TILE_ROWS * TILE_COLS;
+const _: () = assert!(TILE == 128, "the kernels' workgroups are 8 x 16 nodes");
+/// Floats a tile packs: state (6 a node), springs (9), layer 0's attachments (4).
+const STATE_PER_TILE: usize = LAYERS * TILE * 6;
+const SPRINGS_PER_TILE: usize = LAYERS * TILE * field::COUNT;
+const ATTACH_PER_TILE: usize = TILE * 4;
+
+/// The membrane's place on a device, or none: what a [`Membrane`] holds. A clone runs on
+/// the CPU (two models must not share one device's buffers).
+#[derive(Default)]
+pub(super) struct Slot {
+    on: Option<Box<OnDevice>>,
+    /// Why the device was given up, until the model reports it.
+    pub note: Option<String>,
+}
+
+impl Clone for Slot {
+    fn clone(&self) -> Self {
+        Slot::default()
+    }
+}
+
+impl std::fmt::Debug for Slot {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match &self.on {
+            Some(d) => write!(f, "on {}", d.k.gpu().describe()),
+            None => f.write_str("on the CPU"),
+        }
+    }
+}
+
+impl Slot {
+    /// A cut changed springs of the awake tiles (and the halo): they go up with the next step.
+    pub fn springs_changed(&mut self) {
+        if let Some(d) = &mut self.on {
+            d.springs_changed = true;
+        }
+    }
+
+    /// The CPU rewrote the model: everything goes up with the next step.
+    pub fn stale(&mut self) {
+        if let Some(d) = &mut self.on {
+            d.whole_stale = true;
+        }
+    }
+
+    /// The adapter, where the model runs on one.
+    pub fn adapter(&self) -> Option<String> {
+        self.on.as_ref().map(|d| d.k.gpu().describe())
+    }
+
+    /// The device given up for `e`, to be reported.
+    fn give_up(&mut self, e: &RenderError) {
+        self.on = None;
+        self.note = Some(e.to_string());
+    }
+}
+
+/// The kernels and buffers of a membrane on a device.
+struct OnDevice {
+    k: MembraneGpu,
+    tiles_pipeline: wgpu::ComputePipeline,
+    /// Bind group `k` reads state buffer `k` (as the flat kernel's do) and the awake list.
+    tiles_bind: [wgpu::BindGroup; 2],
+    unpack: wgpu::ComputePipeline,
+    pack: wgpu::ComputePipeline,
+    sync_params: wgpu::Buffer,
+    awake_list: wgpu::Buffer,
+    sync_list: wgpu::Buffer,
+    packed_state: wgpu::Buffer,
+    packed_springs: wgpu::Buffer,
+    packed_attach: wgpu::Buffer,
+    unpack_bind: wgpu::BindGroup,
+    pack_bind: wgpu::BindGroup,
+    tiles_c: u32,
+    springs_changed: bool,
+    whole_stale: bool,
+    /// CPU-side packing buffers, reused.
+    up_state: Vec<f32>,
+    up_springs: Vec<f32>,
+    up_attach: Vec<f32>,
+}
+
+/// The shader's `Sync` (16 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct SyncParams {
+    rows: u32,
+    cols: u32,
+    tiles_c: u32,
+    flag: u32,
+}
+
+fn bind(
+    gpu: &Gpu,
+    pipeline: &wgpu::ComputePipeline,
+    label: &str,
+    entries: &[(u32, &wgpu::Buffer)],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry<'_>> = entries
+        .iter()
+        .map(|&(binding, buffer)| wgpu::BindGroupEntry {
+            binding,
+            resource: buffer.as_entire_binding(),
+        })
+        .collect();
+    gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &entries,
+    })
+}
+
+impl OnDevice {
+    fn new(gpu: &Gpu, m: &Membrane) -> Result<OnDevice, RenderError> {
+        let k = MembraneGpu::new(gpu, m)?;
+        let tiles = m.activity.as_ref().map_or(1, |a| a.awake.len()).max(1);
+        let module = compute::compile(&gpu.device, "shaders/membrane.wgsl", super::gpu::SHADER)?;
+        let tiles_pipeline = compute::pipeline(gpu, &module, "substep_tiles")?;
+        let sync = compute::compile(&gpu.device, "shaders/membrane_sync.wgsl", SYNC_SHADER)?;
+        let unpack = compute::pipeline(gpu, &sync, "unpack")?;
+        let pack = compute::pipeline(gpu, &sync, "pack")?;
+        let zeros = |n: usize| vec![0u8; 4 * n];
+        let awake_list = compute::storage(gpu, "membrane awake tiles", &zeros(tiles))?;
+        let sync_list = compute::storage(gpu, "membrane synced tiles", &zeros(tiles))?;
+        let packed_state =
+            compute::storage(gpu, "membrane packed state", &zeros(tiles * STATE_PER_TILE))?;
+        let packed_springs = compute::storage(
+            gpu,
+            "membrane packed springs",
+            &zeros(tiles * SPRINGS_PER_TILE),
+        )?;
+        let packed_attach = compute::storage(
+            gpu,
+            "membrane packed attachments",
+            &zeros(tiles * ATTACH_PER_TILE),
+        )?;
+        let sync_params = compute::uniform(
+            gpu,
+            "membrane sync params",
+            bytemuck::bytes_of(&SyncParams {
+                rows: 0,
+                cols: 0,
+                tiles_c: 0,
+                flag: 0,
+            }),
+        );
+        let [a, b] = &k.state;
+        let tiles_bind = Self::tiles_bind(gpu, &tiles_pipeline, &k, &awake_list);
+        let unpack_bind = bind(
+            gpu,
+            &unpack,
+            "membrane unpack",
+            &[
+                (0, &sync_params),
+                (1, a),
+                (2, b),
+                (3, &k.springs),
+                (4, &k.attach),
+                (5, &sync_list),
+                (6, &packed_state),
+                (7, &packed_springs),
+                (8, &packed_attach),
+            ],
+        );
+        let pack_bind = bind(
+            gpu,
+            &pack,
+            "membrane pack",
+            &[
+                (0, &sync_params),
+                (1, a),
+                (2, b),
+                (5, &awake_list),
+                (6, &packed_state),
+            ],
+        );
+        gpu.check()?;
+        Ok(OnDevice {
+            tiles_c: m.activity.as_ref().map_or(1, |a| a.tiles_c) as u32,
+            k,
+            tiles_pipeline,
+            tiles_bind,
+            unpack,
+            pack,
+            sync_params,
+            awake_list,
+            sync_list,
+            packed_state,
+            packed_springs,
+            packed_attach,
+            unpack_bind,
+            pack_bind,
+            springs_changed: false,
+            whole_stale: true,
+            up_state: Vec::new(),
+            up_springs: Vec::new(),
+            up_attach: Vec::new(),
+        })
+    }
+
+    /// The tile kernel's two bind groups: bind group `s` reads state buffer `s`, as the flat
+    /// kernel's do, and the awake list.
+    fn tiles_bind(
+        gpu: &Gpu,
+        pipeline: &wgpu::ComputePipeline,
+        k: &MembraneGpu,
+        awake_list: &wgpu::Buffer,
+    ) -> [wgpu::BindGroup; 2] {
+        [0usize, 1].map(|s| {
+            bind(
+                gpu,
+                pipeline,
+                "membrane tile substep",
+                &[
+                    (0, &k.params),
+                    (1, &k.state[s]),
+                    (2, &k.state[1 - s]),
+                    (3, &k.springs),
+                    (4, &k.attach),
+                    (5, &k.beta),
+                    (6, &k.externals),
+                    (7, awake_list),
+                ],
+            )
+        })
+    }
+
+    /// Everything up: the state into both buffers, the springs, the damping, the
+    /// attachments.
+    fn upload_whole(&mut self, m: &Membrane) {
+        let q = &self.k.gpu().queue;
+        for s in &self.k.state {
+            q.write_buffer(s, 0, bytemuck::cast_slice(&m.state.data));
+        }
+        self.k.upload_springs(m);
+        self.k.upload_attachments(m);
+        self.whole_stale = false;
+        self.springs_changed = false;
+    }
+
+    /// Each node of the tiles `list` that lies in the grid, as (its tile's place in the
+    /// list, its place in the tile, its row, its column).
+    fn nodes<'a>(
+        m: &'a Membrane,
+        a: &'a Activity,
+        list: &'a [u32],
+    ) -> impl Iterator<Item = (usize, usize, usize, usize)> + 'a {
+        list.iter().enumerate().flat_map(move |(r, &t)| {
+            let (ti, tj) = (t as usize / a.tiles_c, t as usize % a.tiles_c);
+            (0..TILE).filter_map(move |n| {
+                let i = ti * TILE_ROWS + n / TILE_COLS;
+                let j = tj * TILE_COLS + n % TILE_COLS;
+                (i < m.rows && j < m.cols).then_some((r, n, i, j))
+            })
+        })
+    }
+
+    /// Tiles `sync` packed from the CPU and unpacked on the device (springs only when
+    /// `springs`), encoded into `encoder`.
+    fn encode_up(
+        &mut self,
+        m: &Membrane,
+        a: &Activity,
+        sync: &[u32],
+        springs: bool,
+        encoder: &mut wgpu::CommandEncoder,
+    ) {
+        let (rows, cols) = (m.rows, m.cols);
+        self.up_state.clear();
+        self.up_state.resize(sync.len() * STATE_PER_TILE, 0.0);
+        self.up_attach.clear();
+        self.up_attach.resize(sync.len() * ATTACH_PER_TILE, 0.0);
+        self.up_springs.clear();
+        if springs {
+            self.up_springs.resize(sync.len() * SPRINGS_PER_TILE, 0.0);
+        }
+        for (r, n, i, j) in Self::nodes(m, a, sync) {
+            for l in 0..LAYERS {
+                let b = l * rows + i;
+                let at = (r * LAYERS + l) * TILE + n;
+                for c in 0..6 {
+                    self.up_state[at * 6 + c] = m.state.data[(b * 6 + c) * cols + j];
+                }
+                if springs {
+                    for f in 0..field::COUNT {
+                        self.up_springs[at * field::COUNT + f] =
+                            m.rows_data[(b * field::COUNT + f) * cols + j];
+                    }
+                }
+            }
+            for c in 0..4 {
+                self.up_attach[(r * TILE + n) * 4 + c] = m.attach[(i * 4 + c) * cols + j];
+            }
+        }
+        let q = &self.k.gpu().queue;
+        q.write_buffer(&self.sync_list, 0, bytemuck::cast_slice(sync));
+        q.write_buffer(&self.packed_state, 0, bytemuck::cast_slice(&self.up_state));
+        q.write_buffer(
+            &self.packed_attach,
+            0,
+            bytemuck::cast_slice(&self.up_attach),
+        );
+        if springs {
+            q.write_buffer(
+                &self.packed_springs,
+                0,
+                bytemuck::cast_slice(&self.up_springs),
+            );
+        }
+        let params = SyncParams {
+            rows: rows as u32,
+            cols: cols as u32,
+            tiles_c: self.tiles_c,
+            flag: u32::from(springs),
+        };
+        q.write_buffer(&self.sync_params, 0, bytemuck::bytes_of(&params));
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("membrane unpack"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.unpack);
+        pass.set_bind_group(0, &self.unpack_bind, &[]);
+        pass.dispatch_workgroups(sync.len() as u32, LAYERS as u32, 1);
+    }
+
+    /// The active set's substeps on the device: the awake tiles of `a` (and the halo
+    /// `halo`, sleeping beside them) up, `substeps` substeps of `dt / substeps` under `m`'s
+    /// external forces, the awake tiles back into `m`.
+    fn active_step(
+        &mut self,
+        m: &mut Membrane,
+        a: &Activity,
+        halo: &[usize],
+        dt: f32,
+        substeps: usize,
+    ) -> Result<(), RenderError> {
+        if self.whole_stale {
+            self.upload_whole(m);
+        }
+        let awake: &[u32] = &a.list;
+        let mut sync: Vec<u32> = awake.to_vec();
+        sync.extend(halo.iter().map(|&t| t as u32));
+        let gpu = self.k.gpu().clone();
+        let mut encoder = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("membrane active step"),
+            });
+        let springs = std::mem::take(&mut self.springs_changed);
+        self.encode_up(m, a, &sync, springs, &mut encoder);
+        gpu.queue.submit([encoder.finish()]);
+        if awake.is_empty() {
+            m.external.clear();
+            return gpu.check();
+        }
+        gpu.queue
+            .write_buffer(&self.awake_list, 0, bytemuck::cast_slice(awake));
+        let groups = (awake.len() as u32, LAYERS as u32, 1);
+        let (count, grown) = self.k.upload_externals(m)?;
+        if grown {
+            self.tiles_bind =
+                Self::tiles_bind(&gpu, &self.tiles_pipeline, &self.k, &self.awake_list);
+        }
+        let tiles = super::gpu::TileDispatch {
+            pipeline: &self.tiles_pipeline,
+            bind: &self.tiles_bind,
+            groups,
+            tiles_c: self.tiles_c,
+        };
+        self.k.substeps(m, dt, substeps, count, Some(tiles))?;
+        // The awake tiles back: packed from the newest state buffer.
+        let params = SyncParams {
+            rows: m.rows as u32,
+            cols: m.cols as u32,
+            tiles_c: self.tiles_c,
+            flag: self.k.current as u32,
+        };
+        gpu.queue
+            .write_buffer(&self.sync_params, 0, bytemuck::bytes_of(&params));
+        let mut encoder = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("membrane pack"),
+            });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("membrane pack"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(&self.pack);
+            pass.set_bind_group(0, &self.pack_bind, &[]);
+            pass.dispatch_workgroups(awake.len() as u32, LAYERS as u32, 1);
+        }
+        gpu.queue.submit([encoder.finish()]);
+        let bytes = (awake.len() * STATE_PER_TILE * 4) as u64;
+        let raw = compute::read(&gpu, &self.packed_state, bytes)?;
+        let packed: &[f32] = bytemuck::cast_slice(&raw);
+        let (rows, cols) = (m.rows, m.cols);
+        let places: Vec<_> = Self::nodes(m, a, awake).collect();
+        for (r, n, i, j) in places {
+            for l in 0..LAYERS {
+                let from = ((r * LAYERS + l) * TILE + n) * 6;
+                let b = l * rows + i;
+                for (c, &v) in packed[from..from + 6].iter().enumerate() {
+                    m.state.data[(b * 6 + c) * cols + j] = v;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Every node's substeps on the device (no active set, or every tile kept awake): the
+    /// state and the attachments up, the flat kernel, the state back.
+    fn whole_step(
+        &mut self,
+        m: &mut Membrane,
+        dt: f32,
+        substeps: usize,
+    ) -> Result<(), RenderError> {
+        if self.whole_stale || self.springs_changed {
+            self.upload_whole(m);
+        } else {
+            self.k.upload_state(m);
+            self.k.upload_attachments(m);
+        }
+        self.k.advance(m, dt, substeps)?;
+        self.k.download(m)
+    }
+}
+
+impl Membrane {
+    /// Steps this membrane's substeps on `gpu` from now on (the CPU keeps the model; see
+    /// `device.rs`). An error names what the device refused; the membrane stays on the CPU.
+    pub fn use_gpu(&mut self, gpu: &Gpu) -> Result<(), RenderError> {
+        let d = OnDevice::new(gpu, self)?;
+        self.device.on = Some(Box::new(d));
+        Ok(())
+    }
+
+    /// The adapter the substeps run on; none on the CPU.
+    pub fn gpu_adapter(&self) -> Option<String> {
+        self.device.adapter()
+    }
+
+    /// Destroys the device under the membrane, as a driver reset or an unplugged GPU would
+    /// (fault injection: the next step must fall back to the CPU). False when on the CPU.
+    pub fn inject_device_loss(&mut self) -> bool {
+        match &self.device.on {
+            Some(d) => {
+                d.k.gpu().device.destroy();
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Why the device was given up, once (the model reports it as an event).
+    pub fn take_device_note(&mut self) -> Option<String> {
+        self.device.note.take()
+    }
+}
+
+/// `step` on the membrane's device; false where it has none, or where `step` failed: the
+/// failure is noted, the device dropped and the external forces put back for the CPU (the
+/// CPU's state is written only by a step that succeeded).
+fn on_device(
+    m: &mut Membrane,
+    step: impl FnOnce(&mut OnDevice, &mut Membrane) -> Result<(), RenderError>,
+) -> bool {
+    let Some(mut d) = m.device.on.take() else {
+        return false;
+    };
+    let external = m.external.clone();
+    match step(&mut d, m) {
+        Ok(()) => {
+            m.device.on = Some(d);
+            true
+        }
+        Err(e) => {
+            m.external = external;
+            m.device.give_up(&e);
+            false
+        }
+    }
+}
+
+/// The active set's substeps of this step on the membrane's device; false where it has none
+/// or it failed (see [`on_device`]): the CPU runs them.
+pub(super) fn active_substeps(
+    m: &mut Membrane,
+    a: &Activity,
+    halo: &[usize],
+    dt: f32,
+    substeps: usize,
+) -> bool {
+    on_device(m, |d, m| d.active_step(m, a, halo, dt, substeps))
+}
+
+/// Every node's substeps on the membrane's device; false where it has none or it failed.
+pub(super) fn whole_substeps(m: &mut Membrane, dt: f32, substeps: usize) -> bool {
+    on_device(m, |d, m| d.whole_step(m, dt, substeps))
+}
