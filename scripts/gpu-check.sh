@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The GPU check for a machine with a GPU and no package registry (a lent data-centre GPU):
-# runs the GPU lines of `vesalius bench` for the procedures that have a compute path and
-# prints one JSON summary last. Nothing is compiled here.
+# runs `vesalius verify --compute gpu`, the GPU lines of `vesalius bench` for the procedures
+# that have a compute path (the kernel alone, then the procedure with its models on the
+# device over the demo's first 2 s) and every procedure's stereo frame, and prints one JSON
+# summary last. Nothing is compiled here.
 #
 #   scripts/gpu-check.sh [BINARY]     (default: target/release/vesalius)
 #

@@ -88,7 +88,11 @@ struct OnDevice {
     tiles_bind: [wgpu::BindGroup; 2],
     unpack: wgpu::ComputePipeline,
     pack: wgpu::ComputePipeline,
+    /// The unpack's and the pack's parameters (one submission holds both passes).
     sync_params: wgpu::Buffer,
+    pack_params: wgpu::Buffer,
+    /// Where the packed awake tiles are copied to be read (mappable, reused every step).
+    readback: wgpu::Buffer,
     awake_list: wgpu::Buffer,
     sync_list: wgpu::Buffer,
     packed_state: wgpu::Buffer,
@@ -159,16 +163,21 @@ impl OnDevice {
             "membrane packed attachments",
             &zeros(tiles * ATTACH_PER_TILE),
         )?;
-        let sync_params = compute::uniform(
-            gpu,
-            "membrane sync params",
-            bytemuck::bytes_of(&SyncParams {
-                rows: 0,
-                cols: 0,
-                tiles_c: 0,
-                flag: 0,
-            }),
-        );
+        let zero = SyncParams {
+            rows: 0,
+            cols: 0,
+            tiles_c: 0,
+            flag: 0,
+        };
+        let sync_params =
+            compute::uniform(gpu, "membrane unpack params", bytemuck::bytes_of(&zero));
+        let pack_params = compute::uniform(gpu, "membrane pack params", bytemuck::bytes_of(&zero));
+        let readback = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("membrane readback"),
+            size: (tiles * STATE_PER_TILE * 4) as u64,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
         let [a, b] = &k.state;
         let tiles_bind = Self::tiles_bind(gpu, &tiles_pipeline, &k, &awake_list);
         let unpack_bind = bind(
@@ -192,7 +201,7 @@ impl OnDevice {
             &pack,
             "membrane pack",
             &[
-                (0, &sync_params),
+                (0, &pack_params),
                 (1, a),
                 (2, b),
                 (5, &awake_list),
@@ -208,6 +217,8 @@ impl OnDevice {
             unpack,
             pack,
             sync_params,
+            pack_params,
+            readback,
             awake_list,
             sync_list,
             packed_state,
@@ -363,9 +374,18 @@ impl OnDevice {
             self.upload_whole(m);
         }
         let awake: &[u32] = &a.list;
+        let _span = tracing::debug_span!(
+            "membrane_on_gpu",
+            awake_tiles = awake.len(),
+            halo_tiles = halo.len(),
+            substeps
+        )
+        .entered();
         let mut sync: Vec<u32> = awake.to_vec();
         sync.extend(halo.iter().map(|&t| t as u32));
         let gpu = self.k.gpu().clone();
+        // One submission: the tiles up, the substeps, the awake tiles packed and copied to
+        // the readback buffer.
         let mut encoder = gpu
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
@@ -373,9 +393,9 @@ impl OnDevice {
             });
         let springs = std::mem::take(&mut self.springs_changed);
         self.encode_up(m, a, &sync, springs, &mut encoder);
-        gpu.queue.submit([encoder.finish()]);
         if awake.is_empty() {
             m.external.clear();
+            gpu.queue.submit([encoder.finish()]);
             return gpu.check();
         }
         gpu.queue
@@ -392,8 +412,10 @@ impl OnDevice {
             groups,
             tiles_c: self.tiles_c,
         };
-        self.k.substeps(m, dt, substeps, count, Some(tiles))?;
-        // The awake tiles back: packed from the newest state buffer.
+        self.k
+            .encode_substeps(&mut encoder, m, dt, substeps, count, Some(tiles));
+        // The awake tiles back: packed from the newest state buffer (its own parameters:
+        // the unpack's are in the same submission).
         let params = SyncParams {
             rows: m.rows as u32,
             cols: m.cols as u32,
@@ -401,12 +423,7 @@ impl OnDevice {
             flag: self.k.current as u32,
         };
         gpu.queue
-            .write_buffer(&self.sync_params, 0, bytemuck::bytes_of(&params));
-        let mut encoder = gpu
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("membrane pack"),
-            });
+            .write_buffer(&self.pack_params, 0, bytemuck::bytes_of(&params));
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("membrane pack"),
@@ -416,9 +433,14 @@ impl OnDevice {
             pass.set_bind_group(0, &self.pack_bind, &[]);
             pass.dispatch_workgroups(awake.len() as u32, LAYERS as u32, 1);
         }
-        gpu.queue.submit([encoder.finish()]);
         let bytes = (awake.len() * STATE_PER_TILE * 4) as u64;
-        let raw = compute::read(&gpu, &self.packed_state, bytes)?;
+        encoder.copy_buffer_to_buffer(&self.packed_state, 0, &self.readback, 0, bytes);
+        gpu.queue.submit([encoder.finish()]);
+        let raw = {
+            let _wait = tracing::debug_span!("membrane_gpu_readback", bytes).entered();
+            compute::map_read(&gpu, &self.readback, bytes)?
+        };
+        gpu.check()?;
         let packed: &[f32] = bytemuck::cast_slice(&raw);
         let (rows, cols) = (m.rows, m.cols);
         let places: Vec<_> = Self::nodes(m, a, awake).collect();

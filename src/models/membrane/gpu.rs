@@ -231,7 +231,7 @@ impl MembraneGpu {
         substeps: usize,
     ) -> Result<(), RenderError> {
         let count = self.upload_externals(m)?.0;
-        self.substeps(m, dt_s, substeps, count, None)
+        self.substeps(m, dt_s, substeps, count)
     }
 
     /// Sends `m`'s external forces up (taking them), sorted by node: how many, and whether
@@ -275,17 +275,37 @@ impl MembraneGpu {
     }
 
     /// `substeps` substeps of `dt_s / substeps` under the `external_count` forces uploaded,
-    /// in one submission: every node by this kernel's layout, or with `tiles` another
-    /// pipeline (its two ping-pong bind groups, its workgroups and the tiles across the
-    /// grid).
-    pub(super) fn substeps(
+    /// in one submission of every node by this kernel's layout.
+    fn substeps(
         &mut self,
         m: &Membrane,
         dt_s: f32,
         substeps: usize,
         external_count: u32,
-        tiles: Option<TileDispatch<'_>>,
     ) -> Result<(), RenderError> {
+        let mut encoder = self
+            .gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("membrane step"),
+            });
+        self.encode_substeps(&mut encoder, m, dt_s, substeps, external_count, None);
+        self.gpu.queue.submit([encoder.finish()]);
+        self.gpu.check()
+    }
+
+    /// The substeps' pass into `encoder`: every node by this kernel's layout, or with `tiles`
+    /// another pipeline over the same buffers. Their parameters are written to the queue, so
+    /// one submission holds one such pass.
+    pub(super) fn encode_substeps(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        m: &Membrane,
+        dt_s: f32,
+        substeps: usize,
+        external_count: u32,
+        tiles: Option<TileDispatch<'_>>,
+    ) {
         let n = substeps.max(1);
         let groups = self.groups();
         let p = &m.params;
@@ -304,12 +324,6 @@ impl MembraneGpu {
         self.gpu
             .queue
             .write_buffer(&self.params, 0, bytes(&[params]));
-        let mut encoder = self
-            .gpu
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("membrane step"),
-            });
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("membrane substeps"),
@@ -327,10 +341,8 @@ impl MembraneGpu {
             }
         }
         if let Some(t) = &self.timer {
-            t.resolve(&mut encoder);
+            t.resolve(encoder);
         }
-        self.gpu.queue.submit([encoder.finish()]);
-        self.gpu.check()
     }
 
     /// The workgroups of a substep's dispatch.
