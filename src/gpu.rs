@@ -57,8 +57,8 @@ impl Gpu {
     }
 
     /// The device the models with a GPU path step on for `choice`: none for `cpu`, and for
-    /// `auto` where the adapter is a software one (lavapipe) or there is none; `gpu` takes
-    /// whatever adapter there is and is an error without one.
+    /// `auto` where the adapter is a software one (lavapipe), there is none or its device
+    /// cannot be opened; `gpu` takes whatever adapter there is and is an error without one.
     pub fn for_compute(choice: crate::scenario::Compute) -> Result<Option<Gpu>, RenderError> {
         use crate::scenario::Compute;
         match choice {
@@ -68,7 +68,9 @@ impl Gpu {
                 Ok((instance, adapter))
                     if adapter.get_info().device_type != wgpu::DeviceType::Cpu =>
                 {
-                    Self::open(instance, adapter, false).map(Some)
+                    Ok(Self::open(instance, adapter, false)
+                        .inspect_err(|e| tracing::warn!("compute auto: on the CPU ({e})"))
+                        .ok())
                 }
                 _ => Ok(None),
             },

@@ -276,7 +276,12 @@ fn every_procedures_own_cases_pass_with_unique_ids() {
     }
     let own: Vec<crate::sim::Case> = REGISTRY.iter().flat_map(|p| (p.options.cases)()).collect();
     assert!(own.len() >= 4, "{} cases of procedures", own.len());
-    for r in crate::verify::run(&own) {
+    all_pass(&own);
+}
+
+/// Runs `cases`, each of which must pass.
+fn all_pass(cases: &[crate::sim::Case]) {
+    for r in crate::verify::run(cases) {
         assert!(
             r.passed,
             "{}/{}: reference {} measured {} error {} tolerance {}",
@@ -300,13 +305,7 @@ fn every_procedures_gpu_cases_pass_on_the_adapter_there_is() {
         .flat_map(|p| (p.options.gpu_cases)())
         .collect();
     assert!(!own.is_empty(), "the rectum's");
-    for r in crate::verify::run(&own) {
-        assert!(
-            r.passed,
-            "{}/{}: reference {} measured {} error {} tolerance {}",
-            r.model, r.case, r.reference, r.measured, r.rel_error, r.tolerance
-        );
-    }
+    all_pass(&own);
 }
 
 /// A preset lays its keys over the scenario and leaves the rest: the merged text is a valid

@@ -45,7 +45,7 @@ pub fn run_gpu(procedure: &str, gpu: &vesalius::gpu::Gpu) -> Result<Vec<BenchLin
 }
 
 /// Simulated seconds of the coupled pass on the GPU (`bench --compute gpu`): the demo's
-/// first two, where the rectum's hook cuts.
+/// first two, where its instruments are at work.
 pub const COUPLED_GPU_S: f64 = 2.0;
 
 /// The procedure stepped with its models' GPU path on (`scenario` with `compute = "gpu"`)

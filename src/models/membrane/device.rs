@@ -139,6 +139,24 @@ fn bind(
     })
 }
 
+/// One pass of a sync kernel (`pipeline` bound to `bind`) over the first `tiles` tiles of its
+/// list, every layer.
+fn sync_pass(
+    encoder: &mut wgpu::CommandEncoder,
+    label: &str,
+    pipeline: &wgpu::ComputePipeline,
+    bind: &wgpu::BindGroup,
+    tiles: usize,
+) {
+    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some(label),
+        timestamp_writes: None,
+    });
+    pass.set_pipeline(pipeline);
+    pass.set_bind_group(0, bind, &[]);
+    pass.dispatch_workgroups(tiles as u32, LAYERS as u32, 1);
+}
+
 impl OnDevice {
     fn new(gpu: &Gpu, m: &Membrane) -> Result<OnDevice, RenderError> {
         let k = MembraneGpu::new(gpu, m)?;
@@ -350,13 +368,13 @@ impl OnDevice {
             flag: u32::from(springs),
         };
         q.write_buffer(&self.sync_params, 0, bytemuck::bytes_of(&params));
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("membrane unpack"),
-            timestamp_writes: None,
-        });
-        pass.set_pipeline(&self.unpack);
-        pass.set_bind_group(0, &self.unpack_bind, &[]);
-        pass.dispatch_workgroups(sync.len() as u32, LAYERS as u32, 1);
+        sync_pass(
+            encoder,
+            "membrane unpack",
+            &self.unpack,
+            &self.unpack_bind,
+            sync.len(),
+        );
     }
 
     /// The active set's substeps on the device: the awake tiles of `a` (and the halo
@@ -424,15 +442,13 @@ impl OnDevice {
         };
         gpu.queue
             .write_buffer(&self.pack_params, 0, bytemuck::bytes_of(&params));
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("membrane pack"),
-                timestamp_writes: None,
-            });
-            pass.set_pipeline(&self.pack);
-            pass.set_bind_group(0, &self.pack_bind, &[]);
-            pass.dispatch_workgroups(awake.len() as u32, LAYERS as u32, 1);
-        }
+        sync_pass(
+            &mut encoder,
+            "membrane pack",
+            &self.pack,
+            &self.pack_bind,
+            awake.len(),
+        );
         let bytes = (awake.len() * STATE_PER_TILE * 4) as u64;
         encoder.copy_buffer_to_buffer(&self.packed_state, 0, &self.readback, 0, bytes);
         gpu.queue.submit([encoder.finish()]);

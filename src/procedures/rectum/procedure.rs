@@ -157,7 +157,14 @@ impl Rectum {
         let mut scene = RectumScene::new(anatomy, scenario.scene_params())?;
         scene.place_everything();
         if let Some(gpu) = crate::gpu::Gpu::for_compute(scenario.compute)? {
-            scene.membrane_mut().use_gpu(&gpu)?;
+            match scene.membrane_mut().use_gpu(&gpu) {
+                Ok(()) => {}
+                // `auto` stays on the CPU where the device refuses the membrane.
+                Err(e) if scenario.compute == crate::scenario::Compute::Auto => {
+                    tracing::warn!("compute auto: the membrane stays on the CPU ({e})");
+                }
+                Err(e) => return Err(e.into()),
+            }
         }
         Ok(Rectum {
             scenario,
