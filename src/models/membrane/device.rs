@@ -4,8 +4,9 @@
 //!
 //! Each step: the awake tiles and the sleeping tiles beside them (the halo) go up packed,
 //! their state into both of the device's state buffers, layer 0's targets, and the springs
-//! when a cut changed them; the substeps run in one submission; the awake tiles come back
-//! packed (`shaders/membrane_sync.wgsl`). A tile outside that set is read by no awake node,
+//! when a cut changed them; the substeps run; the awake tiles come back packed
+//! (`shaders/membrane_sync.wgsl`). All of it is one submission and one readback into a
+//! buffer kept for it. A tile outside that set is read by no awake node,
 //! so what the device holds for it may lag the CPU until it joins the set. Anything else
 //! that rewrites the model (a rollback, a detached layer) sends everything up at the next
 //! step.
