@@ -236,7 +236,7 @@ fn main() {
     // Then the left pulls the fundus down and out.
     hold(&mut left, right.t);
     let here = left.at;
-    left.go(1.5, here + Vec3::new(0.01, -0.03, 0.01));
+    left.go(2.0, here + Vec3::new(0.015, -0.045, 0.015));
     left.set(0.5, 0.0, 1.0);
     right.set(left.t - right.t, 0.0, 0.0);
     play.to(&left, &right, left.t);

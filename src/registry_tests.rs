@@ -308,6 +308,23 @@ fn every_procedures_gpu_cases_pass_on_the_adapter_there_is() {
     all_pass(&own);
 }
 
+/// Every procedure with a CPU preset has cases at its sizes (`verify --preset cpu`), and they
+/// pass, with ids unique among all the cases.
+#[test]
+fn every_cpu_preset_has_cases_at_its_sizes_and_they_pass() {
+    let mut seen = std::collections::HashSet::new();
+    let all = crate::verify::cases_in(&super::CATALOG);
+    let gpu = crate::verify::gpu_cases_in(&super::CATALOG);
+    let preset = crate::verify::preset_cases_in(&super::CATALOG);
+    for c in all.iter().chain(&gpu).chain(&preset) {
+        assert!(seen.insert(c.case), "duplicate case id {}", c.case);
+    }
+    for p in REGISTRY.iter().filter(|p| p.options.cpu_preset.is_some()) {
+        assert!(!(p.options.preset_cases)().is_empty(), "{}", p.name);
+    }
+    all_pass(&preset);
+}
+
 /// A preset lays its keys over the scenario and leaves the rest: the merged text is a valid
 /// scenario of the procedure, smaller than its own, with every key the preset names and the
 /// others as they were.

@@ -12,14 +12,15 @@ use vesalius::trace::KeyTrace;
 /// Runs the procedure's demo trace once on `scenario` (its default, or a preset laid over
 /// it), timing every model and the whole step; then again over its first seconds (the
 /// procedure's `bench_all_awake_s`) with every point awake.
-pub fn run(procedure: &str, scenario: &str) -> Result<Vec<BenchLine>, BenchError> {
+pub fn run(procedure: &str, file: &str, scenario: &str) -> Result<Vec<BenchLine>, BenchError> {
     let info = CATALOG
         .find(procedure)
         .ok_or_else(|| BenchError::NoSuchProcedure(procedure.to_string()))?;
     let trace = KeyTrace::parse(&format!("builtin {procedure} demo trace"), info.demo_trace)?;
-    let mut out = pass(info, scenario, &trace, trace.duration_s(), false)?;
+    let mut out = pass(info, file, scenario, &trace, trace.duration_s(), false)?;
     out.extend(pass(
         info,
+        file,
         scenario,
         &trace,
         info.options.bench_all_awake_s.min(trace.duration_s()),
@@ -51,13 +52,18 @@ pub const COUPLED_GPU_S: f64 = 2.0;
 /// The procedure stepped with its models' GPU path on (`scenario` with `compute = "gpu"`)
 /// over the demo trace's first [`COUPLED_GPU_S`] seconds: a line for each model (those on
 /// the GPU name its adapter) and the whole procedure's.
-pub fn run_coupled(procedure: &str, scenario: &str) -> Result<Vec<BenchLine>, BenchError> {
+pub fn run_coupled(
+    procedure: &str,
+    file: &str,
+    scenario: &str,
+) -> Result<Vec<BenchLine>, BenchError> {
     let info = CATALOG
         .find(procedure)
         .ok_or_else(|| BenchError::NoSuchProcedure(procedure.to_string()))?;
     let trace = KeyTrace::parse(&format!("builtin {procedure} demo trace"), info.demo_trace)?;
     pass(
         info,
+        file,
         scenario,
         &trace,
         COUPLED_GPU_S.min(trace.duration_s()),
@@ -68,15 +74,15 @@ pub fn run_coupled(procedure: &str, scenario: &str) -> Result<Vec<BenchLine>, Be
 /// One timed run of `seconds` of the trace; `all_awake` keeps every point stepping.
 fn pass(
     info: &ProcedureInfo,
+    file: &str,
     scenario: &str,
     trace: &KeyTrace,
     seconds: f64,
     all_awake: bool,
 ) -> Result<Vec<BenchLine>, BenchError> {
-    let file = format!("builtin {} scenario", info.name);
-    let (_, plan) = CATALOG.plan(&file, scenario)?;
+    let (_, plan) = CATALOG.plan(file, scenario)?;
     let dt = plan.dt_s;
-    let mut p = (info.build)(&file, scenario)?;
+    let mut p = (info.build)(file, scenario)?;
     if all_awake {
         p.stay_awake();
     }
@@ -163,8 +169,22 @@ mod tests {
 
     #[test]
     fn an_unknown_procedure_is_named() {
-        let e = run("appendectomy", "").expect_err("no such procedure");
+        let e = run("appendectomy", "x.toml", "").expect_err("no such procedure");
         assert!(matches!(&e, BenchError::NoSuchProcedure(p) if p == "appendectomy"));
         assert_eq!(e.to_string(), "no procedure 'appendectomy'");
+    }
+
+    /// `bench --scenario FILE`: a bad value is named with the file it came from.
+    #[test]
+    fn a_bad_scenario_file_is_named_with_its_key() {
+        let text = vesalius::registry::builtin("sandbox")
+            .unwrap_or_default()
+            .replace("dt_s = ", "dt_s = -1.0 #");
+        let e = run("sandbox", "tuned.toml", &text).expect_err("a negative step");
+        let said = e.to_string();
+        assert!(
+            said.contains("tuned.toml") && said.contains("dt_s"),
+            "{said}"
+        );
     }
 }

@@ -110,6 +110,10 @@ enum Command {
         /// `cpu`: the procedure's preset for machines without a GPU, where it has one.
         #[arg(long, value_enum)]
         preset: Option<PresetArg>,
+        /// A scenario file to bench instead of the procedure's own (one procedure only);
+        /// `--preset` is laid over it.
+        #[arg(long, value_name = "FILE", requires = "procedure")]
+        scenario: Option<PathBuf>,
         /// Where the tissue models step: `cpu` (the demo's own lines), or `gpu`: the GPU
         /// compute path's lines of the models that have one, on the first Vulkan adapter
         /// (a real GPU, else lavapipe), checked against the CPU's step.
@@ -145,6 +149,9 @@ enum Command {
         /// adapter (a real GPU, else lavapipe).
         #[arg(long, value_enum, default_value_t = ComputeArg::Cpu)]
         compute: ComputeArg,
+        /// `cpu`: also the procedures' cases at the sizes of their CPU presets.
+        #[arg(long, value_enum)]
+        preset: Option<PresetArg>,
     },
     /// The 1 kHz force-feedback servo loop against a procedure stepping on its own thread;
     /// prints rate_hz, period_p50_error_ms, period_p99_error_ms, max_force_n, clamps and
@@ -589,8 +596,15 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
             procedure,
             json,
             preset,
+            scenario,
             compute,
-        } => tools::bench(procedure.as_deref(), json, preset, compute),
+        } => tools::bench(
+            procedure.as_deref(),
+            json,
+            preset,
+            scenario.as_deref(),
+            compute,
+        ),
         Command::Profile {
             procedure,
             json,
@@ -606,7 +620,8 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
             json,
             known_failures,
             compute,
-        } => tools::verify(json, known_failures, compute),
+            preset,
+        } => tools::verify(json, known_failures, compute, preset),
         Command::Haptics {
             device,
             hd_name,

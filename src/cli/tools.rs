@@ -108,6 +108,7 @@ pub fn bench(
     procedure: Option<&str>,
     json: bool,
     preset: Option<PresetArg>,
+    scenario: Option<&std::path::Path>,
     compute: ComputeArg,
 ) -> Result<(), CliError> {
     let names: Vec<&str> = match procedure {
@@ -121,20 +122,12 @@ pub fn bench(
         ComputeArg::Cpu => None,
     };
     for p in names {
-        let (_, text) = super::session::with_preset(
-            p,
-            String::new(),
-            vesalius::registry::builtin(p)
-                .unwrap_or_default()
-                .to_string(),
-            preset,
-        )?;
+        let (file, text) = super::session::scenario_text(p, scenario, preset, None)?;
         let lines = match &gpu {
             None => {
                 // The CPU's figures: every model on the CPU, whatever the scenario says.
-                let (_, text) =
-                    super::session::with_compute(String::new(), text, Some(ComputeArg::Cpu))?;
-                bench::run(p, &text)?
+                let (file, text) = super::session::with_compute(file, text, Some(ComputeArg::Cpu))?;
+                bench::run(p, &file, &text)?
             }
             Some(gpu) => match bench::run_gpu(p, gpu) {
                 // Benching every procedure: those without a GPU path are passed over.
@@ -145,9 +138,9 @@ pub fn bench(
                 other => {
                     // The kernel's lines, then the procedure with its models' GPU path on.
                     let mut lines = other?;
-                    let (_, text) =
-                        super::session::with_compute(String::new(), text, Some(ComputeArg::Gpu))?;
-                    lines.extend(bench::run_coupled(p, &text)?);
+                    let (file, text) =
+                        super::session::with_compute(file, text, Some(ComputeArg::Gpu))?;
+                    lines.extend(bench::run_coupled(p, &file, &text)?);
                     lines
                 }
             },
@@ -330,7 +323,12 @@ pub fn profile(
 }
 
 /// `verify`: the reference cases as a table or JSON lines; fails when one is out of tolerance.
-pub fn verify(json: bool, known_failures: bool, compute: ComputeArg) -> Result<(), CliError> {
+pub fn verify(
+    json: bool,
+    known_failures: bool,
+    compute: ComputeArg,
+    preset: Option<PresetArg>,
+) -> Result<(), CliError> {
     use vesalius::verify;
     let on_gpu = match compute {
         ComputeArg::Cpu => false,
@@ -339,13 +337,18 @@ pub fn verify(json: bool, known_failures: bool, compute: ComputeArg) -> Result<(
             vesalius::gpu::Gpu::for_compute(vesalius::scenario::Compute::Auto)?.is_some()
         }
     };
-    let results = if on_gpu {
+    let mut results = if on_gpu {
         // A clear error where there is no adapter at all, before the cases say "not run".
         vesalius::gpu::Gpu::headless(false)?;
         verify::run(&verify::gpu_cases_in(&vesalius::registry::CATALOG))
     } else {
         verify::run_all(&vesalius::registry::CATALOG)
     };
+    if let Some(PresetArg::Cpu) = preset {
+        results.extend(verify::run(&verify::preset_cases_in(
+            &vesalius::registry::CATALOG,
+        )));
+    }
     let print = |results: &[verify::CaseResult]| -> Result<(), CliError> {
         if json {
             for r in results {

@@ -481,6 +481,18 @@ impl Instrument {
         }
     }
 
+    /// The contacts of the listed points only (`among`, indices into `points`, in the order
+    /// given; an index past the end is skipped): a caller that has already culled the points
+    /// near the instrument, e.g. once for several projections.
+    pub fn contacts_among(&self, points: &[Vec3], among: &[u32], out: &mut Vec<ToolContact>) {
+        out.clear();
+        for &i in among {
+            if let Some(&v) = points.get(i as usize) {
+                out.extend(self.deepest(i as usize, v, &[]));
+            }
+        }
+    }
+
     /// The same contacts as [`Self::contacts_all`], testing only the points of blocks that a
     /// cylinder may reach (each cylinder only against the blocks it may reach). `blocks` must
     /// be up to date for `points` (a block whose points moved since its last refresh may miss

@@ -242,6 +242,9 @@ pub struct Options {
     pub cases: fn() -> Vec<super::Case>,
     /// The same on the GPU compute path (`vesalius verify --compute gpu`); none for most.
     pub gpu_cases: fn() -> Vec<super::Case>,
+    /// The cases at its CPU preset's sizes (`vesalius verify --preset cpu`), read from the
+    /// preset; none without a preset.
+    pub preset_cases: fn() -> Vec<super::Case>,
     /// The precomputation it needs before its first session (`vesalius precompute`), if any.
     pub precompute: Option<&'static super::precompute::Precomputable>,
 }
@@ -261,6 +264,7 @@ impl Options {
         gpu_bench: None,
         cpu_preset: None,
         gpu_cases: Vec::new,
+        preset_cases: Vec::new,
         cases: Vec::new,
         precompute: None,
     };
@@ -276,6 +280,18 @@ impl std::fmt::Debug for ProcedureInfo {
 }
 
 impl ProcedureInfo {
+    /// Its scenario with its CPU preset laid over it, named as the preset's file; None
+    /// without a preset.
+    pub fn cpu_preset_scenario(&self) -> Option<Result<(String, String), InputError>> {
+        let overlay = self.options.cpu_preset?;
+        let file = format!("assets/presets/cpu/{}.toml", self.name);
+        let scenario = format!("builtin {} scenario", self.name);
+        Some(
+            crate::scenario::with_preset(&scenario, self.scenario, &file, overlay)
+                .map(|t| (file, t)),
+        )
+    }
+
     /// The instrument `hand` holds.
     pub fn tool(&self, hand: Hand) -> &ToolInfo {
         &self.tools[hand.index()]

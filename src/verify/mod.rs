@@ -18,7 +18,7 @@ mod cosserat_cases;
 mod forces_cases;
 pub mod hertz_cases;
 mod membrane_cases;
-mod particle_cases;
+pub mod particle_cases;
 mod skeleton_cases;
 pub mod softbody_cases;
 pub mod softbody_contact_cases;
@@ -124,6 +124,15 @@ pub fn gpu_cases_in(catalog: &crate::sim::Catalog) -> Vec<Case> {
         all.extend((p.options.gpu_cases)());
     }
     all
+}
+
+/// The cases at the sizes of the procedures' CPU presets (`vesalius verify --preset cpu`):
+/// each procedure's own, where it has a preset.
+pub fn preset_cases_in(catalog: &crate::sim::Catalog) -> Vec<Case> {
+    catalog
+        .iter()
+        .flat_map(|p| (p.options.preset_cases)())
+        .collect()
 }
 
 /// Cases where the model, while following its paper, disagrees with physics. Kept apart
@@ -396,7 +405,8 @@ mod tests {
         // A bar of height H hanging from its top under its own weight stretches by
         // rho g H^2 / (2 E).
         for ny in [20usize, 30] {
-            let (sag, continuum) = particle_cases::column_sag(ny, 2).expect("clusters");
+            let (sag, continuum) =
+                particle_cases::column_sag_of(0.0035, 1060.0, 5000.0, ny, 2).expect("clusters");
             assert!(
                 (sag / continuum - 1.0).abs() < 0.1,
                 "{ny} steps: {sag} m vs {continuum} m"

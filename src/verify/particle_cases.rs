@@ -62,12 +62,18 @@ pub(super) fn cases() -> Vec<Case> {
     ]
 }
 
-/// A column of 10 x `ny` x 10 particles 3.5 mm apart (liver: 1060 kg/m^3, 5 kPa) in
-/// clusters every 3 lattice steps reaching 2.5, pinned along its top layer, 3 s under
-/// gravity with `sweeps` a step, damped: the mean drop of its bottom layer (m) and the
-/// continuum's `rho g H^2 / (2 E)`; None if the clusters could not be built.
-pub(crate) fn column_sag(ny: usize, sweeps: usize) -> Option<(f32, f32)> {
-    let (h, rho, e) = (0.0035f32, 1060.0f32, 5000.0f32);
+/// A column of 10 x `ny` x 10 particles `h` metres apart of a tissue of density `rho`
+/// (kg/m^3) and modulus `e` (Pa) (the shipped liver: 3.5 mm, 1060 kg/m^3, 5 kPa) in clusters
+/// every 3 lattice steps reaching 2.5, pinned along its top layer, 3 s under gravity with
+/// `sweeps` a step, damped: the mean drop of its bottom layer (m) and the continuum's
+/// `rho g H^2 / (2 E)`; None if the clusters could not be built.
+pub(crate) fn column_sag_of(
+    h: f32,
+    rho: f32,
+    e: f32,
+    ny: usize,
+    sweeps: usize,
+) -> Option<(f32, f32)> {
     let mut p = Particles::new();
     for a in 0..10 {
         for b in 0..ny {
@@ -107,7 +113,15 @@ pub(crate) fn column_sag(ny: usize, sweeps: usize) -> Option<(f32, f32)> {
 const COLUMN_STEPS: usize = 3000;
 
 fn hanging_column() -> Measured {
-    let Some((sag, continuum)) = column_sag(20, 2) else {
+    hanging_column_of(0.0035, 1060.0, 5000.0)
+}
+
+/// The hanging column's case (10 x 20 x 10 particles, 2 sweeps a step, 3 s) on a lattice
+/// `h` metres apart of a tissue of density `rho` and modulus `e`: its bottom's drop against
+/// the continuum's. The drop is the same share of the continuum's at every spacing, the
+/// column's lattice steps being the same.
+pub fn hanging_column_of(h: f32, rho: f32, e: f32) -> Measured {
+    let Some((sag, continuum)) = column_sag_of(h, rho, e, 20, 2) else {
         return Measured::not_run(0.0);
     };
     Measured {

@@ -33,8 +33,11 @@ pub struct BodyContacts {
 
 impl BodyContacts {
     /// Contacts among `members` (particle indices), each a sphere of `radius_m`; candidate
-    /// pairs are kept while nothing has moved more than `margin_m / 2`.
-    pub fn new(members: Vec<u32>, radius_m: f32, margin_m: f32) -> BodyContacts {
+    /// pairs are kept while nothing has moved more than `margin_m / 2`. The members are kept
+    /// sorted, each once.
+    pub fn new(mut members: Vec<u32>, radius_m: f32, margin_m: f32) -> BodyContacts {
+        members.sort_unstable();
+        members.dedup();
         BodyContacts {
             members,
             radius_m: radius_m.max(0.0),
@@ -147,7 +150,11 @@ impl BodyContacts {
                         }
                         let ci = (n.x as usize * dims.y as usize + n.y as usize) * dims.z as usize
                             + n.z as usize;
-                        for &m in &slots[start[ci] as usize..start[ci + 1] as usize] {
+                        // A cell's slots are in member order: only those after `k` can
+                        // make a pair with it (members are sorted by particle).
+                        let cell = &slots[start[ci] as usize..start[ci + 1] as usize];
+                        let after = cell.partition_point(|&m| m as usize <= k);
+                        for &m in &cell[after..] {
                             found.extend(pair(self, p, k, m as usize, r2));
                         }
                     }
@@ -228,13 +235,23 @@ fn pair(c: &BodyContacts, p: &Particles, k: usize, m: usize, r2: f32) -> Option<
     (c.at_search[k].distance_squared(c.at_search[m]) <= r2).then_some((i, j))
 }
 
+/// How much further than its reach an instrument looks for particles when it lists those it
+/// may push in a substep, m. A particle must move this far within the substep's sweeps to be
+/// missed by them (four metres a second at 0.5 ms substeps); it is then found at the next.
+pub const PUSH_LIST_MARGIN_M: f32 = 0.002;
+
 /// An instrument's generalized cylinders against every particle (culled by blocks of
-/// consecutive particles), grown by the particles' radius.
+/// consecutive particles), grown by the particles' radius. The particles within
+/// [`PUSH_LIST_MARGIN_M`] of the grown instrument are listed at a substep's first sweep; the
+/// later sweeps test only them.
 #[derive(Debug, Clone)]
 pub struct ToolPush {
     radius_m: f32,
     blocks: PointBlocks,
     contacts: Vec<ToolContact>,
+    /// The particles the instrument may push this substep, and whether they are listed yet.
+    near: Vec<u32>,
+    listed: bool,
     /// What the particles were pushed by this step, summed as forces on them, N.
     pushed_n: Vec3,
 }
@@ -245,30 +262,41 @@ impl ToolPush {
             radius_m: radius_m.max(0.0),
             blocks: PointBlocks::new(PointCloud::from_points(&p.x)),
             contacts: Vec::new(),
+            near: Vec::new(),
+            listed: false,
             pushed_n: Vec3::ZERO,
         }
     }
 
-    /// Starts a step (the reaction's sum back to zero).
+    /// Starts a step (the reaction's sum back to zero, the particles near the instrument to be
+    /// listed again).
     pub fn begin_step(&mut self) {
         self.pushed_n = Vec3::ZERO;
+        self.listed = false;
     }
 
     /// Moves every free particle inside `tool` (grown by the particle radius) out along the
     /// test's direction by its depth. Returns the particles touched.
     pub fn project(&mut self, tool: &Instrument, p: &mut Particles, dt_s: f32) -> usize {
-        let grown = tool.inflated(self.radius_m);
-        self.blocks.refresh(PointCloud::from_points(&p.x));
-        if grown
-            .contacts(
-                PointCloud::from_points(&p.x),
-                &self.blocks,
-                &mut self.contacts,
-            )
-            .is_err()
-        {
-            return 0;
+        if !self.listed {
+            self.blocks.refresh(PointCloud::from_points(&p.x));
+            let wide = tool.inflated(self.radius_m + PUSH_LIST_MARGIN_M);
+            if wide
+                .contacts(
+                    PointCloud::from_points(&p.x),
+                    &self.blocks,
+                    &mut self.contacts,
+                )
+                .is_err()
+            {
+                return 0;
+            }
+            self.near.clear();
+            self.near.extend(self.contacts.iter().map(|c| c.vertex));
+            self.listed = true;
         }
+        let grown = tool.inflated(self.radius_m);
+        grown.contacts_among(&p.x, &self.near, &mut self.contacts);
         let inv_dt2 = 1.0 / (dt_s * dt_s);
         let mut n = 0;
         for c in &self.contacts {

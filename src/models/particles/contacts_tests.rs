@@ -206,3 +206,39 @@ fn pairs_built_touching_are_left_as_built() {
     assert!((p.x[0].distance(p.x[1]) - 0.001).abs() < 2e-4, "{:?}", p.x);
     assert!(p.x[2].distance(p.x[0]) > 0.0019, "{:?}", p.x);
 }
+
+/// An instrument lists the particles within `PUSH_LIST_MARGIN_M` of it at a substep's first
+/// sweep: one that comes inside from within that margin during the substep's sweeps is
+/// pushed out by them; one that jumps in from further away waits for the next substep.
+#[test]
+fn an_instrument_pushes_what_it_listed_this_substep_and_the_rest_at_the_next() {
+    use crate::collision::ToolCylinder;
+    let (r, dt) = (0.001f32, 1e-3f32);
+    // A rod of radius 2 mm along x through the origin; grown by r it reaches 3 mm.
+    let rod = ToolCylinder::constant(Vec3::new(-0.02, 0.0, 0.0), Vec3::new(0.02, 0.0, 0.0), 0.002)
+        .expect("rod");
+    let tool = Instrument::new(vec![rod]).expect("tool");
+    let mut p = Particles::new();
+    let near = p.add(
+        Vec3::new(0.0, 0.0035 + 0.5 * PUSH_LIST_MARGIN_M, 0.0),
+        1e-5,
+        0,
+    ) as usize;
+    let far = p.add(
+        Vec3::new(0.005, 0.0035 + 3.0 * PUSH_LIST_MARGIN_M, 0.0),
+        1e-5,
+        0,
+    ) as usize;
+    let mut push = ToolPush::new(&p, r);
+    push.begin_step();
+    assert_eq!(push.project(&tool, &mut p, dt), 0, "nobody inside yet");
+    // Both jump 1 mm inside the grown rod within the substep.
+    p.x[near].y = 0.002;
+    p.x[far].y = 0.002;
+    assert_eq!(push.project(&tool, &mut p, dt), 1);
+    assert!((p.x[near].y - 0.003).abs() < 1e-6, "{}", p.x[near].y);
+    assert_eq!(p.x[far].y, 0.002, "not listed this substep");
+    push.begin_step();
+    assert_eq!(push.project(&tool, &mut p, dt), 1);
+    assert!((p.x[far].y - 0.003).abs() < 1e-6, "{}", p.x[far].y);
+}

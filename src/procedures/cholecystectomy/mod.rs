@@ -4,6 +4,7 @@
 //! procedure (scenario, task, metrics, drawing) and its registry entry.
 
 pub mod anatomy;
+mod cases;
 pub mod clips;
 mod drawing;
 mod field;

@@ -34,6 +34,8 @@ pub const INFO: ProcedureInfo = crate::procedure_info! {
     // button is held (the grasper waits where it was).
     scope_hand: Some(Hand::Left),
     swap: &RIGHT_CYCLE,
+    cpu_preset: Some(include_str!("../../../assets/presets/cpu/cholecystectomy.toml")),
+    preset_cases: super::cases::preset_cases,
 };
 
 /// The procedure for a checked scenario (`file` names it in errors): the anatomy generated,

@@ -221,7 +221,7 @@ impl Params for AdhesionTable {
         ParamSpec::new(
             "fat_stiffness_n_per_m",
             "N/m",
-            15.0,
+            5.0,
             (0.1, 1e4),
             "each segment of the fat's strands (3 in series; they tear at strain 1)",
         ),

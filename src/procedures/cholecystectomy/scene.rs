@@ -96,7 +96,7 @@ impl Default for SceneParams {
                 segments: 3,
                 strand_mass_kg: 1e-6,
                 body: body::ADHESION,
-                stiffness_n_per_m: 15.0,
+                stiffness_n_per_m: 5.0,
                 weak_stiffness_n_per_m: 0.01,
                 breakable_per_strand: 1,
                 break_stretch: 3.0,

@@ -38,17 +38,48 @@ pub fn gpu_cases() -> Vec<Case> {
     }]
 }
 
+/// `vesalius verify --preset cpu`'s rows: the coupled case on the CPU preset's membrane.
+pub fn preset_cases() -> Vec<Case> {
+    vec![Case {
+        model: "rectum scene",
+        case: "membrane_load_on_rod_preset",
+        description: "membrane_load_on_rod on the membrane of the cpu preset \
+                      (assets/presets/cpu/rectum.toml: 150 x 100 a layer as shipped), every \
+                      tile awake: the membrane's load on the rod after 0.8 s vs the load; \
+                      tolerance 5 %",
+        unit: "N",
+        tolerance: 0.05,
+        run: || match preset_grid() {
+            Some(grid) => load_on_rod_at(grid, false),
+            None => Measured::not_run(0.05),
+        },
+    }]
+}
+
+/// The CPU preset's membrane, rows x columns a layer (None: no preset, or one that does not
+/// make a valid scenario).
+fn preset_grid() -> Option<(u32, u32)> {
+    let (file, text) = super::INFO.cpu_preset_scenario()?.ok()?;
+    let a = super::Scenario::parse(&file, &text).ok()?.anatomy_params();
+    Some((a.rows, a.cols))
+}
+
 fn load_on_rod() -> Measured {
     load_on_rod_on(false)
 }
 
 /// The case, with the membrane on the GPU where `on_gpu` (not run without an adapter).
 fn load_on_rod_on(on_gpu: bool) -> Measured {
+    load_on_rod_at((60, 48), on_gpu)
+}
+
+/// The case on a rectum of `grid` (rows x columns a layer).
+fn load_on_rod_at(grid: (u32, u32), on_gpu: bool) -> Measured {
     let load = Vec3::new(0.0, -0.05, 0.0);
     let reference = f64::from(load.length());
     let Ok(a) = Anatomy::generate(AnatomyParams {
-        rows: 60,
-        cols: 48,
+        rows: grid.0,
+        cols: grid.1,
         ..AnatomyParams::default()
     }) else {
         return Measured::not_run(reference);

@@ -37,6 +37,7 @@ pub const INFO: ProcedureInfo = crate::procedure_info! {
     gpu_bench: Some(super::gpu_bench::lines),
     cpu_preset: Some(include_str!("../../../assets/presets/cpu/rectum.toml")),
     gpu_cases: super::cases::gpu_cases,
+    preset_cases: super::cases::preset_cases,
 };
 
 impl Procedure for Rectum {
