@@ -119,20 +119,26 @@ pub fn gpu_cases() -> Vec<Case> {
 /// The GPU path's cases of the models, then each procedure's of `catalog` (`vesalius verify
 /// --compute gpu`'s table).
 pub fn gpu_cases_in(catalog: &crate::sim::Catalog) -> Vec<Case> {
-    let mut all = gpu_cases();
-    for p in catalog.iter() {
-        all.extend((p.options.gpu_cases)());
-    }
-    all
+    with_procedures(gpu_cases(), catalog, |o| o.gpu_cases)
 }
 
 /// The cases at the sizes of the procedures' CPU presets (`vesalius verify --preset cpu`):
 /// each procedure's own, where it has a preset.
 pub fn preset_cases_in(catalog: &crate::sim::Catalog) -> Vec<Case> {
-    catalog
-        .iter()
-        .flat_map(|p| (p.options.preset_cases)())
-        .collect()
+    with_procedures(Vec::new(), catalog, |o| o.preset_cases)
+}
+
+/// `models`' cases, then those that `of` picks from each procedure of `catalog`, in the
+/// catalog's order.
+fn with_procedures(
+    mut models: Vec<Case>,
+    catalog: &crate::sim::Catalog,
+    of: impl Fn(&crate::sim::Options) -> fn() -> Vec<Case>,
+) -> Vec<Case> {
+    for p in catalog.iter() {
+        models.extend(of(&p.options)());
+    }
+    models
 }
 
 /// Cases where the model, while following its paper, disagrees with physics. Kept apart
@@ -161,11 +167,7 @@ pub fn run(cases: &[Case]) -> Vec<CaseResult> {
 /// The models' cases, then each procedure's of `catalog` that needs its whole scene, in
 /// the catalog's order: `vesalius verify`'s table.
 pub fn cases_in(catalog: &crate::sim::Catalog) -> Vec<Case> {
-    let mut all = cases();
-    for p in catalog.iter() {
-        all.extend((p.options.cases)());
-    }
-    all
+    with_procedures(cases(), catalog, |o| o.cases)
 }
 
 /// Runs every case of [`cases_in`] (not the known failures), in order.
