@@ -28,6 +28,8 @@ pub enum RenderError {
     Lost(String),
     #[error("eye size {0}x{1} is beyond this GPU's largest texture ({2} pixels a side)")]
     TooLarge(u32, u32, u32),
+    #[error("the GPU compute path does not take this model: {0}")]
+    Unsupported(String),
 }
 
 /// A wgpu device and queue with what we learned about the adapter. Clones share the device

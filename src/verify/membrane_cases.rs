@@ -64,6 +64,7 @@ fn fat(damping_per_s: f32, spring_damping_ratio: f32) -> MembraneParams {
         link_modulus_pa: [2e3; LAYERS - 1],
         damping_per_s,
         spring_damping_ratio,
+        link_damping_ratio: spring_damping_ratio,
         attach_pa_per_m: 1e6,
         // Eq 5's, the paper's.
         residual_strain: 0.1,

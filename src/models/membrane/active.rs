@@ -1,5 +1,6 @@
-//! The membrane's active set: the grid is cut into tiles of [`TILE_ROWS`] x [`TILE_COLS`]
-//! columns (all four layers); only awake tiles step. A sleeping tile is carried by its
+//! The membrane's active set: the grid is cut into tiles of [`ActivityParams::tile_rows`] x
+//! [`ActivityParams::tile_cols`] nodes (all four layers; [`TILE_ROWS`] x [`TILE_COLS`] by
+//! default); only awake tiles step. A sleeping tile is carried by its
 //! anchors: each node sits at its anchor plus the offset it had when the tile fell asleep,
 //! the anchor being the node's rest position moved by its column's layer-0 target, in
 //! proportion to how far the node lies from layer 3 (layer 0 moves with the target, layer 3
@@ -19,9 +20,9 @@ use super::{LAYERS, Membrane, field};
 use glam::Vec3;
 use rayon::prelude::*;
 
-/// Rows of a tile (along the bowel).
+/// Rows of a tile (along the bowel) by default, and on the GPU.
 pub const TILE_ROWS: usize = 8;
-/// Columns of a tile (around the bowel).
+/// Columns of a tile (around the bowel) by default, and on the GPU.
 pub const TILE_COLS: usize = 16;
 
 /// When tiles sleep and wake.
@@ -36,6 +37,10 @@ pub struct ActivityParams {
     pub wake_distance_m: f32,
     /// A tile wakes when a tool's box comes within this distance of its box, m.
     pub wake_margin_m: f32,
+    /// Rows of a tile (along the bowel).
+    pub tile_rows: usize,
+    /// Columns of a tile (around the bowel).
+    pub tile_cols: usize,
 }
 
 impl Default for ActivityParams {
@@ -48,6 +53,8 @@ impl Default for ActivityParams {
             sleep_after_s: 0.1,
             wake_distance_m: 2e-4,
             wake_margin_m: 3e-3,
+            tile_rows: TILE_ROWS,
+            tile_cols: TILE_COLS,
         }
     }
 }
@@ -73,8 +80,9 @@ pub(super) struct Activity {
     offset: Vec<f32>,
     /// Offsets of awake tiles' nodes at the last check (their speed is measured from it).
     last: Vec<f32>,
-    /// Per run of awake tiles, its new state (rows x layers x 6 x width).
-    buffers: Vec<Vec<f32>>,
+    /// Per run of awake tiles, its new state (rows x layers x 6 x width) and the row
+    /// kernel's scratch (kept from step to step: nothing is allocated per substep).
+    buffers: Vec<(Vec<f32>, RowScratch)>,
     /// Awake tiles this step, ascending.
     pub list: Vec<u32>,
     /// This step's runs of awake tiles side by side in one row of tiles: (rows, columns).
@@ -85,10 +93,15 @@ pub(super) struct Activity {
 }
 
 impl Activity {
-    pub fn new(m: &Membrane) -> Activity {
+    pub fn new(m: &Membrane, params: ActivityParams) -> Activity {
         let (rows, cols) = (m.rows, m.cols);
-        let tiles_r = rows.div_ceil(TILE_ROWS);
-        let tiles_c = cols.div_ceil(TILE_COLS);
+        let params = ActivityParams {
+            tile_rows: params.tile_rows.max(1),
+            tile_cols: params.tile_cols.max(1),
+            ..params
+        };
+        let tiles_r = rows.div_ceil(params.tile_rows);
+        let tiles_c = cols.div_ceil(params.tile_cols);
         let mut rest = vec![0.0; LAYERS * rows * 3 * cols];
         for b in 0..LAYERS * rows {
             for c in 0..3 {
@@ -111,7 +124,7 @@ impl Activity {
             }
         }
         let mut a = Activity {
-            params: ActivityParams::default(),
+            params,
             tiles_r,
             tiles_c,
             awake: vec![false; tiles_r * tiles_c],
@@ -141,7 +154,7 @@ impl Activity {
             + self.weight.capacity()
             + self.offset.capacity()
             + self.last.capacity()
-            + self.buffers.iter().map(Vec::capacity).sum::<usize>())
+            + self.buffers.iter().map(|b| b.0.capacity()).sum::<usize>())
             * f
             + self.awake.capacity()
             + self.still_s.capacity() * f
@@ -150,12 +163,9 @@ impl Activity {
     /// Rows and columns of tile `t`.
     pub fn span(&self, t: usize, rows: usize, cols: usize) -> ([usize; 2], [usize; 2]) {
         let (ti, tj) = (t / self.tiles_c, t % self.tiles_c);
-        let r0 = ti * TILE_ROWS;
-        let c0 = tj * TILE_COLS;
-        (
-            [r0, (r0 + TILE_ROWS).min(rows)],
-            [c0, (c0 + TILE_COLS).min(cols)],
-        )
+        let (tr, tc) = (self.params.tile_rows, self.params.tile_cols);
+        let (r0, c0) = (ti * tr, tj * tc);
+        ([r0, (r0 + tr).min(rows)], [c0, (c0 + tc).min(cols)])
     }
 
     /// The tiles beside `t` (eight-connected; around the ring when `periodic`).
@@ -197,20 +207,6 @@ fn tile_box(m: &Membrane, a: &Activity, t: usize) -> (Vec3, Vec3) {
     (lo, hi)
 }
 
-/// Node `(l, i, j)`'s anchor now: its rest position moved by its column's layer-0 target
-/// (its displacement from rest) times `1 - weight`.
-fn anchor(m: &Membrane, a: &Activity, l: usize, i: usize, j: usize) -> Vec3 {
-    let cols = m.cols;
-    let b0 = i; // layer 0's block for row i
-    let b = l * m.rows + i;
-    let rest = |b: usize| Vec3::from_array(std::array::from_fn(|c| a.rest[(b * 3 + c) * cols + j]));
-    let target = Vec3::from_array(std::array::from_fn(|c| {
-        m.attach[(i * 4 + 1 + c) * cols + j]
-    }));
-    let w = a.weight[b * cols + j];
-    rest(b) + (target - rest(b0)) * (1.0 - w)
-}
-
 impl Membrane {
     /// Whether the active set is on (the membrane was built with it, see
     /// [`Membrane::use_active_set`]).
@@ -220,9 +216,7 @@ impl Membrane {
 
     /// Turns on the active set: every tile asleep at its anchors until a tool comes near.
     pub fn use_active_set(&mut self, params: ActivityParams) {
-        let mut a = Activity::new(self);
-        a.params = params;
-        self.activity = Some(a);
+        self.activity = Some(Activity::new(self, params));
     }
 
     /// Keeps every tile stepping from now on (benchmarks).
@@ -258,8 +252,12 @@ impl Membrane {
 
     /// The tile holding row `i`, column `j`.
     pub fn tile_of(&self, i: usize, j: usize) -> usize {
-        let tc = self.cols.div_ceil(TILE_COLS);
-        (i / TILE_ROWS) * tc + j / TILE_COLS
+        let p = self
+            .activity
+            .as_ref()
+            .map_or_else(ActivityParams::default, |a| a.params);
+        let tc = self.cols.div_ceil(p.tile_cols);
+        (i / p.tile_rows) * tc + j / p.tile_cols
     }
 
     /// Wakes every tile whose box comes within the wake margin of a box `(min, max)`.
@@ -393,18 +391,44 @@ fn start_watch(m: &Membrane, a: &mut Activity, t: usize) {
 fn place_asleep(m: &mut Membrane, a: &Activity, t: usize) {
     let ([r0, r1], [c0, c1]) = a.span(t, m.rows, m.cols);
     let cols = m.cols;
+    let mut anchor = vec![0.0; c1 - c0];
     for l in 0..LAYERS {
         for i in r0..r1 {
             let b = l * m.rows + i;
-            for j in c0..c1 {
-                let p = anchor(m, a, l, i, j);
-                for c in 0..3 {
-                    let o = a.offset[(b * 3 + c) * cols + j];
-                    m.state.data[(b * 6 + c) * cols + j] = p[c] + o;
-                    m.state.data[(b * 6 + 3 + c) * cols + j] = 0.0;
+            for c in 0..3 {
+                anchors_into(m, a, l, i, [c0, c1], c, &mut anchor);
+                let off = &a.offset[(b * 3 + c) * cols + c0..(b * 3 + c) * cols + c1];
+                let x = &mut m.state.data[(b * 6 + c) * cols + c0..(b * 6 + c) * cols + c1];
+                for ((x, p), o) in x.iter_mut().zip(&anchor).zip(off) {
+                    *x = p + o;
                 }
+                m.state.data[(b * 6 + 3 + c) * cols + c0..(b * 6 + 3 + c) * cols + c1].fill(0.0);
             }
         }
+    }
+}
+
+/// Component `c` of the anchors of layer `l`'s row `i`, columns `c0..c1`, into `out`: each
+/// node's rest position moved by its column's layer-0 target (its displacement from rest)
+/// times `1 - weight`.
+#[inline]
+fn anchors_into(
+    m: &Membrane,
+    a: &Activity,
+    l: usize,
+    i: usize,
+    [c0, c1]: [usize; 2],
+    c: usize,
+    out: &mut [f32],
+) {
+    let cols = m.cols;
+    let b = l * m.rows + i;
+    let rest = &a.rest[(b * 3 + c) * cols + c0..(b * 3 + c) * cols + c1];
+    let rest0 = &a.rest[(i * 3 + c) * cols + c0..(i * 3 + c) * cols + c1];
+    let target = &m.attach[(i * 4 + 1 + c) * cols + c0..(i * 4 + 1 + c) * cols + c1];
+    let w = &a.weight[b * cols + c0..b * cols + c1];
+    for ((((o, r), r0), t), w) in out.iter_mut().zip(rest).zip(rest0).zip(target).zip(w) {
+        *o = r + (t - r0) * (1.0 - w);
     }
 }
 
@@ -415,9 +439,13 @@ pub(super) fn step(m: &mut Membrane, dt: f32, substeps: usize) {
         return;
     };
     // The halo: sleeping tiles beside awake ones, where their anchors are now.
-    let halo: Vec<usize> = (0..a.awake.len())
-        .filter(|&t| !a.awake[t] && a.neighbours(t, m.periodic).any(|n| a.awake[n]))
-        .collect();
+    let mut beside = vec![false; a.awake.len()];
+    for t in (0..a.awake.len()).filter(|&t| a.awake[t]) {
+        for n in a.neighbours(t, m.periodic) {
+            beside[n] = !a.awake[n];
+        }
+    }
+    let halo: Vec<usize> = (0..a.awake.len()).filter(|&t| beside[t]).collect();
     for &t in &halo {
         place_asleep(m, &a, t);
     }
@@ -447,7 +475,7 @@ pub(super) fn step(m: &mut Membrane, dt: f32, substeps: usize) {
     if !super::device::active_substeps(m, &a, &halo, dt, substeps) {
         let h = dt / substeps as f32;
         let mut buffers = std::mem::take(&mut a.buffers);
-        buffers.resize_with(a.runs.len(), Vec::new);
+        buffers.resize_with(a.runs.len(), Default::default);
         for _ in 0..substeps {
             substep(m, &a, &mut buffers, h);
         }
@@ -497,7 +525,7 @@ impl pulp::WithSimd for TilePass<'_, '_> {
         let w = c1 - c0;
         buf.resize((r1 - r0) * LAYERS * 6 * w, 0.0);
         for i in r0..r1 {
-            forces::row(mm, whole, i, c0..c1, i == r0, sc);
+            forces::row::<_, false>(mm, whole, i, c0..c1, i == r0, sc);
             for l in 0..LAYERS {
                 let b = l * rows + i;
                 let at = (b * field::COUNT + field::INV_MASS) * cols;
@@ -523,7 +551,7 @@ impl pulp::WithSimd for TilePass<'_, '_> {
 }
 
 /// One explicit substep of the awake runs, each into its buffer, then copied back in order.
-fn substep(m: &mut Membrane, a: &Activity, buffers: &mut [Vec<f32>], h: f32) {
+fn substep(m: &mut Membrane, a: &Activity, buffers: &mut [(Vec<f32>, RowScratch)], h: f32) {
     let (rows, cols) = (m.rows, m.cols);
     {
         let whole = Whole {
@@ -532,9 +560,10 @@ fn substep(m: &mut Membrane, a: &Activity, buffers: &mut [Vec<f32>], h: f32) {
             cols,
         };
         let mm = &*m;
-        buffers.par_iter_mut().zip(a.runs.par_iter()).for_each_init(
-            RowScratch::default,
-            |sc, (buf, &span)| {
+        buffers
+            .par_iter_mut()
+            .zip(a.runs.par_iter())
+            .for_each(|((buf, sc), &span)| {
                 mm.vectorized(TilePass {
                     m: mm,
                     whole: &whole,
@@ -543,10 +572,9 @@ fn substep(m: &mut Membrane, a: &Activity, buffers: &mut [Vec<f32>], h: f32) {
                     span,
                     h,
                 })
-            },
-        );
+            });
     }
-    for (buf, &([r0, r1], [c0, c1])) in buffers.iter().zip(&a.runs) {
+    for ((buf, _), &([r0, r1], [c0, c1])) in buffers.iter().zip(&a.runs) {
         let w = c1 - c0;
         for i in r0..r1 {
             for l in 0..LAYERS {
@@ -568,27 +596,57 @@ fn settle(m: &mut Membrane, a: &mut Activity, dt: f32) {
     let p = a.params;
     let mut to_wake = Vec::new();
     let list = a.list.clone();
+    let mut now = Vec::new();
     for &t in &list {
         let t = t as usize;
         let ([r0, r1], [c0, c1]) = a.span(t, rows, cols);
         let mut fastest = 0.0f32;
         // How far the tile's edge nodes have moved from where they were when it woke.
         let mut edge = 0.0f32;
+        let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+        let w = c1 - c0;
+        now.resize(3 * w, 0.0);
         for l in 0..LAYERS {
             for i in r0..r1 {
                 let b = l * rows + i;
-                for j in c0..c1 {
-                    let now = m.position(b * cols + j) - anchor(m, a, l, i, j);
-                    let at = |c: usize| (b * 3 + c) * cols + j;
-                    let get = |v: &[f32]| Vec3::new(v[at(0)], v[at(1)], v[at(2)]);
-                    let speed = (now - get(&a.last)).length() / dt;
-                    for c in 0..3 {
-                        a.last[at(c)] = now[c];
+                // Each node's offset from its anchor now, by component.
+                for c in 0..3 {
+                    let out = &mut now[c * w..(c + 1) * w];
+                    anchors_into(m, a, l, i, [c0, c1], c, out);
+                    let x = &m.state.data[(b * 6 + c) * cols + c0..(b * 6 + c) * cols + c1];
+                    for (o, x) in out.iter_mut().zip(x) {
+                        *o = x - *o;
                     }
-                    fastest = fastest.max(speed);
-                    if i == r0 || i + 1 == r1 || j == c0 || j + 1 == c1 {
-                        edge = edge.max((now - get(&a.offset)).length());
+                }
+                let border_row = i == r0 || i + 1 == r1;
+                let row3 = |c: usize| (b * 3 + c) * cols + c0..(b * 3 + c) * cols + c1;
+                let (n0, rest) = now.split_at(w);
+                let (n1, n2) = rest.split_at(w);
+                let (l0, l1, l2) = (&a.last[row3(0)], &a.last[row3(1)], &a.last[row3(2)]);
+                for j in 0..w {
+                    let d = Vec3::new(n0[j] - l0[j], n1[j] - l1[j], n2[j] - l2[j]);
+                    fastest = fastest.max(d.length() / dt);
+                }
+                let (o0, o1, o2) = (&a.offset[row3(0)], &a.offset[row3(1)], &a.offset[row3(2)]);
+                let moved =
+                    |j: usize| Vec3::new(n0[j] - o0[j], n1[j] - o1[j], n2[j] - o2[j]).length();
+                if border_row {
+                    for j in 0..w {
+                        edge = edge.max(moved(j));
                     }
+                } else {
+                    edge = edge.max(moved(0)).max(moved(w - 1));
+                }
+                let x = |c: usize| &m.state.data[(b * 6 + c) * cols + c0..(b * 6 + c) * cols + c1];
+                let (x0, x1, x2) = (x(0), x(1), x(2));
+                for j in 0..w {
+                    let p = Vec3::new(x0[j], x1[j], x2[j]);
+                    lo = lo.min(p);
+                    hi = hi.max(p);
+                }
+                for c in 0..3 {
+                    a.last[(b * 3 + c) * cols + c0..(b * 3 + c) * cols + c1]
+                        .copy_from_slice(&now[c * w..(c + 1) * w]);
                 }
             }
         }
@@ -600,7 +658,7 @@ fn settle(m: &mut Membrane, a: &mut Activity, dt: f32) {
         } else {
             a.still_s[t] = 0.0;
         }
-        a.boxes[t] = tile_box(m, a, t);
+        a.boxes[t] = (lo, hi);
         if a.still_s[t] >= p.sleep_after_s {
             // Asleep where it is: its offsets now hold it there.
             let ([r0, r1], [c0, c1]) = a.span(t, rows, cols);

@@ -104,7 +104,7 @@ impl Membrane {
             .map_init(RowScratch::default, |sc, &([r0, r1], [c0, c1])| {
                 let mut part = Vec::with_capacity((r1 - r0) * (c1 - c0));
                 for i in r0..r1 {
-                    row(m, &whole, i, c0..c1, i == r0, sc);
+                    row::<_, true>(m, &whole, i, c0..c1, i == r0, sc);
                     // Layer 0's row `i` is block `i`: the kernel's sum holds the attachment's
                     // force, `-k (x - target)`: take it out.
                     let at = i * 4 * cols;

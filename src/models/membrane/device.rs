@@ -160,6 +160,15 @@ fn sync_pass(
 
 impl OnDevice {
     fn new(gpu: &Gpu, m: &Membrane) -> Result<OnDevice, RenderError> {
+        if let Some(a) = &m.activity
+            && (a.params.tile_rows, a.params.tile_cols) != (TILE_ROWS, TILE_COLS)
+        {
+            return Err(RenderError::Unsupported(format!(
+                "its kernels step tiles of {TILE_ROWS} x {TILE_COLS} nodes, this membrane's \
+                 active set has tiles of {} x {}",
+                a.params.tile_rows, a.params.tile_cols
+            )));
+        }
         let k = MembraneGpu::new(gpu, m)?;
         let tiles = m.activity.as_ref().map_or(1, |a| a.awake.len()).max(1);
         let module = compute::compile(&gpu.device, "shaders/membrane.wgsl", super::gpu::SHADER)?;

@@ -43,6 +43,7 @@ struct Run<'a> {
 }
 
 impl<'a> Run<'a> {
+    #[inline(always)]
     fn of(row: &'a [f32], cols: usize, from: usize, len: usize) -> Run<'a> {
         let part = |c: usize| &row[c * cols + from..c * cols + from + len];
         Run {
@@ -78,8 +79,11 @@ fn springs(a: &Run, b: &Run, k: &[f32], rest: &[f32], beta: f32, out: &mut [f32]
     }
 }
 
+/// Lanes of the widest vector unit the kernel is compiled for (AVX2: 8 `f32`).
+const LANES: usize = 8;
+
 /// Per-thread buffers of the row kernel.
-#[derive(Default)]
+#[derive(Debug, Clone, Default)]
 pub(super) struct RowScratch {
     /// Forces of the current row: `[layer][component][column]`.
     pub f: Vec<f32>,
@@ -123,8 +127,12 @@ pub(super) fn own_acceleration(p: &super::MembraneParams, c: usize, v: f32) -> f
 /// [`own_acceleration`]). Nodes outside `span` are read, not written. `first` says that row
 /// `i - 1` was not the last row computed with `sc` over the same span (so its springs to this
 /// row are recomputed rather than carried).
+///
+/// With `LAYER0`, its forces on layer 0 alone (the other layers' rows of `sc.f` are then left
+/// meaningless): the same terms summed in the same order, without the work that only the
+/// other layers need.
 #[inline(always)]
-pub(super) fn row<R: Rows>(
+pub(super) fn row<R: Rows, const LAYER0: bool>(
     m: &Membrane,
     state: &R,
     i: usize,
@@ -132,6 +140,13 @@ pub(super) fn row<R: Rows>(
     first: bool,
     sc: &mut RowScratch,
 ) {
+    // With `LAYER0`, the in-layer springs, the external forces and the attachments of layer
+    // 0 only, and its link to layer 1; the tethers of layers 1 and 2 all (they pull on it).
+    let (in_plane, links, attached) = if LAYER0 {
+        (1, 1, 1)
+    } else {
+        (LAYERS, LAYERS - 1, 2)
+    };
     let (rows, cols) = (m.rows, m.cols);
     let (c0, c1) = (span.start, span.end.min(cols));
     if c0 >= c1 {
@@ -141,9 +156,18 @@ pub(super) fn row<R: Rows>(
     if sc.s.len() != 3 * cols {
         sc.fit(cols);
     }
-    let params = |b: usize, f: usize| {
-        let at = (b * field::COUNT + f) * cols;
-        &m.rows_data[at + c0..at + c1]
+    // The springs of a family go over whole vector lanes where the row has the columns: the
+    // extra lanes read real nodes further along the row and their results are never read, so
+    // a short span (an active set's run) pays no scalar tail, eight times dearer an element.
+    let wide = |from: usize, n: usize| {
+        let up = n.div_ceil(LANES) * LANES;
+        if from + up <= cols { up } else { n }
+    };
+    let wx = wide(c0, w);
+    // `n` of a family's parameters from column `from`.
+    let params_n = |b: usize, f: usize, from: usize, n: usize| {
+        let at = (b * field::COUNT + f) * cols + from;
+        &m.rows_data[at..at + n]
     };
     let around_at = |b: usize, f: usize, j: usize| m.rows_data[(b * field::COUNT + f) * cols + j];
     // The springs from the row before were carried: the carry becomes this row's forces (the
@@ -153,22 +177,22 @@ pub(super) fn row<R: Rows>(
     }
     let RowScratch { f, carry, s } = sc;
     // `f`, `carry` and `s` hold a run of `cols` per component; this span is `c0..c1` of it.
-    for l in 0..LAYERS {
+    for l in 0..in_plane {
         let b = l * rows + i;
         let fl = &mut f[l * 3 * cols..(l + 1) * 3 * cols];
         let cl = &mut carry[l * 3 * cols..(l + 1) * 3 * cols];
         let here_row = state.get(l, i);
-        let here = Run::of(here_row, cols, c0, w);
+        let here = Run::of(here_row, cols, c0, wx);
         // The spring from the row before.
         if i == 0 {
             for c in 0..3 {
                 fl[c * cols + c0..c * cols + c1].fill(0.0);
             }
         } else if first {
-            let before = Run::of(state.get(l, i - 1), cols, c0, w);
+            let before = Run::of(state.get(l, i - 1), cols, c0, wx);
             let (k, rest) = (
-                params(b - 1, field::K[ALONG]),
-                params(b - 1, field::REST[ALONG]),
+                params_n(b - 1, field::K[ALONG], c0, wx),
+                params_n(b - 1, field::REST[ALONG], c0, wx),
             );
             springs(&before, &here, k, rest, m.beta[b - 1][ALONG], s, cols);
             for c in 0..3 {
@@ -182,12 +206,16 @@ pub(super) fn row<R: Rows>(
         // two edges (to the columns beside it, or round the ring) on their own.
         let beta = m.beta[b][AROUND];
         if w > 1 {
-            let (k, rest) = (params(b, field::K[AROUND]), params(b, field::REST[AROUND]));
-            let (a, bb) = (
-                Run::of(here_row, cols, c0, w - 1),
-                Run::of(here_row, cols, c0 + 1, w - 1),
+            let n = wide(c0 + 1, w - 1);
+            let (k, rest) = (
+                params_n(b, field::K[AROUND], c0, n),
+                params_n(b, field::REST[AROUND], c0, n),
             );
-            springs(&a, &bb, &k[..w - 1], rest, beta, s, cols);
+            let (a, bb) = (
+                Run::of(here_row, cols, c0, n),
+                Run::of(here_row, cols, c0 + 1, n),
+            );
+            springs(&a, &bb, k, rest, beta, s, cols);
             for c in 0..3 {
                 // Node j gets spring j and loses spring j - 1.
                 let fc = &mut fl[c * cols + c0..c * cols + c1];
@@ -220,8 +248,11 @@ pub(super) fn row<R: Rows>(
         }
         // Along: to the next row, whose share is carried.
         if i + 1 < rows {
-            let next = Run::of(state.get(l, i + 1), cols, c0, w);
-            let (k, rest) = (params(b, field::K[ALONG]), params(b, field::REST[ALONG]));
+            let next = Run::of(state.get(l, i + 1), cols, c0, wx);
+            let (k, rest) = (
+                params_n(b, field::K[ALONG], c0, wx),
+                params_n(b, field::REST[ALONG], c0, wx),
+            );
             springs(&here, &next, k, rest, m.beta[b][ALONG], s, cols);
             for c in 0..3 {
                 let r = c * cols + c0..c * cols + c1;
@@ -234,11 +265,14 @@ pub(super) fn row<R: Rows>(
         }
     }
     // Links between layers at this row.
-    for l in 0..LAYERS - 1 {
+    for l in 0..links {
         let b = l * rows + i;
-        let a = Run::of(state.get(l, i), cols, c0, w);
-        let bb = Run::of(state.get(l + 1, i), cols, c0, w);
-        let (k, rest) = (params(b, field::K[LINK]), params(b, field::REST[LINK]));
+        let a = Run::of(state.get(l, i), cols, c0, wx);
+        let bb = Run::of(state.get(l + 1, i), cols, c0, wx);
+        let (k, rest) = (
+            params_n(b, field::K[LINK], c0, wx),
+            params_n(b, field::REST[LINK], c0, wx),
+        );
         springs(&a, &bb, k, rest, m.beta[b][LINK], s, cols);
         let (lower, upper) = f.split_at_mut((l + 1) * 3 * cols);
         let fa = &mut lower[l * 3 * cols..];
@@ -257,20 +291,23 @@ pub(super) fn row<R: Rows>(
     // layer-0 and layer-3 nodes in proportion to where on the line it is.
     for l in 1..LAYERS - 1 {
         let b = l * rows + i;
-        let (k, wt) = (params(b, field::SHEAR_K), params(b, field::SHEAR_W));
+        let (k, wt) = (
+            params_n(b, field::SHEAR_K, c0, wx),
+            params_n(b, field::SHEAR_W, c0, wx),
+        );
         let (x0, xl, x3) = (state.get(0, i), state.get(l, i), state.get(LAYERS - 1, i));
-        fn px(r: &[f32], c: usize, cols: usize, c0: usize, c1: usize) -> &[f32] {
-            &r[c * cols + c0..c * cols + c1]
+        fn px(r: &[f32], c: usize, cols: usize, c0: usize, n: usize) -> &[f32] {
+            &r[c * cols + c0..c * cols + c0 + n]
         }
-        let px = |r, c| px(r, c, cols, c0, c1);
+        let px = |r, c| px(r, c, cols, c0, wx);
         let (ax, ay, az) = (px(x0, 0), px(x0, 1), px(x0, 2));
         let (bx, by, bz) = (px(x3, 0), px(x3, 1), px(x3, 2));
         let (nx, ny, nz) = (px(xl, 0), px(xl, 1), px(xl, 2));
         let (sx, rest_s) = s.split_at_mut(cols);
         let (sy, sz) = rest_s.split_at_mut(cols);
-        let (sx, sy, sz) = (&mut sx[..w], &mut sy[..w], &mut sz[..w]);
-        let (k, wt) = (&k[..w], &wt[..w]);
-        for j in 0..w {
+        let (sx, sy, sz) = (&mut sx[..wx], &mut sy[..wx], &mut sz[..wx]);
+        let (k, wt) = (&k[..wx], &wt[..wx]);
+        for j in 0..wx {
             let (ux, uy, uz) = (bx[j] - ax[j], by[j] - ay[j], bz[j] - az[j]);
             let len2 = ux * ux + uy * uy + uz * uz;
             let inv2 = 1.0 / if len2 > 1e-30 { len2 } else { 1e-30 };
@@ -301,7 +338,10 @@ pub(super) fn row<R: Rows>(
     }
     // The attachments (a node's point damping and gravity are its own: see
     // [`own_acceleration`]).
-    for (slot, l) in [(0usize, 0usize), (1, LAYERS - 1)] {
+    for (slot, l) in [(0usize, 0usize), (1, LAYERS - 1)]
+        .into_iter()
+        .take(attached)
+    {
         let x = state.get(l, i);
         let at = (slot * rows + i) * 4 * cols;
         let attach = &m.attach[at..at + 4 * cols];
@@ -317,7 +357,7 @@ pub(super) fn row<R: Rows>(
             }
         }
     }
-    for l in 0..LAYERS {
+    for l in 0..in_plane {
         let base = (l * rows + i) * cols;
         // External forces on this row of this layer, inside the span.
         let from = m.external.partition_point(|e| (e.0 as usize) < base + c0);

@@ -128,6 +128,7 @@ fn sleepy(rows: usize, cols: usize) -> Membrane {
     let mut p = super::tests::params(Integrator::Symplectic);
     p.gravity = Vec3::ZERO;
     p.spring_damping_ratio = 0.5;
+    p.link_damping_ratio = 0.5;
     p.damping_per_s = 20.0;
     let length = 0.032 * rows as f32 / 128.0;
     let shape = super::tests::tube(rows, cols, length, [0.01, 0.012, 0.013, 0.016]);
@@ -243,4 +244,24 @@ fn on_one_adapter_the_active_set_on_the_gpu_gives_the_same_bytes() {
     let first = run();
     assert_eq!(first, run());
     assert_ne!(first, sleepy(48, 64).state_hash(), "it moved");
+}
+
+#[test]
+fn the_device_refuses_tiles_its_kernels_do_not_step_with_a_clear_error() {
+    let gpu = device();
+    let mut m = tube(16, 32);
+    m.use_active_set(ActivityParams {
+        tile_rows: 4,
+        tile_cols: 4,
+        ..ActivityParams::default()
+    });
+    let e = m.use_gpu(&gpu).expect_err("4 x 4 tiles refused");
+    assert!(matches!(e, crate::gpu::RenderError::Unsupported(_)), "{e}");
+    let text = e.to_string();
+    assert!(text.contains("8 x 16") && text.contains("4 x 4"), "{text}");
+    // It stays on the CPU, and steps there.
+    assert!(m.gpu_adapter().is_none());
+    m.wake(0);
+    m.advance(1e-3, 0.9);
+    assert!(crate::sim::TissueModel::state_is_finite(&m));
 }

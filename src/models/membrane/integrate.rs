@@ -65,7 +65,7 @@ fn forces_all(m: &Membrane, state: &[f32], f: &mut Vec<f32>) {
         .for_each_init(RowScratch::default, |sc, (chunk, out)| {
             let (r0, r1) = chunk_rows(chunk, rows);
             for i in r0..r1 {
-                forces::row(m, &whole, i, 0..cols, i == r0, sc);
+                forces::row::<_, false>(m, &whole, i, 0..cols, i == r0, sc);
                 for (l, o) in out.iter_mut().enumerate() {
                     let b = l * rows + i;
                     let (mass, row) = (&m.mass[b * cols..(b + 1) * cols], whole.get(l, i));
@@ -144,7 +144,7 @@ impl pulp::WithSimd for ChunkPass<'_, '_, '_, '_> {
         let (r0, r1) = (view.r0, (view.r0 + CHUNK_ROWS).min(rows));
         let mut later = Vec::new();
         for i in r0..r1 {
-            forces::row(m, &*view, i, 0..m.cols, i == r0, sc);
+            forces::row::<_, false>(m, &*view, i, 0..m.cols, i == r0, sc);
             for l in 0..LAYERS {
                 if i == r0 || i + 1 == r1 {
                     let mut row = view.get(l, i).to_vec();

@@ -37,6 +37,8 @@ mod integrate;
 mod model;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tile_tests;
 
 use glam::Vec3;
 
@@ -83,8 +85,12 @@ pub struct MembraneParams {
     pub link_modulus_pa: [f32; LAYERS - 1],
     /// Eq 4's point damping D as a rate, 1/s (force -D m v).
     pub damping_per_s: f32,
-    /// Damping along each spring, as a fraction of critical for its row's mean node mass.
+    /// Damping along each spring within a layer, as a fraction of critical for the grid's
+    /// highest mode at its row's mean node mass.
     pub spring_damping_ratio: f32,
+    /// Damping along each link between layers, as a fraction of critical for a layer
+    /// bouncing on its link.
+    pub link_damping_ratio: f32,
     /// Stiffness per unit area holding layer 0 to its targets and layer 3 to its rest, Pa/m.
     pub attach_pa_per_m: f32,
     /// Eq 5's residual strain of the tissue freed by a cut.
@@ -431,10 +437,15 @@ impl Membrane {
     /// k_b) / m` (`k_a`, `k_b`: the springs around and along) and is damped at `beta omega /
     /// 2`, so `beta = zeta sqrt(m / (k_a + k_b))` damps it at `zeta` of critical (the modes a
     /// trainee sees, centimetres long, are slower and their point damping `D` rules them).
-    /// A link's `beta = 2 zeta sqrt(m / k_link)` damps a layer bouncing on its link at
-    /// `zeta` of critical.
+    /// A link's `beta = 2 zeta_link sqrt(m / k_link)` damps a layer bouncing on its link at
+    /// `zeta_link` of critical. A sheet's `beta` grows with the spacing at one `zeta` (`m`
+    /// with the area, `k` not): the tissue's viscosity is `beta E`, so a grid `s` times
+    /// coarser keeps the finer grid's tissue with `zeta / s`; a link's does not change.
     fn set_spring_damping(&mut self) {
-        let z = self.params.spring_damping_ratio;
+        let (z, zl) = (
+            self.params.spring_damping_ratio,
+            self.params.link_damping_ratio,
+        );
         let cols = self.cols;
         for b in 0..LAYERS * self.rows {
             let nodes = b * cols..(b + 1) * cols;
@@ -458,7 +469,7 @@ impl Membrane {
                 sheet,
                 sheet,
                 if link > 0.0 {
-                    2.0 * z * (mass / link).sqrt()
+                    2.0 * zl * (mass / link).sqrt()
                 } else {
                     0.0
                 },
@@ -705,6 +716,7 @@ fn check_params(p: &MembraneParams) -> Result<(), MembraneError> {
     }
     non_negative("damping", p.damping_per_s)?;
     non_negative("spring damping ratio", p.spring_damping_ratio)?;
+    non_negative("link damping ratio", p.link_damping_ratio)?;
     non_negative("attachment stiffness", p.attach_pa_per_m)?;
     if !(0.0..0.9).contains(&p.residual_strain) {
         return Err(MembraneError::BadParameter {

@@ -37,6 +37,7 @@ pub(super) fn params(integrator: Integrator) -> MembraneParams {
         link_modulus_pa: [2e3; LAYERS - 1],
         damping_per_s: 5.0,
         spring_damping_ratio: 0.05,
+        link_damping_ratio: 0.05,
         attach_pa_per_m: 1e6,
         residual_strain: 0.1,
         gravity: Vec3::new(0.0, -9.81, 0.0),
@@ -55,6 +56,7 @@ fn a_stretched_spring_pulls_as_eqs_3_and_4_say() {
     p.gravity = Vec3::ZERO;
     p.damping_per_s = 0.0;
     p.spring_damping_ratio = 0.0;
+    p.link_damping_ratio = 0.0;
     let mut m = Membrane::new(sheet(3, 3, 0.01, 0.005), p).expect("membrane");
     // Move the middle node of layer 1 (row 1, column 1) 2 mm along +x: its along-springs
     // to rows 0 and 2 change length by +2 and -2 mm, its ring springs and links tilt.
@@ -143,6 +145,7 @@ fn the_explicit_limit_separates_stable_steps_from_unstable_ones() {
         let mut p = params(integrator);
         p.gravity = Vec3::ZERO;
         p.spring_damping_ratio = zeta;
+        p.link_damping_ratio = zeta;
         let limit = Membrane::new(tube(16, 24, 0.04, [0.01, 0.011, 0.012, 0.015]), p)
             .expect("membrane")
             .explicit_step_limit();
@@ -225,14 +228,20 @@ fn bad_shapes_and_parameters_are_refused_with_a_reason() {
 /// A 128 x 256 tube at rest with the active set on (fat everywhere, no gravity): nodes a
 /// quarter of a millimetre apart, as the paper's grid.
 fn sleepy_tube() -> Membrane {
+    sleepy_tube_with(ActivityParams::default())
+}
+
+/// [`sleepy_tube`] with the active set's `activity`.
+pub(super) fn sleepy_tube_with(activity: ActivityParams) -> Membrane {
     let mut p = params(Integrator::Symplectic);
     p.gravity = Vec3::ZERO;
     // Tissue is strongly damped: half of critical along the springs.
     p.spring_damping_ratio = 0.5;
+    p.link_damping_ratio = 0.5;
     p.damping_per_s = 20.0;
     let mut m =
         Membrane::new(tube(128, 256, 0.032, [0.01, 0.012, 0.013, 0.016]), p).expect("membrane");
-    m.use_active_set(ActivityParams::default());
+    m.use_active_set(activity);
     m
 }
 

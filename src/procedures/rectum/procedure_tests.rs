@@ -65,8 +65,44 @@ fn the_shipped_scenario_is_the_papers_grid_and_bad_values_name_their_key() {
     assert_eq!(e.key, "anatomy.pelvis_radius_m");
     let e = bad("rows = 600", "rows = 1000");
     assert_eq!(e.key, "anatomy.rows");
-    let e = bad("cut_radius_m = 0.002", "cut_radius_m = -1.0");
-    assert_eq!(e.key, "tools.cut_radius_m");
+    for (from, to, key) in [
+        (
+            "cut_radius_m = 0.002",
+            "cut_radius_m = -1.0",
+            "tools.cut_radius_m",
+        ),
+        ("tile_rows = 8 ", "tile_rows = 1 ", "membrane.tile_rows"),
+        ("tile_cols = 16", "tile_cols = 100", "membrane.tile_cols"),
+        (
+            "link_damping_ratio = 0.5",
+            "link_damping_ratio = -0.1",
+            "membrane.link_damping_ratio",
+        ),
+    ] {
+        assert_eq!(bad(from, to).key, key);
+    }
+    // Files from before the optional keys: the links' damping 0.5, tiles of 8 x 16.
+    let old = INFO
+        .scenario
+        .lines()
+        .filter(|l| !l.starts_with("tile_") && !l.starts_with("link_damping_ratio"))
+        .collect::<Vec<_>>()
+        .join("\n");
+    let p = Scenario::parse("old.toml", &old)
+        .expect("an older file")
+        .scene_params();
+    assert_eq!(p.membrane.link_damping_ratio, 0.5);
+    assert_eq!((p.activity.tile_rows, p.activity.tile_cols), (8, 16));
+    // The CPU preset's tiles reach the scene.
+    let (file, text) = INFO
+        .cpu_preset_scenario()
+        .expect("a preset")
+        .expect("valid");
+    let p = Scenario::parse(&file, &text)
+        .expect("preset")
+        .scene_params();
+    assert_eq!((p.activity.tile_rows, p.activity.tile_cols), (4, 4));
+    assert_eq!(p.membrane.spring_damping_ratio, 0.125);
 }
 
 #[test]

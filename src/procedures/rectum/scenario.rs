@@ -39,7 +39,28 @@ pub struct MembraneTable {
     pub plane_modulus_pa: f32,
     pub damping_per_s: f32,
     pub spring_damping_ratio: f32,
+    /// Optional (files from before it have none: the links then take 0.5).
+    #[serde(default = "link_damping_default")]
+    pub link_damping_ratio: f32,
     pub residual_strain: f32,
+    /// Rows of a tile of the active set (along the bowel).
+    #[serde(default = "tile_rows_default")]
+    pub tile_rows: u32,
+    /// Columns of a tile of the active set (around the bowel).
+    #[serde(default = "tile_cols_default")]
+    pub tile_cols: u32,
+}
+
+fn link_damping_default() -> f32 {
+    0.5
+}
+
+fn tile_rows_default() -> u32 {
+    crate::models::membrane::TILE_ROWS as u32
+}
+
+fn tile_cols_default() -> u32 {
+    crate::models::membrane::TILE_COLS as u32
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
@@ -194,7 +215,17 @@ impl Params for MembraneTable {
             "",
             0.5,
             (0.0, 2.0),
-            "damping along the springs, as a fraction of critical at the grid's highest mode",
+            "damping along the springs within a layer, as a fraction of critical at the \
+             grid's highest mode (a grid s times coarser keeps the tissue's viscosity with 1/s \
+             of it)",
+        ),
+        ParamSpec::new(
+            "link_damping_ratio",
+            "",
+            0.5,
+            (0.0, 2.0),
+            "damping along the links between layers, as a fraction of critical for a layer \
+             bouncing on its links (the same tissue at any spacing)",
         ),
         ParamSpec::new(
             "residual_strain",
@@ -203,6 +234,23 @@ impl Params for MembraneTable {
             (0.0, 0.5),
             "eq 5's residual strain: a freed sheet shrinks by this fraction (the paper's 0.1)",
         ),
+        ParamSpec::new(
+            "tile_rows",
+            "nodes",
+            8.0,
+            (2.0, 32.0),
+            "rows of a tile of the active set (only tiles near the instruments step; the GPU's \
+             kernels take 8 x 16)",
+        )
+        .whole(),
+        ParamSpec::new(
+            "tile_cols",
+            "nodes",
+            16.0,
+            (4.0, 64.0),
+            "columns of a tile of the active set",
+        )
+        .whole(),
     ];
 
     crate::param_fields!(
@@ -213,7 +261,10 @@ impl Params for MembraneTable {
         plane_modulus_pa,
         damping_per_s,
         spring_damping_ratio,
-        residual_strain
+        link_damping_ratio,
+        residual_strain,
+        tile_rows,
+        tile_cols
     );
 }
 
@@ -379,11 +430,18 @@ impl Scenario {
         membrane.link_modulus_pa = [m.fat_modulus_pa, m.plane_modulus_pa, m.fat_modulus_pa];
         membrane.damping_per_s = m.damping_per_s;
         membrane.spring_damping_ratio = m.spring_damping_ratio;
+        membrane.link_damping_ratio = m.link_damping_ratio;
         membrane.residual_strain = m.residual_strain;
         membrane.integrator = self.integrator("").unwrap_or(Integrator::Symplectic);
         let k = &self.task;
+        let activity = crate::models::membrane::ActivityParams {
+            tile_rows: m.tile_rows as usize,
+            tile_cols: m.tile_cols as usize,
+            ..crate::models::membrane::ActivityParams::default()
+        };
         SceneParams {
             membrane,
+            activity,
             hook_stiffness_pa_per_m: self.tools.hook_stiffness_pa_per_m,
             cut_radius_m: self.tools.cut_radius_m,
             target_rows: (k.target_from, k.target_to),

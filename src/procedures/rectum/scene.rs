@@ -55,6 +55,7 @@ pub fn membrane_params() -> MembraneParams {
         link_modulus_pa: [2e3, 1e3, 2e3],
         damping_per_s: 20.0,
         spring_damping_ratio: 0.5,
+        link_damping_ratio: 0.5,
         attach_pa_per_m: 1e7,
         residual_strain: 0.1,
         gravity: Vec3::ZERO,
