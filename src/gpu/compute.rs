@@ -97,9 +97,40 @@ pub fn uniform(gpu: &Gpu, label: &str, data: &[u8]) -> wgpu::Buffer {
 /// Copies `bytes` bytes of `buffer` from its start into a mappable buffer and reads them
 /// (waiting for everything submitted before).
 pub fn read(gpu: &Gpu, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>, RenderError> {
+    let mut all = read_all(gpu, &[(buffer, bytes)])?;
+    Ok(all.pop().unwrap_or_default())
+}
+
+/// A bind group of `pipeline`'s own layout (group 0, as the shader declares it) over
+/// `entries`: each a binding and the whole of a buffer.
+pub fn bind(
+    gpu: &Gpu,
+    pipeline: &wgpu::ComputePipeline,
+    label: &str,
+    entries: &[(u32, &wgpu::Buffer)],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry<'_>> = entries
+        .iter()
+        .map(|&(binding, buffer)| wgpu::BindGroupEntry {
+            binding,
+            resource: buffer.as_entire_binding(),
+        })
+        .collect();
+    gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &entries,
+    })
+}
+
+/// Copies the first bytes of each `(buffer, bytes)` into one mappable buffer in one
+/// submission and reads them (waiting for everything submitted before): one round trip for
+/// all.
+pub fn read_all(gpu: &Gpu, parts: &[(&wgpu::Buffer, u64)]) -> Result<Vec<Vec<u8>>, RenderError> {
+    let total: u64 = parts.iter().map(|p| p.1).sum();
     let staging = gpu.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("compute readback"),
-        size: bytes.max(4),
+        size: total.max(4),
         usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
         mapped_at_creation: false,
     });
@@ -108,10 +139,22 @@ pub fn read(gpu: &Gpu, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>, Ren
         .create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("compute readback"),
         });
-    encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, bytes);
+    let mut at = 0;
+    for &(buffer, bytes) in parts {
+        if bytes > 0 {
+            encoder.copy_buffer_to_buffer(buffer, 0, &staging, at, bytes);
+        }
+        at += bytes;
+    }
     gpu.queue.submit([encoder.finish()]);
-    let out = map_read(gpu, &staging, bytes)?;
+    let all = map_read(gpu, &staging, total.max(4))?;
     gpu.check()?;
+    let mut out = Vec::with_capacity(parts.len());
+    let mut at = 0usize;
+    for &(_, bytes) in parts {
+        out.push(all[at..at + bytes as usize].to_vec());
+        at += bytes as usize;
+    }
     Ok(out)
 }
 

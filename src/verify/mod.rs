@@ -19,6 +19,7 @@ mod forces_cases;
 pub mod hertz_cases;
 mod membrane_cases;
 pub mod particle_cases;
+mod particle_solver_cases;
 mod skeleton_cases;
 pub mod softbody_cases;
 pub mod softbody_contact_cases;
@@ -105,6 +106,7 @@ pub fn cases() -> Vec<Case> {
     all.extend(cosserat_cases::cases());
     all.extend(membrane_cases::cases());
     all.extend(particle_cases::cases());
+    all.extend(particle_solver_cases::cases());
     all.extend(bem_cases::cases());
     all.extend(skeleton_cases::cases());
     all
@@ -113,7 +115,10 @@ pub fn cases() -> Vec<Case> {
 /// The cases of the models' GPU compute path (`vesalius verify --compute gpu`): the same
 /// references as their CPU cases, stepped by the GPU kernels.
 pub fn gpu_cases() -> Vec<Case> {
-    membrane_cases::gpu_cases()
+    let mut all = membrane_cases::gpu_cases();
+    all.extend(particle_cases::gpu_cases());
+    all.extend(particle_solver_cases::gpu_cases());
+    all
 }
 
 /// The GPU path's cases of the models, then each procedure's of `catalog` (`vesalius verify
@@ -408,7 +413,8 @@ mod tests {
         // rho g H^2 / (2 E).
         for ny in [20usize, 30] {
             let (sag, continuum) =
-                particle_cases::column_sag_of(0.0035, 1060.0, 5000.0, ny, 2).expect("clusters");
+                particle_cases::column_sag_of(0.0035, 1060.0, 5000.0, ny, 2, false)
+                    .expect("clusters");
             assert!(
                 (sag / continuum - 1.0).abs() < 0.1,
                 "{ny} steps: {sag} m vs {continuum} m"

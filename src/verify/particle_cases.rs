@@ -64,16 +64,14 @@ pub(super) fn cases() -> Vec<Case> {
 
 /// A column of 10 x `ny` x 10 particles `h` metres apart of a tissue of density `rho`
 /// (kg/m^3) and modulus `e` (Pa) (the shipped liver: 3.5 mm, 1060 kg/m^3, 5 kPa) in clusters
-/// every 3 lattice steps reaching 2.5, pinned along its top layer, 3 s under gravity with
-/// `sweeps` a step, damped: the mean drop of its bottom layer (m) and the continuum's
-/// `rho g H^2 / (2 E)`; None if the clusters could not be built.
-pub(crate) fn column_sag_of(
+/// every 3 lattice steps reaching 2.5, pinned along its top layer: the particles, their
+/// clusters and the bottom layer's particles; None if the clusters could not be built.
+pub(crate) fn column(
     h: f32,
     rho: f32,
     e: f32,
     ny: usize,
-    sweeps: usize,
-) -> Option<(f32, f32)> {
+) -> Option<(Particles, ShapeMatching, Vec<usize>)> {
     let mut p = Particles::new();
     for a in 0..10 {
         for b in 0..ny {
@@ -86,7 +84,7 @@ pub(crate) fn column_sag_of(
     let all: Vec<u32> = (0..p.len() as u32).collect();
     let r = 2.5 * h;
     let specs = lattice_clusters(&p.x, &all, h, 3, r, frequency_for(e, rho, r));
-    let mut s = ShapeMatching::new(&p, specs).ok()?;
+    let s = ShapeMatching::new(&p, specs).ok()?;
     for i in 0..p.len() {
         if p.x[i].y == 0.0 {
             p.pin(i);
@@ -95,18 +93,68 @@ pub(crate) fn column_sag_of(
     let bottom: Vec<usize> = (0..p.len())
         .filter(|&i| p.x[i].y < -(ny as f32 - 1.5) * h)
         .collect();
-    let mean = |p: &Particles| bottom.iter().map(|&i| p.x[i].y).sum::<f32>() / bottom.len() as f32;
-    let y0 = mean(&p);
-    for _ in 0..COLUMN_STEPS {
-        p.predict(DT, Vec3::new(0.0, -G, 0.0));
-        s.begin_step();
-        for _ in 0..sweeps {
-            s.project(&mut p, DT);
-        }
-        p.finish(DT, 20.0);
-    }
+    Some((p, s, bottom))
+}
+
+/// The mean height of particles `of`, m.
+fn mean_y(p: &Particles, of: &[usize]) -> f32 {
+    of.iter().map(|&i| p.x[i].y).sum::<f32>() / of.len().max(1) as f32
+}
+
+/// The continuum's drop of the column's bottom, `rho g H^2 / (2 E)`, m.
+fn continuum_sag(h: f32, rho: f32, e: f32, ny: usize) -> f32 {
     let hh = (ny - 1) as f32 * h;
-    Some((y0 - mean(&p), rho * G * hh * hh / (2.0 * e)))
+    rho * G * hh * hh / (2.0 * e)
+}
+
+/// The column's point damping while it sags, 1/s.
+pub(crate) const COLUMN_DAMPING_PER_S: f32 = 20.0;
+
+/// [`column`] 3 s under gravity with `sweeps` a step, damped, on the CPU or (`gpu`) by the
+/// GPU's kernels on the first adapter (250 steps a submission): the mean drop of its bottom
+/// layer (m) and the continuum's `rho g H^2 / (2 E)`; None if the clusters could not be built,
+/// or there is no adapter or it refused them.
+pub(crate) fn column_sag_of(
+    h: f32,
+    rho: f32,
+    e: f32,
+    ny: usize,
+    sweeps: usize,
+    gpu: bool,
+) -> Option<(f32, f32)> {
+    use crate::models::particles::gpu::{Constraints, ParticlesGpu, Stepping};
+    let (mut p, mut s, bottom) = column(h, rho, e, ny)?;
+    let y0 = mean_y(&p, &bottom);
+    let gravity = Vec3::new(0.0, -G, 0.0);
+    if gpu {
+        let device = crate::gpu::Gpu::headless(false).ok()?;
+        let mut k = ParticlesGpu::new(&device, &p, &s, &Constraints::none()).ok()?;
+        let how = Stepping {
+            dt_s: DT,
+            substeps: 1,
+            iterations: sweeps as u32,
+            gravity_m_per_s2: gravity,
+            damping_per_s: COLUMN_DAMPING_PER_S,
+            floor_y_m: None,
+        };
+        let mut left = COLUMN_STEPS;
+        while left > 0 {
+            let n = left.min(250);
+            k.advance(&mut p, &how, n).ok()?;
+            left -= n;
+        }
+        k.download(&mut p).ok()?;
+    } else {
+        for _ in 0..COLUMN_STEPS {
+            p.predict(DT, gravity);
+            s.begin_step();
+            for _ in 0..sweeps {
+                s.project(&mut p, DT);
+            }
+            p.finish(DT, COLUMN_DAMPING_PER_S);
+        }
+    }
+    Some((y0 - mean_y(&p, &bottom), continuum_sag(h, rho, e, ny)))
 }
 
 /// Steps of the hanging column (3 s).
@@ -116,12 +164,38 @@ fn hanging_column() -> Measured {
     hanging_column_of(0.0035, 1060.0, 5000.0)
 }
 
+/// The cases of the particle solver's GPU path (`vesalius verify --compute gpu`).
+pub(super) fn gpu_cases() -> Vec<Case> {
+    vec![Case {
+        model: "shape matching, gpu",
+        case: "shape_matching_hanging_column_gpu",
+        description: "shape_matching_hanging_column stepped by the GPU's kernels \
+                      (shaders/particles.wgsl, 250 steps a submission): its bottom's drop vs \
+                      the continuum's rho g H^2 / (2 E); tolerance 10 %, as on the CPU",
+        unit: "m",
+        tolerance: 0.1,
+        run: hanging_column_gpu,
+    }]
+}
+
+fn hanging_column_gpu() -> Measured {
+    let (h, rho, e) = (0.0035, 1060.0, 5000.0);
+    let continuum = continuum_sag(h, rho, e, 20);
+    match column_sag_of(h, rho, e, 20, 2, true) {
+        Some((sag, continuum)) => Measured {
+            simulated_s: COLUMN_STEPS as f64 * f64::from(DT),
+            ..Measured::at_rest(f64::from(continuum), f64::from(sag))
+        },
+        None => Measured::not_run(f64::from(continuum)),
+    }
+}
+
 /// The hanging column's case (10 x 20 x 10 particles, 2 sweeps a step, 3 s) on a lattice
 /// `h` metres apart of a tissue of density `rho` and modulus `e`: its bottom's drop against
 /// the continuum's. The drop is the same share of the continuum's at every spacing, the
 /// column's lattice steps being the same.
 pub fn hanging_column_of(h: f32, rho: f32, e: f32) -> Measured {
-    let Some((sag, continuum)) = column_sag_of(h, rho, e, 20, 2) else {
+    let Some((sag, continuum)) = column_sag_of(h, rho, e, 20, 2, false) else {
         return Measured::not_run(0.0);
     };
     Measured {

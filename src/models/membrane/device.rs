@@ -18,7 +18,7 @@
 use super::active::{Activity, TILE_COLS, TILE_ROWS};
 use super::gpu::MembraneGpu;
 use super::{LAYERS, Membrane, field};
-use crate::gpu::compute;
+use crate::gpu::compute::{self, bind};
 use crate::gpu::{Gpu, RenderError};
 
 const SYNC_SHADER: &str = include_str!("../../../shaders/membrane_sync.wgsl");
@@ -118,26 +118,6 @@ struct SyncParams {
     cols: u32,
     tiles_c: u32,
     flag: u32,
-}
-
-fn bind(
-    gpu: &Gpu,
-    pipeline: &wgpu::ComputePipeline,
-    label: &str,
-    entries: &[(u32, &wgpu::Buffer)],
-) -> wgpu::BindGroup {
-    let entries: Vec<wgpu::BindGroupEntry<'_>> = entries
-        .iter()
-        .map(|&(binding, buffer)| wgpu::BindGroupEntry {
-            binding,
-            resource: buffer.as_entire_binding(),
-        })
-        .collect();
-    gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some(label),
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &entries,
-    })
 }
 
 /// One pass of a sync kernel (`pipeline` bound to `bind`) over the first `tiles` tiles of its

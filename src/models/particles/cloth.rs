@@ -27,10 +27,12 @@
 //! order of `E t` and `k_bend` of the order of `E t^3 / 12` (both nearly independent of `h`).
 //!
 //! Determinism: one sweep projects every edge, then every hinge, one after another in a fixed
-//! order (edges by their particles, hinges by their edge), so the same inputs give the same
-//! bytes.
+//! order: colour by colour (`colour.rs`: constraints of one colour share no particle), and
+//! within a colour edges by their particles, hinges by their edge. So the same inputs give
+//! the same bytes, and a GPU that projects a colour's constraints all at once runs the same
+//! sweep.
 
-use super::Particles;
+use super::{Particles, colour};
 use crate::models::xpbd::{self, Bend, Stretch};
 use glam::Vec3;
 
@@ -95,6 +97,9 @@ pub struct Cloth {
     /// XPBD multipliers over the step, N s^2 (stretch) and N m s^2 (bending).
     stretch_lambda: Vec<f32>,
     bend_lambda: Vec<f32>,
+    /// Each constraint's colour (`colour.rs`): the lists are sorted by it.
+    stretch_colour: Vec<u32>,
+    bend_colour: Vec<u32>,
     /// `1 / k`, m/N and rad/(N m).
     stretch_compliance: f32,
     bend_compliance: f32,
@@ -206,11 +211,17 @@ impl Cloth {
             .map(|&i| i as usize + 1)
             .max()
             .unwrap_or(0);
+        // Colour by colour (no two constraints of a colour share a particle): the order the
+        // GPU's dispatches take them.
+        let (stretch, stretch_colour) = colour::sorted(&stretch, |c| [c.a, c.b]);
+        let (bend, bend_colour) = colour::sorted(&bend, |c| [c.a, c.b, c.c, c.d]);
         Ok(Cloth {
             stretch_lambda: vec![0.0; stretch.len()],
             bend_lambda: vec![0.0; bend.len()],
             stretch,
             bend,
+            stretch_colour,
+            bend_colour,
             stretch_compliance: 1.0 / params.stretch_stiffness_n_per_m,
             bend_compliance: 1.0 / params.bend_stiffness_n_m_per_rad,
             needs,
@@ -235,6 +246,16 @@ impl Cloth {
     /// The bending constraints, in projection order.
     pub fn bend_constraints(&self) -> &[Bend] {
         &self.bend
+    }
+
+    /// Each stretch and bending constraint's colour (their lists are sorted by it).
+    pub fn colours(&self) -> (&[u32], &[u32]) {
+        (&self.stretch_colour, &self.bend_colour)
+    }
+
+    /// The stretch and bending compliances, m/N and rad/(N m).
+    pub fn compliances(&self) -> (f32, f32) {
+        (self.stretch_compliance, self.bend_compliance)
     }
 
     /// Starts a step: the multipliers back to zero.
@@ -269,12 +290,18 @@ impl Cloth {
         let r2 = radius_m * radius_m;
         let near = |i: u32| p.x[i as usize].distance_squared(centre) <= r2;
         let before = self.stretch.len() + self.bend.len();
-        retain_with(&mut self.stretch, &mut self.stretch_lambda, |c| {
-            !(near(c.a) || near(c.b))
-        });
-        retain_with(&mut self.bend, &mut self.bend_lambda, |c| {
-            ![c.a, c.b, c.c, c.d].into_iter().any(near)
-        });
+        retain_with(
+            &mut self.stretch,
+            &mut self.stretch_lambda,
+            &mut self.stretch_colour,
+            |c| !(near(c.a) || near(c.b)),
+        );
+        retain_with(
+            &mut self.bend,
+            &mut self.bend_lambda,
+            &mut self.bend_colour,
+            |c| ![c.a, c.b, c.c, c.d].into_iter().any(near),
+        );
         before - self.stretch.len() - self.bend.len()
     }
 
@@ -315,18 +342,26 @@ impl Cloth {
     }
 }
 
-/// Keeps the items (and their multipliers, side by side) for which `keep` holds, in order.
-fn retain_with<T>(items: &mut Vec<T>, lambda: &mut Vec<f32>, keep: impl Fn(&T) -> bool) {
+/// Keeps the items (and their multipliers and colours, side by side) for which `keep` holds,
+/// in order.
+fn retain_with<T>(
+    items: &mut Vec<T>,
+    lambda: &mut Vec<f32>,
+    colour: &mut Vec<u32>,
+    keep: impl Fn(&T) -> bool,
+) {
     let mut kept = 0;
     for i in 0..items.len() {
         if keep(&items[i]) {
             items.swap(kept, i);
             lambda.swap(kept, i);
+            colour.swap(kept, i);
             kept += 1;
         }
     }
     items.truncate(kept);
     lambda.truncate(kept);
+    colour.truncate(kept);
 }
 
 #[cfg(test)]

@@ -15,7 +15,10 @@
 pub mod adhesion;
 pub mod chain;
 pub mod cloth;
+pub mod colour;
 pub mod contacts;
+mod device;
+pub mod gpu;
 pub mod shape;
 pub mod solver;
 

@@ -325,12 +325,7 @@ impl ShapeMatching {
         if self.coef_dt != dt_s {
             self.coef_dt = dt_s;
             for (c, &r) in self.coef.iter_mut().zip(&self.rate) {
-                let beta = if r > 0.0 {
-                    1.0 / (r * dt_s * dt_s)
-                } else {
-                    f32::INFINITY
-                };
-                *c = [beta, 1.0 / (1.0 + beta)];
+                *c = coefficients(r, dt_s);
             }
         }
         let mut xs: Vec<&mut [Vec3]> = Vec::with_capacity(self.runs.len());
@@ -410,6 +405,101 @@ impl ShapeMatching {
         per + self.frames.len() * 64
             + self.offsets.len() * 4
             + self.entry_cluster.len() * (4 + 16 + 4 + 16 + 8)
+    }
+}
+
+/// An entry's `[beta, 1 / (1 + beta)]` for a substep of `dt_s` from its rate `k / m`
+/// (`beta` infinite and the factor 0 for a pinned particle's).
+pub(super) fn coefficients(rate: f32, dt_s: f32) -> [f32; 2] {
+    let beta = if rate > 0.0 {
+        1.0 / (rate * dt_s * dt_s)
+    } else {
+        f32::INFINITY
+    };
+    [beta, 1.0 / (1.0 + beta)]
+}
+
+/// The clusters and entries flattened for a device (`gpu.rs`, `shaders/particles.wgsl`).
+pub(super) struct ShapeArrays {
+    /// Per cluster: first member, end, the bits of its mass sum, 0.
+    pub info: Vec<[u32; 4]>,
+    /// Per cluster: `[centre, warm]`, `[quaternion]`.
+    pub state: Vec<[f32; 4]>,
+    pub member_index: Vec<u32>,
+    /// Per member: `[m a q, m a]`.
+    pub member_mw: Vec<[f32; 4]>,
+    /// Each particle's entries `offsets[i]..offsets[i + 1]`.
+    pub offsets: Vec<u32>,
+    /// Per entry: `[rest offset, bits of the cluster]`.
+    pub entries: Vec<[f32; 4]>,
+    /// Per entry: `k / m`, 1/s^2, and the multiplier.
+    pub rate: Vec<f32>,
+    pub mu: Vec<[f32; 4]>,
+}
+
+impl ShapeMatching {
+    /// Everything a device needs to project these clusters.
+    pub(super) fn arrays(&self) -> ShapeArrays {
+        let mut a = ShapeArrays {
+            info: Vec::with_capacity(self.clusters.len()),
+            state: Vec::with_capacity(2 * self.clusters.len()),
+            member_index: Vec::new(),
+            member_mw: Vec::new(),
+            offsets: self.offsets.clone(),
+            entries: self
+                .entry_rest
+                .iter()
+                .zip(&self.entry_cluster)
+                .map(|(q, &k)| [q.x, q.y, q.z, f32::from_bits(k)])
+                .collect(),
+            rate: self.rate.clone(),
+            mu: self.mu.iter().map(|m| [m.x, m.y, m.z, 0.0]).collect(),
+        };
+        for c in &self.clusters {
+            let first = a.member_index.len() as u32;
+            a.member_index.extend(&c.members);
+            a.member_mw.extend(
+                c.mw_rest
+                    .iter()
+                    .zip(&c.mw)
+                    .map(|(q, &m)| [q.x, q.y, q.z, m]),
+            );
+            a.info
+                .push([first, a.member_index.len() as u32, c.mw_sum.to_bits(), 0]);
+            let warm = if c.warm { 1.0 } else { 0.0 };
+            a.state.push([c.centre.x, c.centre.y, c.centre.z, warm]);
+            a.state.push(c.q.to_array());
+        }
+        a
+    }
+
+    /// Takes the clusters' centres, rotations and warm starts (`[centre, warm]`,
+    /// `[quaternion]` per cluster), the frames of their goals and the multipliers from a
+    /// device, so the CPU goes on where it left off.
+    pub(super) fn take_device_state(
+        &mut self,
+        state: &[[f32; 4]],
+        frames: &[[f32; 4]],
+        mu: &[[f32; 4]],
+    ) {
+        for (k, c) in self.clusters.iter_mut().enumerate() {
+            let (Some(s), Some(q)) = (state.get(2 * k), state.get(2 * k + 1)) else {
+                break;
+            };
+            c.centre = Vec3::new(s[0], s[1], s[2]);
+            c.warm = s[3] > 0.0;
+            c.q = Quat::from_array(*q);
+        }
+        for (k, f) in self.frames.iter_mut().enumerate() {
+            let Some(cols) = frames.get(4 * k..4 * k + 4) else {
+                break;
+            };
+            let v = |j: usize| Vec3A::new(cols[j][0], cols[j][1], cols[j][2]);
+            *f = (Mat3A::from_cols(v(0), v(1), v(2)), v(3));
+        }
+        for (m, d) in self.mu.iter_mut().zip(mu) {
+            *m = Vec3A::new(d[0], d[1], d[2]);
+        }
     }
 }
 

@@ -98,7 +98,9 @@ pub struct ParticleSolver {
     pub particles: Particles,
     pub shape: ShapeMatching,
     pub chains: Chains,
+    /// The ties sorted by colour (`colour.rs`), and their colours.
     ties: Vec<Stretch>,
+    tie_colours: Vec<u32>,
     tie_lambda: Vec<f32>,
     pub cloth: Cloth,
     pub adhesion: Adhesion,
@@ -109,6 +111,8 @@ pub struct ParticleSolver {
     tools: [Option<HandTool>; 2],
     outcome: StepOutcome,
     saved: Particles,
+    /// The GPU it steps on, if any (`device.rs`).
+    pub(super) device: super::device::Slot,
     /// Wall-clock seconds spent so far in the shape matching, the chains and ties, the
     /// cloth, the strands, and the instruments and contacts (benchmarks only).
     pub times: [f64; 5],
@@ -117,6 +121,7 @@ pub struct ParticleSolver {
 impl ParticleSolver {
     pub fn new(name: &str, parts: SolverParts, params: SolverParams) -> ParticleSolver {
         let p = parts.particles;
+        let (ties, tie_colours) = super::colour::sorted(&parts.ties, |t| [t.a, t.b]);
         let pushes = [
             ToolPush::new(&p, parts.contact_radius_m),
             ToolPush::new(&p, parts.contact_radius_m),
@@ -125,7 +130,8 @@ impl ParticleSolver {
             name: name.to_string(),
             params,
             tie_lambda: vec![0.0; parts.ties.len()],
-            ties: parts.ties,
+            ties,
+            tie_colours,
             saved: p.clone(),
             particles: p,
             shape: parts.shape,
@@ -138,8 +144,19 @@ impl ParticleSolver {
             grasps: [None, None],
             tools: [None, None],
             outcome: StepOutcome::default(),
+            device: Default::default(),
             times: [0.0; 5],
         }
+    }
+
+    /// Ties between particles.
+    pub fn tie_count(&self) -> usize {
+        self.ties.len()
+    }
+
+    /// The ties in projection order (by colour), and their colours.
+    pub fn ties(&self) -> (&[Stretch], &[u32]) {
+        (&self.ties, &self.tie_colours)
     }
 
     /// Each hand's instrument for the next step.
@@ -181,6 +198,7 @@ impl ParticleSolver {
     /// A cut at `at`: the cloth's constraints and both strand sets' strands within
     /// `radius_m`.
     pub fn dissect(&mut self, at: Vec3, radius_m: f32) -> Dissection {
+        self.device.constraints_changed();
         Dissection {
             cloth: self.cloth.cut_near(at, radius_m, &self.particles),
             adhesions: self.adhesion.cut_near(at, radius_m, &self.particles),
@@ -213,6 +231,16 @@ impl ParticleSolver {
         let n = self.params.substeps.max(1);
         let mut out = StepOutcome::default();
         let tools = std::mem::take(&mut self.tools);
+        if super::device::can_step(self, &tools) {
+            if super::device::step(self, dt_s) {
+                // No instrument: no grasp holds, no reaction.
+                self.grasps = [None, None];
+                self.tools = tools;
+                return out;
+            }
+        } else {
+            super::device::before_cpu_step(self);
+        }
         for _ in 0..n {
             let o = self.advance(dt_s / n as f32, &tools, true);
             for h in 0..2 {
@@ -334,6 +362,10 @@ impl TissueModel for ParticleSolver {
         "position_based_particles"
     }
 
+    fn gpu_adapter(&self) -> Option<String> {
+        ParticleSolver::gpu_adapter(self)
+    }
+
     fn sizes(&self) -> ModelSizes {
         ModelSizes {
             vertices: self.particles.x.len(),
@@ -385,6 +417,7 @@ impl TissueModel for ParticleSolver {
 
     fn restore(&mut self) {
         self.particles.clone_from(&self.saved);
+        self.device.stale();
         self.grasps = [None, None];
         self.outcome = StepOutcome::default();
     }

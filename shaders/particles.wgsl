@@ -1,0 +1,357 @@
+// The particle solver's substep on the GPU for a world of shape-matching clusters (the
+// cholecystectomy paper's eqs 1-4): the same algorithm, in the same order, as
+// `src/models/particles/mod.rs` (predict, finish) and `shape.rs` (the clusters' goals, then
+// every particle through its clusters' springs; the ties and the cloth as `xpbd.rs`). One
+// invocation per particle, cluster or constraint; each writes only its own entries (a colour's
+// constraints share no particle), nothing is summed across invocations, and the bytes depend
+// only on the adapter and its compiler.
+//
+// One substep: `predict` and `clear_lambdas`; per sweep `match_goals` (a cluster each),
+// `shape_particles` (a particle each), the ties, the cloth's edges and its hinges colour by
+// colour (`project_stretches`, `project_bends`: a constraint each, constraints of one colour
+// sharing no particle), and `floor`; then `finish`.
+//
+// Layouts:
+// - x, x0: `vec4(position, inverse mass)`; v, ext: `vec4(velocity or force, 0)`;
+// - cluster_info: `(first member, end, bits of sum of m a, 0)`; cluster_state, two a cluster:
+//   `(centre, warm)`, `(quaternion x, y, z, w)`;
+// - member_index; member_mw: `(m a q, m a)` (the member's mass share times its rest offset,
+//   and the share);
+// - frames, four a cluster: the rotation's columns, then the centre;
+// - offsets: each particle's entries `offsets[i]..offsets[i + 1]`, in cluster order;
+//   entries: `(rest offset, bits of the cluster)`; coef: `(beta, 1 / (1 + beta))`; mu: the
+//   entry's XPBD multiplier times the particle's inverse mass.
+
+struct Params {
+    particles: u32,
+    clusters: u32,
+    // The substep, 1 / substep, and the point damping's factor `exp(-D dt)` over it.
+    dt: f32,
+    inv_dt: f32,
+    gravity: vec3<f32>,
+    keep: f32,
+    floor_y: f32,
+    // Whether the floor holds the particles (the solver's), and the rotation's iterations.
+    floor_on: u32,
+    cold_iterations: u32,
+    warm_iterations: u32,
+    // Multipliers of the stretch and bending constraints (ties, then cloth edges, then hinges).
+    lambdas: u32,
+}
+
+// One colour of one constraint set: its constraints `first..end` of their buffer, the first's
+// multiplier, and the set's compliance.
+struct Range {
+    first: u32,
+    end: u32,
+    lambda_base: u32,
+    compliance: f32,
+}
+
+@group(0) @binding(0) var<uniform> p: Params;
+@group(0) @binding(1) var<storage, read_write> x: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read_write> x0: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read_write> v: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read_write> ext: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read> offsets: array<u32>;
+@group(0) @binding(6) var<storage, read_write> mu: array<vec4<f32>>;
+@group(0) @binding(7) var<storage, read> cluster_info: array<vec4<u32>>;
+@group(0) @binding(8) var<storage, read_write> cluster_state: array<vec4<f32>>;
+@group(0) @binding(9) var<storage, read> member_index: array<u32>;
+@group(0) @binding(10) var<storage, read> member_mw: array<vec4<f32>>;
+@group(0) @binding(11) var<storage, read_write> frames: array<vec4<f32>>;
+@group(0) @binding(12) var<storage, read> entries: array<vec4<f32>>;
+@group(0) @binding(13) var<storage, read> coef: array<vec2<f32>>;
+@group(0) @binding(14) var<uniform> range: Range;
+// Stretch constraints: `(a, b, bits of the rest length, 0)`; bending constraints, two each:
+// `(a, b, c, d)`, `(bits of the rest angle, 0, 0, 0)`.
+@group(0) @binding(15) var<storage, read> stretches: array<vec4<u32>>;
+@group(0) @binding(16) var<storage, read> bends: array<vec4<u32>>;
+@group(0) @binding(17) var<storage, read_write> lambda: array<f32>;
+
+// A turn smaller than this ends the rotation's extraction, radians (`shape.rs`).
+const ROTATION_TOLERANCE_RAD: f32 = 1e-5;
+
+// Invocations are laid out as `gid.y * 65535 * 64 + gid.x` (the dispatch's x is at most 65,535
+// workgroups).
+fn index(gid: vec3<u32>) -> u32 {
+    return gid.y * 65535u * 64u + gid.x;
+}
+
+// Step 1: remember the positions, move every free particle by its velocity after gravity and
+// the external forces (used up), and start the step's multipliers at zero.
+@compute @workgroup_size(64)
+fn predict(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = index(gid);
+    if i >= p.particles {
+        return;
+    }
+    let xi = x[i];
+    x0[i] = xi;
+    if xi.w > 0.0 {
+        let vi = v[i].xyz + p.dt * (p.gravity + ext[i].xyz * xi.w);
+        v[i] = vec4<f32>(vi, 0.0);
+        x[i] = vec4<f32>(xi.xyz + p.dt * vi, xi.w);
+    }
+    ext[i] = vec4<f32>(0.0);
+    for (var e = offsets[i]; e < offsets[i + 1u]; e++) {
+        mu[e] = vec4<f32>(0.0);
+    }
+}
+
+fn quat_mul(a: vec4<f32>, b: vec4<f32>) -> vec4<f32> {
+    return vec4<f32>(
+        a.w * b.xyz + b.w * a.xyz + cross(a.xyz, b.xyz),
+        a.w * b.w - dot(a.xyz, b.xyz),
+    );
+}
+
+fn quat_normalize(q: vec4<f32>) -> vec4<f32> {
+    return q * (1.0 / length(q));
+}
+
+// The rotation matrix of a unit quaternion, as its columns.
+fn quat_cols(q: vec4<f32>) -> array<vec3<f32>, 3> {
+    let x2 = q.x + q.x;
+    let y2 = q.y + q.y;
+    let z2 = q.z + q.z;
+    let xx = q.x * x2;
+    let xy = q.x * y2;
+    let xz = q.x * z2;
+    let yy = q.y * y2;
+    let yz = q.y * z2;
+    let zz = q.z * z2;
+    let wx = q.w * x2;
+    let wy = q.w * y2;
+    let wz = q.w * z2;
+    return array<vec3<f32>, 3>(
+        vec3<f32>(1.0 - (yy + zz), xy + wz, xz - wy),
+        vec3<f32>(xy - wz, 1.0 - (xx + zz), yz + wx),
+        vec3<f32>(xz + wy, yz - wx, 1.0 - (xx + yy)),
+    );
+}
+
+fn finite3(a: vec3<f32>) -> bool {
+    // A NaN fails every comparison; an infinity exceeds the largest f32.
+    return all(abs(a) <= vec3<f32>(3.4028235e38));
+}
+
+// Steps 1-3 for one cluster (`Cluster::match_goals`): about the last centre, the centre of
+// mass and `A = sum m a (x - c) q^T` in one pass over the members in order; the rotation of
+// `A`'s polar decomposition from the last one (Müller et al. 2016); the frame of the goals.
+@compute @workgroup_size(64)
+fn match_goals(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let k = index(gid);
+    if k >= p.clusters {
+        return;
+    }
+    let info = cluster_info[k];
+    let mw_sum = bitcast<f32>(info.z);
+    let st = cluster_state[2u * k];
+    var o = st.xyz;
+    let warm = st.w > 0.0;
+    if !warm {
+        // The body may be anywhere now: the sums about where it is.
+        var c = vec3<f32>(0.0);
+        for (var m = info.x; m < info.y; m++) {
+            c += x[member_index[m]].xyz * member_mw[m].w;
+        }
+        o = c / mw_sum;
+    }
+    var sum = vec3<f32>(0.0);
+    var ax = vec3<f32>(0.0);
+    var ay = vec3<f32>(0.0);
+    var az = vec3<f32>(0.0);
+    for (var m = info.x; m < info.y; m++) {
+        let d = x[member_index[m]].xyz - o;
+        let mq = member_mw[m];
+        sum += d * mq.w;
+        ax += d * mq.x;
+        ay += d * mq.y;
+        az += d * mq.z;
+    }
+    let centre = o + sum / mw_sum;
+    var q = cluster_state[2u * k + 1u];
+    if !(finite3(q.xyz) && abs(q.w) <= 3.4028235e38) {
+        q = vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    }
+    if finite3(ax) && finite3(ay) && finite3(az) {
+        var most = p.warm_iterations;
+        if !warm {
+            most = p.cold_iterations;
+        }
+        let a = array<vec3<f32>, 3>(ax, ay, az);
+        for (var it = 0u; it < most; it++) {
+            let r = quat_cols(q);
+            var num = vec3<f32>(0.0);
+            var den = 0.0;
+            for (var c = 0u; c < 3u; c++) {
+                num += cross(r[c], a[c]);
+                den += dot(r[c], a[c]);
+            }
+            let omega = num / (abs(den) + 1e-9 * (1.0 + length(num)));
+            let angle = length(omega);
+            if !(angle > ROTATION_TOLERANCE_RAD) {
+                break;
+            }
+            let turn = quat_normalize(vec4<f32>(0.5 * omega, 1.0));
+            q = quat_normalize(quat_mul(turn, q));
+        }
+    }
+    cluster_state[2u * k] = vec4<f32>(centre, 1.0);
+    cluster_state[2u * k + 1u] = q;
+    let r = quat_cols(q);
+    frames[4u * k] = vec4<f32>(r[0], 0.0);
+    frames[4u * k + 1u] = vec4<f32>(r[1], 0.0);
+    frames[4u * k + 2u] = vec4<f32>(r[2], 0.0);
+    frames[4u * k + 3u] = vec4<f32>(centre, 0.0);
+}
+
+// Step 4 for one particle: its clusters' zero-length springs one after another in cluster
+// order, each as an XPBD constraint `C = x - g` (`d_mu = (g - x - beta mu) / (1 + beta)`),
+// then the floor.
+@compute @workgroup_size(64)
+fn shape_particles(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = index(gid);
+    if i >= p.particles {
+        return;
+    }
+    let xi = x[i];
+    if xi.w <= 0.0 {
+        return;
+    }
+    var xa = xi.xyz;
+    for (var e = offsets[i]; e < offsets[i + 1u]; e++) {
+        let cf = coef[e];
+        if cf.y <= 0.0 {
+            continue;
+        }
+        let en = entries[e];
+        let k = bitcast<u32>(en.w);
+        let g = frames[4u * k].xyz * en.x + frames[4u * k + 1u].xyz * en.y
+            + frames[4u * k + 2u].xyz * en.z + frames[4u * k + 3u].xyz;
+        let m = mu[e].xyz;
+        let d = (g - xa - cf.x * m) * cf.y;
+        mu[e] = vec4<f32>(m + d, 0.0);
+        xa += d;
+    }
+    x[i] = vec4<f32>(xa, xi.w);
+}
+
+// A step's multipliers back to zero (`begin_step`).
+@compute @workgroup_size(64)
+fn clear_lambdas(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = index(gid);
+    if i < p.lambdas {
+        lambda[i] = 0.0;
+    }
+}
+
+// One colour of stretch constraints, each as `xpbd::project_stretch` (no two share a
+// particle, so they run side by side as they would one after another).
+@compute @workgroup_size(64)
+fn project_stretches(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let k = range.first + index(gid);
+    if k >= range.end {
+        return;
+    }
+    let c = stretches[k];
+    let xa = x[c.x];
+    let xb = x[c.y];
+    let wsum = xa.w + xb.w;
+    if wsum == 0.0 {
+        return;
+    }
+    let d = xa.xyz - xb.xyz;
+    let len = length(d);
+    if len <= 1.1920929e-7 {
+        return;
+    }
+    let n = d / len;
+    let li = range.lambda_base + (k - range.first);
+    let alpha = range.compliance / (p.dt * p.dt);
+    let constraint = len - bitcast<f32>(c.z);
+    let dl = (-constraint - alpha * lambda[li]) / (wsum + alpha);
+    x[c.x] = vec4<f32>(xa.xyz + n * (xa.w * dl), xa.w);
+    x[c.y] = vec4<f32>(xb.xyz - n * (xb.w * dl), xb.w);
+    lambda[li] += dl;
+}
+
+const PI: f32 = 3.14159265358979;
+const TAU: f32 = 6.28318530717959;
+// The most a bending projection turns a hinge, radians (`xpbd::MAX_BEND_CORRECTION_RAD`).
+const MAX_BEND_CORRECTION_RAD: f32 = 0.02;
+
+// One colour of bending constraints, each as `xpbd::project_bend`: the signed dihedral from
+// rest and Bridson et al.'s gradients.
+@compute @workgroup_size(64)
+fn project_bends(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let k = range.first + index(gid);
+    if k >= range.end {
+        return;
+    }
+    let ids = bends[2u * k];
+    let rest = bitcast<f32>(bends[2u * k + 1u].x);
+    let a = x[ids.x];
+    let b = x[ids.y];
+    let pc = x[ids.z];
+    let pd = x[ids.w];
+    let e = b.xyz - a.xyz;
+    let n1 = cross(e, pc.xyz - a.xyz);
+    let n2 = cross(pd.xyz - a.xyz, e);
+    let e2 = dot(e, e);
+    let tiny = 1e-14 * max(e2, 1.17549435e-38);
+    if e2 <= 1e-20 || dot(n1, n1) <= tiny || dot(n2, n2) <= tiny {
+        return;
+    }
+    var constraint = atan2(dot(cross(n1, n2), e), dot(n1, n2) * length(e)) - rest;
+    if constraint > PI {
+        constraint -= TAU;
+    } else if constraint < -PI {
+        constraint += TAU;
+    }
+    let len = length(e);
+    let eh = e / len;
+    let m1 = n1 / dot(n1, n1);
+    let m2 = n2 / dot(n2, n2);
+    let g0 = -(dot(pc.xyz - b.xyz, eh) * m1 + dot(pd.xyz - b.xyz, eh) * m2);
+    let g1 = dot(pc.xyz - a.xyz, eh) * m1 + dot(pd.xyz - a.xyz, eh) * m2;
+    let g2 = -len * m1;
+    let g3 = -len * m2;
+    constraint = clamp(constraint, -MAX_BEND_CORRECTION_RAD, MAX_BEND_CORRECTION_RAD);
+    let denom = a.w * dot(g0, g0) + b.w * dot(g1, g1) + pc.w * dot(g2, g2) + pd.w * dot(g3, g3);
+    let alpha = range.compliance / (p.dt * p.dt);
+    if denom + alpha <= 1e-12 {
+        return;
+    }
+    let li = range.lambda_base + (k - range.first);
+    let dl = (-constraint - alpha * lambda[li]) / (denom + alpha);
+    x[ids.x] = vec4<f32>(a.xyz + g0 * (a.w * dl), a.w);
+    x[ids.y] = vec4<f32>(b.xyz + g1 * (b.w * dl), b.w);
+    x[ids.z] = vec4<f32>(pc.xyz + g2 * (pc.w * dl), pc.w);
+    x[ids.w] = vec4<f32>(pd.xyz + g3 * (pd.w * dl), pd.w);
+    lambda[li] += dl;
+}
+
+// The floor under every free particle, after a sweep's constraints.
+@compute @workgroup_size(64)
+fn floor(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = index(gid);
+    if i >= p.particles {
+        return;
+    }
+    let xi = x[i];
+    if p.floor_on != 0u && xi.w > 0.0 && xi.y < p.floor_y {
+        x[i] = vec4<f32>(xi.x, p.floor_y, xi.z, xi.w);
+    }
+}
+
+// Step 3: the velocities from what the positions did, less the point damping.
+@compute @workgroup_size(64)
+fn finish(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = index(gid);
+    if i >= p.particles {
+        return;
+    }
+    v[i] = vec4<f32>((x[i].xyz - x0[i].xyz) * p.inv_dt * p.keep, 0.0);
+}

@@ -1,0 +1,560 @@
+//! The particle solver on the GPU: a world of shape-matching clusters stepped by the same
+//! algorithm as the CPU's ([`Particles::predict`], [`ShapeMatching::project`],
+//! [`Particles::finish`], the solver's floor), one compute invocation per particle or per
+//! cluster (`shaders/particles.wgsl`). The particles, the clusters' frames and the springs'
+//! multipliers live on the device; every substep and sweep of a submission is encoded in one
+//! pass; the external forces go up with a submission and the state comes back when asked.
+//!
+//! The device's floats round as its compiler chooses (fused multiply-adds, its square roots),
+//! so the GPU's bytes are its own: two runs on one adapter agree byte for byte, and the CPU's
+//! positions within a tolerance (tested).
+
+use super::Particles;
+use super::colour;
+use super::shape::{ShapeMatching, coefficients};
+use crate::gpu::compute::{self, PassTimer, bind};
+use crate::gpu::{Gpu, RenderError};
+use crate::models::xpbd::{Bend, Stretch};
+use bytemuck::Zeroable;
+use glam::Vec3;
+
+pub(super) const SHADER: &str = include_str!("../../../shaders/particles.wgsl");
+
+/// Most workgroups along one dimension of a dispatch (WebGPU's limit), and a workgroup's
+/// invocations (the shader's `index`).
+const MAX_GROUPS: u32 = 65_535;
+const GROUP: u32 = 64;
+
+/// Iterations of the rotation's extraction from a cold and a warm start (`shape.rs`).
+const COLD_ROTATION_ITERATIONS: u32 = 30;
+const WARM_ROTATION_ITERATIONS: u32 = 4;
+
+/// The shader's `Params` (48 bytes, `vec3` aligned to 16).
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Params {
+    particles: u32,
+    clusters: u32,
+    dt: f32,
+    inv_dt: f32,
+    gravity: [f32; 3],
+    keep: f32,
+    floor_y: f32,
+    floor_on: u32,
+    cold_iterations: u32,
+    warm_iterations: u32,
+    lambdas: u32,
+    pad: [u32; 3],
+}
+
+/// The shader's `Range`: one colour of one constraint set.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Range {
+    first: u32,
+    end: u32,
+    lambda_base: u32,
+    compliance: f32,
+}
+
+/// One constraint set sorted by colour (`colour.rs`): its constraints, their colours, and
+/// its compliance.
+#[derive(Debug, Clone, Copy)]
+pub struct Set<'a, T> {
+    pub items: &'a [T],
+    pub colours: &'a [u32],
+    pub compliance: f32,
+}
+
+impl<T> Set<'_, T> {
+    pub fn empty() -> Self {
+        Set {
+            items: &[],
+            colours: &[],
+            compliance: 0.0,
+        }
+    }
+}
+
+/// The stretch and bending constraints a sweep projects after the clusters, in this order:
+/// the ties, the cloth's edges, its hinges.
+#[derive(Debug, Clone, Copy)]
+pub struct Constraints<'a> {
+    pub ties: Set<'a, Stretch>,
+    pub edges: Set<'a, Stretch>,
+    pub hinges: Set<'a, Bend>,
+}
+
+impl Constraints<'_> {
+    pub fn none() -> Self {
+        Constraints {
+            ties: Set::empty(),
+            edges: Set::empty(),
+            hinges: Set::empty(),
+        }
+    }
+}
+
+/// How a submission steps: steps of `dt_s`, each `substeps` substeps of `iterations` sweeps,
+/// under gravity, with point damping, above a floor if there is one.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Stepping {
+    pub dt_s: f32,
+    pub substeps: u32,
+    pub iterations: u32,
+    pub gravity_m_per_s2: Vec3,
+    pub damping_per_s: f32,
+    pub floor_y_m: Option<f32>,
+}
+
+/// The entry points.
+const ENTRIES: [&str; 8] = [
+    "predict",
+    "match_goals",
+    "shape_particles",
+    "finish",
+    "clear_lambdas",
+    "project_stretches",
+    "project_bends",
+    "floor",
+];
+const PREDICT: usize = 0;
+const MATCH: usize = 1;
+const SHAPE: usize = 2;
+const FINISH: usize = 3;
+const CLEAR: usize = 4;
+const STRETCHES: usize = 5;
+const BENDS: usize = 6;
+const FLOOR: usize = 7;
+
+/// One colour's dispatch: its entry point, bind group and workgroups.
+struct ColourPass {
+    entry: usize,
+    bind: wgpu::BindGroup,
+    groups: (u32, u32),
+}
+
+/// A particle world, its clusters and its stretch and bending constraints on one device, and
+/// the kernels that step them.
+pub struct ParticlesGpu {
+    gpu: Gpu,
+    pipelines: Vec<wgpu::ComputePipeline>,
+    /// The per-particle and per-cluster entry points' bind groups (by entry; the colour
+    /// passes have their own).
+    binds: Vec<Option<wgpu::BindGroup>>,
+    params: wgpu::Buffer,
+    x: wgpu::Buffer,
+    x0: wgpu::Buffer,
+    v: wgpu::Buffer,
+    ext: wgpu::Buffer,
+    cluster_state: wgpu::Buffer,
+    frames: wgpu::Buffer,
+    coef: wgpu::Buffer,
+    /// A sweep's colour passes after the clusters, in order.
+    passes: Vec<ColourPass>,
+    lambdas: u32,
+    particles: u32,
+    clusters: u32,
+    /// Each entry's `k / m` (the coefficients are made from it for the substep), and the
+    /// substep they were last made for.
+    rate: Vec<f32>,
+    coef_dt: f32,
+    timer: Option<PassTimer>,
+}
+
+fn bytes<T: bytemuck::Pod>(v: &[T]) -> &[u8] {
+    bytemuck::cast_slice(v)
+}
+
+/// Positions with inverse masses, as the shader's `vec4`s.
+fn positions(x: &[Vec3], w: &[f32]) -> Vec<[f32; 4]> {
+    x.iter().zip(w).map(|(p, &w)| [p.x, p.y, p.z, w]).collect()
+}
+
+fn vec4s(v: &[Vec3]) -> Vec<[f32; 4]> {
+    v.iter().map(|p| [p.x, p.y, p.z, 0.0]).collect()
+}
+
+fn floats(raw: &[u8]) -> Vec<[f32; 4]> {
+    raw.chunks_exact(16)
+        .map(|c| {
+            std::array::from_fn(|k| {
+                f32::from_le_bytes([c[4 * k], c[4 * k + 1], c[4 * k + 2], c[4 * k + 3]])
+            })
+        })
+        .collect()
+}
+
+/// Workgroups for `n` invocations: x at most [`MAX_GROUPS`], and all of it when there is a y.
+fn groups(n: u32) -> (u32, u32) {
+    let total = n.div_ceil(GROUP).max(1);
+    if total <= MAX_GROUPS {
+        (total, 1)
+    } else {
+        (MAX_GROUPS, total.div_ceil(MAX_GROUPS))
+    }
+}
+
+impl ParticlesGpu {
+    /// Uploads the particles `p`, their clusters `s` and the constraints `c` to `gpu`'s
+    /// device and compiles the kernels. An error names what the device refused.
+    pub fn new(
+        gpu: &Gpu,
+        p: &Particles,
+        s: &ShapeMatching,
+        c: &Constraints,
+    ) -> Result<ParticlesGpu, RenderError> {
+        let module = compute::compile(&gpu.device, "shaders/particles.wgsl", SHADER)?;
+        let pipelines = ENTRIES
+            .iter()
+            .map(|e| compute::pipeline(gpu, &module, e))
+            .collect::<Result<Vec<_>, _>>()?;
+        let arrays = s.arrays();
+        let storage = |label: &str, data: &[u8]| compute::storage(gpu, label, data);
+        let x = storage("particle positions", bytes(&positions(&p.x, &p.w)))?;
+        let x0 = storage("particle step starts", bytes(&positions(&p.x0, &p.w)))?;
+        let v = storage("particle velocities", bytes(&vec4s(&p.v)))?;
+        let ext = storage("particle forces", bytes(&vec4s(&p.ext)))?;
+        let offsets = storage("cluster entry offsets", bytes(&arrays.offsets))?;
+        let mu = storage("cluster multipliers", bytes(&arrays.mu))?;
+        let info = storage("clusters", bytes(&arrays.info))?;
+        let cluster_state = storage("cluster frames", bytes(&arrays.state))?;
+        let member_index = storage("cluster members", bytes(&arrays.member_index))?;
+        let member_mw = storage("cluster member masses", bytes(&arrays.member_mw))?;
+        let frames = storage(
+            "cluster goal frames",
+            &vec![0u8; 64 * arrays.info.len().max(1)],
+        )?;
+        let entries = storage("cluster entries", bytes(&arrays.entries))?;
+        let coef = storage(
+            "cluster coefficients",
+            &vec![0u8; 8 * arrays.rate.len().max(1)],
+        )?;
+        let params = compute::uniform(gpu, "particle params", bytes(&[Params::zeroed()]));
+        // What each entry point binds (`layout: None` takes only what the entry uses).
+        let fixed: [(usize, Vec<(u32, &wgpu::Buffer)>); 5] = [
+            (
+                PREDICT,
+                vec![
+                    (0, &params),
+                    (1, &x),
+                    (2, &x0),
+                    (3, &v),
+                    (4, &ext),
+                    (5, &offsets),
+                    (6, &mu),
+                ],
+            ),
+            (
+                MATCH,
+                vec![
+                    (0, &params),
+                    (1, &x),
+                    (7, &info),
+                    (8, &cluster_state),
+                    (9, &member_index),
+                    (10, &member_mw),
+                    (11, &frames),
+                ],
+            ),
+            (
+                SHAPE,
+                vec![
+                    (0, &params),
+                    (1, &x),
+                    (5, &offsets),
+                    (6, &mu),
+                    (11, &frames),
+                    (12, &entries),
+                    (13, &coef),
+                ],
+            ),
+            (FINISH, vec![(0, &params), (1, &x), (2, &x0), (3, &v)]),
+            (FLOOR, vec![(0, &params), (1, &x)]),
+        ];
+        let mut binds: Vec<Option<wgpu::BindGroup>> = (0..ENTRIES.len()).map(|_| None).collect();
+        for (entry, buffers) in &fixed {
+            binds[*entry] = Some(bind(gpu, &pipelines[*entry], ENTRIES[*entry], buffers));
+        }
+        let mut out = ParticlesGpu {
+            gpu: gpu.clone(),
+            pipelines,
+            binds,
+            params,
+            x,
+            x0,
+            v,
+            ext,
+            cluster_state,
+            frames,
+            coef,
+            passes: Vec::new(),
+            lambdas: 0,
+            particles: p.len() as u32,
+            clusters: arrays.info.len() as u32,
+            rate: arrays.rate,
+            coef_dt: 0.0,
+            timer: PassTimer::new(gpu),
+        };
+        out.set_constraints(c)?;
+        gpu.check()?;
+        Ok(out)
+    }
+
+    /// Replaces the stretch and bending constraints (after a cut): their buffers, their
+    /// multipliers and a dispatch per colour.
+    pub fn set_constraints(&mut self, c: &Constraints) -> Result<(), RenderError> {
+        let gpu = &self.gpu;
+        let stretch_row = |s: &Stretch| [s.a, s.b, s.rest_m.to_bits(), 0];
+        let stretches: Vec<[u32; 4]> = c
+            .ties
+            .items
+            .iter()
+            .chain(c.edges.items)
+            .map(stretch_row)
+            .collect();
+        let bends: Vec<[u32; 4]> = c
+            .hinges
+            .items
+            .iter()
+            .flat_map(|h| [[h.a, h.b, h.c, h.d], [h.rest_rad.to_bits(), 0, 0, 0]])
+            .collect();
+        let lambdas = stretches.len() + c.hinges.items.len();
+        let stretch_buf = compute::storage(gpu, "stretch constraints", bytes(&stretches))?;
+        let bend_buf = compute::storage(gpu, "bending constraints", bytes(&bends))?;
+        let lambda = compute::storage(gpu, "constraint multipliers", &vec![0u8; 4 * lambdas])?;
+        // (entry, first constraint in its buffer, multipliers' base, colours, compliance)
+        let ties = c.ties.items.len();
+        let sets = [
+            (STRETCHES, 0, 0, c.ties.colours, c.ties.compliance),
+            (STRETCHES, ties, ties, c.edges.colours, c.edges.compliance),
+            (
+                BENDS,
+                0,
+                stretches.len(),
+                c.hinges.colours,
+                c.hinges.compliance,
+            ),
+        ];
+        let mut passes = Vec::new();
+        for (entry, first, base, colours, compliance) in sets {
+            for (_, a, b) in colour::ranges(colours) {
+                let range = Range {
+                    first: (first + a) as u32,
+                    end: (first + b) as u32,
+                    lambda_base: (base + a) as u32,
+                    compliance,
+                };
+                let uniform = compute::uniform(gpu, "constraint colour", bytes(&[range]));
+                let set_buf = if entry == STRETCHES {
+                    &stretch_buf
+                } else {
+                    &bend_buf
+                };
+                let binding = if entry == STRETCHES { 15 } else { 16 };
+                let buffers = [
+                    (0, &self.params),
+                    (1, &self.x),
+                    (14, &uniform),
+                    (binding, set_buf),
+                    (17, &lambda),
+                ];
+                passes.push(ColourPass {
+                    entry,
+                    bind: bind(gpu, &self.pipelines[entry], ENTRIES[entry], &buffers),
+                    groups: groups((b - a) as u32),
+                });
+            }
+        }
+        self.binds[CLEAR] = Some(bind(
+            gpu,
+            &self.pipelines[CLEAR],
+            ENTRIES[CLEAR],
+            &[(0, &self.params), (17, &lambda)],
+        ));
+        self.passes = passes;
+        self.lambdas = lambdas as u32;
+        gpu.check()
+    }
+
+    /// The device it runs on.
+    pub fn gpu(&self) -> &Gpu {
+        &self.gpu
+    }
+
+    /// Sends `p`'s positions, inverse masses and velocities up, replacing the device's (a
+    /// rollback, a pinned particle).
+    pub fn upload(&mut self, p: &Particles) {
+        let q = &self.gpu.queue;
+        q.write_buffer(&self.x, 0, bytes(&positions(&p.x, &p.w)));
+        q.write_buffer(&self.v, 0, bytes(&vec4s(&p.v)));
+    }
+
+    /// Advances `steps` steps as `how` says in one submission, under `p`'s external forces
+    /// (taken, as the CPU's first substep takes them: they act on the submission's first
+    /// substep). Returns at once; [`ParticlesGpu::download`] waits.
+    pub fn advance(
+        &mut self,
+        p: &mut Particles,
+        how: &Stepping,
+        steps: usize,
+    ) -> Result<(), RenderError> {
+        if p.len() != self.particles as usize {
+            return Err(RenderError::Device(format!(
+                "the particle world has {} particles; the device holds {}",
+                p.len(),
+                self.particles
+            )));
+        }
+        let substeps = how.substeps.max(1);
+        let dt = how.dt_s / substeps as f32;
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(RenderError::Device(format!(
+                "a substep of {dt} s is not a positive time"
+            )));
+        }
+        let q = &self.gpu.queue;
+        q.write_buffer(&self.ext, 0, bytes(&vec4s(&p.ext)));
+        p.ext.iter_mut().for_each(|e| *e = Vec3::ZERO);
+        if self.coef_dt != dt {
+            self.coef_dt = dt;
+            let coef: Vec<[f32; 2]> = self.rate.iter().map(|&r| coefficients(r, dt)).collect();
+            if !coef.is_empty() {
+                q.write_buffer(&self.coef, 0, bytes(&coef));
+            }
+        }
+        let params = Params {
+            particles: self.particles,
+            clusters: self.clusters,
+            dt,
+            inv_dt: 1.0 / dt,
+            gravity: how.gravity_m_per_s2.to_array(),
+            keep: (-how.damping_per_s.max(0.0) * dt).exp(),
+            floor_y: how.floor_y_m.unwrap_or(0.0),
+            floor_on: u32::from(how.floor_y_m.is_some()),
+            cold_iterations: COLD_ROTATION_ITERATIONS,
+            warm_iterations: WARM_ROTATION_ITERATIONS,
+            lambdas: self.lambdas,
+            pad: [0; 3],
+        };
+        q.write_buffer(&self.params, 0, bytes(&[params]));
+        let mut encoder = self
+            .gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("particle steps"),
+            });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("particle substeps"),
+                timestamp_writes: self.timer.as_ref().map(PassTimer::writes),
+            });
+            let per_particle = groups(self.particles);
+            let per_cluster = groups(self.clusters);
+            let per_lambda = groups(self.lambdas);
+            let fixed = |pass: &mut wgpu::ComputePass, k: usize, (gx, gy): (u32, u32)| {
+                if let Some(b) = &self.binds[k] {
+                    pass.set_pipeline(&self.pipelines[k]);
+                    pass.set_bind_group(0, b, &[]);
+                    pass.dispatch_workgroups(gx, gy, 1);
+                }
+            };
+            for _ in 0..steps * substeps as usize {
+                fixed(&mut pass, PREDICT, per_particle);
+                if self.lambdas > 0 {
+                    fixed(&mut pass, CLEAR, per_lambda);
+                }
+                for _ in 0..how.iterations.max(1) {
+                    if self.clusters > 0 {
+                        fixed(&mut pass, MATCH, per_cluster);
+                    }
+                    fixed(&mut pass, SHAPE, per_particle);
+                    for c in &self.passes {
+                        pass.set_pipeline(&self.pipelines[c.entry]);
+                        pass.set_bind_group(0, &c.bind, &[]);
+                        pass.dispatch_workgroups(c.groups.0, c.groups.1, 1);
+                    }
+                    if how.floor_y_m.is_some() {
+                        fixed(&mut pass, FLOOR, per_particle);
+                    }
+                }
+                fixed(&mut pass, FINISH, per_particle);
+            }
+        }
+        if let Some(t) = &self.timer {
+            t.resolve(&mut encoder);
+        }
+        self.gpu.queue.submit([encoder.finish()]);
+        self.gpu.check()
+    }
+
+    /// Waits for the device and copies its positions, step starts and velocities into `p`,
+    /// all read in one round trip (`p` is written only once all of it came back).
+    pub fn download(&self, p: &mut Particles) -> Result<(), RenderError> {
+        self.read(p, None)
+    }
+
+    /// [`ParticlesGpu::download`], and the clusters' centres, rotations and goal frames into
+    /// `s` (in the same round trip), so the CPU can go on from here. The springs'
+    /// multipliers stay on the device: every substep starts them at zero.
+    pub fn download_all(
+        &self,
+        p: &mut Particles,
+        s: &mut ShapeMatching,
+    ) -> Result<(), RenderError> {
+        self.read(p, Some(s))
+    }
+
+    fn read(&self, p: &mut Particles, s: Option<&mut ShapeMatching>) -> Result<(), RenderError> {
+        let n = u64::from(self.particles) * 16;
+        let k = if s.is_some() {
+            u64::from(self.clusters)
+        } else {
+            0
+        };
+        let raw = compute::read_all(
+            &self.gpu,
+            &[
+                (&self.x, n),
+                (&self.x0, n),
+                (&self.v, n),
+                (&self.cluster_state, 32 * k),
+                (&self.frames, 64 * k),
+            ],
+        )?;
+        let [x, x0, v, state, frames] = [0, 1, 2, 3, 4].map(|j| floats(&raw[j]));
+        for (k, ((x, x0), v)) in x.iter().zip(&x0).zip(&v).enumerate() {
+            p.x[k] = Vec3::new(x[0], x[1], x[2]);
+            p.x0[k] = Vec3::new(x0[0], x0[1], x0[2]);
+            p.v[k] = Vec3::new(v[0], v[1], v[2]);
+        }
+        if let Some(s) = s {
+            s.take_device_state(&state, &frames, &[]);
+        }
+        Ok(())
+    }
+
+    /// Sends the clusters' centres, rotations and warm starts of `s` up (after the CPU
+    /// stepped them).
+    pub fn upload_shape(&mut self, s: &ShapeMatching) {
+        let state = s.arrays().state;
+        if !state.is_empty() {
+            self.gpu
+                .queue
+                .write_buffer(&self.cluster_state, 0, bytes(&state));
+        }
+    }
+
+    /// The last submission's time on the GPU's clock, seconds (waits for it); none where the
+    /// device has no timestamp queries.
+    pub fn kernel_seconds(&self) -> Result<Option<f64>, RenderError> {
+        self.timer
+            .as_ref()
+            .map(|t| t.seconds(&self.gpu))
+            .transpose()
+    }
+}
+
+#[cfg(test)]
+#[path = "gpu_tests.rs"]
+mod tests;

@@ -1,0 +1,454 @@
+//! The particle solver's GPU path against its CPU path, on the adapter there is (lavapipe in
+//! CI).
+
+use super::*;
+use crate::models::particles::shape::{ShapeMatching, frequency_for, lattice_clusters};
+use glam::Quat;
+
+const DT: f32 = 1e-3;
+
+fn gpu() -> Gpu {
+    Gpu::headless(false).expect("a Vulkan adapter (lavapipe in CI)")
+}
+
+/// A small block of liver-like particles (6 x 8 x 6, 3.5 mm apart) in clusters, its top layer
+/// pinned unless `free`.
+fn block(free: bool) -> (Particles, ShapeMatching) {
+    let h = 0.0035f32;
+    let rho = 1060.0;
+    let mut p = Particles::new();
+    for a in 0..6 {
+        for b in 0..8 {
+            for c in 0..6 {
+                p.add(
+                    Vec3::new(a as f32, -(b as f32), c as f32) * h,
+                    rho * h * h * h,
+                    0,
+                );
+            }
+        }
+    }
+    let all: Vec<u32> = (0..p.len() as u32).collect();
+    let r = 2.5 * h;
+    let specs = lattice_clusters(&p.x, &all, h, 3, r, frequency_for(5000.0, rho, r));
+    let s = ShapeMatching::new(&p, specs).expect("clusters");
+    if !free {
+        for i in 0..p.len() {
+            if p.x[i].y == 0.0 {
+                p.pin(i);
+            }
+        }
+    }
+    (p, s)
+}
+
+fn stepping(floor: Option<f32>) -> Stepping {
+    Stepping {
+        dt_s: DT,
+        substeps: 2,
+        iterations: 2,
+        gravity_m_per_s2: Vec3::new(0.0, -9.81, 0.0),
+        damping_per_s: 5.0,
+        floor_y_m: floor,
+    }
+}
+
+/// The CPU's steps of `how` (as the solver takes them: substeps of sweeps, the floor after
+/// each sweep).
+fn cpu_steps(p: &mut Particles, s: &mut ShapeMatching, how: &Stepping, steps: usize) {
+    let dt = how.dt_s / how.substeps as f32;
+    for _ in 0..steps * how.substeps as usize {
+        p.predict(dt, how.gravity_m_per_s2);
+        s.begin_step();
+        for _ in 0..how.iterations {
+            s.project(p, dt);
+            if let Some(y) = how.floor_y_m {
+                for (x, w) in p.x.iter_mut().zip(&p.w) {
+                    if *w > 0.0 && x.y < y {
+                        x.y = y;
+                    }
+                }
+            }
+        }
+        p.finish(dt, how.damping_per_s);
+    }
+}
+
+fn largest_gap(a: &[Vec3], b: &[Vec3]) -> f32 {
+    a.iter()
+        .zip(b)
+        .map(|(a, b)| a.distance(*b))
+        .fold(0.0, f32::max)
+}
+
+#[test]
+fn a_sagging_block_on_the_gpu_follows_the_cpu() {
+    let gpu = gpu();
+    let how = stepping(None);
+    let (mut cpu, mut s_cpu) = block(false);
+    let start = cpu.x.clone();
+    let (mut dev, s_dev) = block(false);
+    let mut k = ParticlesGpu::new(&gpu, &dev, &s_dev, &Constraints::none())
+        .expect("the device takes the block");
+    cpu_steps(&mut cpu, &mut s_cpu, &how, 300);
+    k.advance(&mut dev, &how, 150).expect("steps");
+    k.advance(&mut dev, &how, 150).expect("steps");
+    k.download(&mut dev).expect("read back");
+    let sag = largest_gap(&cpu.x, &start);
+    let gap = largest_gap(&cpu.x, &dev.x);
+    // The block sags by about 0.1 mm; the two paths round differently (the device may fuse
+    // multiply-adds) but run the same algorithm: within 1 % of the sag.
+    assert!(sag > 2e-5, "the block sagged {sag} m");
+    assert!(gap < 0.01 * sag, "GPU vs CPU: {gap} m apart, sag {sag} m");
+    let vgap = largest_gap(&cpu.v, &dev.v);
+    let vmax = cpu.v.iter().map(|v| v.length()).fold(0.0, f32::max);
+    assert!(vgap <= 0.01 * vmax + 1e-6, "velocities {vgap} m/s apart");
+}
+
+#[test]
+fn a_turned_body_finds_its_rotation_on_the_gpu_from_a_cold_start() {
+    // The free block turned by 70 degrees about a slanted axis: each cluster's first
+    // projection looks for that turn (30 iterations from the identity), and the GPU must find
+    // what the CPU finds (within f32's resolution of an angle between quaternions, 7e-4 rad).
+    // Most clusters find the turn exactly; a few small corner clusters stop short (here 0.17
+    // rad at most), as on the CPU, and the next steps' warm starts finish it.
+    let gpu = gpu();
+    let (mut p, mut s_cpu) = block(true);
+    let (_, s_dev0) = block(true);
+    let turn = Quat::from_axis_angle(Vec3::new(1.0, 2.0, 0.5).normalize(), 70f32.to_radians());
+    let centre = p.x.iter().copied().sum::<Vec3>() / p.len() as f32;
+    for x in &mut p.x {
+        *x = centre + turn * (*x - centre);
+    }
+    let mut dev = p.clone();
+    let how = Stepping {
+        substeps: 1,
+        iterations: 1,
+        gravity_m_per_s2: Vec3::ZERO,
+        damping_per_s: 0.0,
+        ..stepping(None)
+    };
+    cpu_steps(&mut p, &mut s_cpu, &how, 1);
+    let mut s_dev = s_dev0;
+    let mut k = ParticlesGpu::new(&gpu, &dev, &s_dev, &Constraints::none())
+        .expect("the device takes the block");
+    k.advance(&mut dev, &how, 1).expect("a step");
+    k.download_all(&mut dev, &mut s_dev).expect("read back");
+    let mut off_turn = Vec::new();
+    for c in 0..s_cpu.clusters() {
+        let (a, b) = (s_cpu.rotation(c), s_dev.rotation(c));
+        assert!(
+            a.angle_between(b) < 2e-3,
+            "cluster {c}: GPU and CPU rotations {} rad apart",
+            a.angle_between(b)
+        );
+        off_turn.push(a.angle_between(turn));
+        let g = s_dev.goal(c, 0);
+        assert!(
+            g.distance(s_cpu.goal(c, 0)) < 1e-6,
+            "cluster {c}'s first goal"
+        );
+    }
+    off_turn.sort_by(f32::total_cmp);
+    let median = off_turn[off_turn.len() / 2];
+    assert!(
+        median < 2e-3,
+        "the clusters' median is {median} rad off the turn"
+    );
+    // A rigid turn is a rest shape: nobody moves.
+    assert!(largest_gap(&p.x, &dev.x) < 1e-6);
+}
+
+#[test]
+fn the_floor_holds_on_both_paths() {
+    let gpu = gpu();
+    let (mut cpu, mut s_cpu) = block(true);
+    let floor = -0.03;
+    let how = stepping(Some(floor));
+    let mut dev = cpu.clone();
+    let mut k = ParticlesGpu::new(&gpu, &dev, &s_cpu.clone(), &Constraints::none())
+        .expect("the device takes it");
+    // 0.2 s: the free block falls 2.45 cm and its bottom (2.45 cm down) lands on the floor.
+    cpu_steps(&mut cpu, &mut s_cpu, &how, 200);
+    k.advance(&mut dev, &how, 200).expect("steps");
+    k.download(&mut dev).expect("read back");
+    let lowest = |p: &Particles| p.x.iter().map(|x| x.y).fold(f32::MAX, f32::min);
+    assert!(lowest(&cpu) >= floor && lowest(&dev) >= floor);
+    let on_floor = |p: &Particles| p.x.iter().filter(|x| x.y == floor).count();
+    assert!(on_floor(&cpu) > 0, "the block reached the floor");
+    assert!(
+        largest_gap(&cpu.x, &dev.x) < 1e-4,
+        "GPU vs CPU on the floor"
+    );
+}
+
+#[test]
+fn two_runs_on_one_adapter_give_the_same_bytes() {
+    let gpu = gpu();
+    let how = stepping(Some(-0.02));
+    let run = |push: bool| {
+        let (mut p, s) = block(false);
+        // Particle 124 is halfway down (a = 2, b = 4, c = 4), free.
+        if push {
+            p.add_force(124, Vec3::new(0.05, 0.0, 0.0));
+        }
+        let mut k = ParticlesGpu::new(&gpu, &p, &s, &Constraints::none())
+            .expect("the device takes the block");
+        k.advance(&mut p, &how, 100).expect("steps");
+        k.download(&mut p).expect("read back");
+        p.state_hash()
+    };
+    let a = run(true);
+    assert_eq!(a, run(true));
+    // The external force went up and acted.
+    assert_ne!(a, run(false));
+}
+
+mod solver {
+    use super::*;
+    use crate::models::particles::adhesion::{Adhesion, AdhesionParams};
+    use crate::models::particles::chain::Chains;
+    use crate::models::particles::cloth::{Cloth, ClothParams};
+    use crate::models::particles::contacts::BodyContacts;
+    use crate::models::particles::solver::{ParticleSolver, SolverParams, SolverParts};
+    use crate::models::xpbd::Stretch;
+    use crate::sim::{ModelOutput, TissueModel};
+
+    fn params(iterations: u32, damping_per_s: f32, floor_y_m: f32) -> SolverParams {
+        SolverParams {
+            iterations,
+            substeps: 2,
+            damping_per_s,
+            gravity_m_per_s2: Vec3::new(0.0, -9.81, 0.0),
+            floor_y_m,
+            tie_stiffness_n_per_m: 200.0,
+            grasp_reach_m: 0.004,
+            grasp_most: 8,
+            grasp_stiffness_n_per_m: 200.0,
+        }
+    }
+
+    /// A solver over `p` with `shape`, `ties`, a cloth of `triangles` (50 N/m edges) and
+    /// strands between `pairs`, nothing else.
+    fn solver_of(
+        mut p: Particles,
+        shape: ShapeMatching,
+        ties: Vec<Stretch>,
+        triangles: &[[u32; 3]],
+        pairs: &[(u32, u32)],
+        params: SolverParams,
+    ) -> ParticleSolver {
+        let strand_params = AdhesionParams {
+            segments: 3,
+            strand_mass_kg: 1e-6,
+            body: 7,
+            stiffness_n_per_m: 100.0,
+            weak_stiffness_n_per_m: 1e-3,
+            breakable_per_strand: 1,
+            break_stretch: 1.1,
+            tear_strain: 0.5,
+        };
+        let adhesion = Adhesion::new(&mut p, pairs, strand_params, 1).expect("strands");
+        let bonds = Adhesion::new(&mut p, &[], strand_params, 2).expect("no strands");
+        let cloth = Cloth::new(
+            &p,
+            triangles,
+            ClothParams {
+                stretch_stiffness_n_per_m: 50.0,
+                bend_stiffness_n_m_per_rad: 1e-5,
+            },
+        )
+        .expect("a cloth");
+        let parts = SolverParts {
+            particles: p,
+            shape,
+            chains: Chains::default(),
+            ties,
+            cloth,
+            adhesion,
+            bonds,
+            contacts: BodyContacts::new(Vec::new(), 0.001, 0.001),
+            contact_radius_m: 0.001,
+        };
+        ParticleSolver::new("test", parts, params)
+    }
+
+    /// The pinned block as a solver, with a strand from its bottom corner to a pinned particle
+    /// below it when asked.
+    fn solver(strands: bool) -> ParticleSolver {
+        let (mut p, shape) = block(false);
+        let pairs = if strands {
+            let below = p.add(Vec3::new(0.0, -0.04, 0.0), 0.0, 3);
+            vec![(47, below)]
+        } else {
+            Vec::new()
+        };
+        solver_of(p, shape, Vec::new(), &[], &pairs, params(2, 5.0, -0.05))
+    }
+
+    /// A 10 x 10 sheet of cloth 4 mm apart, 20 mg a particle, hung from two corners by ties to
+    /// pinned particles above them, falling and swinging under gravity.
+    fn sheet() -> ParticleSolver {
+        let n = 10u32;
+        let h = 0.004f32;
+        let mut p = Particles::new();
+        for i in 0..n {
+            for j in 0..n {
+                p.add(Vec3::new(j as f32 * h, 0.0, i as f32 * h), 2e-5, 0);
+            }
+        }
+        let a = p.add(Vec3::new(0.0, 0.004, 0.0), 0.0, 1);
+        let b = p.add(Vec3::new((n - 1) as f32 * h, 0.004, 0.0), 0.0, 1);
+        let id = |i: u32, j: u32| i * n + j;
+        let mut triangles = Vec::new();
+        for i in 0..n - 1 {
+            for j in 0..n - 1 {
+                triangles.push([id(i, j), id(i + 1, j), id(i, j + 1)]);
+                triangles.push([id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)]);
+            }
+        }
+        let tie = |from: u32, to: u32| Stretch {
+            a: from,
+            b: to,
+            rest_m: 0.004,
+        };
+        let ties = vec![tie(id(0, 0), a), tie(id(0, n - 1), b)];
+        let shape = ShapeMatching::new(&p, Vec::new()).expect("no clusters");
+        solver_of(p, shape, ties, &triangles, &[], params(4, 2.0, -1.0))
+    }
+
+    fn steps(s: &mut ParticleSolver, n: usize) {
+        let mut out = ModelOutput::default();
+        for _ in 0..n {
+            s.step(1e-3, &[], &mut out);
+        }
+    }
+
+    #[test]
+    fn a_solver_of_clusters_steps_on_the_gpu_as_on_the_cpu() {
+        let gpu = gpu();
+        let (mut cpu, mut dev) = (solver(false), solver(false));
+        dev.use_gpu(&gpu)
+            .expect("the device takes clusters and a floor");
+        assert!(dev.gpu_adapter().is_some() && cpu.gpu_adapter().is_none());
+        let start = cpu.particles.x.clone();
+        steps(&mut cpu, 200);
+        steps(&mut dev, 200);
+        let sag = largest_gap(&cpu.particles.x, &start);
+        let gap = largest_gap(&cpu.particles.x, &dev.particles.x);
+        assert!(
+            sag > 2e-5 && gap < 0.01 * sag,
+            "sag {sag} m, GPU vs CPU {gap} m"
+        );
+        // The clusters' frames came back with the particles: the goals agree too.
+        let goal_gap = (0..cpu.shape.clusters())
+            .map(|k| cpu.shape.goal(k, 0).distance(dev.shape.goal(k, 0)))
+            .fold(0.0, f32::max);
+        assert!(goal_gap < 0.01 * sag, "goals {goal_gap} m apart");
+    }
+
+    #[test]
+    fn a_lost_device_leaves_the_session_on_the_cpu_from_the_last_step() {
+        let gpu = gpu();
+        let (mut cpu, mut dev) = (solver(false), solver(false));
+        dev.use_gpu(&gpu).expect("the device takes it");
+        steps(&mut cpu, 100);
+        steps(&mut dev, 100);
+        assert!(dev.inject_device_loss());
+        steps(&mut cpu, 100);
+        steps(&mut dev, 100);
+        assert!(dev.gpu_adapter().is_none(), "the device was given up");
+        let note = dev.take_device_note().expect("the loss is reported");
+        assert!(!note.is_empty());
+        assert!(dev.take_device_note().is_none(), "reported once");
+        assert!(dev.particles.is_finite());
+        let sag = largest_gap(&cpu.particles.x, &solver(false).particles.x);
+        let gap = largest_gap(&cpu.particles.x, &dev.particles.x);
+        assert!(
+            gap < 0.01 * sag,
+            "after the loss: {gap} m from the CPU's run (sag {sag} m)"
+        );
+    }
+
+    #[test]
+    fn the_device_refuses_what_its_kernels_do_not_step_by_name() {
+        let gpu = gpu();
+        let mut s = solver(true);
+        let e = s.use_gpu(&gpu).expect_err("strands are not on the GPU yet");
+        let text = e.to_string();
+        assert!(text.contains("strand segments"), "{text}");
+        assert!(text.contains("shape matching"), "{text}");
+        assert!(s.gpu_adapter().is_none());
+    }
+
+    #[test]
+    fn a_rollback_goes_up_before_the_next_device_step() {
+        let gpu = gpu();
+        let (mut cpu, mut dev) = (solver(false), solver(false));
+        dev.use_gpu(&gpu).expect("the device takes it");
+        for s in [&mut cpu, &mut dev] {
+            steps(s, 50);
+            s.checkpoint();
+            steps(s, 50);
+            s.restore();
+            steps(s, 50);
+        }
+        let sag = largest_gap(&cpu.particles.x, &solver(false).particles.x);
+        let gap = largest_gap(&cpu.particles.x, &dev.particles.x);
+        assert!(
+            gap < 0.01 * sag,
+            "{gap} m apart after a rollback (sag {sag} m)"
+        );
+    }
+
+    #[test]
+    fn a_hanging_sheet_of_cloth_swings_on_the_gpu_as_on_the_cpu() {
+        let gpu = gpu();
+        let (mut cpu, mut dev) = (sheet(), sheet());
+        dev.use_gpu(&gpu).expect("the device takes cloth and ties");
+        let (edges, hinges) = cpu.cloth.colours();
+        let colours = |c: &[u32]| c.iter().max().map_or(0, |m| m + 1);
+        assert!(colours(edges) >= 6 && colours(hinges) >= 4);
+        let start = cpu.particles.x.clone();
+        steps(&mut cpu, 150);
+        steps(&mut dev, 150);
+        // The sheet falls and folds over 150 ms: centimetres, every edge and hinge working.
+        let moved = largest_gap(&cpu.particles.x, &start);
+        let gap = largest_gap(&cpu.particles.x, &dev.particles.x);
+        assert!(moved > 0.02, "the sheet moved {moved} m");
+        assert!(
+            gap < 0.01 * moved,
+            "GPU vs CPU: {gap} m apart ({moved} m moved)"
+        );
+        // Hung by its ties: the tied corners stay within a stretched tie of their anchors.
+        let anchor = cpu.particles.x[100];
+        assert!(dev.particles.x[0].distance(anchor) < 0.006);
+    }
+
+    #[test]
+    fn a_cut_reaches_the_device_before_its_next_step() {
+        let gpu = gpu();
+        let (mut cpu, mut dev) = (sheet(), sheet());
+        dev.use_gpu(&gpu).expect("the device takes cloth and ties");
+        steps(&mut cpu, 50);
+        steps(&mut dev, 50);
+        // Cut across the middle row: the lower half falls away on both.
+        let mid = cpu.particles.x[4 * 10 + 5];
+        let a = cpu.dissect(mid, 0.012);
+        let b = dev.dissect(dev.particles.x[4 * 10 + 5], 0.012);
+        assert!(
+            a.cloth > 0 && a.cloth == b.cloth,
+            "{} vs {}",
+            a.cloth,
+            b.cloth
+        );
+        steps(&mut cpu, 100);
+        steps(&mut dev, 100);
+        let moved = largest_gap(&cpu.particles.x, &sheet().particles.x);
+        let gap = largest_gap(&cpu.particles.x, &dev.particles.x);
+        assert!(
+            gap < 0.01 * moved,
+            "after the cut: {gap} m apart ({moved} m moved)"
+        );
+    }
+}
