@@ -52,7 +52,7 @@ struct Range {
 @group(0) @binding(1) var<storage, read_write> x: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> x0: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read_write> v: array<vec4<f32>>;
-@group(0) @binding(4) var<storage, read_write> ext: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read> ext: array<vec4<f32>>;
 @group(0) @binding(5) var<storage, read> offsets: array<u32>;
 @group(0) @binding(6) var<storage, read_write> mu: array<vec4<f32>>;
 @group(0) @binding(7) var<storage, read> cluster_info: array<vec4<u32>>;
@@ -68,6 +68,18 @@ struct Range {
 @group(0) @binding(15) var<storage, read> stretches: array<vec4<u32>>;
 @group(0) @binding(16) var<storage, read> bends: array<vec4<u32>>;
 @group(0) @binding(17) var<storage, read_write> lambda: array<f32>;
+// Chains solved a run of intact segments at a time (`chain.rs`, `adhesion.rs`), three rows a
+// chain: `(first segment, end, first bending spring, end)`, `(bits of the compliance, of the
+// weakened breakable segments' compliance, weakened, solves a sweep)`, `(bits of the bending
+// springs' compliance, the first segment's multiplier, the first bending spring's, 0)`.
+@group(0) @binding(18) var<storage, read> chains: array<vec4<u32>>;
+// Segments: `(a, b, bits of the rest length, intact | breakable << 1)`; bending springs:
+// `(a, b, bits of the rest length, intact)`.
+@group(0) @binding(19) var<storage, read> chain_segs: array<vec4<u32>>;
+@group(0) @binding(20) var<storage, read> chain_bends: array<vec4<u32>>;
+// Each segment's row of its run's tridiagonal system, two a segment: `(normal, diagonal)`,
+// `(coupling with the next, right-hand side, c, d)` (work space).
+@group(0) @binding(21) var<storage, read_write> rows: array<vec4<f32>>;
 
 // A turn smaller than this ends the rotation's extraction, radians (`shape.rs`).
 const ROTATION_TOLERANCE_RAD: f32 = 1e-5;
@@ -79,7 +91,8 @@ fn index(gid: vec3<u32>) -> u32 {
 }
 
 // Step 1: remember the positions, move every free particle by its velocity after gravity and
-// the external forces (used up), and start the step's multipliers at zero.
+// the external forces (the submission's, through each of its substeps), and start the step's
+// multipliers at zero.
 @compute @workgroup_size(64)
 fn predict(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = index(gid);
@@ -93,7 +106,6 @@ fn predict(@builtin(global_invocation_id) gid: vec3<u32>) {
         v[i] = vec4<f32>(vi, 0.0);
         x[i] = vec4<f32>(xi.xyz + p.dt * vi, xi.w);
     }
-    ext[i] = vec4<f32>(0.0);
     for (var e = offsets[i]; e < offsets[i + 1u]; e++) {
         mu[e] = vec4<f32>(0.0);
     }
@@ -256,25 +268,7 @@ fn project_stretches(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let c = stretches[k];
-    let xa = x[c.x];
-    let xb = x[c.y];
-    let wsum = xa.w + xb.w;
-    if wsum == 0.0 {
-        return;
-    }
-    let d = xa.xyz - xb.xyz;
-    let len = length(d);
-    if len <= 1.1920929e-7 {
-        return;
-    }
-    let n = d / len;
-    let li = range.lambda_base + (k - range.first);
-    let alpha = range.compliance / (p.dt * p.dt);
-    let constraint = len - bitcast<f32>(c.z);
-    let dl = (-constraint - alpha * lambda[li]) / (wsum + alpha);
-    x[c.x] = vec4<f32>(xa.xyz + n * (xa.w * dl), xa.w);
-    x[c.y] = vec4<f32>(xb.xyz - n * (xb.w * dl), xb.w);
-    lambda[li] += dl;
+    stretch_one(c.x, c.y, bitcast<f32>(c.z), range.compliance, range.lambda_base + (k - range.first));
 }
 
 const PI: f32 = 3.14159265358979;
@@ -354,4 +348,134 @@ fn finish(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     v[i] = vec4<f32>((x[i].xyz - x0[i].xyz) * p.inv_dt * p.keep, 0.0);
+}
+
+// One stretch constraint `a - b` of rest length `rest` as `xpbd::project_stretch`, its
+// multiplier at `li`.
+fn stretch_one(a: u32, b: u32, rest: f32, compliance: f32, li: u32) {
+    let xa = x[a];
+    let xb = x[b];
+    let wsum = xa.w + xb.w;
+    if wsum == 0.0 {
+        return;
+    }
+    let d = xa.xyz - xb.xyz;
+    let len = length(d);
+    if len <= 1.1920929e-7 {
+        return;
+    }
+    let n = d / len;
+    let alpha = compliance / (p.dt * p.dt);
+    let dl = (-(len - rest) - alpha * lambda[li]) / (wsum + alpha);
+    x[a] = vec4<f32>(xa.xyz + n * (xa.w * dl), xa.w);
+    x[b] = vec4<f32>(xb.xyz - n * (xb.w * dl), xb.w);
+    lambda[li] += dl;
+}
+
+// Segments `lo..hi` of a chain, consecutive and intact, solved together as
+// `chain::solve_chain`: the run's XPBD step is tridiagonal, solved exactly by the Thomas
+// algorithm (forward elimination, then back substitution applying each change).
+fn solve_run(lo: u32, hi: u32, compliance: f32, weak: f32, weakened: bool, lambda_at: u32) {
+    let inv_dt2 = 1.0 / (p.dt * p.dt);
+    for (var j = lo; j < hi; j++) {
+        let g = chain_segs[j];
+        var comp = compliance;
+        if weakened && (g.w & 2u) != 0u {
+            comp = weak;
+        }
+        if hi - lo == 1u {
+            stretch_one(g.x, g.y, bitcast<f32>(g.z), comp, lambda_at + j);
+            return;
+        }
+        let xa = x[g.x];
+        let xb = x[g.y];
+        let d = xa.xyz - xb.xyz;
+        let len = length(d);
+        let alpha = comp * inv_dt2;
+        var normal = vec3<f32>(0.0);
+        var rhs = 0.0;
+        if len > 1.1920929e-7 {
+            normal = d / len;
+            rhs = -(len - bitcast<f32>(g.z)) - alpha * lambda[lambda_at + j];
+        }
+        rows[2u * j] = vec4<f32>(normal, (xa.w + xb.w) * dot(normal, normal) + alpha);
+        rows[2u * j + 1u] = vec4<f32>(0.0, rhs, 0.0, 0.0);
+    }
+    for (var j = lo; j < hi; j++) {
+        var off = 0.0;
+        if j + 1u < hi {
+            off = -x[chain_segs[j].y].w * dot(rows[2u * j].xyz, rows[2u * j + 2u].xyz);
+        }
+        rows[2u * j + 1u].x = off;
+    }
+    var c_prev = 0.0;
+    var d_prev = 0.0;
+    var off_prev = 0.0;
+    for (var j = lo; j < hi; j++) {
+        let pivot = rows[2u * j].w - off_prev * c_prev;
+        if !(pivot > 0.0) {
+            return;
+        }
+        let r = rows[2u * j + 1u];
+        let c = r.x / pivot;
+        let dd = (r.y - off_prev * d_prev) / pivot;
+        rows[2u * j + 1u] = vec4<f32>(r.x, r.y, c, dd);
+        c_prev = c;
+        d_prev = dd;
+        off_prev = r.x;
+    }
+    var next = 0.0;
+    for (var j = hi; j > lo; j--) {
+        let k = j - 1u;
+        let r = rows[2u * k + 1u];
+        let dl = r.w - r.z * next;
+        next = dl;
+        lambda[lambda_at + k] += dl;
+        let g = chain_segs[k];
+        let normal = rows[2u * k].xyz;
+        let xa = x[g.x];
+        x[g.x] = vec4<f32>(xa.xyz + normal * (xa.w * dl), xa.w);
+        let xb = x[g.y];
+        x[g.y] = vec4<f32>(xb.xyz - normal * (xb.w * dl), xb.w);
+    }
+}
+
+// One colour of chains (`Chains::project`, `Adhesion::project`): each chain's runs of intact
+// segments solved together (`solves` times), then its bending springs one by one.
+@compute @workgroup_size(64)
+fn project_chains(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let k = range.first + index(gid);
+    if k >= range.end {
+        return;
+    }
+    let span = chains[3u * k];
+    let how = chains[3u * k + 1u];
+    let more = chains[3u * k + 2u];
+    let compliance = bitcast<f32>(how.x);
+    let weak = bitcast<f32>(how.y);
+    let weakened = how.z != 0u;
+    // The segments' multipliers: segment j's at `lambda_at + j`.
+    let lambda_at = more.y - span.x;
+    var lo = span.x;
+    while lo < span.y {
+        if (chain_segs[lo].w & 1u) == 0u {
+            lo += 1u;
+            continue;
+        }
+        var hi = lo + 1u;
+        while hi < span.y && (chain_segs[hi].w & 1u) != 0u {
+            hi += 1u;
+        }
+        for (var s = 0u; s < how.w; s++) {
+            solve_run(lo, hi, compliance, weak, weakened, lambda_at);
+        }
+        lo = hi;
+    }
+    let bend_compliance = bitcast<f32>(more.x);
+    for (var b = span.z; b < span.w; b++) {
+        let c = chain_bends[b];
+        if c.w != 0u {
+            stretch_one(c.x, c.y, bitcast<f32>(c.z), bend_compliance, more.z + (b - span.z));
+        }
+    }
 }

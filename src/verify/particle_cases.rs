@@ -204,18 +204,22 @@ pub fn hanging_column_of(h: f32, rho: f32, e: f32) -> Measured {
     }
 }
 
+/// The break-force case's strand: 5 segments of 1e4 N/m, weakened past 1.1 times its length,
+/// tearing past 50 % strain.
+pub(super) const BREAK_STRAND: AdhesionParams = AdhesionParams {
+    segments: 5,
+    strand_mass_kg: 1e-6,
+    body: 7,
+    stiffness_n_per_m: 1e4,
+    weak_stiffness_n_per_m: 1e-3,
+    breakable_per_strand: 1,
+    break_stretch: 1.1,
+    tear_strain: 0.5,
+};
+
 fn break_force() -> Measured {
     let (l, k, n) = (0.01f32, 1e4f32, 5u32);
-    let params = AdhesionParams {
-        segments: n,
-        strand_mass_kg: 1e-6,
-        body: 7,
-        stiffness_n_per_m: k,
-        weak_stiffness_n_per_m: 1e-3,
-        breakable_per_strand: 1,
-        break_stretch: 1.1,
-        tear_strain: 0.5,
-    };
+    let params = BREAK_STRAND;
     let mut p = Particles::new();
     let fixed = p.add(Vec3::ZERO, 0.0, 1);
     let free = p.add(Vec3::new(l, 0.0, 0.0), 1e-3, 2);
@@ -243,8 +247,13 @@ fn break_force() -> Measured {
     Measured::not_run(reference)
 }
 
-fn chain_tension() -> Measured {
-    let (n, h, m, load, k) = (12usize, 0.003f32, 1e-4f32, 0.02f32, 500.0f32);
+/// The chain case's vessel: particles, segment stiffness (N/m), mass (kg), load at its end
+/// (kg), spacing (m).
+pub(super) const HANGING_CHAIN: (usize, f32, f32, f32, f32) = (12, 500.0, 1e-4, 0.02, 0.003);
+
+/// The chain case's particles hanging straight down from the first (pinned), and their chain.
+pub(super) fn hanging_chain() -> (Particles, Chains) {
+    let (n, k, m, load, h) = HANGING_CHAIN;
     let mut p = Particles::new();
     let ids: Vec<u32> = (0..n)
         .map(|i| {
@@ -255,6 +264,12 @@ fn chain_tension() -> Measured {
     p.pin(0);
     let mut c = Chains::new();
     c.add(&p, &ids, k, 0.0);
+    (p, c)
+}
+
+fn chain_tension() -> Measured {
+    let (n, _, m, load, _) = HANGING_CHAIN;
+    let (mut p, mut c) = hanging_chain();
     let steps = 1500;
     for _ in 0..steps {
         p.predict(DT, Vec3::new(0.0, -G, 0.0));

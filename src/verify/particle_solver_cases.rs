@@ -1,7 +1,10 @@
 //! Cases for the particle solver as a whole, each run on the CPU and (`--compute gpu`) by the
-//! GPU's kernels: a tie holding a weight (the ties' and the cloth's stretch projection), and a
-//! folded hinge of cloth returning to its rest fold (the bending projection).
+//! GPU's kernels: a tie holding a weight (the ties' and the cloth's stretch projection), a
+//! folded hinge of cloth returning to its rest fold (the bending projection), a vessel's chain
+//! stretched by the weight below each segment (the chains' exact run solve), and a strand
+//! pulled until it tears (the strands, their weakening and tearing).
 
+use super::particle_cases::{BREAK_STRAND, HANGING_CHAIN, hanging_chain};
 use super::{Case, Measured};
 use crate::models::particles::Particles;
 use crate::models::particles::adhesion::{Adhesion, AdhesionParams};
@@ -34,8 +37,34 @@ const HINGE_DESCRIPTION: &str = "two triangles of cloth (10 mm edges) built with
                                  damped: the fold vs the rest fold; tolerance 1e-3 (the \
                                  projection turns 0.02 rad at most, so it takes 53 sweeps)";
 
+const CHAIN_DESCRIPTION: &str = "a vessel's chain of 12 particles of 0.1 g, 3 mm apart, 20 g at \
+                                 its end, hanging from its pinned top (segments of 500 N/m), \
+                                 1.5 s damped (2 sweeps a step): the end's drop vs the sum \
+                                 over segments of the weight below each over 500 N/m; \
+                                 tolerance 1e-3";
+const STRAND_DESCRIPTION: &str = "adhesion_break_force's strand (1 cm, 5 segments of 1e4 N/m, \
+                                  weakened past 1.1 times its length) in a solver of 10 \
+                                  sweeps a step, pulled by a force growing 1 N/s: the pull at \
+                                  which it tears vs (k / n) 0.1 L = 2 N; tolerance 5 %";
+
 pub(super) fn cases() -> Vec<Case> {
     vec![
+        Case {
+            model: MODEL,
+            case: "particle_chain_stretch",
+            description: CHAIN_DESCRIPTION,
+            unit: "m",
+            tolerance: 1e-3,
+            run: || chain_stretch(false),
+        },
+        Case {
+            model: MODEL,
+            case: "particle_strand_break_force",
+            description: STRAND_DESCRIPTION,
+            unit: "N",
+            tolerance: 0.05,
+            run: || strand_break(false),
+        },
         Case {
             model: MODEL,
             case: "particle_tie_load",
@@ -61,6 +90,22 @@ pub(super) fn gpu_cases() -> Vec<Case> {
     vec![
         Case {
             model: MODEL_GPU,
+            case: "particle_chain_stretch_gpu",
+            description: CHAIN_DESCRIPTION,
+            unit: "m",
+            tolerance: 1e-3,
+            run: || chain_stretch(true),
+        },
+        Case {
+            model: MODEL_GPU,
+            case: "particle_strand_break_force_gpu",
+            description: STRAND_DESCRIPTION,
+            unit: "N",
+            tolerance: 0.05,
+            run: || strand_break(true),
+        },
+        Case {
+            model: MODEL_GPU,
             case: "particle_tie_load_gpu",
             description: TIE_DESCRIPTION,
             unit: "m",
@@ -81,39 +126,75 @@ pub(super) fn gpu_cases() -> Vec<Case> {
 /// A solver over `p` with `ties` and a cloth of `triangles` (nothing else); None if it could
 /// not be built.
 fn solver_of(
-    mut p: Particles,
+    p: Particles,
     ties: Vec<Stretch>,
     triangles: &[[u32; 3]],
     cloth: ClothParams,
     gravity: Vec3,
 ) -> Option<ParticleSolver> {
-    let strands = AdhesionParams {
-        segments: 2,
-        strand_mass_kg: 1e-6,
-        body: 9,
-        stiffness_n_per_m: 1.0,
-        weak_stiffness_n_per_m: 1e-3,
-        breakable_per_strand: 1,
-        break_stretch: 1.1,
-        tear_strain: 0.5,
+    let parts = Parts {
+        ties,
+        triangles,
+        cloth,
+        ..Parts::none()
     };
-    let adhesion = Adhesion::new(&mut p, &[], strands, 1).ok()?;
-    let bonds = Adhesion::new(&mut p, &[], strands, 2).ok()?;
+    solver_with(p, parts, gravity, 4, 20.0)
+}
+
+/// What a case's solver holds besides its particles.
+struct Parts<'a> {
+    ties: Vec<Stretch>,
+    triangles: &'a [[u32; 3]],
+    cloth: ClothParams,
+    chains: Chains,
+    /// Strands between these pairs, of `strand_params`.
+    strands: &'a [(u32, u32)],
+    strand_params: AdhesionParams,
+}
+
+impl Parts<'_> {
+    /// No ties, cloth, vessels or strands.
+    fn none() -> Self {
+        Parts {
+            ties: Vec::new(),
+            triangles: &[],
+            cloth: ClothParams {
+                stretch_stiffness_n_per_m: 1.0,
+                bend_stiffness_n_m_per_rad: 1.0,
+            },
+            chains: Chains::default(),
+            strands: &[],
+            strand_params: BREAK_STRAND,
+        }
+    }
+}
+
+/// A solver over `p` and `parts` (nothing else), 2 substeps of `sweeps` a step with point
+/// damping `damping_per_s`; None if it could not be built.
+fn solver_with(
+    mut p: Particles,
+    parts: Parts,
+    gravity: Vec3,
+    sweeps: u32,
+    damping_per_s: f32,
+) -> Option<ParticleSolver> {
+    let adhesion = Adhesion::new(&mut p, parts.strands, parts.strand_params, 7).ok()?;
+    let bonds = Adhesion::new(&mut p, &[], parts.strand_params, 2).ok()?;
     let parts = SolverParts {
-        cloth: Cloth::new(&p, triangles, cloth).ok()?,
+        cloth: Cloth::new(&p, parts.triangles, parts.cloth).ok()?,
         shape: ShapeMatching::new(&p, Vec::new()).ok()?,
         particles: p,
-        chains: Chains::default(),
-        ties,
+        chains: parts.chains,
+        ties: parts.ties,
         adhesion,
         bonds,
         contacts: BodyContacts::new(Vec::new(), 1e-3, 1e-3),
         contact_radius_m: 1e-3,
     };
     let params = SolverParams {
-        iterations: 4,
+        iterations: sweeps,
         substeps: 2,
-        damping_per_s: 20.0,
+        damping_per_s,
         gravity_m_per_s2: gravity,
         floor_y_m: -1.0,
         tie_stiffness_n_per_m: TIE_K,
@@ -224,4 +305,61 @@ fn hinge_fold(gpu: bool) -> Measured {
         simulated_s,
         ..Measured::at_rest(reference, f64::from(fold.abs()))
     }
+}
+
+fn chain_stretch(gpu: bool) -> Measured {
+    let (n, k, m, load, _) = HANGING_CHAIN;
+    // Segment j carries the particles below it: (n - 1 - j) of m, and the load.
+    let reference: f32 = (0..n - 1)
+        .map(|j| ((n - 1 - j) as f32 * m + load) * G / k)
+        .sum();
+    let (p, chains) = hanging_chain();
+    let end_rest = p.x[n - 1].y;
+    let parts = Parts {
+        chains,
+        ..Parts::none()
+    };
+    let gravity = Vec3::new(0.0, -G, 0.0);
+    let Some(mut s) = solver_with(p, parts, gravity, 2, 30.0).and_then(|s| on_gpu(s, gpu)) else {
+        return Measured::not_run(f64::from(reference));
+    };
+    let simulated_s = steps(&mut s, 1500);
+    Measured {
+        simulated_s,
+        ..Measured::at_rest(
+            f64::from(reference),
+            f64::from(end_rest - s.particles.x[n - 1].y),
+        )
+    }
+}
+
+fn strand_break(gpu: bool) -> Measured {
+    let (l, k, n) = (0.01f32, 1e4f32, 5u32);
+    let reference = f64::from(k / n as f32 * 0.1 * l);
+    let mut p = Particles::new();
+    let fixed = p.add(Vec3::ZERO, 0.0, 1);
+    let free = p.add(Vec3::new(l, 0.0, 0.0), 1e-3, 2);
+    let pairs = [(free, fixed)];
+    let parts = Parts {
+        strands: &pairs,
+        ..Parts::none()
+    };
+    let Some(mut s) = solver_with(p, parts, Vec3::ZERO, 10, 20.0).and_then(|s| on_gpu(s, gpu))
+    else {
+        return Measured::not_run(reference);
+    };
+    let mut out = ModelOutput::default();
+    let mut t = 0.0f32;
+    while t < 4.0 {
+        t += 1e-3;
+        s.particles.add_force(free as usize, Vec3::new(t, 0.0, 0.0));
+        s.step(1e-3, &[], &mut out);
+        if !s.outcome().breaks.is_empty() {
+            return Measured {
+                simulated_s: f64::from(t),
+                ..Measured::at_rest(reference, f64::from(t))
+            };
+        }
+    }
+    Measured::not_run(reference)
 }

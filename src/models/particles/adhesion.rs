@@ -35,8 +35,9 @@
 //! goes through the strands and segments in order, and the generator is seeded, so the same
 //! inputs give the same bytes and the same breaks.
 
-use super::Particles;
 use super::chain::{Row, solve_chain};
+use super::gpu::{ChainSegment, ChainSet, DeviceChain};
+use super::{Particles, colour};
 
 /// Solves of each run of a strand per sweep, each linearised where the last left it (Newton
 /// steps on the strand's own system). A strand's interior particles weigh a fraction of a
@@ -211,6 +212,10 @@ pub struct Adhesion {
     needs: usize,
     /// A strand's rows of its chain's linear system (work space).
     rows: Vec<Row>,
+    /// The strands in projection order: by colour (strands of one colour share no particle,
+    /// `colour.rs`), then as given; and each strand's colour.
+    order: Vec<u32>,
+    colours: Vec<u32>,
 }
 
 /// splitmix64 (Steele, Lea and Flood 2014): a 64-bit counter through a mixing function.
@@ -322,7 +327,15 @@ impl Adhesion {
                 torn: 0,
             });
         }
+        // Strands share only their ends (their interior particles are their own).
+        let colours = colour::greedy(&pairs.iter().map(|&(a, b)| [a, b]).collect::<Vec<_>>());
+        let order = colour::order(&colours)
+            .into_iter()
+            .map(|k| k as u32)
+            .collect();
         Ok(Adhesion {
+            order,
+            colours,
             params,
             lambda: vec![0.0; segments.len()],
             strands,
@@ -446,7 +459,7 @@ impl Adhesion {
     }
 
     /// One sweep of a step of `dt` seconds over the intact segments: Gauss-Seidel from strand to
-    /// strand, in order, each strand's runs of intact segments solved together (see
+    /// strand in projection order (by colour), each strand's runs of intact segments solved together (see
     /// [`solve_chain`]). Does nothing when `dt` is not a positive number or `p` lacks the
     /// strands' particles.
     pub fn project(&mut self, p: &mut Particles, dt: f32) {
@@ -457,7 +470,8 @@ impl Adhesion {
         let n = self.params.segments as usize;
         let stiff = 1.0 / self.params.stiffness_n_per_m;
         let weak = 1.0 / self.params.weak_stiffness_n_per_m;
-        for (k, strand) in self.strands.iter().enumerate() {
+        for &k in &self.order {
+            let (k, strand) = (k as usize, &self.strands[k as usize]);
             let segs = &self.segments[k * n..(k + 1) * n];
             let lambda = &mut self.lambda[k * n..(k + 1) * n];
             let weakened = strand.weak && strand.torn == 0;
@@ -481,6 +495,43 @@ impl Adhesion {
                 from = to;
             }
         }
+    }
+
+    /// Strands weakened and segments torn or cut so far (a change to either changes what a
+    /// sweep projects).
+    pub fn broken_counts(&self) -> (usize, usize) {
+        let weak = self.strands.iter().filter(|s| s.weak).count();
+        let torn = self.segments.iter().filter(|s| !s.intact).count();
+        (weak, torn)
+    }
+
+    /// The strands as a device takes them, in projection order (`gpu.rs`).
+    pub(super) fn device_set(&self) -> ChainSet {
+        let n = self.params.segments as usize;
+        let mut set = ChainSet::default();
+        for &k in &self.order {
+            let (k, strand) = (k as usize, &self.strands[k as usize]);
+            let first = set.segs.len() as u32;
+            for s in &self.segments[k * n..(k + 1) * n] {
+                set.segs.push(ChainSegment {
+                    c: s.c,
+                    intact: s.intact,
+                    breakable: s.breakable,
+                });
+            }
+            let bends = set.bends.len() as u32;
+            set.chains.push(DeviceChain {
+                segs: first..set.segs.len() as u32,
+                bends: bends..bends,
+                compliance: 1.0 / self.params.stiffness_n_per_m,
+                weak_compliance: 1.0 / self.params.weak_stiffness_n_per_m,
+                weakened: strand.weak && strand.torn == 0,
+                solves: STRAND_NEWTON_STEPS as u32,
+                bend_compliance: 0.0,
+                colour: self.colours[k],
+            });
+        }
+        set
     }
 
     /// The step's checks, after the iterations: weakens the whole strands stretched past the

@@ -8,7 +8,8 @@
 //! Units: metres, newtons; compliances in m/N (1 / stiffness). Every sweep goes through the
 //! chains and segments in order: the same bytes every time.
 
-use super::Particles;
+use super::gpu::{ChainSegment, ChainSet, DeviceChain};
+use super::{Particles, colour};
 use crate::models::xpbd::{self, Stretch};
 use glam::Vec3;
 
@@ -114,6 +115,10 @@ pub struct Chains {
     bend_lambda: Vec<f32>,
     rows: Vec<Row>,
     dt: f32,
+    /// The chains in projection order: by colour (chains of one colour share no particle,
+    /// `colour.rs`), then as added.
+    order: Vec<u32>,
+    colours: Vec<u32>,
 }
 
 impl Chains {
@@ -163,6 +168,19 @@ impl Chains {
         });
         self.rows
             .resize(self.rows.len().max(s1 - s0), Row::default());
+        let particles: Vec<Vec<u32>> = self
+            .spans
+            .iter()
+            .map(|s| {
+                let segs = &self.segs[s.segs.clone()];
+                segs.iter().flat_map(|g| [g.a, g.b]).collect()
+            })
+            .collect();
+        self.colours = colour::greedy(&particles);
+        self.order = colour::order(&self.colours)
+            .into_iter()
+            .map(|k| k as u32)
+            .collect();
         self.spans.len() - 1
     }
 
@@ -261,14 +279,15 @@ impl Chains {
         self.bend_lambda.fill(0.0);
     }
 
-    /// One sweep: every chain's runs of intact segments solved exactly, then its bending
-    /// springs one by one.
+    /// One sweep: chain by chain in projection order (by colour), each one's runs of intact
+    /// segments solved exactly, then its bending springs one by one.
     pub fn project(&mut self, p: &mut Particles, dt: f32) {
         if !(dt.is_finite() && dt > 0.0) {
             return;
         }
         self.dt = dt;
-        for span in &self.spans {
+        for &k in &self.order {
+            let span = &self.spans[k as usize];
             let (s0, s1) = (span.segs.start, span.segs.end);
             let mut from = s0;
             while from < s1 {
@@ -308,6 +327,43 @@ impl Chains {
 
     pub fn heap_bytes(&self) -> usize {
         (self.segs.len() + self.bends.len()) * (12 + 1 + 4) + self.rows.len() * 40
+    }
+
+    /// Segments and bending springs still intact (a cut changes them).
+    pub fn intact_counts(&self) -> (usize, usize) {
+        let count = |v: &[bool]| v.iter().filter(|&&b| b).count();
+        (count(&self.intact), count(&self.bend_intact))
+    }
+
+    /// The chains as a device takes them, in projection order (`gpu.rs`).
+    pub(super) fn device_set(&self) -> ChainSet {
+        let mut set = ChainSet::default();
+        for &k in &self.order {
+            let span = &self.spans[k as usize];
+            let first = set.segs.len() as u32;
+            for i in span.segs.clone() {
+                set.segs.push(ChainSegment {
+                    c: self.segs[i],
+                    intact: self.intact[i],
+                    breakable: false,
+                });
+            }
+            let bend_first = set.bends.len() as u32;
+            for b in span.bends.clone() {
+                set.bends.push((self.bends[b], self.bend_intact[b]));
+            }
+            set.chains.push(DeviceChain {
+                segs: first..set.segs.len() as u32,
+                bends: bend_first..set.bends.len() as u32,
+                compliance: span.compliance,
+                weak_compliance: span.compliance,
+                weakened: false,
+                solves: 1,
+                bend_compliance: span.bend_compliance,
+                colour: self.colours[k as usize],
+            });
+        }
+        set
     }
 }
 

@@ -6,13 +6,14 @@
 /// Each constraint's colour, greedily in the given order: the smallest colour no earlier
 /// constraint on any of its particles has. Deterministic; a mesh's edges take about 2 x its
 /// largest valence colours at most.
-pub fn greedy<const K: usize>(particles: &[[u32; K]]) -> Vec<u32> {
+pub fn greedy<T: AsRef<[u32]>>(particles: &[T]) -> Vec<u32> {
     // Per particle, the colours its constraints have taken (a bit each, the first 64; beyond
     // that a list).
     let mut used: std::collections::HashMap<u32, (u64, Vec<u32>)> =
         std::collections::HashMap::new();
     let mut out = Vec::with_capacity(particles.len());
     for ends in particles {
+        let ends = ends.as_ref();
         let mut colour = 0u32;
         loop {
             let taken = ends.iter().any(|i| {

@@ -3,10 +3,13 @@
 //! device runs the step's substeps and sweeps; after each step the particles and the
 //! clusters' frames come back in one round trip, so the CPU always holds the newest state.
 //!
-//! The device's kernels step shape matching, the ties, the cloth (its edges and hinges colour
-//! by colour, as the CPU takes them), gravity, point damping and the floor; a solver with
-//! other constraint sets is refused with an error naming them ([`ParticleSolver::use_gpu`]).
-//! A cut sends the constraints left up before the next device step.
+//! The device's kernels step shape matching, the vessels' chains, the ties, the cloth (its
+//! edges and hinges), the strands (each set colour by colour, as the CPU takes them),
+//! gravity, point damping and the floor; a solver with contacts between bodies is refused
+//! with an error saying so ([`ParticleSolver::use_gpu`]). A cut, a tear or a weakened strand
+//! sends the constraints up again before the next device substep. The strands' weakening
+//! and tearing run on the CPU after each substep, from the particles read back, as the CPU's
+//! own substep runs them.
 //! A step with an instrument set runs on the CPU (the kernels hold no instruments yet) from
 //! the clusters' state read back with it, and the next device step sends everything up
 //! again, as after a rollback.
@@ -16,7 +19,7 @@
 //! dropped and the failure is reported once: the session goes on.
 
 use super::gpu::{Constraints, ParticlesGpu, Set, Stepping};
-use super::solver::{HandTool, ParticleSolver};
+use super::solver::{HandTool, ParticleSolver, StepOutcome};
 use crate::gpu::{Gpu, RenderError};
 
 /// The solver's place on a device, or none. A clone runs on the CPU (two models must not
@@ -26,8 +29,9 @@ pub(super) struct Slot {
     on: Option<Box<ParticlesGpu>>,
     /// The CPU changed the model since the device last stepped it: everything goes up first.
     stale: bool,
-    /// A cut removed constraints: they go up before the next device step.
-    constraints_changed: bool,
+    /// What the constraints on the device were made from ([`signature`]): a cut, a tear or a
+    /// weakened strand changes it, and the constraints go up again.
+    uploaded: Signature,
     /// Why the device was given up, until the model reports it.
     note: Option<String>,
 }
@@ -52,11 +56,6 @@ impl Slot {
     pub fn stale(&mut self) {
         self.stale = true;
     }
-
-    /// A cut changed the constraints: they go up with the next device step.
-    pub fn constraints_changed(&mut self) {
-        self.constraints_changed = true;
-    }
 }
 
 impl ParticleSolver {
@@ -66,6 +65,9 @@ impl ParticleSolver {
         let (edge_colours, hinge_colours) = self.cloth.colours();
         let (edge_compliance, hinge_compliance) = self.cloth.compliances();
         Constraints {
+            vessels: self.chains.device_set(),
+            adhesion: self.adhesion.device_set(),
+            bonds: self.bonds.device_set(),
             ties: Set {
                 items: ties,
                 colours: tie_colours,
@@ -88,20 +90,10 @@ impl ParticleSolver {
     /// the device can take it).
     pub fn gpu_unsupported(&self) -> Vec<String> {
         let mut out = Vec::new();
-        let chain_segments: usize = (0..self.chains.chains())
-            .map(|c| self.chains.segments(c))
-            .sum();
-        let mut add = |n: usize, what: &str| {
-            if n > 0 {
-                out.push(format!("{n} {what}"));
-            }
-        };
-        add(chain_segments, "chain segments");
-        add(
-            self.adhesion.segments() + self.bonds.segments(),
-            "strand segments",
-        );
-        add(self.contacts.members(), "particles in body contacts");
+        let contacts = self.contacts.members();
+        if contacts > 0 {
+            out.push(format!("{contacts} particles in body contacts"));
+        }
         out
     }
 
@@ -111,8 +103,9 @@ impl ParticleSolver {
         let missing = self.gpu_unsupported();
         if !missing.is_empty() {
             return Err(RenderError::Unsupported(format!(
-                "the particle solver's kernels step shape matching, ties, cloth, gravity, \
-                 damping and the floor; this world also has {}",
+                "the particle solver's kernels step shape matching, the vessels, the ties, \
+                 the cloth, the strands, gravity, damping and the floor; this world also \
+                 has {}",
                 missing.join(", ")
             )));
         }
@@ -120,7 +113,7 @@ impl ParticleSolver {
         self.device = Slot {
             on: Some(Box::new(k)),
             stale: false,
-            constraints_changed: false,
+            uploaded: signature(self),
             note: None,
         };
         Ok(())
@@ -154,17 +147,48 @@ pub(super) fn can_step(s: &ParticleSolver, tools: &[Option<HandTool>; 2]) -> boo
     s.device.on.is_some() && tools.iter().all(Option::is_none)
 }
 
-/// One step of `dt_s` on the device; false where it has none or it failed (noted, the device
-/// dropped, the external forces left for the CPU, whose particles the failed step did not
-/// touch). Before a CPU step, call [`before_cpu_step`].
-pub(super) fn step(s: &mut ParticleSolver, dt_s: f32) -> bool {
+/// What the constraints a sweep projects depend on that cuts, tears and weakening change: the
+/// vessels' intact segments and bending springs, each strand set's weakened strands and broken
+/// segments, the cloth's edges and hinges.
+type Signature = [usize; 8];
+
+fn signature(s: &ParticleSolver) -> Signature {
+    let (segs, bends) = s.chains.intact_counts();
+    let (aw, at) = s.adhesion.broken_counts();
+    let (bw, bt) = s.bonds.broken_counts();
+    [
+        segs,
+        bends,
+        aw,
+        at,
+        bw,
+        bt,
+        s.cloth.edges(),
+        s.cloth.hinges(),
+    ]
+}
+
+/// The substeps of a step of `dt_s` on the device, the strands' weakening and tearing after
+/// each (on the CPU, from the particles read back, as the CPU's substep does it; a solver
+/// without strands runs all its substeps in one submission), under the step's external forces
+/// `ext` (through every substep). Returns how many substeps ran: all of them, or fewer where
+/// the device failed (noted, the device dropped): the CPU then runs the rest from the last
+/// substep read back. Before a CPU step, call [`before_cpu_step`].
+pub(super) fn step(
+    s: &mut ParticleSolver,
+    dt_s: f32,
+    ext: Option<&[glam::Vec3]>,
+    out: &mut StepOutcome,
+) -> u32 {
     let Some(mut d) = s.device.on.take() else {
-        return false;
+        return 0;
     };
-    let external = s.particles.ext.clone();
+    let n = s.params.substeps.max(1);
+    let strands = s.adhesion.segments() + s.bonds.segments() > 0;
+    let chunk = if strands { 1 } else { n };
     let how = Stepping {
-        dt_s,
-        substeps: s.params.substeps.max(1),
+        dt_s: dt_s / n as f32 * chunk as f32,
+        substeps: chunk,
         iterations: s.params.iterations.max(1),
         gravity_m_per_s2: s.params.gravity_m_per_s2,
         damping_per_s: s.params.damping_per_s,
@@ -174,28 +198,33 @@ pub(super) fn step(s: &mut ParticleSolver, dt_s: f32) -> bool {
         d.upload(&s.particles);
         d.upload_shape(&s.shape);
     }
-    if s.device.constraints_changed
-        && let Err(e) = d.set_constraints(&s.constraints())
-    {
-        s.device.note = Some(e.to_string());
-        return false;
-    }
-    let run = d
-        .advance(&mut s.particles, &how, 1)
-        .and_then(|()| d.download_all(&mut s.particles, &mut s.shape));
-    match run {
-        Ok(()) => {
-            s.device.on = Some(d);
-            s.device.stale = false;
-            s.device.constraints_changed = false;
-            true
+    let mut done = 0;
+    while done < n {
+        if let Some(e) = ext {
+            s.particles.ext.copy_from_slice(e);
         }
-        Err(e) => {
-            s.particles.ext = external;
+        let mut run = || -> Result<(), RenderError> {
+            let now = signature(s);
+            if now != s.device.uploaded {
+                d.set_constraints(&s.constraints())?;
+                s.device.uploaded = now;
+            }
+            d.advance(&mut s.particles, &how, 1)?;
+            d.download_all(&mut s.particles, &mut s.shape)
+        };
+        if let Err(e) = run() {
             s.device.note = Some(e.to_string());
-            false
+            return done;
+        }
+        done += chunk;
+        if strands {
+            out.breaks.extend(s.adhesion.update(&s.particles));
+            out.bond_breaks.extend(s.bonds.update(&s.particles));
         }
     }
+    s.device.on = Some(d);
+    s.device.stale = false;
+    n
 }
 
 /// Before a step the CPU runs while the solver has a device: the CPU holds the newest state

@@ -76,21 +76,64 @@ impl<T> Set<'_, T> {
     }
 }
 
-/// The stretch and bending constraints a sweep projects after the clusters, in this order:
-/// the ties, the cloth's edges, its hinges.
+/// A chain's segment as a device takes it.
 #[derive(Debug, Clone, Copy)]
+pub struct ChainSegment {
+    pub c: Stretch,
+    pub intact: bool,
+    /// Weakened with its strand (a strand's breakable segments).
+    pub breakable: bool,
+}
+
+/// One chain solved a run of intact segments at a time (`chain::solve_chain`).
+#[derive(Debug, Clone)]
+pub struct DeviceChain {
+    /// Its segments and bending springs in its set's lists.
+    pub segs: std::ops::Range<u32>,
+    pub bends: std::ops::Range<u32>,
+    /// A segment's compliance, and a breakable one's once `weakened`, m/N.
+    pub compliance: f32,
+    pub weak_compliance: f32,
+    pub weakened: bool,
+    /// Solves of each run a sweep.
+    pub solves: u32,
+    /// The bending springs' compliance, m/N.
+    pub bend_compliance: f32,
+    /// Chains of one colour share no particle (`colour.rs`).
+    pub colour: u32,
+}
+
+/// Chains in projection order (sorted by colour): the vessels (`chain.rs`) or a set of
+/// strands (`adhesion.rs`).
+#[derive(Debug, Clone, Default)]
+pub struct ChainSet {
+    pub chains: Vec<DeviceChain>,
+    pub segs: Vec<ChainSegment>,
+    /// Bending springs (skip-one stretch springs) and whether each is intact.
+    pub bends: Vec<(Stretch, bool)>,
+}
+
+/// Everything a sweep projects after the clusters, in this order: the vessels, the ties, the
+/// cloth's edges, its hinges, the two strand sets.
+#[derive(Debug, Clone)]
 pub struct Constraints<'a> {
+    pub vessels: ChainSet,
     pub ties: Set<'a, Stretch>,
     pub edges: Set<'a, Stretch>,
     pub hinges: Set<'a, Bend>,
+    pub adhesion: ChainSet,
+    pub bonds: ChainSet,
 }
 
 impl Constraints<'_> {
     pub fn none() -> Self {
         Constraints {
+            vessels: ChainSet::default(),
             ties: Set::empty(),
             edges: Set::empty(),
             hinges: Set::empty(),
+            adhesion: ChainSet::default(),
+            bonds: ChainSet::default(),
         }
     }
 }
@@ -108,7 +151,7 @@ pub struct Stepping {
 }
 
 /// The entry points.
-const ENTRIES: [&str; 8] = [
+const ENTRIES: [&str; 9] = [
     "predict",
     "match_goals",
     "shape_particles",
@@ -117,6 +160,7 @@ const ENTRIES: [&str; 8] = [
     "project_stretches",
     "project_bends",
     "floor",
+    "project_chains",
 ];
 const PREDICT: usize = 0;
 const MATCH: usize = 1;
@@ -126,6 +170,7 @@ const CLEAR: usize = 4;
 const STRETCHES: usize = 5;
 const BENDS: usize = 6;
 const FLOOR: usize = 7;
+const CHAINS: usize = 8;
 
 /// One colour's dispatch: its entry point, bind group and workgroups.
 struct ColourPass {
@@ -301,8 +346,8 @@ impl ParticlesGpu {
         Ok(out)
     }
 
-    /// Replaces the stretch and bending constraints (after a cut): their buffers, their
-    /// multipliers and a dispatch per colour.
+    /// Replaces the constraints after the clusters (after a cut or a tear): their buffers,
+    /// their multipliers and a dispatch per colour of each set.
     pub fn set_constraints(&mut self, c: &Constraints) -> Result<(), RenderError> {
         let gpu = &self.gpu;
         let stretch_row = |s: &Stretch| [s.a, s.b, s.rest_m.to_bits(), 0];
@@ -319,53 +364,90 @@ impl ParticlesGpu {
             .iter()
             .flat_map(|h| [[h.a, h.b, h.c, h.d], [h.rest_rad.to_bits(), 0, 0, 0]])
             .collect();
-        let lambdas = stretches.len() + c.hinges.items.len();
-        let stretch_buf = compute::storage(gpu, "stretch constraints", bytes(&stretches))?;
-        let bend_buf = compute::storage(gpu, "bending constraints", bytes(&bends))?;
-        let lambda = compute::storage(gpu, "constraint multipliers", &vec![0u8; 4 * lambdas])?;
-        // (entry, first constraint in its buffer, multipliers' base, colours, compliance)
-        let ties = c.ties.items.len();
-        let sets = [
-            (STRETCHES, 0, 0, c.ties.colours, c.ties.compliance),
-            (STRETCHES, ties, ties, c.edges.colours, c.edges.compliance),
-            (
-                BENDS,
-                0,
-                stretches.len(),
-                c.hinges.colours,
-                c.hinges.compliance,
-            ),
-        ];
+        // The chain sets side by side: segments, bending springs, and three rows a chain.
+        let chain_sets = [&c.vessels, &c.adhesion, &c.bonds];
+        let segs_total: usize = chain_sets.iter().map(|k| k.segs.len()).sum();
+        let chain_lambdas = stretches.len() + c.hinges.items.len();
+        let bend_lambdas = chain_lambdas + segs_total;
+        let (mut segs, mut chain_bends, mut info) = (Vec::new(), Vec::new(), Vec::new());
+        let mut chain_first = Vec::new();
+        for set in chain_sets {
+            chain_first.push(info.len() / 3);
+            let (s0, b0) = (segs.len() as u32, chain_bends.len() as u32);
+            segs.extend(set.segs.iter().map(|g| {
+                let flags = u32::from(g.intact) | (u32::from(g.breakable) << 1);
+                [g.c.a, g.c.b, g.c.rest_m.to_bits(), flags]
+            }));
+            chain_bends.extend(
+                set.bends
+                    .iter()
+                    .map(|(b, intact)| [b.a, b.b, b.rest_m.to_bits(), u32::from(*intact)]),
+            );
+            for ch in &set.chains {
+                let (first, bend_first) = (s0 + ch.segs.start, b0 + ch.bends.start);
+                info.push([first, s0 + ch.segs.end, bend_first, b0 + ch.bends.end]);
+                info.push([
+                    ch.compliance.to_bits(),
+                    ch.weak_compliance.to_bits(),
+                    u32::from(ch.weakened),
+                    ch.solves,
+                ]);
+                info.push([
+                    ch.bend_compliance.to_bits(),
+                    (chain_lambdas as u32) + first,
+                    (bend_lambdas as u32) + bend_first,
+                    0,
+                ]);
+            }
+        }
+        let lambdas = bend_lambdas + chain_bends.len();
+        let storage = |label: &str, data: &[u8]| compute::storage(gpu, label, data);
+        let stretch_buf = storage("stretch constraints", bytes(&stretches))?;
+        let bend_buf = storage("bending constraints", bytes(&bends))?;
+        let lambda = storage("constraint multipliers", &vec![0u8; 4 * lambdas])?;
+        let info_buf = storage("chains", bytes(&info))?;
+        let segs_buf = storage("chain segments", bytes(&segs))?;
+        let chain_bends_buf = storage("chain bending springs", bytes(&chain_bends))?;
+        let rows = storage("chain rows", &vec![0u8; 32 * segs_total.max(1)])?;
         let mut passes = Vec::new();
-        for (entry, first, base, colours, compliance) in sets {
+        let mut add = |entry: usize, first: usize, base: usize, colours: &[u32], comp: f32| {
             for (_, a, b) in colour::ranges(colours) {
                 let range = Range {
                     first: (first + a) as u32,
                     end: (first + b) as u32,
                     lambda_base: (base + a) as u32,
-                    compliance,
+                    compliance: comp,
                 };
                 let uniform = compute::uniform(gpu, "constraint colour", bytes(&[range]));
-                let set_buf = if entry == STRETCHES {
-                    &stretch_buf
-                } else {
-                    &bend_buf
-                };
-                let binding = if entry == STRETCHES { 15 } else { 16 };
-                let buffers = [
-                    (0, &self.params),
-                    (1, &self.x),
-                    (14, &uniform),
-                    (binding, set_buf),
-                    (17, &lambda),
-                ];
+                let mut buffers = vec![(0, &self.params), (1, &self.x), (14, &uniform)];
+                match entry {
+                    STRETCHES => buffers.push((15, &stretch_buf)),
+                    BENDS => buffers.push((16, &bend_buf)),
+                    _ => buffers.extend([
+                        (18, &info_buf),
+                        (19, &segs_buf),
+                        (20, &chain_bends_buf),
+                        (21, &rows),
+                    ]),
+                }
+                buffers.push((17, &lambda));
                 passes.push(ColourPass {
                     entry,
                     bind: bind(gpu, &self.pipelines[entry], ENTRIES[entry], &buffers),
                     groups: groups((b - a) as u32),
                 });
             }
-        }
+        };
+        let chain_colours =
+            |set: &ChainSet| set.chains.iter().map(|k| k.colour).collect::<Vec<_>>();
+        let ties = c.ties.items.len();
+        add(CHAINS, chain_first[0], 0, &chain_colours(&c.vessels), 0.0);
+        add(STRETCHES, 0, 0, c.ties.colours, c.ties.compliance);
+        add(STRETCHES, ties, ties, c.edges.colours, c.edges.compliance);
+        let hinge_base = stretches.len();
+        add(BENDS, 0, hinge_base, c.hinges.colours, c.hinges.compliance);
+        add(CHAINS, chain_first[1], 0, &chain_colours(&c.adhesion), 0.0);
+        add(CHAINS, chain_first[2], 0, &chain_colours(&c.bonds), 0.0);
         self.binds[CLEAR] = Some(bind(
             gpu,
             &self.pipelines[CLEAR],
@@ -391,8 +473,8 @@ impl ParticlesGpu {
     }
 
     /// Advances `steps` steps as `how` says in one submission, under `p`'s external forces
-    /// (taken, as the CPU's first substep takes them: they act on the submission's first
-    /// substep). Returns at once; [`ParticlesGpu::download`] waits.
+    /// (taken: they act through every substep of the submission, as a step's act through
+    /// its substeps on the CPU). Returns at once; [`ParticlesGpu::download`] waits.
     pub fn advance(
         &mut self,
         p: &mut Particles,

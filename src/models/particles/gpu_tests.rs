@@ -230,24 +230,58 @@ mod solver {
 
     /// A solver over `p` with `shape`, `ties`, a cloth of `triangles` (50 N/m edges) and
     /// strands between `pairs`, nothing else.
+    /// Strands of 3 segments of 100 N/m.
+    const STRANDS: AdhesionParams = AdhesionParams {
+        segments: 3,
+        strand_mass_kg: 1e-6,
+        body: 7,
+        stiffness_n_per_m: 100.0,
+        weak_stiffness_n_per_m: 1e-3,
+        breakable_per_strand: 1,
+        break_stretch: 1.1,
+        tear_strain: 0.5,
+    };
+
+    /// What a test's solver holds besides its particles and clusters.
+    struct Sets<'a> {
+        ties: Vec<Stretch>,
+        triangles: &'a [[u32; 3]],
+        chains: Chains,
+        /// Strands of `strand_params` between these pairs.
+        pairs: &'a [(u32, u32)],
+        strand_params: AdhesionParams,
+        /// Particles in contacts between bodies.
+        contacts: Vec<u32>,
+    }
+
+    impl Default for Sets<'_> {
+        fn default() -> Self {
+            Sets {
+                ties: Vec::new(),
+                triangles: &[],
+                chains: Chains::default(),
+                pairs: &[],
+                strand_params: STRANDS,
+                contacts: Vec::new(),
+            }
+        }
+    }
+
+    /// A solver over `p` with `shape` and `sets` (the cloth's edges 50 N/m), nothing else.
     fn solver_of(
         mut p: Particles,
         shape: ShapeMatching,
-        ties: Vec<Stretch>,
-        triangles: &[[u32; 3]],
-        pairs: &[(u32, u32)],
+        sets: Sets,
         params: SolverParams,
     ) -> ParticleSolver {
-        let strand_params = AdhesionParams {
-            segments: 3,
-            strand_mass_kg: 1e-6,
-            body: 7,
-            stiffness_n_per_m: 100.0,
-            weak_stiffness_n_per_m: 1e-3,
-            breakable_per_strand: 1,
-            break_stretch: 1.1,
-            tear_strain: 0.5,
-        };
+        let Sets {
+            ties,
+            triangles,
+            chains,
+            pairs,
+            strand_params,
+            contacts,
+        } = sets;
         let adhesion = Adhesion::new(&mut p, pairs, strand_params, 1).expect("strands");
         let bonds = Adhesion::new(&mut p, &[], strand_params, 2).expect("no strands");
         let cloth = Cloth::new(
@@ -262,28 +296,29 @@ mod solver {
         let parts = SolverParts {
             particles: p,
             shape,
-            chains: Chains::default(),
+            chains,
             ties,
             cloth,
             adhesion,
             bonds,
-            contacts: BodyContacts::new(Vec::new(), 0.001, 0.001),
+            contacts: BodyContacts::new(contacts, 0.001, 0.001),
             contact_radius_m: 0.001,
         };
         ParticleSolver::new("test", parts, params)
     }
 
-    /// The pinned block as a solver, with a strand from its bottom corner to a pinned particle
-    /// below it when asked.
-    fn solver(strands: bool) -> ParticleSolver {
-        let (mut p, shape) = block(false);
-        let pairs = if strands {
-            let below = p.add(Vec3::new(0.0, -0.04, 0.0), 0.0, 3);
-            vec![(47, below)]
-        } else {
-            Vec::new()
+    /// The pinned block as a solver, its particles in contacts between bodies when asked.
+    fn solver(contacts: bool) -> ParticleSolver {
+        let (p, shape) = block(false);
+        let sets = Sets {
+            contacts: if contacts {
+                (0..p.len() as u32).collect()
+            } else {
+                Vec::new()
+            },
+            ..Sets::default()
         };
-        solver_of(p, shape, Vec::new(), &[], &pairs, params(2, 5.0, -0.05))
+        solver_of(p, shape, sets, params(2, 5.0, -0.05))
     }
 
     /// A 10 x 10 sheet of cloth 4 mm apart, 20 mg a particle, hung from two corners by ties to
@@ -314,7 +349,12 @@ mod solver {
         };
         let ties = vec![tie(id(0, 0), a), tie(id(0, n - 1), b)];
         let shape = ShapeMatching::new(&p, Vec::new()).expect("no clusters");
-        solver_of(p, shape, ties, &triangles, &[], params(4, 2.0, -1.0))
+        let sets = Sets {
+            ties,
+            triangles: &triangles,
+            ..Sets::default()
+        };
+        solver_of(p, shape, sets, params(4, 2.0, -1.0))
     }
 
     fn steps(s: &mut ParticleSolver, n: usize) {
@@ -374,11 +414,46 @@ mod solver {
     fn the_device_refuses_what_its_kernels_do_not_step_by_name() {
         let gpu = gpu();
         let mut s = solver(true);
-        let e = s.use_gpu(&gpu).expect_err("strands are not on the GPU yet");
+        let e = s
+            .use_gpu(&gpu)
+            .expect_err("contacts between bodies are not on the GPU yet");
         let text = e.to_string();
-        assert!(text.contains("strand segments"), "{text}");
+        let n = s.particles.len();
+        assert!(
+            text.contains(&format!("{n} particles in body contacts")),
+            "{text}"
+        );
         assert!(text.contains("shape matching"), "{text}");
         assert!(s.gpu_adapter().is_none());
+    }
+
+    #[test]
+    fn a_steps_push_acts_through_all_its_substeps_on_both_paths() {
+        // One free particle of 1 g, pushed by 0.1 N for one 1 ms step, no gravity, no
+        // damping: it leaves at F dt / m = 0.1 m/s however many substeps the step has.
+        let gpu = gpu();
+        for substeps in [1, 2, 4] {
+            for on_gpu in [false, true] {
+                let mut p = Particles::new();
+                p.add(Vec3::ZERO, 1e-3, 0);
+                let shape = ShapeMatching::new(&p, Vec::new()).expect("no clusters");
+                let mut how = params(2, 0.0, -1.0);
+                how.gravity_m_per_s2 = Vec3::ZERO;
+                how.substeps = substeps;
+                let mut s = solver_of(p, shape, Sets::default(), how);
+                if on_gpu {
+                    s.use_gpu(&gpu).expect("the device takes a particle");
+                }
+                s.particles.add_force(0, Vec3::X * 0.1);
+                steps(&mut s, 1);
+                let v = s.particles.v[0].x;
+                assert!(
+                    (v - 0.1).abs() < 1e-5,
+                    "{substeps} substeps, GPU {on_gpu}: {v} m/s"
+                );
+                assert_eq!(s.particles.ext[0], Vec3::ZERO, "the push is used up");
+            }
+        }
     }
 
     #[test]
@@ -450,5 +525,111 @@ mod solver {
             gap < 0.01 * moved,
             "after the cut: {gap} m apart ({moved} m moved)"
         );
+    }
+
+    /// The pinned block with a vessel hanging from its bottom corner (8 particles of 0.2 g,
+    /// 3 mm apart) and strands from its bottom layer's 36 particles to pinned particles 1 cm
+    /// below, each of 4 segments holding at 500 N/m and tearing past 30 % strain.
+    fn strands_scene() -> ParticleSolver {
+        let (mut p, shape) = block(false);
+        let corner = 47u32;
+        let top = p.x[corner as usize];
+        let mut vessel = vec![corner];
+        for k in 1..8 {
+            vessel.push(p.add(top - Vec3::Y * (0.003 * k as f32), 2e-4, 4));
+        }
+        let mut chains = Chains::new();
+        chains.add(&p, &vessel, 300.0, 15.0);
+        let bottom: Vec<u32> = (0..p.len() as u32)
+            .filter(|&i| (p.x[i as usize].y + 0.0245).abs() < 1e-4)
+            .collect();
+        let pairs: Vec<(u32, u32)> = bottom
+            .iter()
+            .map(|&i| (i, p.add(p.x[i as usize] - Vec3::Y * 0.01, 0.0, 5)))
+            .collect();
+        let sets = Sets {
+            chains,
+            pairs: &pairs,
+            strand_params: AdhesionParams {
+                segments: 4,
+                strand_mass_kg: 4e-6,
+                body: 6,
+                stiffness_n_per_m: 500.0,
+                weak_stiffness_n_per_m: 1.0,
+                breakable_per_strand: 1,
+                break_stretch: 1.15,
+                tear_strain: 0.3,
+            },
+            ..Sets::default()
+        };
+        solver_of(p, shape, sets, params(3, 5.0, -1.0))
+    }
+
+    /// Steps `steps` with the bottom layer pulled up, harder every step (1 N more a particle a
+    /// second): the strands below stretch, weaken and tear. Returns the strands torn each step.
+    fn pulled(s: &mut ParticleSolver, steps: std::ops::Range<usize>) -> Vec<usize> {
+        let mut out = ModelOutput::default();
+        let bottom: Vec<usize> = (0..288)
+            .filter(|&i| (s.particles.x[i].y + 0.0245).abs() < 2e-3)
+            .collect();
+        steps
+            .map(|k| {
+                let f = k as f32 * 1e-3;
+                for &i in &bottom {
+                    s.particles.add_force(i, Vec3::Y * f);
+                }
+                s.step(1e-3, &[], &mut out);
+                s.outcome().breaks.len()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_vessel_and_strands_step_on_the_gpu_as_on_the_cpu_and_tear_alike() {
+        // The strands' interior particles weigh a microgram each and swing: a nudge of 1 nm
+        // on the CPU alone moves the first tear by 15 steps here. So the GPU is held to the
+        // CPU as closely as that nudge holds the CPU to itself.
+        let gpu = gpu();
+        let (mut cpu, mut nudged, mut dev) = (strands_scene(), strands_scene(), strands_scene());
+        assert!(cpu.chains.chains() == 1 && cpu.adhesion.strands() == 36);
+        dev.use_gpu(&gpu)
+            .expect("the device takes clusters, vessels and strands");
+        assert!(dev.gpu_adapter().is_some());
+        nudged.particles.x[100].x += 1e-9;
+        let start = cpu.particles.x.clone();
+        let organ_gap = |a: &ParticleSolver, b: &ParticleSolver| {
+            largest_gap(&a.particles.x[..288], &b.particles.x[..288])
+        };
+        // Before any strand weakens: the block and the vessel alike.
+        for s in [&mut cpu, &mut nudged, &mut dev] {
+            assert_eq!(pulled(s, 0..100).iter().sum::<usize>(), 0);
+        }
+        let moved = largest_gap(&cpu.particles.x[..288], &start[..288]);
+        let (by_nudge, by_gpu) = (organ_gap(&cpu, &nudged), organ_gap(&cpu, &dev));
+        assert!(moved > 1e-4, "the block moved {moved} m");
+        assert!(
+            by_gpu <= 2.0 * by_nudge + 1e-3 * moved,
+            "GPU {by_gpu} m off, a nudge {by_nudge} m"
+        );
+        let vessel = |s: &ParticleSolver| s.particles.x[288 + 6];
+        assert!(
+            vessel(&cpu).distance(vessel(&dev))
+                <= 2.0 * vessel(&cpu).distance(vessel(&nudged)) + 1e-3 * moved
+        );
+        // Then every strand weakens and tears on each, at about the same time.
+        let torn: Vec<Vec<usize>> = [&mut cpu, &mut nudged, &mut dev]
+            .into_iter()
+            .map(|s| pulled(s, 100..400))
+            .collect();
+        let total = |t: &[usize]| t.iter().sum::<usize>();
+        assert_eq!(total(&torn[0]), 36, "every strand tore on the CPU");
+        assert_eq!(total(&torn[2]), 36, "every strand tore on the GPU");
+        let first = |t: &[usize]| t.iter().position(|&n| n > 0).unwrap_or(usize::MAX);
+        let (fc, fn_, fg) = (first(&torn[0]), first(&torn[1]), first(&torn[2]));
+        assert!(
+            fg.abs_diff(fc) <= 2 * fn_.abs_diff(fc) + 5,
+            "first tear: CPU {fc}, nudged {fn_}, GPU {fg}"
+        );
+        assert_eq!(cpu.adhesion.broken_counts(), dev.adhesion.broken_counts());
     }
 }

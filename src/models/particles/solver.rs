@@ -198,7 +198,6 @@ impl ParticleSolver {
     /// A cut at `at`: the cloth's constraints and both strand sets' strands within
     /// `radius_m`.
     pub fn dissect(&mut self, at: Vec3, radius_m: f32) -> Dissection {
-        self.device.constraints_changed();
         Dissection {
             cloth: self.cloth.cut_near(at, radius_m, &self.particles),
             adhesions: self.adhesion.cut_near(at, radius_m, &self.particles),
@@ -231,17 +230,27 @@ impl ParticleSolver {
         let n = self.params.substeps.max(1);
         let mut out = StepOutcome::default();
         let tools = std::mem::take(&mut self.tools);
+        // The step's external forces act through every substep (each substep's prediction
+        // uses them up).
+        let p = &self.particles;
+        let ext = p
+            .ext
+            .iter()
+            .any(|e| *e != Vec3::ZERO)
+            .then(|| p.ext.clone());
+        // The substeps the device ran (all, or those before it failed).
+        let mut done = 0;
         if super::device::can_step(self, &tools) {
-            if super::device::step(self, dt_s) {
-                // No instrument: no grasp holds, no reaction.
-                self.grasps = [None, None];
-                self.tools = tools;
-                return out;
-            }
+            done = super::device::step(self, dt_s, ext.as_deref(), &mut out);
+            // No instrument: no grasp holds, no reaction.
+            self.grasps = [None, None];
         } else {
             super::device::before_cpu_step(self);
         }
-        for _ in 0..n {
+        for _ in done..n {
+            if let Some(e) = &ext {
+                self.particles.ext.copy_from_slice(e);
+            }
             let o = self.advance(dt_s / n as f32, &tools, true);
             for h in 0..2 {
                 out.reactions[h] += o.reactions[h] / n as f32;
