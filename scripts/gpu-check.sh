@@ -35,7 +35,7 @@ if ! "$bin" verify --compute gpu --json >"$out/verify-gpu.jsonl" 2>"$out/verify-
     status=1
     cat "$out/verify-gpu.err" >&2
 fi
-for p in rectum; do
+for p in rectum cholecystectomy; do
     echo "== vesalius bench $p --compute gpu" >&2
     if ! "$bin" bench "$p" --compute gpu --json >"$out/$p-gpu.jsonl" 2>"$out/$p-gpu.err"; then
         status=1

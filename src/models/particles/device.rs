@@ -34,6 +34,8 @@ pub(super) struct Slot {
     uploaded: Signature,
     /// Why the device was given up, until the model reports it.
     note: Option<String>,
+    /// The device's own time for the substeps so far, seconds (where it has timestamps).
+    kernel_s: f64,
 }
 
 impl Clone for Slot {
@@ -115,6 +117,7 @@ impl ParticleSolver {
             stale: false,
             uploaded: signature(self),
             note: None,
+            kernel_s: 0.0,
         };
         Ok(())
     }
@@ -134,6 +137,18 @@ impl ParticleSolver {
             }
             None => false,
         }
+    }
+
+    /// The device's own time for the substeps it ran so far, seconds (0 on the CPU or
+    /// without timestamp queries).
+    pub fn gpu_kernel_seconds(&self) -> f64 {
+        self.device.kernel_s
+    }
+
+    /// The fewest bytes a substep moves on the device (none on the CPU).
+    pub fn gpu_bytes_per_substep(&self) -> Option<u64> {
+        let sweeps = self.params.iterations;
+        self.device.on.as_ref().map(|d| d.bytes_per_substep(sweeps))
     }
 
     /// Why the device was given up, once (the owner reports it as an event).
@@ -210,7 +225,9 @@ pub(super) fn step(
                 s.device.uploaded = now;
             }
             d.advance(&mut s.particles, &how, 1)?;
-            d.download_all(&mut s.particles, &mut s.shape)
+            d.download_all(&mut s.particles, &mut s.shape)?;
+            s.device.kernel_s += d.kernel_seconds()?.unwrap_or(0.0);
+            Ok(())
         };
         if let Err(e) = run() {
             s.device.note = Some(e.to_string());

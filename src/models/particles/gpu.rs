@@ -198,6 +198,10 @@ pub struct ParticlesGpu {
     /// A sweep's colour passes after the clusters, in order.
     passes: Vec<ColourPass>,
     lambdas: u32,
+    /// Memberships of clusters; stretch and bending constraints, chain segments and chain
+    /// bending springs on the device (for the bytes a substep moves).
+    memberships: u64,
+    counts: [u64; 4],
     particles: u32,
     clusters: u32,
     /// Each entry's `k / m` (the coefficients are made from it for the substep), and the
@@ -335,6 +339,8 @@ impl ParticlesGpu {
             coef,
             passes: Vec::new(),
             lambdas: 0,
+            memberships: arrays.rate.len() as u64,
+            counts: [0; 4],
             particles: p.len() as u32,
             clusters: arrays.info.len() as u32,
             rate: arrays.rate,
@@ -456,7 +462,44 @@ impl ParticlesGpu {
         ));
         self.passes = passes;
         self.lambdas = lambdas as u32;
+        self.counts = [
+            stretches.len(),
+            c.hinges.items.len(),
+            segs_total,
+            chain_bends.len(),
+        ]
+        .map(|n| n as u64);
         gpu.check()
+    }
+
+    /// The fewest bytes a substep of `iterations` sweeps moves through device memory, each
+    /// value read or written once (neighbours' reads counted as cache hits): the prediction
+    /// (a particle's position read and written, its start written, its velocity read and
+    /// written, its force read: 96 bytes; a membership's multiplier zeroed: 16); each sweep's
+    /// goals (a membership's index, mass share and position: 36; a cluster's state read and
+    /// written and its frame written: 128), its particles' pass (a particle's position read and
+    /// written: 32; a membership's entry, coefficients, multiplier read and written and frame
+    /// read: 88), a stretch constraint (itself, both ends read and written, its multiplier: 88),
+    /// a bending one (itself, four ends, its multiplier: 168), a chain segment (itself, both
+    /// ends, its rows written and read, its multiplier: 152), a chain's bending spring (88),
+    /// the floor (a position read: 16); the velocities (48 a particle).
+    pub fn bytes_per_substep(&self, iterations: u32) -> u64 {
+        let (n, m, k) = (
+            u64::from(self.particles),
+            self.memberships,
+            u64::from(self.clusters),
+        );
+        let [stretches, bends, segs, chain_bends] = self.counts;
+        let sweep = m * 36
+            + k * 128
+            + n * 32
+            + m * 88
+            + stretches * 88
+            + bends * 168
+            + segs * 152
+            + chain_bends * 88
+            + n * 16;
+        n * 96 + m * 16 + u64::from(iterations.max(1)) * sweep + n * 48
     }
 
     /// The device it runs on.

@@ -632,4 +632,27 @@ mod solver {
         );
         assert_eq!(cpu.adhesion.broken_counts(), dev.adhesion.broken_counts());
     }
+
+    #[test]
+    fn the_bench_line_states_the_device_and_checks_it_against_the_cpu() {
+        let gpu = gpu();
+        let s = strands_scene();
+        let line = crate::models::particles::gpu_bench::bench_line(&gpu, &s, 1e-3, 0.2)
+            .expect("a line on the adapter there is");
+        let c = &line.compute;
+        assert_eq!(c.backend, Some("gpu"));
+        assert_eq!(c.adapter.as_deref(), Some(gpu.describe().as_str()));
+        assert_eq!(c.substeps_per_step, Some(2));
+        assert!(line.steps >= 5 && line.all_awake);
+        // The solver's sets only (the block, the vessel, the strands): no contacts to leave.
+        assert_eq!(line.vertices, s.particles.len());
+        let check = c.check_rel_err.expect("checked");
+        assert!(check.is_finite() && check < 0.01, "{check}");
+        // A sweep moves at least each membership's entry and each particle's position.
+        let bytes = c.bytes_per_substep.expect("bytes");
+        assert!(
+            bytes > 3 * (s.shape.memberships() as u64 * 88 + 288 * 32),
+            "{bytes}"
+        );
+    }
 }

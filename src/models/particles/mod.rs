@@ -19,6 +19,7 @@ pub mod colour;
 pub mod contacts;
 mod device;
 pub mod gpu;
+pub mod gpu_bench;
 pub mod shape;
 pub mod solver;
 

@@ -149,6 +149,32 @@ impl ParticleSolver {
         }
     }
 
+    /// A copy on the CPU with everything but the contacts between bodies and the instruments'
+    /// state (benchmarks of the GPU's kernels, which step the rest).
+    pub fn copy_without_contacts(&self) -> ParticleSolver {
+        ParticleSolver {
+            name: self.name.clone(),
+            params: self.params,
+            particles: self.particles.clone(),
+            shape: self.shape.clone(),
+            chains: self.chains.clone(),
+            ties: self.ties.clone(),
+            tie_colours: self.tie_colours.clone(),
+            tie_lambda: self.tie_lambda.clone(),
+            cloth: self.cloth.clone(),
+            adhesion: self.adhesion.clone(),
+            bonds: self.bonds.clone(),
+            contacts: BodyContacts::default(),
+            pushes: self.pushes.clone(),
+            grasps: [None, None],
+            tools: [None, None],
+            outcome: StepOutcome::default(),
+            saved: self.saved.clone(),
+            device: Default::default(),
+            times: [0.0; 5],
+        }
+    }
+
     /// Ties between particles.
     pub fn tie_count(&self) -> usize {
         self.ties.len()

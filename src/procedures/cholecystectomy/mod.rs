@@ -8,6 +8,7 @@ mod cases;
 pub mod clips;
 mod drawing;
 mod field;
+mod gpu_bench;
 mod plugin;
 mod procedure;
 pub mod scenario;

@@ -35,6 +35,7 @@ pub const INFO: ProcedureInfo = crate::procedure_info! {
     scope_hand: Some(Hand::Left),
     swap: &RIGHT_CYCLE,
     cpu_preset: Some(include_str!("../../../assets/presets/cpu/cholecystectomy.toml")),
+    gpu_bench: Some(super::gpu_bench::lines),
     preset_cases: super::cases::preset_cases,
 };
 

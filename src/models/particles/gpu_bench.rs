@@ -1,0 +1,90 @@
+//! The particle solver's line of `vesalius bench cholecystectomy --compute gpu`: every set the
+//! GPU's kernels step (shape matching, the vessels, the ties, the cloth, the strands), at the
+//! scene's size, every particle awake; the contacts between bodies and the instruments, which
+//! the kernels do not step yet, are left out of both the GPU's run and the CPU's it is checked
+//! against.
+
+use super::solver::ParticleSolver;
+use crate::gpu::{Gpu, RenderError};
+use crate::sim::{BenchLine, ComputeFigures, ModelOutput, TissueModel};
+use std::time::Instant;
+
+/// Steps the GPU's result is checked against the CPU's over.
+const CHECK_STEPS: usize = 20;
+
+/// The line: steps of `dt_s` of a copy of `s` without its contacts on `gpu`, each as a session
+/// takes it (its substeps submitted, the particles read back, the strands checked), for
+/// `budget_s` wall seconds (at least 5 steps, at most 5,000); with the adapter, the substep
+/// rate by the wall clock and the GPU's, the bytes a substep moves at the least and the
+/// bandwidth that makes, the step's latency (p99), and the velocities' relative difference
+/// from the CPU's after [`CHECK_STEPS`] steps from the same start.
+pub fn bench_line(
+    gpu: &Gpu,
+    s: &ParticleSolver,
+    dt_s: f32,
+    budget_s: f64,
+) -> Result<BenchLine, RenderError> {
+    let mut cpu = s.copy_without_contacts();
+    let mut dev = s.copy_without_contacts();
+    dev.use_gpu(gpu)?;
+    let mut out = ModelOutput::default();
+    let lost = |dev: &mut ParticleSolver| match dev.take_device_note() {
+        Some(note) => Err(RenderError::Device(note)),
+        None => Ok(()),
+    };
+    for _ in 0..CHECK_STEPS {
+        cpu.step(dt_s, &[], &mut out);
+        dev.step(dt_s, &[], &mut out);
+    }
+    lost(&mut dev)?;
+    let (mut diff, mut norm) = (0.0f64, 0.0f64);
+    for (a, b) in dev.particles.v.iter().zip(&cpu.particles.v) {
+        diff += f64::from((*a - *b).length_squared());
+        norm += f64::from(b.length_squared());
+    }
+    let check = (diff / norm.max(f64::MIN_POSITIVE)).sqrt();
+    let kernel0 = dev.gpu_kernel_seconds();
+    let mut latencies = Vec::new();
+    let t0 = Instant::now();
+    let mut steps = 0u64;
+    while steps < 5000 && (steps < 5 || t0.elapsed().as_secs_f64() < budget_s) {
+        steps += 1;
+        let t = Instant::now();
+        dev.step(dt_s, &[], &mut out);
+        latencies.push(t.elapsed().as_secs_f64());
+    }
+    let wall_s = t0.elapsed().as_secs_f64();
+    lost(&mut dev)?;
+    latencies.sort_by(f64::total_cmp);
+    let p99 = latencies
+        .get(((latencies.len() as f64 * 0.99).ceil() as usize).saturating_sub(1))
+        .copied()
+        .unwrap_or(0.0);
+    let kernel = dev.gpu_kernel_seconds() - kernel0;
+    let kernel_s = (kernel > 0.0).then_some(kernel);
+    let n = dev.params.substeps.max(1) as usize;
+    let substeps = steps * n as u64;
+    let bytes = dev.gpu_bytes_per_substep().unwrap_or(0);
+    let moved = bytes as f64 * substeps as f64;
+    let sizes = dev.sizes();
+    let mut line = BenchLine::repeated("particles_without_contacts", steps, wall_s);
+    line.dt_s = dt_s;
+    line.realtime_factor = line.steps_per_s * f64::from(dt_s);
+    line.vertices = sizes.vertices;
+    line.constraints = sizes.constraints;
+    line.threads = 1;
+    line.compute = ComputeFigures {
+        backend: Some("gpu"),
+        adapter: Some(gpu.describe()),
+        substeps_per_step: Some(n),
+        substeps_per_s: Some(substeps as f64 / wall_s.max(1e-12)),
+        bytes_per_substep: Some(bytes),
+        kernel_s,
+        wall_s: Some(wall_s),
+        gb_per_s: kernel_s.map(|k| moved / k.max(1e-12) * 1e-9),
+        kernel_substeps_per_s: kernel_s.map(|k| substeps as f64 / k.max(1e-12)),
+        latency_p99_ms: Some(1e3 * p99),
+        check_rel_err: Some(check),
+    };
+    Ok(line)
+}

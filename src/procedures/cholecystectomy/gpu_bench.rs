@@ -1,0 +1,23 @@
+//! The cholecystectomy's line of `vesalius bench cholecystectomy --compute gpu`: its particle
+//! solver's kernels at the default scenario's size (22,900 particles in organs, 4 sweeps),
+//! built and laid out as a session builds it, every particle awake (see
+//! `models::particles::gpu_bench`).
+
+use super::Scenario;
+use super::plugin::build_procedure;
+use crate::gpu::Gpu;
+use crate::models::particles;
+use crate::sim::{BenchError, BenchLine};
+
+/// Wall seconds the kernels are timed for.
+const BUDGET_S: f64 = 3.0;
+
+/// The solver's GPU line at the default scenario's size.
+pub fn lines(gpu: &Gpu) -> Result<Vec<BenchLine>, BenchError> {
+    let file = "builtin cholecystectomy scenario";
+    let s = Scenario::parse(file, super::INFO.scenario)?;
+    let dt = s.dt_s;
+    let p = build_procedure(file, s)?;
+    let line = particles::gpu_bench::bench_line(gpu, p.scene.solver(), dt, BUDGET_S)?;
+    Ok(vec![line])
+}
