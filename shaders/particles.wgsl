@@ -9,7 +9,7 @@
 // One substep: `predict` and `clear_lambdas`; per sweep `match_goals` (a cluster each),
 // `shape_particles` (a particle each), the ties, the cloth's edges and its hinges colour by
 // colour (`project_stretches`, `project_bends`: a constraint each, constraints of one colour
-// sharing no particle), and `floor`; then `finish`.
+// sharing no particle), the strands, the contacts between bodies, and `floor`; then `finish`.
 //
 // Layouts:
 // - x, x0: `vec4(position, inverse mass)`; v, ext: `vec4(velocity or force, 0)`;
@@ -80,6 +80,8 @@ struct Range {
 // Each segment's row of its run's tridiagonal system, two a segment: `(normal, diagonal)`,
 // `(coupling with the next, right-hand side, c, d)` (work space).
 @group(0) @binding(21) var<storage, read_write> rows: array<vec4<f32>>;
+// Candidate pairs of particles of different bodies (`contacts.rs`), by colour.
+@group(0) @binding(22) var<storage, read> pairs: array<vec2<u32>>;
 
 // A turn smaller than this ends the rotation's extraction, radians (`shape.rs`).
 const ROTATION_TOLERANCE_RAD: f32 = 1e-5;
@@ -478,4 +480,30 @@ fn project_chains(@builtin(global_invocation_id) gid: vec3<u32>) {
             stretch_one(c.x, c.y, bitcast<f32>(c.z), bend_compliance, more.z + (b - span.z));
         }
     }
+}
+
+// One colour of contact pairs (`BodyContacts::project`): a pair closer than two radii
+// (`range.compliance` here) is pushed apart, each particle by its inverse mass.
+@compute @workgroup_size(64)
+fn project_contacts(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let k = range.first + index(gid);
+    if k >= range.end {
+        return;
+    }
+    let pr = pairs[k];
+    let xi = x[pr.x];
+    let xj = x[pr.y];
+    let ws = xi.w + xj.w;
+    if ws <= 0.0 {
+        return;
+    }
+    let d0 = range.compliance;
+    let d = xi.xyz - xj.xyz;
+    let len = length(d);
+    if len >= d0 || len <= 1e-12 {
+        return;
+    }
+    let push = d * ((d0 - len) / (len * ws));
+    x[pr.x] = vec4<f32>(xi.xyz + push * xi.w, xi.w);
+    x[pr.y] = vec4<f32>(xj.xyz - push * xj.w, xj.w);
 }

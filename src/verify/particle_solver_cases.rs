@@ -214,6 +214,12 @@ fn on_gpu(mut s: ParticleSolver, gpu: bool) -> Option<ParticleSolver> {
     Some(s)
 }
 
+/// Whether a solver meant for the GPU (`gpu`) left it for the CPU on the way (its case then
+/// measured the CPU, and is not run).
+fn fell_back(s: &mut ParticleSolver, gpu: bool) -> bool {
+    gpu && (s.take_device_note().is_some() || s.gpu_adapter().is_none())
+}
+
 fn steps(s: &mut ParticleSolver, n: usize) -> f64 {
     let mut out = ModelOutput::default();
     for _ in 0..n {
@@ -242,6 +248,9 @@ fn tie_load(gpu: bool) -> Measured {
         return Measured::not_run(reference);
     };
     let simulated_s = steps(&mut s, 2000);
+    if fell_back(&mut s, gpu) {
+        return Measured::not_run(reference);
+    }
     let x = &s.particles.x;
     let stretch = x[weight as usize].distance(x[top as usize]) - 0.01;
     Measured {
@@ -285,6 +294,9 @@ fn hinge_fold(gpu: bool) -> Measured {
         return Measured::not_run(reference);
     };
     let simulated_s = steps(&mut s, 1000);
+    if fell_back(&mut s, gpu) {
+        return Measured::not_run(reference);
+    }
     let Some(rest) = rest else {
         return Measured::not_run(reference);
     };
@@ -324,6 +336,9 @@ fn chain_stretch(gpu: bool) -> Measured {
         return Measured::not_run(f64::from(reference));
     };
     let simulated_s = steps(&mut s, 1500);
+    if fell_back(&mut s, gpu) {
+        return Measured::not_run(f64::from(reference));
+    }
     Measured {
         simulated_s,
         ..Measured::at_rest(
@@ -355,6 +370,9 @@ fn strand_break(gpu: bool) -> Measured {
         s.particles.add_force(free as usize, Vec3::new(t, 0.0, 0.0));
         s.step(1e-3, &[], &mut out);
         if !s.outcome().breaks.is_empty() {
+            if fell_back(&mut s, gpu) {
+                return Measured::not_run(reference);
+            }
             return Measured {
                 simulated_s: f64::from(t),
                 ..Measured::at_rest(reference, f64::from(t))

@@ -10,7 +10,7 @@
 //! runs now and then, not every step. Everything runs in a fixed order: the same bytes every
 //! time.
 
-use super::Particles;
+use super::{Particles, colour};
 use crate::collision::{Instrument, PointBlocks, PointCloud, ToolContact};
 use glam::Vec3;
 
@@ -29,6 +29,10 @@ pub struct BodyContacts {
     pub searches: u64,
     /// Pairs in contact at the last projection.
     pub touching: usize,
+    /// The pairs in projection order (indices into `pairs`, by colour: pairs of one colour
+    /// share no particle, `colour.rs`), and each pair's colour.
+    order: Vec<u32>,
+    colours: Vec<u32>,
 }
 
 impl BodyContacts {
@@ -52,8 +56,10 @@ impl BodyContacts {
         let margin = self.margin_m;
         self.margin_m = 0.0;
         self.ignore.clear();
-        self.search(p);
+        self.search(&p.x, &p.body);
         self.ignore = std::mem::take(&mut self.pairs);
+        self.order.clear();
+        self.colours.clear();
         self.margin_m = margin;
         self.at_search.clear();
         self.ignore.len()
@@ -72,21 +78,43 @@ impl BodyContacts {
     /// Searches again for candidate pairs if a member has moved more than half the margin
     /// since the last search (or there was none).
     pub fn refresh(&mut self, p: &Particles) {
+        self.refresh_at(&p.x, &p.body);
+    }
+
+    /// [`BodyContacts::refresh`] with the particles at `x` (bodies `body`): a device's
+    /// substep searches from the positions its prediction will give, formed on the CPU.
+    pub fn refresh_at(&mut self, x: &[Vec3], body: &[u16]) {
         let half = 0.5 * self.margin_m;
         let moved = self.at_search.len() != self.members.len()
             || self
                 .members
                 .iter()
                 .zip(&self.at_search)
-                .any(|(&i, a)| p.x[i as usize].distance_squared(*a) > half * half);
+                .any(|(&i, a)| x[i as usize].distance_squared(*a) > half * half);
         if moved {
-            self.search(p);
+            self.search(x, body);
+            let colours =
+                colour::greedy(&self.pairs.iter().map(|&(i, j)| [i, j]).collect::<Vec<_>>());
+            let order = colour::order(&colours);
+            self.order = order.iter().map(|&k| k as u32).collect();
+            self.colours = order.iter().map(|&k| colours[k]).collect();
         }
     }
 
-    fn search(&mut self, p: &Particles) {
+    /// The pairs in projection order (by colour), and their colours.
+    pub fn pairs_by_colour(&self) -> (Vec<(u32, u32)>, &[u32]) {
+        let pairs = self.order.iter().map(|&k| self.pairs[k as usize]).collect();
+        (pairs, &self.colours)
+    }
+
+    /// Two radii: pairs closer than this push apart, m.
+    pub fn contact_distance_m(&self) -> f32 {
+        2.0 * self.radius_m
+    }
+
+    fn search(&mut self, x: &[Vec3], body: &[u16]) {
         self.searches += 1;
-        self.at_search = self.members.iter().map(|&i| p.x[i as usize]).collect();
+        self.at_search = self.members.iter().map(|&i| x[i as usize]).collect();
         self.pairs.clear();
         if self.members.is_empty() {
             return;
@@ -109,7 +137,7 @@ impl BodyContacts {
         let dims = ((hi - lo) / cell).floor().as_uvec3() + 1;
         let cells = dims.x as usize * dims.y as usize * dims.z as usize;
         if cells > 64 * self.members.len() + 4096 {
-            self.search_sorted(p, reach);
+            self.search_sorted(body, reach);
             return;
         }
         let index = |x: Vec3| {
@@ -155,7 +183,7 @@ impl BodyContacts {
                         let cell = &slots[start[ci] as usize..start[ci + 1] as usize];
                         let after = cell.partition_point(|&m| m as usize <= k);
                         for &m in &cell[after..] {
-                            found.extend(pair(self, p, k, m as usize, r2));
+                            found.extend(pair(self, body, k, m as usize, r2));
                         }
                     }
                 }
@@ -166,7 +194,7 @@ impl BodyContacts {
     }
 
     /// The fallback for a sparse box: members sorted along x, pairs within `reach` in x.
-    fn search_sorted(&mut self, p: &Particles, reach: f32) {
+    fn search_sorted(&mut self, body: &[u16], reach: f32) {
         let mut order: Vec<u32> = (0..self.members.len() as u32)
             .filter(|&k| self.at_search[k as usize].is_finite())
             .collect();
@@ -184,8 +212,8 @@ impl BodyContacts {
                 if self.at_search[b as usize].x - xa > reach {
                     break;
                 }
-                found.extend(pair(self, p, a as usize, b as usize, r2));
-                found.extend(pair(self, p, b as usize, a as usize, r2));
+                found.extend(pair(self, body, a as usize, b as usize, r2));
+                found.extend(pair(self, body, b as usize, a as usize, r2));
             }
         }
         found.sort_unstable();
@@ -193,11 +221,13 @@ impl BodyContacts {
         self.pairs = found;
     }
 
-    /// Pushes apart every candidate pair closer than two radii, each by its inverse masses.
+    /// Pushes apart every candidate pair closer than two radii, each by its inverse masses,
+    /// colour by colour.
     pub fn project(&mut self, p: &mut Particles) {
         let d0 = 2.0 * self.radius_m;
         let mut touching = 0;
-        for &(i, j) in &self.pairs {
+        for &k in &self.order {
+            let (i, j) = self.pairs[k as usize];
             let (i, j) = (i as usize, j as usize);
             let (wi, wj) = (p.w[i], p.w[j]);
             let ws = wi + wj;
@@ -217,6 +247,21 @@ impl BodyContacts {
         self.touching = touching;
     }
 
+    /// The pairs closer than two radii where the particles are now (after a device's
+    /// substep, whose projection counted none on the CPU).
+    pub fn count_touching(&mut self, p: &Particles) {
+        let d0 = 2.0 * self.radius_m;
+        self.touching = self
+            .pairs
+            .iter()
+            .filter(|&&(i, j)| {
+                let (wi, wj) = (p.w[i as usize], p.w[j as usize]);
+                let len = p.x[i as usize].distance(p.x[j as usize]);
+                wi + wj > 0.0 && len < d0 && len > 1e-12
+            })
+            .count();
+    }
+
     pub fn heap_bytes(&self) -> usize {
         self.members.len() * 4
             + self.at_search.len() * 12
@@ -226,10 +271,9 @@ impl BodyContacts {
 
 /// Members `k` and `m` (positions in `members`) as a pair, once (`i < j`), if they belong to
 /// different bodies and lay within the reach at the search.
-fn pair(c: &BodyContacts, p: &Particles, k: usize, m: usize, r2: f32) -> Option<(u32, u32)> {
+fn pair(c: &BodyContacts, body: &[u16], k: usize, m: usize, r2: f32) -> Option<(u32, u32)> {
     let (i, j) = (c.members[k], c.members[m]);
-    if i >= j || p.body[i as usize] == p.body[j as usize] || c.ignore.binary_search(&(i, j)).is_ok()
-    {
+    if i >= j || body[i as usize] == body[j as usize] || c.ignore.binary_search(&(i, j)).is_ok() {
         return None;
     }
     (c.at_search[k].distance_squared(c.at_search[m]) <= r2).then_some((i, j))

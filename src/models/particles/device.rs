@@ -5,14 +5,13 @@
 //!
 //! The device's kernels step shape matching, the vessels' chains, the ties, the cloth (its
 //! edges and hinges), the strands (each set colour by colour, as the CPU takes them),
-//! gravity, point damping and the floor; a solver with contacts between bodies is refused
-//! with an error saying so ([`ParticleSolver::use_gpu`]). A cut, a tear or a weakened strand
-//! sends the constraints up again before the next device substep. The strands' weakening
-//! and tearing run on the CPU after each substep, from the particles read back, as the CPU's
-//! own substep runs them.
-//! A step with an instrument set runs on the CPU (the kernels hold no instruments yet) from
-//! the clusters' state read back with it, and the next device step sends everything up
-//! again, as after a rollback.
+//! the contacts between bodies (their candidate pairs searched on the CPU before each
+//! substep, from the positions the prediction will give, and coloured), gravity, point
+//! damping and the floor. A cut, a tear, a weakened strand or a new search sends the
+//! constraints up again before the next device substep. The strands' weakening and tearing
+//! run on the CPU after each substep, from the particles read back, as the CPU's own substep
+//! runs them. A step with an instrument set runs on the CPU (the kernels hold no instruments
+//! yet), and the next device step sends everything up again, as after a rollback.
 //!
 //! Should the device fail (lost, out of memory, a command refused), the step runs on the
 //! CPU from the state the CPU holds, which the failed step has not touched, the device is
@@ -66,7 +65,11 @@ impl ParticleSolver {
         let (ties, tie_colours) = self.ties();
         let (edge_colours, hinge_colours) = self.cloth.colours();
         let (edge_compliance, hinge_compliance) = self.cloth.compliances();
+        let (pairs, pair_colours) = self.contacts.pairs_by_colour();
         Constraints {
+            pairs,
+            pair_colours,
+            contact_distance_m: self.contacts.contact_distance_m(),
             vessels: self.chains.device_set(),
             adhesion: self.adhesion.device_set(),
             bonds: self.bonds.device_set(),
@@ -88,29 +91,9 @@ impl ParticleSolver {
         }
     }
 
-    /// What this solver holds that the GPU's kernels do not step, one phrase each (empty:
-    /// the device can take it).
-    pub fn gpu_unsupported(&self) -> Vec<String> {
-        let mut out = Vec::new();
-        let contacts = self.contacts.members();
-        if contacts > 0 {
-            out.push(format!("{contacts} particles in body contacts"));
-        }
-        out
-    }
-
     /// Steps this solver on `gpu` from now on (see `device.rs`). An error names what the
-    /// device refused or what the kernels do not step; the solver stays on the CPU.
+    /// device refused; the solver stays on the CPU.
     pub fn use_gpu(&mut self, gpu: &Gpu) -> Result<(), RenderError> {
-        let missing = self.gpu_unsupported();
-        if !missing.is_empty() {
-            return Err(RenderError::Unsupported(format!(
-                "the particle solver's kernels step shape matching, the vessels, the ties, \
-                 the cloth, the strands, gravity, damping and the floor; this world also \
-                 has {}",
-                missing.join(", ")
-            )));
-        }
         let k = ParticlesGpu::new(gpu, &self.particles, &self.shape, &self.constraints())?;
         self.device = Slot {
             on: Some(Box::new(k)),
@@ -162,10 +145,10 @@ pub(super) fn can_step(s: &ParticleSolver, tools: &[Option<HandTool>; 2]) -> boo
     s.device.on.is_some() && tools.iter().all(Option::is_none)
 }
 
-/// What the constraints a sweep projects depend on that cuts, tears and weakening change: the
-/// vessels' intact segments and bending springs, each strand set's weakened strands and broken
-/// segments, the cloth's edges and hinges.
-type Signature = [usize; 8];
+/// What the constraints a sweep projects depend on that cuts, tears, weakening and the
+/// contacts' searches change: the vessels' intact segments and bending springs, each strand
+/// set's weakened strands and broken segments, the cloth's edges and hinges, the searches.
+type Signature = [usize; 9];
 
 fn signature(s: &ParticleSolver) -> Signature {
     let (segs, bends) = s.chains.intact_counts();
@@ -180,6 +163,7 @@ fn signature(s: &ParticleSolver) -> Signature {
         bt,
         s.cloth.edges(),
         s.cloth.hinges(),
+        s.contacts.searches as usize,
     ]
 }
 
@@ -200,7 +184,8 @@ pub(super) fn step(
     };
     let n = s.params.substeps.max(1);
     let strands = s.adhesion.segments() + s.bonds.segments() > 0;
-    let chunk = if strands { 1 } else { n };
+    let contacts = s.contacts.members() > 0;
+    let chunk = if strands || contacts { 1 } else { n };
     let how = Stepping {
         dt_s: dt_s / n as f32 * chunk as f32,
         substeps: chunk,
@@ -218,6 +203,12 @@ pub(super) fn step(
         if let Some(e) = ext {
             s.particles.ext.copy_from_slice(e);
         }
+        if contacts {
+            // The CPU's substep searches for pairs from the predicted positions: formed here
+            // as the prediction forms them.
+            let predicted = predict(&s.particles, how.dt_s / chunk as f32, how.gravity_m_per_s2);
+            s.contacts.refresh_at(&predicted, &s.particles.body);
+        }
         let mut run = || -> Result<(), RenderError> {
             let now = signature(s);
             if now != s.device.uploaded {
@@ -234,6 +225,9 @@ pub(super) fn step(
             return done;
         }
         done += chunk;
+        if contacts {
+            s.contacts.count_touching(&s.particles);
+        }
         if strands {
             out.breaks.extend(s.adhesion.update(&s.particles));
             out.bond_breaks.extend(s.bonds.update(&s.particles));
@@ -242,6 +236,24 @@ pub(super) fn step(
     s.device.on = Some(d);
     s.device.stale = false;
     n
+}
+
+/// Where [`super::Particles::predict`] will put the particles in a substep of `dt` (the same
+/// operations in the same order).
+fn predict(p: &super::Particles, dt: f32, gravity: glam::Vec3) -> Vec<glam::Vec3> {
+    p.x.iter()
+        .zip(&p.v)
+        .zip(&p.w)
+        .zip(&p.ext)
+        .map(|(((x, v), &w), e)| {
+            if w > 0.0 {
+                let v = *v + dt * (gravity + *e * w);
+                *x + dt * v
+            } else {
+                *x
+            }
+        })
+        .collect()
 }
 
 /// Before a step the CPU runs while the solver has a device: the CPU holds the newest state

@@ -114,7 +114,8 @@ pub struct ChainSet {
 }
 
 /// Everything a sweep projects after the clusters, in this order: the vessels, the ties, the
-/// cloth's edges, its hinges, the two strand sets.
+/// cloth's edges, its hinges, the two strand sets, the contacts between bodies (their
+/// candidate pairs by colour, pushed apart closer than `contact_distance_m`).
 #[derive(Debug, Clone)]
 pub struct Constraints<'a> {
     pub vessels: ChainSet,
@@ -123,6 +124,9 @@ pub struct Constraints<'a> {
     pub hinges: Set<'a, Bend>,
     pub adhesion: ChainSet,
     pub bonds: ChainSet,
+    pub pairs: Vec<(u32, u32)>,
+    pub pair_colours: &'a [u32],
+    pub contact_distance_m: f32,
 }
 
 impl Constraints<'_> {
@@ -134,6 +138,9 @@ impl Constraints<'_> {
             hinges: Set::empty(),
             adhesion: ChainSet::default(),
             bonds: ChainSet::default(),
+            pairs: Vec::new(),
+            pair_colours: &[],
+            contact_distance_m: 0.0,
         }
     }
 }
@@ -151,7 +158,7 @@ pub struct Stepping {
 }
 
 /// The entry points.
-const ENTRIES: [&str; 9] = [
+const ENTRIES: [&str; 10] = [
     "predict",
     "match_goals",
     "shape_particles",
@@ -161,6 +168,7 @@ const ENTRIES: [&str; 9] = [
     "project_bends",
     "floor",
     "project_chains",
+    "project_contacts",
 ];
 const PREDICT: usize = 0;
 const MATCH: usize = 1;
@@ -171,6 +179,7 @@ const STRETCHES: usize = 5;
 const BENDS: usize = 6;
 const FLOOR: usize = 7;
 const CHAINS: usize = 8;
+const CONTACTS: usize = 9;
 
 /// One colour's dispatch: its entry point, bind group and workgroups.
 struct ColourPass {
@@ -198,10 +207,10 @@ pub struct ParticlesGpu {
     /// A sweep's colour passes after the clusters, in order.
     passes: Vec<ColourPass>,
     lambdas: u32,
-    /// Memberships of clusters; stretch and bending constraints, chain segments and chain
-    /// bending springs on the device (for the bytes a substep moves).
+    /// Memberships of clusters; stretch and bending constraints, chain segments, chain
+    /// bending springs and contact pairs on the device (for the bytes a substep moves).
     memberships: u64,
-    counts: [u64; 4],
+    counts: [u64; 5],
     particles: u32,
     clusters: u32,
     /// Each entry's `k / m` (the coefficients are made from it for the substep), and the
@@ -340,7 +349,7 @@ impl ParticlesGpu {
             passes: Vec::new(),
             lambdas: 0,
             memberships: arrays.rate.len() as u64,
-            counts: [0; 4],
+            counts: [0; 5],
             particles: p.len() as u32,
             clusters: arrays.info.len() as u32,
             rate: arrays.rate,
@@ -415,6 +424,8 @@ impl ParticlesGpu {
         let segs_buf = storage("chain segments", bytes(&segs))?;
         let chain_bends_buf = storage("chain bending springs", bytes(&chain_bends))?;
         let rows = storage("chain rows", &vec![0u8; 32 * segs_total.max(1)])?;
+        let pairs: Vec<[u32; 2]> = c.pairs.iter().map(|&(i, j)| [i, j]).collect();
+        let pairs_buf = storage("contact pairs", bytes(&pairs))?;
         let mut passes = Vec::new();
         let mut add = |entry: usize, first: usize, base: usize, colours: &[u32], comp: f32| {
             for (_, a, b) in colour::ranges(colours) {
@@ -425,10 +436,15 @@ impl ParticlesGpu {
                     compliance: comp,
                 };
                 let uniform = compute::uniform(gpu, "constraint colour", bytes(&[range]));
-                let mut buffers = vec![(0, &self.params), (1, &self.x), (14, &uniform)];
+                // The contacts' kernel reads no substep parameters.
+                let mut buffers = vec![(1, &self.x), (14, &uniform)];
+                if entry != CONTACTS {
+                    buffers.push((0, &self.params));
+                }
                 match entry {
                     STRETCHES => buffers.push((15, &stretch_buf)),
                     BENDS => buffers.push((16, &bend_buf)),
+                    CONTACTS => buffers.push((22, &pairs_buf)),
                     _ => buffers.extend([
                         (18, &info_buf),
                         (19, &segs_buf),
@@ -436,7 +452,9 @@ impl ParticlesGpu {
                         (21, &rows),
                     ]),
                 }
-                buffers.push((17, &lambda));
+                if entry != CONTACTS {
+                    buffers.push((17, &lambda));
+                }
                 passes.push(ColourPass {
                     entry,
                     bind: bind(gpu, &self.pipelines[entry], ENTRIES[entry], &buffers),
@@ -454,6 +472,7 @@ impl ParticlesGpu {
         add(BENDS, 0, hinge_base, c.hinges.colours, c.hinges.compliance);
         add(CHAINS, chain_first[1], 0, &chain_colours(&c.adhesion), 0.0);
         add(CHAINS, chain_first[2], 0, &chain_colours(&c.bonds), 0.0);
+        add(CONTACTS, 0, 0, c.pair_colours, c.contact_distance_m);
         self.binds[CLEAR] = Some(bind(
             gpu,
             &self.pipelines[CLEAR],
@@ -467,6 +486,7 @@ impl ParticlesGpu {
             c.hinges.items.len(),
             segs_total,
             chain_bends.len(),
+            pairs.len(),
         ]
         .map(|n| n as u64);
         gpu.check()
@@ -481,15 +501,16 @@ impl ParticlesGpu {
     /// written: 32; a membership's entry, coefficients, multiplier read and written and frame
     /// read: 88), a stretch constraint (itself, both ends read and written, its multiplier: 88),
     /// a bending one (itself, four ends, its multiplier: 168), a chain segment (itself, both
-    /// ends, its rows written and read, its multiplier: 152), a chain's bending spring (88),
-    /// the floor (a position read: 16); the velocities (48 a particle).
+    /// ends, its rows written and read, its multiplier: 152), a chain's bending spring (88), a
+    /// contact pair (itself, both ends: 72), the floor (a position read: 16); the velocities
+    /// (48 a particle).
     pub fn bytes_per_substep(&self, iterations: u32) -> u64 {
         let (n, m, k) = (
             u64::from(self.particles),
             self.memberships,
             u64::from(self.clusters),
         );
-        let [stretches, bends, segs, chain_bends] = self.counts;
+        let [stretches, bends, segs, chain_bends, pairs] = self.counts;
         let sweep = m * 36
             + k * 128
             + n * 32
@@ -498,6 +519,7 @@ impl ParticlesGpu {
             + bends * 168
             + segs * 152
             + chain_bends * 88
+            + pairs * 72
             + n * 16;
         n * 96 + m * 16 + u64::from(iterations.max(1)) * sweep + n * 48
     }

@@ -1,8 +1,7 @@
 //! The particle solver's line of `vesalius bench cholecystectomy --compute gpu`: every set the
-//! GPU's kernels step (shape matching, the vessels, the ties, the cloth, the strands), at the
-//! scene's size, every particle awake; the contacts between bodies and the instruments, which
-//! the kernels do not step yet, are left out of both the GPU's run and the CPU's it is checked
-//! against.
+//! GPU's kernels step (shape matching, the vessels, the ties, the cloth, the strands, the
+//! contacts between bodies), at the scene's size, every particle awake, with no instrument
+//! (the kernels do not step them yet).
 
 use super::solver::ParticleSolver;
 use crate::gpu::{Gpu, RenderError};
@@ -12,8 +11,9 @@ use std::time::Instant;
 /// Steps the GPU's result is checked against the CPU's over.
 const CHECK_STEPS: usize = 20;
 
-/// The line: steps of `dt_s` of a copy of `s` without its contacts on `gpu`, each as a session
-/// takes it (its substeps submitted, the particles read back, the strands checked), for
+/// The line: steps of `dt_s` of a copy of `s` on `gpu` with no instrument, each as a session
+/// takes it (its substeps submitted, the particles read back, the strands checked, the pairs
+/// searched), for
 /// `budget_s` wall seconds (at least 5 steps, at most 5,000); with the adapter, the substep
 /// rate by the wall clock and the GPU's, the bytes a substep moves at the least and the
 /// bandwidth that makes, the step's latency (p99), and the velocities' relative difference
@@ -24,8 +24,8 @@ pub fn bench_line(
     dt_s: f32,
     budget_s: f64,
 ) -> Result<BenchLine, RenderError> {
-    let mut cpu = s.copy_without_contacts();
-    let mut dev = s.copy_without_contacts();
+    let mut cpu = s.copy_without_instruments();
+    let mut dev = s.copy_without_instruments();
     dev.use_gpu(gpu)?;
     let mut out = ModelOutput::default();
     let lost = |dev: &mut ParticleSolver| match dev.take_device_note() {
@@ -67,7 +67,7 @@ pub fn bench_line(
     let bytes = dev.gpu_bytes_per_substep().unwrap_or(0);
     let moved = bytes as f64 * substeps as f64;
     let sizes = dev.sizes();
-    let mut line = BenchLine::repeated("particles_without_contacts", steps, wall_s);
+    let mut line = BenchLine::repeated("particles_without_instruments", steps, wall_s);
     line.dt_s = dt_s;
     line.realtime_factor = line.steps_per_s * f64::from(dt_s);
     line.vertices = sizes.vertices;

@@ -364,6 +364,12 @@ mod solver {
         }
     }
 
+    /// The solver is still on its device: no step fell back to the CPU.
+    fn still_on_gpu(s: &mut ParticleSolver) {
+        assert_eq!(s.take_device_note(), None, "the device failed");
+        assert!(s.gpu_adapter().is_some());
+    }
+
     #[test]
     fn a_solver_of_clusters_steps_on_the_gpu_as_on_the_cpu() {
         let gpu = gpu();
@@ -375,6 +381,7 @@ mod solver {
         steps(&mut cpu, 200);
         steps(&mut dev, 200);
         let sag = largest_gap(&cpu.particles.x, &start);
+        still_on_gpu(&mut dev);
         let gap = largest_gap(&cpu.particles.x, &dev.particles.x);
         assert!(
             sag > 2e-5 && gap < 0.01 * sag,
@@ -410,21 +417,89 @@ mod solver {
         );
     }
 
+    /// Two blocks of liver-like particles (6 x 4 x 6, 3.5 mm apart, contact radius 1.5 mm):
+    /// the lower one's bottom pinned, the upper one (another body) falling onto it from 2 mm
+    /// above; the contacts between bodies keep them apart.
+    fn stacked() -> ParticleSolver {
+        let h = 0.0035f32;
+        let rho = 1060.0;
+        let mut p = Particles::new();
+        let mut specs = Vec::new();
+        for (body, base) in [(0u16, 0.0f32), (1, 4.0 * h + 0.002)] {
+            let first = p.len() as u32;
+            for a in 0..6 {
+                for b in 0..4 {
+                    for c in 0..6 {
+                        let x = Vec3::new(a as f32 * h, base + b as f32 * h, c as f32 * h);
+                        p.add(x, rho * h * h * h, body);
+                    }
+                }
+            }
+            let members: Vec<u32> = (first..p.len() as u32).collect();
+            let r = 2.5 * h;
+            specs.extend(lattice_clusters(
+                &p.x,
+                &members,
+                h,
+                3,
+                r,
+                frequency_for(5000.0, rho, r),
+            ));
+        }
+        let shape = ShapeMatching::new(&p, specs).expect("clusters");
+        for i in 0..p.len() {
+            if p.x[i].y == 0.0 {
+                p.pin(i);
+            }
+        }
+        let mut s = solver_of(p, shape, Sets::default(), params(3, 5.0, -1.0));
+        s.contacts = BodyContacts::new((0..s.particles.len() as u32).collect(), 0.0015, 0.001);
+        s
+    }
+
     #[test]
-    fn the_device_refuses_what_its_kernels_do_not_step_by_name() {
+    fn blocks_of_two_bodies_meet_and_stay_apart_on_the_gpu_as_on_the_cpu() {
         let gpu = gpu();
-        let mut s = solver(true);
-        let e = s
-            .use_gpu(&gpu)
-            .expect_err("contacts between bodies are not on the GPU yet");
-        let text = e.to_string();
-        let n = s.particles.len();
+        let (mut cpu, mut dev) = (stacked(), stacked());
+        dev.use_gpu(&gpu)
+            .expect("the device takes clusters and contacts");
+        let start = cpu.particles.x.clone();
+        // The upper block falls 2.5 mm to touch in 23 ms, bounces a little and settles on the
+        // lower one.
+        let mut touched = [0usize; 2];
+        for _ in 0..80 {
+            for (k, s) in [&mut cpu, &mut dev].into_iter().enumerate() {
+                steps(s, 1);
+                touched[k] = touched[k].max(s.contacts.touching);
+            }
+        }
         assert!(
-            text.contains(&format!("{n} particles in body contacts")),
-            "{text}"
+            touched[0] > 0 && touched[1] > 0,
+            "pairs touched: {touched:?}"
         );
-        assert!(text.contains("shape matching"), "{text}");
-        assert!(s.gpu_adapter().is_none());
+        // The closest pair of particles of different bodies.
+        let closest = |s: &ParticleSolver| {
+            let x = &s.particles.x;
+            (0..144)
+                .flat_map(|i| (144..288).map(move |j| (i, j)))
+                .map(|(i, j)| x[i].distance(x[j]))
+                .fold(f32::MAX, f32::min)
+        };
+        for s in [&cpu, &dev] {
+            assert!(s.contacts.searches > 1);
+            let d = closest(s);
+            // Two radii are 3 mm: nothing passed through, and the blocks are close.
+            assert!(d > 0.0027 && d < 0.004, "closest across bodies {d} m");
+        }
+        let moved = largest_gap(&cpu.particles.x, &start);
+        still_on_gpu(&mut dev);
+        let apart = largest_gap(&cpu.particles.x, &dev.particles.x);
+        assert!(moved > 0.002, "the upper block moved {moved} m");
+        assert!(
+            apart < 0.01 * moved,
+            "GPU vs CPU: {apart} m apart ({moved} m moved)"
+        );
+        assert_eq!(cpu.contacts.searches, dev.contacts.searches);
     }
 
     #[test]
@@ -452,6 +527,9 @@ mod solver {
                     "{substeps} substeps, GPU {on_gpu}: {v} m/s"
                 );
                 assert_eq!(s.particles.ext[0], Vec3::ZERO, "the push is used up");
+                if on_gpu {
+                    still_on_gpu(&mut s);
+                }
             }
         }
     }
@@ -469,6 +547,7 @@ mod solver {
             steps(s, 50);
         }
         let sag = largest_gap(&cpu.particles.x, &solver(false).particles.x);
+        still_on_gpu(&mut dev);
         let gap = largest_gap(&cpu.particles.x, &dev.particles.x);
         assert!(
             gap < 0.01 * sag,
@@ -489,6 +568,7 @@ mod solver {
         steps(&mut dev, 150);
         // The sheet falls and folds over 150 ms: centimetres, every edge and hinge working.
         let moved = largest_gap(&cpu.particles.x, &start);
+        still_on_gpu(&mut dev);
         let gap = largest_gap(&cpu.particles.x, &dev.particles.x);
         assert!(moved > 0.02, "the sheet moved {moved} m");
         assert!(
@@ -520,6 +600,7 @@ mod solver {
         steps(&mut cpu, 100);
         steps(&mut dev, 100);
         let moved = largest_gap(&cpu.particles.x, &sheet().particles.x);
+        still_on_gpu(&mut dev);
         let gap = largest_gap(&cpu.particles.x, &dev.particles.x);
         assert!(
             gap < 0.01 * moved,
@@ -617,10 +698,12 @@ mod solver {
                 <= 2.0 * vessel(&cpu).distance(vessel(&nudged)) + 1e-3 * moved
         );
         // Then every strand weakens and tears on each, at about the same time.
+        still_on_gpu(&mut dev);
         let torn: Vec<Vec<usize>> = [&mut cpu, &mut nudged, &mut dev]
             .into_iter()
             .map(|s| pulled(s, 100..400))
             .collect();
+        still_on_gpu(&mut dev);
         let total = |t: &[usize]| t.iter().sum::<usize>();
         assert_eq!(total(&torn[0]), 36, "every strand tore on the CPU");
         assert_eq!(total(&torn[2]), 36, "every strand tore on the GPU");
@@ -644,7 +727,6 @@ mod solver {
         assert_eq!(c.adapter.as_deref(), Some(gpu.describe().as_str()));
         assert_eq!(c.substeps_per_step, Some(2));
         assert!(line.steps >= 5 && line.all_awake);
-        // The solver's sets only (the block, the vessel, the strands): no contacts to leave.
         assert_eq!(line.vertices, s.particles.len());
         let check = c.check_rel_err.expect("checked");
         assert!(check.is_finite() && check < 0.01, "{check}");

@@ -149,9 +149,9 @@ impl ParticleSolver {
         }
     }
 
-    /// A copy on the CPU with everything but the contacts between bodies and the instruments'
-    /// state (benchmarks of the GPU's kernels, which step the rest).
-    pub fn copy_without_contacts(&self) -> ParticleSolver {
+    /// A copy on the CPU without the instruments' state (benchmarks of the GPU's kernels,
+    /// which step everything else).
+    pub fn copy_without_instruments(&self) -> ParticleSolver {
         ParticleSolver {
             name: self.name.clone(),
             params: self.params,
@@ -164,7 +164,7 @@ impl ParticleSolver {
             cloth: self.cloth.clone(),
             adhesion: self.adhesion.clone(),
             bonds: self.bonds.clone(),
-            contacts: BodyContacts::default(),
+            contacts: self.contacts.clone(),
             pushes: self.pushes.clone(),
             grasps: [None, None],
             tools: [None, None],
