@@ -7,10 +7,10 @@
 //! edges and hinges), the strands (each set colour by colour, as the CPU takes them),
 //! the contacts between bodies (their candidate pairs searched on the CPU before each
 //! substep, from the positions the prediction will give, and coloured), gravity, point
-//! damping and the floor. A cut, a tear, a weakened strand or a new search sends the
-//! constraints up again before the next device substep. The strands' weakening and tearing
-//! run on the CPU after each substep, from the particles read back, as the CPU's own substep
-//! runs them. A step with an instrument set runs on the CPU (the kernels hold no instruments
+//! damping and the floor. A cut, a tear or a weakened strand sends the constraints up
+//! again before the next device substep, a new search its pairs alone. The strands'
+//! weakening and tearing run on the CPU after each substep, from the particles read back,
+//! as the CPU's own substep runs them. A step with an instrument set runs on the CPU (the kernels hold no instruments
 //! yet), and the next device step sends everything up again, as after a rollback.
 //!
 //! Should the device fail (lost, out of memory, a command refused), the step runs on the
@@ -31,6 +31,8 @@ pub(super) struct Slot {
     /// What the constraints on the device were made from ([`signature`]): a cut, a tear or a
     /// weakened strand changes it, and the constraints go up again.
     uploaded: Signature,
+    /// The contacts' searches when their pairs last went up.
+    searched: u64,
     /// Why the device was given up, until the model reports it.
     note: Option<String>,
     /// The device's own time for the substeps so far, seconds (where it has timestamps).
@@ -99,6 +101,7 @@ impl ParticleSolver {
             on: Some(Box::new(k)),
             stale: false,
             uploaded: signature(self),
+            searched: self.contacts.searches,
             note: None,
             kernel_s: 0.0,
         };
@@ -145,10 +148,10 @@ pub(super) fn can_step(s: &ParticleSolver, tools: &[Option<HandTool>; 2]) -> boo
     s.device.on.is_some() && tools.iter().all(Option::is_none)
 }
 
-/// What the constraints a sweep projects depend on that cuts, tears, weakening and the
-/// contacts' searches change: the vessels' intact segments and bending springs, each strand
-/// set's weakened strands and broken segments, the cloth's edges and hinges, the searches.
-type Signature = [usize; 9];
+/// What the constraints a sweep projects depend on that cuts, tears and weakening change: the
+/// vessels' intact segments and bending springs, each strand set's weakened strands and broken
+/// segments, the cloth's edges and hinges. (A contact search sends its pairs up alone.)
+type Signature = [usize; 8];
 
 fn signature(s: &ParticleSolver) -> Signature {
     let (segs, bends) = s.chains.intact_counts();
@@ -163,7 +166,6 @@ fn signature(s: &ParticleSolver) -> Signature {
         bt,
         s.cloth.edges(),
         s.cloth.hinges(),
-        s.contacts.searches as usize,
     ]
 }
 
@@ -214,6 +216,11 @@ pub(super) fn step(
             if now != s.device.uploaded {
                 d.set_constraints(&s.constraints())?;
                 s.device.uploaded = now;
+                s.device.searched = s.contacts.searches;
+            } else if s.contacts.searches != s.device.searched {
+                let (pairs, colours) = s.contacts.pairs_by_colour();
+                d.set_pairs(&pairs, colours, s.contacts.contact_distance_m())?;
+                s.device.searched = s.contacts.searches;
             }
             d.advance(&mut s.particles, &how, 1)?;
             d.download_all(&mut s.particles, &mut s.shape)?;

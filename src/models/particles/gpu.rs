@@ -204,8 +204,10 @@ pub struct ParticlesGpu {
     cluster_state: wgpu::Buffer,
     frames: wgpu::Buffer,
     coef: wgpu::Buffer,
-    /// A sweep's colour passes after the clusters, in order.
+    /// A sweep's colour passes after the clusters, in order, then the contacts' (remade
+    /// alone at each search).
     passes: Vec<ColourPass>,
+    contact_passes: Vec<ColourPass>,
     lambdas: u32,
     /// Memberships of clusters; stretch and bending constraints, chain segments, chain
     /// bending springs and contact pairs on the device (for the bytes a substep moves).
@@ -347,6 +349,7 @@ impl ParticlesGpu {
             frames,
             coef,
             passes: Vec::new(),
+            contact_passes: Vec::new(),
             lambdas: 0,
             memberships: arrays.rate.len() as u64,
             counts: [0; 5],
@@ -424,8 +427,6 @@ impl ParticlesGpu {
         let segs_buf = storage("chain segments", bytes(&segs))?;
         let chain_bends_buf = storage("chain bending springs", bytes(&chain_bends))?;
         let rows = storage("chain rows", &vec![0u8; 32 * segs_total.max(1)])?;
-        let pairs: Vec<[u32; 2]> = c.pairs.iter().map(|&(i, j)| [i, j]).collect();
-        let pairs_buf = storage("contact pairs", bytes(&pairs))?;
         let mut passes = Vec::new();
         let mut add = |entry: usize, first: usize, base: usize, colours: &[u32], comp: f32| {
             for (_, a, b) in colour::ranges(colours) {
@@ -436,15 +437,10 @@ impl ParticlesGpu {
                     compliance: comp,
                 };
                 let uniform = compute::uniform(gpu, "constraint colour", bytes(&[range]));
-                // The contacts' kernel reads no substep parameters.
-                let mut buffers = vec![(1, &self.x), (14, &uniform)];
-                if entry != CONTACTS {
-                    buffers.push((0, &self.params));
-                }
+                let mut buffers = vec![(0, &self.params), (1, &self.x), (14, &uniform)];
                 match entry {
                     STRETCHES => buffers.push((15, &stretch_buf)),
                     BENDS => buffers.push((16, &bend_buf)),
-                    CONTACTS => buffers.push((22, &pairs_buf)),
                     _ => buffers.extend([
                         (18, &info_buf),
                         (19, &segs_buf),
@@ -452,9 +448,7 @@ impl ParticlesGpu {
                         (21, &rows),
                     ]),
                 }
-                if entry != CONTACTS {
-                    buffers.push((17, &lambda));
-                }
+                buffers.push((17, &lambda));
                 passes.push(ColourPass {
                     entry,
                     bind: bind(gpu, &self.pipelines[entry], ENTRIES[entry], &buffers),
@@ -472,7 +466,6 @@ impl ParticlesGpu {
         add(BENDS, 0, hinge_base, c.hinges.colours, c.hinges.compliance);
         add(CHAINS, chain_first[1], 0, &chain_colours(&c.adhesion), 0.0);
         add(CHAINS, chain_first[2], 0, &chain_colours(&c.bonds), 0.0);
-        add(CONTACTS, 0, 0, c.pair_colours, c.contact_distance_m);
         self.binds[CLEAR] = Some(bind(
             gpu,
             &self.pipelines[CLEAR],
@@ -486,9 +479,45 @@ impl ParticlesGpu {
             c.hinges.items.len(),
             segs_total,
             chain_bends.len(),
-            pairs.len(),
+            0,
         ]
         .map(|n| n as u64);
+        gpu.check()?;
+        self.set_pairs(&c.pairs, c.pair_colours, c.contact_distance_m)
+    }
+
+    /// Replaces the contacts' candidate pairs (sorted by colour, `colours` theirs) alone,
+    /// after a search: their buffer and a dispatch per colour, pushed apart closer than
+    /// `distance_m`. The other sets' buffers stay as they are.
+    pub fn set_pairs(
+        &mut self,
+        pairs: &[(u32, u32)],
+        colours: &[u32],
+        distance_m: f32,
+    ) -> Result<(), RenderError> {
+        let gpu = &self.gpu;
+        let rows: Vec<[u32; 2]> = pairs.iter().map(|&(i, j)| [i, j]).collect();
+        let pairs_buf = compute::storage(gpu, "contact pairs", bytes(&rows))?;
+        self.contact_passes = colour::ranges(colours)
+            .into_iter()
+            .map(|(_, a, b)| {
+                let range = Range {
+                    first: a as u32,
+                    end: b as u32,
+                    lambda_base: 0,
+                    compliance: distance_m,
+                };
+                let uniform = compute::uniform(gpu, "contact colour", bytes(&[range]));
+                // The contacts' kernel reads no substep parameters and no multipliers.
+                let buffers = [(1, &self.x), (14, &uniform), (22, &pairs_buf)];
+                ColourPass {
+                    entry: CONTACTS,
+                    bind: bind(gpu, &self.pipelines[CONTACTS], ENTRIES[CONTACTS], &buffers),
+                    groups: groups((b - a) as u32),
+                }
+            })
+            .collect();
+        self.counts[4] = pairs.len() as u64;
         gpu.check()
     }
 
@@ -616,7 +645,7 @@ impl ParticlesGpu {
                         fixed(&mut pass, MATCH, per_cluster);
                     }
                     fixed(&mut pass, SHAPE, per_particle);
-                    for c in &self.passes {
+                    for c in self.passes.iter().chain(&self.contact_passes) {
                         pass.set_pipeline(&self.pipelines[c.entry]);
                         pass.set_bind_group(0, &c.bind, &[]);
                         pass.dispatch_workgroups(c.groups.0, c.groups.1, 1);
