@@ -507,3 +507,201 @@ fn project_contacts(@builtin(global_invocation_id) gid: vec3<u32>) {
     x[pr.x] = vec4<f32>(xi.xyz + push * xi.w, xi.w);
     x[pr.y] = vec4<f32>(xj.xyz - push * xj.w, xj.w);
 }
+
+// The instruments (`contacts.rs`: `ToolPush`, `Grasp`), projected after the strands and before
+// the contacts between bodies, hand by hand, each hand either pushing (its instrument's
+// generalized cylinders against every particle listed near it at the substep's first sweep) or
+// grasping (each held particle pulled by its spring towards its place in the jaw).
+//
+// - cylinders, seven rows a cylinder (`ToolCylinder::rows`): `(p0, 1 / |a|^2)`,
+//   `(p1, on-axis distance)`, `(a, bits of the radius samples)`, `(unit axis, 0)`,
+//   `(on-axis direction, 0)`, the samples' `t`, their radii;
+// - tool_acc: a pushing hand's, per particle, what it was pushed by this substep over its
+//   inverse mass, and 1 if it was pushed in the latest sweep; a grasping hand's, per held
+//   particle, its spring's multiplier;
+// - near: a pushing hand's list, per particle (1: near);
+// - held: `(offset from the jaw, bits of the particle)`;
+// - tool_totals, one a hand: the sums over the submission's substeps, and the most particles
+//   pushed in a substep's last sweep.
+struct Cylinder {
+    p0: vec4<f32>,
+    p1: vec4<f32>,
+    axis: vec4<f32>,
+    unit_axis: vec4<f32>,
+    on_axis_dir: vec4<f32>,
+    t: vec4<f32>,
+    r: vec4<f32>,
+}
+
+// One hand's instrument in a sweep: the jaw and the grasp springs' `1 / (k dt^2)`, the hand,
+// its cylinders, the items its sums run over (particles or held particles), whether this is a
+// substep's first sweep, and how far the instrument is grown (by the particles' radius; for
+// the list, by the list's margin too).
+struct Tool {
+    jaw: vec3<f32>,
+    alpha: f32,
+    hand: u32,
+    cylinders: u32,
+    items: u32,
+    first: u32,
+    grow: f32,
+    grow_wide: f32,
+    pad0: u32,
+    pad1: u32,
+}
+
+@group(0) @binding(23) var<storage, read> cylinders: array<Cylinder>;
+@group(0) @binding(24) var<uniform> tool: Tool;
+@group(0) @binding(25) var<storage, read_write> tool_acc: array<vec4<f32>>;
+@group(0) @binding(26) var<storage, read_write> near: array<u32>;
+@group(0) @binding(27) var<storage, read> held: array<vec4<f32>>;
+@group(0) @binding(28) var<storage, read_write> tool_totals: array<vec4<f32>>;
+
+// A penetration: the direction out of the instrument, the depth, and whether there is one.
+struct Hit {
+    dir: vec3<f32>,
+    depth: f32,
+    found: bool,
+}
+
+// The radius of cylinder `c` at `t`, its samples grown by `grow` (`ToolCylinder::radius_at`
+// of the inflated cylinder).
+fn radius_at(c: u32, t: f32, grow: f32) -> f32 {
+    let n = bitcast<u32>(cylinders[c].axis.w);
+    var k = 0u;
+    while k < n && cylinders[c].t[k] <= t {
+        k += 1u;
+    }
+    if k == 0u {
+        return cylinders[c].r[0] + grow;
+    }
+    if k == n {
+        return cylinders[c].r[n - 1u] + grow;
+    }
+    let t0 = cylinders[c].t[k - 1u];
+    let t1 = cylinders[c].t[k];
+    let r0 = cylinders[c].r[k - 1u] + grow;
+    let r1 = cylinders[c].r[k] + grow;
+    return r0 + (r1 - r0) * ((t - t0) / (t1 - t0));
+}
+
+// The rectum paper's test of `v` against cylinder `c` grown by `grow`
+// (`ToolCylinder::penetration`): the angles at both axis ends, then the distance to the axis
+// against the radius there.
+fn penetration(c: u32, v: vec3<f32>, grow: f32) -> Hit {
+    let miss = Hit(vec3<f32>(0.0), 0.0, false);
+    let cy = cylinders[c];
+    let s0 = dot(cy.axis.xyz, v - cy.p0.xyz);
+    if !(s0 >= 0.0) {
+        return miss;
+    }
+    let s1 = dot(-cy.axis.xyz, v - cy.p1.xyz);
+    if !(s1 >= 0.0) {
+        return miss;
+    }
+    let t = clamp(s0 * cy.p0.w, 0.0, 1.0);
+    let axis_point = cy.p0.xyz + cy.axis.xyz * t;
+    let r = radius_at(c, t, grow);
+    let off = v - axis_point;
+    let d2 = dot(off, off);
+    if !(d2 < r * r) {
+        return miss;
+    }
+    let d = sqrt(d2);
+    if d <= cy.p1.w {
+        return Hit(cy.on_axis_dir.xyz, r, true);
+    }
+    let perp = off - cy.unit_axis.xyz * dot(off, cy.unit_axis.xyz);
+    let rcp = 1.0 / length(perp);
+    var dir = cy.on_axis_dir.xyz;
+    if rcp > 0.0 && rcp < 3.4e38 {
+        dir = perp * rcp;
+    }
+    return Hit(dir, r - d, true);
+}
+
+// The deepest of the instrument's cylinders `v` is inside (the first on a tie).
+fn deepest(v: vec3<f32>, grow: f32) -> Hit {
+    var best = Hit(vec3<f32>(0.0), 0.0, false);
+    for (var c = 0u; c < tool.cylinders; c++) {
+        let hit = penetration(c, v, grow);
+        if hit.found && (!best.found || hit.depth > best.depth) {
+            best = hit;
+        }
+    }
+    return best;
+}
+
+// A pushing hand (`ToolPush::project`): at a substep's first sweep every particle is listed
+// if it is inside the instrument grown by the list's margin; then each listed free particle
+// inside the grown instrument moves out along the test's direction by its depth.
+@compute @workgroup_size(64)
+fn push_tool(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = index(gid);
+    if i >= tool.items {
+        return;
+    }
+    let xi = x[i];
+    var acc = vec4<f32>(0.0);
+    if tool.first != 0u {
+        near[i] = select(0u, 1u, deepest(xi.xyz, tool.grow_wide).found);
+    } else {
+        acc = vec4<f32>(tool_acc[i].xyz, 0.0);
+    }
+    if near[i] != 0u && xi.w > 0.0 {
+        let hit = deepest(xi.xyz, tool.grow);
+        if hit.found {
+            let dx = hit.dir * hit.depth;
+            x[i] = vec4<f32>(xi.xyz + dx, xi.w);
+            acc = vec4<f32>(acc.xyz + dx / xi.w, 1.0);
+        }
+    }
+    tool_acc[i] = acc;
+}
+
+// A grasping hand (`Grasp::project`): each held free particle pulled by its XPBD spring towards
+// where it sat in the jaw (its multiplier starting at zero at a substep's first sweep).
+@compute @workgroup_size(64)
+fn grasp_tool(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let k = index(gid);
+    if k >= tool.items {
+        return;
+    }
+    let h = held[k];
+    let i = bitcast<u32>(h.w);
+    var l = vec3<f32>(0.0);
+    if tool.first == 0u {
+        l = tool_acc[k].xyz;
+    }
+    let xi = x[i];
+    if xi.w > 0.0 {
+        let c = xi.xyz - (tool.jaw + h.xyz);
+        let dl = (-c - tool.alpha * l) / (xi.w + tool.alpha);
+        l += dl;
+        x[i] = vec4<f32>(xi.xyz + dl * xi.w, xi.w);
+    }
+    tool_acc[k] = vec4<f32>(l, 0.0);
+}
+
+var<workgroup> partial: array<vec4<f32>, 64>;
+
+// One hand's sums after a substep, in a fixed order (one workgroup: invocation `t` sums items
+// `t`, `t + 64`, ... in turn, then the first sums the 64 partial sums in turn), added to the
+// hand's totals; the count of particles pushed in the last sweep kept at its largest.
+@compute @workgroup_size(64)
+fn tool_sums(@builtin(local_invocation_index) t: u32) {
+    var s = vec4<f32>(0.0);
+    for (var i = t; i < tool.items; i += 64u) {
+        s += tool_acc[i];
+    }
+    partial[t] = s;
+    workgroupBarrier();
+    if t == 0u {
+        var total = vec4<f32>(0.0);
+        for (var k = 0u; k < 64u; k++) {
+            total += partial[k];
+        }
+        let prev = tool_totals[tool.hand];
+        tool_totals[tool.hand] = vec4<f32>(prev.xyz + total.xyz, max(prev.w, total.w));
+    }
+}

@@ -211,6 +211,10 @@ fn forces_held_off_at_start_up_are_explained_once() {
         .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
         .filter(|e| e["kind"] == "haptic_ramp")
         .filter_map(|e| e["phase"].as_str().map(str::to_string))
+        // The start-up ramp's phases only: a loaded machine may also pause the simulation for
+        // over 10 ms, and the stall watchdog's own recovery ramp (`recover`, `recovered`) is
+        // a separate gain that says nothing about the start-up.
+        .filter(|p| !p.starts_with("recover"))
         .collect();
     assert_eq!(phases, ["held_off"], "{events}");
 }

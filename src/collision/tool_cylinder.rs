@@ -219,6 +219,35 @@ impl ToolCylinder {
         self.p1
     }
 
+    /// Most radius samples [`ToolCylinder::rows`] carries.
+    pub const ROW_SAMPLES: usize = 4;
+
+    /// The cylinder as seven rows of four floats, as a compute kernel reads it
+    /// (`shaders/particles.wgsl`'s `Cylinder`): `(p0, 1 / |a|²)`, `(p1, on-axis distance)`,
+    /// `(a, bits of the sample count)`, `(unit axis, 0)`, `(on-axis direction, 0)`, the
+    /// samples' `t`, their radii. None for a profile of more than [`Self::ROW_SAMPLES`]
+    /// samples.
+    pub fn rows(&self) -> Option<[[f32; 4]; 7]> {
+        let n = self.t.len();
+        if n > Self::ROW_SAMPLES {
+            return None;
+        }
+        let row = |v: Vec3, w: f32| [v.x, v.y, v.z, w];
+        let mut t = [0.0; 4];
+        let mut r = [0.0; 4];
+        t[..n].copy_from_slice(&self.t);
+        r[..n].copy_from_slice(&self.r);
+        Some([
+            row(self.p0, self.inv_len2),
+            row(self.p1, self.on_axis_m),
+            row(self.axis, f32::from_bits(n as u32)),
+            row(self.unit_axis, 0.0),
+            row(self.on_axis_dir, 0.0),
+            t,
+            r,
+        ])
+    }
+
     /// The largest radius of the profile, metres.
     pub fn max_radius_m(&self) -> f32 {
         self.max_r

@@ -1,18 +1,21 @@
 //! Cases for the particle solver as a whole, each run on the CPU and (`--compute gpu`) by the
 //! GPU's kernels: a tie holding a weight (the ties' and the cloth's stretch projection), a
 //! folded hinge of cloth returning to its rest fold (the bending projection), a vessel's chain
-//! stretched by the weight below each segment (the chains' exact run solve), and a strand
-//! pulled until it tears (the strands, their weakening and tearing).
+//! stretched by the weight below each segment (the chains' exact run solve), a strand
+//! pulled until it tears (the strands, their weakening and tearing), and a weight held by a
+//! grasp and resting on an instrument (the instruments' springs and pushes, and the
+//! reactions summed from them).
 
 use super::particle_cases::{BREAK_STRAND, HANGING_CHAIN, hanging_chain};
 use super::{Case, Measured};
+use crate::collision::{Instrument, ToolCylinder};
 use crate::models::particles::Particles;
 use crate::models::particles::adhesion::{Adhesion, AdhesionParams};
 use crate::models::particles::chain::Chains;
 use crate::models::particles::cloth::{Cloth, ClothParams};
 use crate::models::particles::contacts::BodyContacts;
 use crate::models::particles::shape::ShapeMatching;
-use crate::models::particles::solver::{ParticleSolver, SolverParams, SolverParts};
+use crate::models::particles::solver::{HandTool, ParticleSolver, SolverParams, SolverParts};
 use crate::models::xpbd::{self, Bend, Stretch};
 use crate::sim::{ModelOutput, TissueModel};
 use glam::{Quat, Vec3};
@@ -46,9 +49,33 @@ const STRAND_DESCRIPTION: &str = "adhesion_break_force's strand (1 cm, 5 segment
                                   weakened past 1.1 times its length) in a solver of 10 \
                                   sweeps a step, pulled by a force growing 1 N/s: the pull at \
                                   which it tears vs (k / n) 0.1 L = 2 N; tolerance 5 %";
+const GRASP_DESCRIPTION: &str = "a 10 g particle taken by a closed grasper's jaw 1 mm above \
+                                 it (a spring of 200 N/m) and held 3 s under gravity, damped \
+                                 (2 substeps of 4 sweeps a 1 ms step): the tissue's pull on the \
+                                 grasper vs the weight m g = 0.0981 N; tolerance 1e-3";
+const PUSH_DESCRIPTION: &str = "a 10 g particle (radius 1 mm) dropped 1.5 mm onto a \
+                                horizontal 5 mm instrument shaft and left 2 s to rest, damped: \
+                                the tissue's push on the instrument (the pushes summed over \
+                                the step) vs the weight m g = 0.0981 N; tolerance 1e-3";
 
 pub(super) fn cases() -> Vec<Case> {
     vec![
+        Case {
+            model: MODEL,
+            case: "particle_grasp_weight",
+            description: GRASP_DESCRIPTION,
+            unit: "N",
+            tolerance: 1e-3,
+            run: || grasp_weight(false),
+        },
+        Case {
+            model: MODEL,
+            case: "particle_push_weight",
+            description: PUSH_DESCRIPTION,
+            unit: "N",
+            tolerance: 1e-3,
+            run: || push_weight(false),
+        },
         Case {
             model: MODEL,
             case: "particle_chain_stretch",
@@ -88,6 +115,22 @@ pub(super) fn cases() -> Vec<Case> {
 /// adapter.
 pub(super) fn gpu_cases() -> Vec<Case> {
     vec![
+        Case {
+            model: MODEL_GPU,
+            case: "particle_grasp_weight_gpu",
+            description: GRASP_DESCRIPTION,
+            unit: "N",
+            tolerance: 1e-3,
+            run: || grasp_weight(true),
+        },
+        Case {
+            model: MODEL_GPU,
+            case: "particle_push_weight_gpu",
+            description: PUSH_DESCRIPTION,
+            unit: "N",
+            tolerance: 1e-3,
+            run: || push_weight(true),
+        },
         Case {
             model: MODEL_GPU,
             case: "particle_chain_stretch_gpu",
@@ -380,4 +423,85 @@ fn strand_break(gpu: bool) -> Measured {
         }
     }
     Measured::not_run(reference)
+}
+
+/// The mass the instruments' cases hold, kg.
+const TOOL_MASS: f32 = 0.01;
+
+/// `steps` steps of `s` with `tool` in the right hand; the tissue's force on it in the last,
+/// N, or none where the GPU's run fell back to the CPU.
+fn held_steps(s: &mut ParticleSolver, tool: &HandTool, steps: usize, gpu: bool) -> Option<Vec3> {
+    let mut out = ModelOutput::default();
+    for _ in 0..steps {
+        s.set_tools([None, Some(tool.clone())]);
+        s.step(1e-3, &[], &mut out);
+    }
+    (!fell_back(s, gpu)).then(|| s.outcome().reactions[1])
+}
+
+fn grasp_weight(gpu: bool) -> Measured {
+    let reference = f64::from(TOOL_MASS * G);
+    let mut p = Particles::new();
+    p.add(Vec3::ZERO, TOOL_MASS, 0);
+    let gravity = Vec3::new(0.0, -G, 0.0);
+    let Some(mut s) = solver_with(p, Parts::none(), gravity, 4, 10.0) else {
+        return Measured::not_run(reference);
+    };
+    s.params.grasp_reach_m = 3e-3;
+    s.params.grasp_most = 8;
+    s.params.grasp_stiffness_n_per_m = 200.0;
+    let jaw = Vec3::new(0.0, 1e-3, 0.0);
+    // A grasper pointing down at the jaw (a grasp that holds does not push).
+    let q = Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2);
+    let Ok(instrument) = Instrument::grasper(jaw + Vec3::Y * 0.01, q, 0.0) else {
+        return Measured::not_run(reference);
+    };
+    let tool = HandTool {
+        instrument,
+        jaw,
+        closed: true,
+    };
+    let Some(mut s) = on_gpu(s, gpu) else {
+        return Measured::not_run(reference);
+    };
+    match held_steps(&mut s, &tool, 3000, gpu) {
+        // The tissue pulls the grasper down by the weight.
+        Some(r) if s.held(1).len() == 1 => Measured {
+            simulated_s: 3.0,
+            ..Measured::at_rest(reference, f64::from(-r.y))
+        },
+        _ => Measured::not_run(reference),
+    }
+}
+
+fn push_weight(gpu: bool) -> Measured {
+    let reference = f64::from(TOOL_MASS * G);
+    let mut p = Particles::new();
+    p.add(Vec3::ZERO, TOOL_MASS, 0);
+    let gravity = Vec3::new(0.0, -G, 0.0);
+    let Some(s) = solver_with(p, Parts::none(), gravity, 4, 20.0) else {
+        return Measured::not_run(reference);
+    };
+    // A shaft along z whose top is 2.5 mm below the particle's bottom.
+    let y = -0.005;
+    let shaft = ToolCylinder::constant(Vec3::new(0.0, y, -0.05), Vec3::new(0.0, y, 0.05), 2.5e-3);
+    let Some(instrument) = shaft.ok().and_then(|c| Instrument::new(vec![c]).ok()) else {
+        return Measured::not_run(reference);
+    };
+    let tool = HandTool {
+        instrument,
+        jaw: Vec3::new(0.0, y, 0.0),
+        closed: false,
+    };
+    let Some(mut s) = on_gpu(s, gpu) else {
+        return Measured::not_run(reference);
+    };
+    match held_steps(&mut s, &tool, 2000, gpu) {
+        // The tissue pushes the instrument down by the weight.
+        Some(r) => Measured {
+            simulated_s: 2.0,
+            ..Measured::at_rest(reference, f64::from(-r.y))
+        },
+        None => Measured::not_run(reference),
+    }
 }

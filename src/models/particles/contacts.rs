@@ -312,6 +312,11 @@ impl ToolPush {
         }
     }
 
+    /// The particles' radius the instrument is grown by, m.
+    pub fn radius_m(&self) -> f32 {
+        self.radius_m
+    }
+
     /// Starts a step (the reaction's sum back to zero, the particles near the instrument to be
     /// listed again).
     pub fn begin_step(&mut self) {
@@ -410,6 +415,16 @@ impl Grasp {
 
     pub fn is_empty(&self) -> bool {
         self.held.is_empty()
+    }
+
+    /// The held particles and their offsets from the jaw, m.
+    pub fn held(&self) -> &[(u32, Vec3)] {
+        &self.held
+    }
+
+    /// The springs' stiffness, N/m.
+    pub fn stiffness_n_per_m(&self) -> f32 {
+        self.stiffness_n_per_m
     }
 
     /// The held particles.

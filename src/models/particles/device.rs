@@ -10,14 +10,21 @@
 //! damping and the floor. A cut, a tear or a weakened strand sends the constraints up
 //! again before the next device substep, a new search its pairs alone. The strands'
 //! weakening and tearing run on the CPU after each substep, from the particles read back,
-//! as the CPU's own substep runs them. A step with an instrument set runs on the CPU (the kernels hold no instruments
-//! yet), and the next device step sends everything up again, as after a rollback.
+//! as the CPU's own substep runs them. The instruments go up with each step: a grasp taken on
+//! the CPU at the step's start (from the particles it holds, as the CPU's first substep takes
+//! it) and then held by the device's springs, or an instrument's cylinders pushing; their
+//! sums come back with the particles, and the reactions are made from them as the CPU makes
+//! them. An instrument the kernels cannot take (more cylinders or radius samples than they
+//! hold) runs that step on the CPU, and the next device step sends everything up again, as
+//! after a rollback.
 //!
 //! Should the device fail (lost, out of memory, a command refused), the step runs on the
 //! CPU from the state the CPU holds, which the failed step has not touched, the device is
 //! dropped and the failure is reported once: the session goes on.
 
+use super::contacts::PUSH_LIST_MARGIN_M;
 use super::gpu::{Constraints, ParticlesGpu, Set, Stepping};
+use super::gpu_tools::DeviceTool;
 use super::solver::{HandTool, ParticleSolver, StepOutcome};
 use crate::gpu::{Gpu, RenderError};
 
@@ -143,9 +150,39 @@ impl ParticleSolver {
     }
 }
 
-/// Whether the next step can run on the device (it has one, and no instrument is set).
+/// Whether the next step can run on the device (it has one, and the kernels can take each
+/// instrument set).
 pub(super) fn can_step(s: &ParticleSolver, tools: &[Option<HandTool>; 2]) -> bool {
-    s.device.on.is_some() && tools.iter().all(Option::is_none)
+    s.device.on.is_some()
+        && tools
+            .iter()
+            .flatten()
+            .all(|t| DeviceTool::fits(&t.instrument))
+}
+
+/// Each hand's instrument as the device takes it this step: its grasp where it holds
+/// particles, otherwise its cylinders pushing.
+fn device_tools<'a>(
+    s: &'a ParticleSolver,
+    tools: &'a [Option<HandTool>; 2],
+) -> [DeviceTool<'a>; 2] {
+    std::array::from_fn(|h| {
+        let Some(t) = &tools[h] else {
+            return DeviceTool::None;
+        };
+        match s.hand_state(h) {
+            (Some(g), _) if !g.is_empty() => DeviceTool::Grasp {
+                held: g.held(),
+                jaw: t.jaw,
+                stiffness_n_per_m: g.stiffness_n_per_m(),
+            },
+            (_, push) => DeviceTool::Push {
+                instrument: &t.instrument,
+                radius_m: push.radius_m(),
+                margin_m: PUSH_LIST_MARGIN_M,
+            },
+        }
+    })
 }
 
 /// What the constraints a sweep projects depend on that cuts, tears and weakening change: the
@@ -178,6 +215,7 @@ fn signature(s: &ParticleSolver) -> Signature {
 pub(super) fn step(
     s: &mut ParticleSolver,
     dt_s: f32,
+    tools: &[Option<HandTool>; 2],
     ext: Option<&[glam::Vec3]>,
     out: &mut StepOutcome,
 ) -> u32 {
@@ -188,6 +226,15 @@ pub(super) fn step(
     let strands = s.adhesion.segments() + s.bonds.segments() > 0;
     let contacts = s.contacts.members() > 0;
     let chunk = if strands || contacts { 1 } else { n };
+    // The grasps the CPU's first substep would take, from the particles as they are.
+    s.take_grasps(tools);
+    let sub_dt = dt_s / n as f32;
+    let inv_dt2 = 1.0 / (sub_dt * sub_dt);
+    let pushing = [tools[0].is_some(), tools[1].is_some()];
+    if let Err(e) = d.set_tools(&device_tools(s, tools), sub_dt, s.params.grasp_most) {
+        s.device.note = Some(e.to_string());
+        return 0;
+    }
     let how = Stepping {
         dt_s: dt_s / n as f32 * chunk as f32,
         substeps: chunk,
@@ -211,7 +258,7 @@ pub(super) fn step(
             let predicted = predict(&s.particles, how.dt_s / chunk as f32, how.gravity_m_per_s2);
             s.contacts.refresh_at(&predicted, &s.particles.body);
         }
-        let mut run = || -> Result<(), RenderError> {
+        let mut run = || -> Result<[[f32; 4]; 2], RenderError> {
             let now = signature(s);
             if now != s.device.uploaded {
                 d.set_constraints(&s.constraints())?;
@@ -223,13 +270,27 @@ pub(super) fn step(
                 s.device.searched = s.contacts.searches;
             }
             d.advance(&mut s.particles, &how, 1)?;
-            d.download_all(&mut s.particles, &mut s.shape)?;
+            let totals = d.download_all(&mut s.particles, &mut s.shape)?;
             s.device.kernel_s += d.kernel_seconds()?.unwrap_or(0.0);
-            Ok(())
+            Ok(totals)
         };
-        if let Err(e) = run() {
-            s.device.note = Some(e.to_string());
-            return done;
+        let totals = match run() {
+            Ok(t) => t,
+            Err(e) => {
+                s.device.note = Some(e.to_string());
+                return done;
+            }
+        };
+        // The tissue's force on each instrument: minus what it did to the particles, as the
+        // CPU's `ToolPush::reaction_n` and `Grasp::reaction_n` make it, averaged over the
+        // step's substeps.
+        for h in 0..2 {
+            if !pushing[h] {
+                continue;
+            }
+            let [x, y, z, count] = totals[h];
+            out.reactions[h] -= glam::Vec3::new(x, y, z) * inv_dt2 / n as f32;
+            out.pushed[h] = out.pushed[h].max(count as usize);
         }
         done += chunk;
         if contacts {
@@ -239,6 +300,9 @@ pub(super) fn step(
             out.breaks.extend(s.adhesion.update(&s.particles));
             out.bond_breaks.extend(s.bonds.update(&s.particles));
         }
+    }
+    for h in 0..2 {
+        out.held[h] = s.hand_state(h).0.map_or(0, |g| g.len());
     }
     s.device.on = Some(d);
     s.device.stale = false;

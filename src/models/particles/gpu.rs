@@ -11,10 +11,12 @@
 
 use super::Particles;
 use super::colour;
+pub use super::gpu_sets::{ChainSegment, ChainSet, Constraints, DeviceChain, Set};
+use super::gpu_tools::{DeviceTool, Entries, ToolKernels, totals_from};
 use super::shape::{ShapeMatching, coefficients};
 use crate::gpu::compute::{self, PassTimer, bind};
 use crate::gpu::{Gpu, RenderError};
-use crate::models::xpbd::{Bend, Stretch};
+use crate::models::xpbd::Stretch;
 use bytemuck::Zeroable;
 use glam::Vec3;
 
@@ -57,94 +59,6 @@ struct Range {
     compliance: f32,
 }
 
-/// One constraint set sorted by colour (`colour.rs`): its constraints, their colours, and
-/// its compliance.
-#[derive(Debug, Clone, Copy)]
-pub struct Set<'a, T> {
-    pub items: &'a [T],
-    pub colours: &'a [u32],
-    pub compliance: f32,
-}
-
-impl<T> Set<'_, T> {
-    pub fn empty() -> Self {
-        Set {
-            items: &[],
-            colours: &[],
-            compliance: 0.0,
-        }
-    }
-}
-
-/// A chain's segment as a device takes it.
-#[derive(Debug, Clone, Copy)]
-pub struct ChainSegment {
-    pub c: Stretch,
-    pub intact: bool,
-    /// Weakened with its strand (a strand's breakable segments).
-    pub breakable: bool,
-}
-
-/// One chain solved a run of intact segments at a time (`chain::solve_chain`).
-#[derive(Debug, Clone)]
-pub struct DeviceChain {
-    /// Its segments and bending springs in its set's lists.
-    pub segs: std::ops::Range<u32>,
-    pub bends: std::ops::Range<u32>,
-    /// A segment's compliance, and a breakable one's once `weakened`, m/N.
-    pub compliance: f32,
-    pub weak_compliance: f32,
-    pub weakened: bool,
-    /// Solves of each run a sweep.
-    pub solves: u32,
-    /// The bending springs' compliance, m/N.
-    pub bend_compliance: f32,
-    /// Chains of one colour share no particle (`colour.rs`).
-    pub colour: u32,
-}
-
-/// Chains in projection order (sorted by colour): the vessels (`chain.rs`) or a set of
-/// strands (`adhesion.rs`).
-#[derive(Debug, Clone, Default)]
-pub struct ChainSet {
-    pub chains: Vec<DeviceChain>,
-    pub segs: Vec<ChainSegment>,
-    /// Bending springs (skip-one stretch springs) and whether each is intact.
-    pub bends: Vec<(Stretch, bool)>,
-}
-
-/// Everything a sweep projects after the clusters, in this order: the vessels, the ties, the
-/// cloth's edges, its hinges, the two strand sets, the contacts between bodies (their
-/// candidate pairs by colour, pushed apart closer than `contact_distance_m`).
-#[derive(Debug, Clone)]
-pub struct Constraints<'a> {
-    pub vessels: ChainSet,
-    pub ties: Set<'a, Stretch>,
-    pub edges: Set<'a, Stretch>,
-    pub hinges: Set<'a, Bend>,
-    pub adhesion: ChainSet,
-    pub bonds: ChainSet,
-    pub pairs: Vec<(u32, u32)>,
-    pub pair_colours: &'a [u32],
-    pub contact_distance_m: f32,
-}
-
-impl Constraints<'_> {
-    pub fn none() -> Self {
-        Constraints {
-            vessels: ChainSet::default(),
-            ties: Set::empty(),
-            edges: Set::empty(),
-            hinges: Set::empty(),
-            adhesion: ChainSet::default(),
-            bonds: ChainSet::default(),
-            pairs: Vec::new(),
-            pair_colours: &[],
-            contact_distance_m: 0.0,
-        }
-    }
-}
-
 /// How a submission steps: steps of `dt_s`, each `substeps` substeps of `iterations` sweeps,
 /// under gravity, with point damping, above a floor if there is one.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -158,7 +72,7 @@ pub struct Stepping {
 }
 
 /// The entry points.
-const ENTRIES: [&str; 10] = [
+const ENTRIES: [&str; 13] = [
     "predict",
     "match_goals",
     "shape_particles",
@@ -169,6 +83,9 @@ const ENTRIES: [&str; 10] = [
     "floor",
     "project_chains",
     "project_contacts",
+    "push_tool",
+    "grasp_tool",
+    "tool_sums",
 ];
 const PREDICT: usize = 0;
 const MATCH: usize = 1;
@@ -180,6 +97,11 @@ const BENDS: usize = 6;
 const FLOOR: usize = 7;
 const CHAINS: usize = 8;
 const CONTACTS: usize = 9;
+const TOOLS: Entries = Entries {
+    push: 10,
+    grasp: 11,
+    sums: 12,
+};
 
 /// One colour's dispatch: its entry point, bind group and workgroups.
 struct ColourPass {
@@ -220,6 +142,8 @@ pub struct ParticlesGpu {
     rate: Vec<f32>,
     coef_dt: f32,
     timer: Option<PassTimer>,
+    /// The instruments, once a step has had one (`gpu_tools.rs`).
+    tools: Option<ToolKernels>,
 }
 
 fn bytes<T: bytemuck::Pod>(v: &[T]) -> &[u8] {
@@ -358,6 +282,7 @@ impl ParticlesGpu {
             rate: arrays.rate,
             coef_dt: 0.0,
             timer: PassTimer::new(gpu),
+            tools: None,
         };
         out.set_constraints(c)?;
         gpu.check()?;
@@ -550,7 +475,51 @@ impl ParticlesGpu {
             + chain_bends * 88
             + pairs * 72
             + n * 16;
-        n * 96 + m * 16 + u64::from(iterations.max(1)) * sweep + n * 48
+        let tools = self
+            .tools
+            .as_ref()
+            .map_or(0, |t| t.bytes_per_substep(iterations));
+        n * 96 + m * 16 + u64::from(iterations.max(1)) * sweep + n * 48 + tools
+    }
+
+    /// Sets each hand's instrument for the next submissions, whose substeps last `dt_s`
+    /// (a grasp's springs depend on it): buffers for them are made at the first instrument,
+    /// and again for a grasp of more than `most_held` particles. An error names what the
+    /// device refused or cannot take.
+    pub fn set_tools(
+        &mut self,
+        tools: &[DeviceTool; 2],
+        dt_s: f32,
+        most_held: u32,
+    ) -> Result<(), RenderError> {
+        let idle = tools.iter().all(|t| matches!(t, DeviceTool::None));
+        if idle && self.tools.is_none() {
+            return Ok(());
+        }
+        let held = tools
+            .iter()
+            .map(|t| match t {
+                DeviceTool::Grasp { held, .. } => held.len() as u32,
+                _ => 0,
+            })
+            .max()
+            .unwrap_or(0)
+            .max(most_held);
+        if self.tools.as_ref().is_none_or(|k| k.capacity() < held) {
+            let k = ToolKernels::new(
+                &self.gpu,
+                &self.pipelines,
+                TOOLS,
+                &self.x,
+                self.particles,
+                held,
+            )?;
+            self.tools = Some(k);
+        }
+        match &mut self.tools {
+            Some(k) => k.set(&self.gpu, tools, dt_s),
+            None => Ok(()),
+        }
     }
 
     /// The device it runs on.
@@ -614,6 +583,10 @@ impl ParticlesGpu {
             pad: [0; 3],
         };
         q.write_buffer(&self.params, 0, bytes(&[params]));
+        let tools = self.tools.as_ref().filter(|t| t.active());
+        if let Some(t) = tools {
+            q.write_buffer(&t.totals, 0, &[0u8; 32]);
+        }
         let mut encoder = self
             .gpu
             .device
@@ -640,21 +613,40 @@ impl ParticlesGpu {
                 if self.lambdas > 0 {
                     fixed(&mut pass, CLEAR, per_lambda);
                 }
-                for _ in 0..how.iterations.max(1) {
+                for sweep in 0..how.iterations.max(1) {
                     if self.clusters > 0 {
                         fixed(&mut pass, MATCH, per_cluster);
                     }
                     fixed(&mut pass, SHAPE, per_particle);
-                    for c in self.passes.iter().chain(&self.contact_passes) {
-                        pass.set_pipeline(&self.pipelines[c.entry]);
-                        pass.set_bind_group(0, &c.bind, &[]);
-                        pass.dispatch_workgroups(c.groups.0, c.groups.1, 1);
+                    // The constraint sets, the instruments, then the contacts between bodies.
+                    let mut ordered: Vec<(usize, &wgpu::BindGroup, (u32, u32))> = self
+                        .passes
+                        .iter()
+                        .map(|c| (c.entry, &c.bind, c.groups))
+                        .collect();
+                    let tool_passes =
+                        tools.map_or_else(Vec::new, |t| t.sweep(TOOLS, sweep == 0, groups));
+                    ordered.extend(tool_passes.iter().map(|d| (d.entry, d.bind, d.groups)));
+                    ordered.extend(
+                        self.contact_passes
+                            .iter()
+                            .map(|c| (c.entry, &c.bind, c.groups)),
+                    );
+                    for (entry, bind, (gx, gy)) in ordered {
+                        pass.set_pipeline(&self.pipelines[entry]);
+                        pass.set_bind_group(0, bind, &[]);
+                        pass.dispatch_workgroups(gx, gy, 1);
                     }
                     if how.floor_y_m.is_some() {
                         fixed(&mut pass, FLOOR, per_particle);
                     }
                 }
                 fixed(&mut pass, FINISH, per_particle);
+                for d in tools.map_or_else(Vec::new, |t| t.sums(TOOLS)) {
+                    pass.set_pipeline(&self.pipelines[d.entry]);
+                    pass.set_bind_group(0, d.bind, &[]);
+                    pass.dispatch_workgroups(d.groups.0, d.groups.1, 1);
+                }
             }
         }
         if let Some(t) = &self.timer {
@@ -667,21 +659,27 @@ impl ParticlesGpu {
     /// Waits for the device and copies its positions, step starts and velocities into `p`,
     /// all read in one round trip (`p` is written only once all of it came back).
     pub fn download(&self, p: &mut Particles) -> Result<(), RenderError> {
-        self.read(p, None)
+        self.read(p, None).map(|_| ())
     }
 
     /// [`ParticlesGpu::download`], and the clusters' centres, rotations and goal frames into
     /// `s` (in the same round trip), so the CPU can go on from here. The springs'
-    /// multipliers stay on the device: every substep starts them at zero.
+    /// multipliers stay on the device: every substep starts them at zero. Returns the
+    /// instruments' totals over the last submission (`gpu_tools::totals_from`; zeros without
+    /// instruments).
     pub fn download_all(
         &self,
         p: &mut Particles,
         s: &mut ShapeMatching,
-    ) -> Result<(), RenderError> {
+    ) -> Result<[[f32; 4]; 2], RenderError> {
         self.read(p, Some(s))
     }
 
-    fn read(&self, p: &mut Particles, s: Option<&mut ShapeMatching>) -> Result<(), RenderError> {
+    fn read(
+        &self,
+        p: &mut Particles,
+        s: Option<&mut ShapeMatching>,
+    ) -> Result<[[f32; 4]; 2], RenderError> {
         let n = u64::from(self.particles) * 16;
         let k = if s.is_some() {
             u64::from(self.clusters)
@@ -696,6 +694,10 @@ impl ParticlesGpu {
                 (&self.v, n),
                 (&self.cluster_state, 32 * k),
                 (&self.frames, 64 * k),
+                match self.tools.as_ref().filter(|t| t.active()) {
+                    Some(t) => (&t.totals, 32),
+                    None => (&self.x, 0),
+                },
             ],
         )?;
         let [x, x0, v, state, frames] = [0, 1, 2, 3, 4].map(|j| floats(&raw[j]));
@@ -707,7 +709,7 @@ impl ParticlesGpu {
         if let Some(s) = s {
             s.take_device_state(&state, &frames, &[]);
         }
-        Ok(())
+        Ok(totals_from(&raw[5]))
     }
 
     /// Sends the clusters' centres, rotations and warm starts of `s` up (after the CPU

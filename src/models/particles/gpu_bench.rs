@@ -1,7 +1,7 @@
 //! The particle solver's line of `vesalius bench cholecystectomy --compute gpu`: every set the
 //! GPU's kernels step (shape matching, the vessels, the ties, the cloth, the strands, the
 //! contacts between bodies), at the scene's size, every particle awake, with no instrument
-//! (the kernels do not step them yet).
+//! (the coupled pass that follows it plays the demo with the instruments on the device).
 
 use super::solver::ParticleSolver;
 use crate::gpu::{Gpu, RenderError};

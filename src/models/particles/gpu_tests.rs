@@ -214,7 +214,7 @@ mod solver {
     use crate::models::xpbd::Stretch;
     use crate::sim::{ModelOutput, TissueModel};
 
-    fn params(iterations: u32, damping_per_s: f32, floor_y_m: f32) -> SolverParams {
+    pub(super) fn params(iterations: u32, damping_per_s: f32, floor_y_m: f32) -> SolverParams {
         SolverParams {
             iterations,
             substeps: 2,
@@ -308,7 +308,7 @@ mod solver {
     }
 
     /// The pinned block as a solver, its particles in contacts between bodies when asked.
-    fn solver(contacts: bool) -> ParticleSolver {
+    pub(super) fn solver(contacts: bool) -> ParticleSolver {
         let (p, shape) = block(false);
         let sets = Sets {
             contacts: if contacts {
@@ -357,17 +357,19 @@ mod solver {
         solver_of(p, shape, sets, params(4, 2.0, -1.0))
     }
 
-    fn steps(s: &mut ParticleSolver, n: usize) {
+    /// `n` steps of 1 ms; the events they raised.
+    pub(super) fn steps(s: &mut ParticleSolver, n: usize) -> Vec<crate::sim::EventKind> {
         let mut out = ModelOutput::default();
         for _ in 0..n {
             s.step(1e-3, &[], &mut out);
         }
+        out.events
     }
 
     /// The solver is still on its device: no step fell back to the CPU.
-    fn still_on_gpu(s: &mut ParticleSolver) {
+    pub(super) fn still_on_gpu(s: &mut ParticleSolver) {
         assert_eq!(s.take_device_note(), None, "the device failed");
-        assert!(s.gpu_adapter().is_some());
+        assert!(s.gpu_adapter().is_some(), "the device was given up");
     }
 
     #[test]
@@ -403,11 +405,17 @@ mod solver {
         steps(&mut dev, 100);
         assert!(dev.inject_device_loss());
         steps(&mut cpu, 100);
-        steps(&mut dev, 100);
+        let events = steps(&mut dev, 100);
         assert!(dev.gpu_adapter().is_none(), "the device was given up");
-        let note = dev.take_device_note().expect("the loss is reported");
-        assert!(!note.is_empty());
-        assert!(dev.take_device_note().is_none(), "reported once");
+        let notes: Vec<_> = events
+            .iter()
+            .filter_map(|e| match e {
+                crate::sim::EventKind::ComputeFallback { model, reason } => Some((model, reason)),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(notes.len(), 1, "the loss is reported once: {events:?}");
+        assert!(notes[0].0 == "test" && !notes[0].1.is_empty(), "{notes:?}");
         assert!(dev.particles.is_finite());
         let sag = largest_gap(&cpu.particles.x, &solver(false).particles.x);
         let gap = largest_gap(&cpu.particles.x, &dev.particles.x);
@@ -738,3 +746,6 @@ mod solver {
         );
     }
 }
+
+#[path = "gpu_tool_tests.rs"]
+mod tools;

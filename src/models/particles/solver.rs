@@ -242,6 +242,11 @@ impl ParticleSolver {
             .count()
     }
 
+    /// Each hand's grasp (none while its jaws are open) and push.
+    pub(super) fn hand_state(&self, h: usize) -> (Option<&Grasp>, &ToolPush) {
+        (self.grasps[h].as_ref(), &self.pushes[h])
+    }
+
     /// The particles hand `h`'s grasp holds.
     pub fn held(&self, h: usize) -> Vec<u32> {
         self.grasps
@@ -267,9 +272,7 @@ impl ParticleSolver {
         // The substeps the device ran (all, or those before it failed).
         let mut done = 0;
         if super::device::can_step(self, &tools) {
-            done = super::device::step(self, dt_s, ext.as_deref(), &mut out);
-            // No instrument: no grasp holds, no reaction.
-            self.grasps = [None, None];
+            done = super::device::step(self, dt_s, &tools, ext.as_deref(), &mut out);
         } else {
             super::device::before_cpu_step(self);
         }
@@ -290,10 +293,10 @@ impl ParticleSolver {
         out
     }
 
-    fn advance(&mut self, dt_s: f32, tools: &[Option<HandTool>; 2], tearing: bool) -> StepOutcome {
+    /// Grasps close on what is within reach and open when the jaws do (at each substep's
+    /// start).
+    pub(super) fn take_grasps(&mut self, tools: &[Option<HandTool>; 2]) {
         let params = self.params;
-        let mut out = StepOutcome::default();
-        // Grasps close on what is within reach and open when the jaws do.
         for (h, t) in tools.iter().enumerate() {
             match t {
                 Some(t) if t.closed => {
@@ -311,6 +314,12 @@ impl ParticleSolver {
                 _ => self.grasps[h] = None,
             }
         }
+    }
+
+    fn advance(&mut self, dt_s: f32, tools: &[Option<HandTool>; 2], tearing: bool) -> StepOutcome {
+        let params = self.params;
+        let mut out = StepOutcome::default();
+        self.take_grasps(tools);
         let p = &mut self.particles;
         p.predict(dt_s, params.gravity_m_per_s2);
         let mut clock = Instant::now();
@@ -419,6 +428,12 @@ impl TissueModel for ParticleSolver {
     /// reaction.
     fn step(&mut self, dt_s: f32, _contacts: &[Contact], out: &mut ModelOutput) {
         self.outcome = self.step_all(dt_s);
+        if let Some(reason) = self.take_device_note() {
+            out.events.push(crate::sim::EventKind::ComputeFallback {
+                model: self.name.clone(),
+                reason,
+            });
+        }
         for (tool, r) in ToolId::BOTH.into_iter().zip(self.outcome.reactions) {
             if r != Vec3::ZERO {
                 out.reactions.push((tool, r));

@@ -47,6 +47,17 @@ pub fn build_procedure(file: &str, s: Scenario) -> Result<Cholecystectomy, Input
     let mut scene = CholeScene::new(anatomy, s.scene_params())
         .map_err(|e| InputError::new(file, "tissue", e.to_string()))?;
     scene.settle(s.solver.settle_s, SETTLE_SWEEPS, SETTLE_DAMPING_PER_S);
+    let compute = |e: crate::gpu::RenderError| InputError::new(file, "compute", e.to_string());
+    if let Some(gpu) = crate::gpu::Gpu::for_compute(s.compute).map_err(compute)? {
+        match scene.solver_mut().use_gpu(&gpu) {
+            Ok(()) => {}
+            // `auto` stays on the CPU where the device refuses the particles.
+            Err(e) if s.compute == crate::scenario::Compute::Auto => {
+                tracing::warn!("compute auto: the particles stay on the CPU ({e})");
+            }
+            Err(e) => return Err(compute(e)),
+        }
+    }
     Ok(Cholecystectomy::new(s, scene))
 }
 
@@ -97,6 +108,10 @@ impl Procedure for Cholecystectomy {
             ModelReport::new("contacts", "particle_contacts_and_tools", 0, 0)
                 .with_nodes(solver.contacts.members()),
         ]
+        .into_iter()
+        // One solver steps every part: all on its device, or all on the CPU.
+        .map(|m| m.on_gpu(solver.gpu_adapter()))
+        .collect()
     }
 
     fn model_times(&self) -> Vec<f64> {

@@ -773,3 +773,7 @@ struct StrandBreak {
 #[cfg(test)]
 #[path = "procedure_tests.rs"]
 mod tests;
+
+#[cfg(test)]
+#[path = "gpu_session_tests.rs"]
+mod gpu_session_tests;
