@@ -194,9 +194,9 @@ impl ToolKernels {
         self.hands.iter().map(|h| h.capacity).min().unwrap_or(0)
     }
 
-    /// Sets each hand's instrument for the next submission, for substeps of `dt_s`, and its
-    /// totals to zero. An instrument the device cannot take is an error (check
-    /// [`DeviceTool::fits`] first).
+    /// Sets each hand's instrument for the next submissions, for substeps of `dt_s` (each
+    /// submission starts the totals at zero). An instrument the device cannot take is an error
+    /// (check [`DeviceTool::fits`] first).
     pub fn set(
         &mut self,
         gpu: &Gpu,
@@ -204,7 +204,6 @@ impl ToolKernels {
         dt_s: f32,
     ) -> Result<(), RenderError> {
         let q = &gpu.queue;
-        q.write_buffer(&self.totals, 0, &[0u8; 32]);
         for (h, t) in tools.iter().enumerate() {
             let hand = &self.hands[h];
             let mut u = ToolUniform {
