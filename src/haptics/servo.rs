@@ -462,8 +462,10 @@ mod tests {
         // A frame that pushes up with 1 N (more than the 0.25 N start-up threshold: it must
         // wait for the stylus to be still with a small force, so the frame comes later).
         let mut dev = SimulatedStylus::new(Script::hold(DVec3::ZERO), StylusParams::default());
+        // A second of ticks: on a loaded machine the publisher's 1 ms sleeps stretch, and a
+        // late frame stalls the watchdog, whose gain takes 0.25 s to come back.
         let config = ServoConfig {
-            duration_s: 0.4,
+            duration_s: 1.0,
             safety: SafetyParams {
                 ramp_up_s: 0.05,
                 ..SafetyParams::default()
@@ -476,8 +478,10 @@ mod tests {
             s.spawn(|| {
                 let mut tool = ToolHaptics::default();
                 let mut step = 0;
+                let start = std::time::Instant::now();
                 while !stop.load(Ordering::Relaxed) {
-                    if step > 200 {
+                    // The force comes after 0.2 s by the wall clock, however many frames.
+                    if start.elapsed() > Duration::from_millis(200) {
                         tool = ToolHaptics {
                             force_n: Vec3::new(0.0, 1.0, 0.0),
                             normal: Vec3::Y,
