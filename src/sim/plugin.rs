@@ -322,6 +322,7 @@ impl ModelReport {
             nodes: Some(self.vertices),
             springs: Some(self.constraints),
             integrator: Some(integrator),
+            ..self.mass_spring
         };
         Self {
             mass_spring,

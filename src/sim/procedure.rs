@@ -359,6 +359,11 @@ pub struct MassSpring {
     pub springs: Option<usize>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub integrator: Option<&'static str>,
+    /// An explicit integrator's substeps a step (the last step's) and its stability limit, s.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub substeps: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub step_limit_s: Option<f32>,
 }
 
 /// How the task stands now, for the panels, the alarms and the report.

@@ -11,12 +11,13 @@
 //! A tile wakes when a tool's box comes near it, or when the nodes on its border with an
 //! awake tile move faster (relative to their anchors) than the wake speed; it falls asleep
 //! when every node has moved slower than the sleep speed for the sleep time and no tool is
-//! near. Awake tiles side by side in a row of tiles step as one run; runs step in parallel into
-//! their own buffers, which are then copied back in run
-//! order, so the bytes do not depend on the thread count.
+//! near. Awake tiles side by side in a row of tiles step as one run (and runs in successive
+//! rows of tiles with the same columns as one); each run steps as one block
+//! ([`super::block`]) into its own buffer, and the buffers are copied back in run order, so
+//! the bytes do not depend on the thread count (a small awake set steps on one thread).
 
-use super::forces::{self, RowScratch, Whole};
-use super::{LAYERS, Membrane, field};
+use super::block::{Block, BlockPass};
+use super::{LAYERS, Membrane};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -59,6 +60,13 @@ impl Default for ActivityParams {
     }
 }
 
+/// Awake runs stepped as one block: the rectangle round them, and which runs they are.
+#[derive(Debug, Clone, Default)]
+struct Group {
+    span: ([usize; 2], [usize; 2]),
+    members: Vec<usize>,
+}
+
 /// The tiles' state.
 #[derive(Debug, Clone, Default)]
 pub(super) struct Activity {
@@ -80,13 +88,15 @@ pub(super) struct Activity {
     offset: Vec<f32>,
     /// Offsets of awake tiles' nodes at the last check (their speed is measured from it).
     last: Vec<f32>,
-    /// Per run of awake tiles, its new state (rows x layers x 6 x width) and the row
-    /// kernel's scratch (kept from step to step: nothing is allocated per substep).
-    buffers: Vec<(Vec<f32>, RowScratch)>,
+    /// Per run of awake tiles, its block (kept from step to step: nothing is allocated per
+    /// substep).
+    buffers: Vec<super::block::Block>,
     /// Awake tiles this step, ascending.
     pub list: Vec<u32>,
     /// This step's runs of awake tiles side by side in one row of tiles: (rows, columns).
     runs: Vec<([usize; 2], [usize; 2])>,
+    /// This step's blocks: runs in successive rows of tiles whose columns overlap.
+    groups: Vec<Group>,
     /// Sum of awake node shares over steps, and steps (for the mean awake fraction).
     pub awake_share: f64,
     pub steps: u64,
@@ -138,6 +148,7 @@ impl Activity {
             buffers: Vec::new(),
             list: Vec::new(),
             runs: Vec::new(),
+            groups: Vec::new(),
             awake_share: 0.0,
             steps: 0,
         };
@@ -154,7 +165,7 @@ impl Activity {
             + self.weight.capacity()
             + self.offset.capacity()
             + self.last.capacity()
-            + self.buffers.iter().map(|b| b.0.capacity()).sum::<usize>())
+            + self.buffers.iter().map(|b| b.heap_bytes()).sum::<usize>() / f)
             * f
             + self.awake.capacity()
             + self.still_s.capacity() * f
@@ -452,9 +463,11 @@ pub(super) fn step(m: &mut Membrane, dt: f32, substeps: usize) {
     a.list.clear();
     a.list
         .extend((0..a.awake.len() as u32).filter(|&t| a.awake[t as usize]));
-    // Awake tiles side by side step as one run: the kernel's loops run over the whole run's
-    // width rather than one tile's 16 columns.
+    // Awake tiles side by side make one run; runs in successive rows of tiles whose columns
+    // overlap step as one block, a rectangle round them (the sleeping nodes inside it are
+    // stepped too but never written back): fewer, larger blocks, whose loops run long.
     a.runs.clear();
+    a.groups.clear();
     for ti in 0..a.tiles_r {
         let mut tj = 0;
         while tj < a.tiles_c {
@@ -468,14 +481,37 @@ pub(super) fn step(m: &mut Membrane, dt: f32, substeps: usize) {
             }
             let (rs, [c0, _]) = a.span(ti * a.tiles_c + first, m.rows, m.cols);
             let (_, [_, c1]) = a.span(ti * a.tiles_c + tj - 1, m.rows, m.cols);
+            let run = a.runs.len();
             a.runs.push((rs, [c0, c1]));
+            let joins = a.groups.iter_mut().find(|g| {
+                (g.span.0[1] == rs[0] || g.span.0[1] == rs[1])
+                    && g.span.1[0] < c1
+                    && c0 < g.span.1[1]
+            });
+            match joins {
+                Some(g) => {
+                    g.span.0[1] = rs[1];
+                    g.span.1 = [g.span.1[0].min(c0), g.span.1[1].max(c1)];
+                    g.members.push(run);
+                }
+                None => a.groups.push(Group {
+                    span: (rs, [c0, c1]),
+                    members: vec![run],
+                }),
+            }
         }
     }
     // On the membrane's GPU where it has one, else (or should it fail) here.
     if !super::device::active_substeps(m, &a, &halo, dt, substeps) {
         let h = dt / substeps as f32;
         let mut buffers = std::mem::take(&mut a.buffers);
-        buffers.resize_with(a.runs.len(), Default::default);
+        buffers.resize_with(a.groups.len(), Default::default);
+        let mut members = Vec::new();
+        for (b, g) in buffers.iter_mut().zip(&a.groups) {
+            members.clear();
+            members.extend(g.members.iter().map(|&r| a.runs[r]));
+            b.prepare(m, g.span, &members);
+        }
         for _ in 0..substeps {
             substep(m, &a, &mut buffers, h);
         }
@@ -498,94 +534,43 @@ pub(super) fn step(m: &mut Membrane, dt: f32, substeps: usize) {
     m.activity = Some(a);
 }
 
-/// One run's substep into its buffer, compiled for the widest vector unit the CPU has.
-struct TilePass<'a, 'w> {
-    m: &'a Membrane,
-    whole: &'a Whole<'w>,
-    sc: &'a mut RowScratch,
-    buf: &'a mut Vec<f32>,
-    span: ([usize; 2], [usize; 2]),
-    h: f32,
+/// Awake nodes (all layers) below which a substep's runs step on one thread.
+const PARALLEL_NODES: usize = 32_768;
+/// Nodes a parallel task takes at least.
+const TASK_NODES: usize = 8_192;
+
+/// Whether a pass over `nodes` awake nodes is worth handing to the pool: on a small set,
+/// waking a second thread (and its spinning beside this one on a shared core) costs more
+/// than it saves.
+pub(super) fn worth_threads(nodes: usize) -> bool {
+    nodes >= PARALLEL_NODES && rayon::current_num_threads() > 1
 }
 
-impl pulp::WithSimd for TilePass<'_, '_> {
-    type Output = ();
-
-    #[inline(always)]
-    fn with_simd<S: pulp::Simd>(self, _simd: S) {
-        let TilePass {
-            m: mm,
-            whole,
-            sc,
-            buf,
-            span: ([r0, r1], [c0, c1]),
-            h,
-        } = self;
-        let (rows, cols) = (mm.rows, mm.cols);
-        let w = c1 - c0;
-        buf.resize((r1 - r0) * LAYERS * 6 * w, 0.0);
-        for i in r0..r1 {
-            forces::row::<_, false>(mm, whole, i, c0..c1, i == r0, sc);
-            for l in 0..LAYERS {
-                let b = l * rows + i;
-                let at = (b * field::COUNT + field::INV_MASS) * cols;
-                let inv_m = &mm.rows_data[at + c0..at + c1];
-                let out = &mut buf[((i - r0) * LAYERS + l) * 6 * w..][..6 * w];
-                let (g, d) = (mm.params.gravity, mm.params.damping_per_s);
-                for c in 0..3 {
-                    let f = &sc.row(l, c, cols)[c0..c1];
-                    let x0 = &whole.data[(b * 6 + c) * cols + c0..(b * 6 + c) * cols + c1];
-                    let v0 = &whole.data[(b * 6 + 3 + c) * cols + c0..(b * 6 + 3 + c) * cols + c1];
-                    let (xs, vs) = out.split_at_mut(3 * w);
-                    let (xo, vo) = (&mut xs[c * w..(c + 1) * w], &mut vs[c * w..(c + 1) * w]);
-                    for j in 0..w {
-                        let acc = f[j] * inv_m[j] + (g[c] - d * v0[j]);
-                        let v = v0[j] + h * acc;
-                        vo[j] = v;
-                        xo[j] = x0[j] + h * v;
-                    }
-                }
-            }
-        }
-    }
-}
-
-/// One explicit substep of the awake runs, each into its buffer, then copied back in order.
-fn substep(m: &mut Membrane, a: &Activity, buffers: &mut [(Vec<f32>, RowScratch)], h: f32) {
-    let (rows, cols) = (m.rows, m.cols);
+/// One explicit substep of the awake runs, each in its block, then copied back in order.
+fn substep(m: &mut Membrane, a: &Activity, blocks: &mut [Block], h: f32) {
     {
-        let whole = Whole {
-            data: &m.state.data,
-            rows,
-            cols,
-        };
         let mm = &*m;
-        buffers
-            .par_iter_mut()
-            .zip(a.runs.par_iter())
-            .for_each(|((buf, sc), &span)| {
-                mm.vectorized(TilePass {
-                    m: mm,
-                    whole: &whole,
-                    sc,
-                    buf,
-                    span,
-                    h,
-                })
-            });
-    }
-    for ((buf, _), &([r0, r1], [c0, c1])) in buffers.iter().zip(&a.runs) {
-        let w = c1 - c0;
-        for i in r0..r1 {
-            for l in 0..LAYERS {
-                let b = l * rows + i;
-                let src = &buf[((i - r0) * LAYERS + l) * 6 * w..][..6 * w];
-                for k in 0..6 {
-                    m.state.data[(b * 6 + k) * cols + c0..(b * 6 + k) * cols + c1]
-                        .copy_from_slice(&src[k * w..(k + 1) * w]);
-                }
-            }
+        let pass = |block: &mut Block| mm.vectorized(BlockPass { m: mm, block, h });
+        // Each run writes only its own block, so the order they run in does not matter: a
+        // small awake set steps on this thread (waking a second one for a few thousand
+        // nodes costs more than it saves), a large one in tasks of about `TASK_NODES`.
+        let nodes: usize = a
+            .runs
+            .iter()
+            .map(|([r0, r1], [c0, c1])| LAYERS * (r1 - r0) * (c1 - c0))
+            .sum();
+        if !worth_threads(nodes) {
+            blocks.iter_mut().for_each(pass);
+        } else {
+            let per_run = nodes / blocks.len().max(1);
+            blocks
+                .par_iter_mut()
+                .with_min_len((TASK_NODES / per_run.max(1)).max(1))
+                .for_each(pass);
         }
+    }
+    for b in blocks.iter() {
+        b.scatter(m);
     }
 }
 

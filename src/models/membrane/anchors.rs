@@ -99,30 +99,66 @@ impl Membrane {
             rows,
             cols,
         };
-        let parts: Vec<Vec<(u32, u32, Vec3)>> = runs
-            .par_iter()
-            .map_init(RowScratch::default, |sc, &([r0, r1], [c0, c1])| {
-                let mut part = Vec::with_capacity((r1 - r0) * (c1 - c0));
-                for i in r0..r1 {
-                    row::<_, true>(m, &whole, i, c0..c1, i == r0, sc);
-                    // Layer 0's row `i` is block `i`: the kernel's sum holds the attachment's
-                    // force, `-k (x - target)`: take it out.
-                    let at = i * 4 * cols;
-                    for j in c0..c1 {
-                        let k = m.attach[at + j];
-                        let f = Vec3::from_array(std::array::from_fn(|c| {
-                            let x = whole.data[(i * 6 + c) * cols + j];
-                            let target = m.attach[at + (1 + c) * cols + j];
-                            sc.row(0, c, cols)[j] + k * (x - target)
-                        }));
-                        part.push((i as u32, j as u32, f));
-                    }
-                }
-                part
+        let one = |sc: &mut RowScratch, &span: &([usize; 2], [usize; 2])| {
+            m.vectorized(LoadPass {
+                m,
+                whole: &whole,
+                sc,
+                span,
             })
-            .collect();
+        };
+        let nodes: usize = runs
+            .iter()
+            .map(|([r0, r1], [c0, c1])| LAYERS * (r1 - r0) * (c1 - c0))
+            .sum();
+        let parts: Vec<Vec<(u32, u32, Vec3)>> = if super::active::worth_threads(nodes) {
+            runs.par_iter().map_init(RowScratch::default, one).collect()
+        } else {
+            let mut sc = RowScratch::default();
+            runs.iter().map(|r| one(&mut sc, r)).collect()
+        };
         for p in parts {
             out.extend(p);
         }
+    }
+}
+
+/// One run's layer-0 loads, compiled for the widest vector unit the CPU has.
+struct LoadPass<'a, 'w> {
+    m: &'a Membrane,
+    whole: &'a Whole<'w>,
+    sc: &'a mut RowScratch,
+    span: ([usize; 2], [usize; 2]),
+}
+
+impl pulp::WithSimd for LoadPass<'_, '_> {
+    type Output = Vec<(u32, u32, Vec3)>;
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) -> Self::Output {
+        let LoadPass {
+            m,
+            whole,
+            sc,
+            span: ([r0, r1], [c0, c1]),
+        } = self;
+        let cols = m.cols;
+        let mut part = Vec::with_capacity((r1 - r0) * (c1 - c0));
+        for i in r0..r1 {
+            row::<_, true>(m, whole, i, c0..c1, i == r0, sc);
+            // Layer 0's row `i` is block `i`: the kernel's sum holds the attachment's
+            // force, `-k (x - target)`: take it out.
+            let at = i * 4 * cols;
+            for j in c0..c1 {
+                let k = m.attach[at + j];
+                let f = Vec3::from_array(std::array::from_fn(|c| {
+                    let x = whole.data[(i * 6 + c) * cols + j];
+                    let target = m.attach[at + (1 + c) * cols + j];
+                    sc.row(0, c, cols)[j] + k * (x - target)
+                }));
+                part.push((i as u32, j as u32, f));
+            }
+        }
+        part
     }
 }

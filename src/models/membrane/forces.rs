@@ -58,24 +58,103 @@ impl<'a> Run<'a> {
 /// plus `beta k (dv . d) / |d|` along it.
 #[inline(always)]
 fn springs(a: &Run, b: &Run, k: &[f32], rest: &[f32], beta: f32, out: &mut [f32], stride: usize) {
-    let n = k.len();
-    let rest = &rest[..n];
-    let (ax, ay, az) = (&a.x[0][..n], &a.x[1][..n], &a.x[2][..n]);
-    let (bx, by, bz) = (&b.x[0][..n], &b.x[1][..n], &b.x[2][..n]);
-    let (avx, avy, avz) = (&a.v[0][..n], &a.v[1][..n], &a.v[2][..n]);
-    let (bvx, bvy, bvz) = (&b.v[0][..n], &b.v[1][..n], &b.v[2][..n]);
     let (ox, rest_out) = out.split_at_mut(stride);
     let (oy, oz) = rest_out.split_at_mut(stride);
+    let [ax, ay, az] = a.x;
+    let [avx, avy, avz] = a.v;
+    let [bx, by, bz] = b.x;
+    let [bvx, bvy, bvz] = b.v;
+    spring_loop(
+        [ax, ay, az, avx, avy, avz],
+        [bx, by, bz, bvx, bvy, bvz],
+        k,
+        rest,
+        beta,
+        [ox, oy, oz],
+    );
+}
+
+/// A spring family's damping time: one for all (a row's) or one a spring (a block's).
+pub(super) trait Beta: Copy {
+    fn at(self, j: usize) -> f32;
+}
+
+impl Beta for f32 {
+    #[inline(always)]
+    fn at(self, _: usize) -> f32 {
+        self
+    }
+}
+
+impl Beta for &[f32] {
+    #[inline(always)]
+    fn at(self, j: usize) -> f32 {
+        self[j]
+    }
+}
+
+/// The springs' arithmetic, for the row kernel and the block kernel alike (so both give the
+/// same bytes): `a` and `b` are positions then velocities, three components each; the force
+/// on `a[j]` into `out`, for every `j < k.len()`.
+#[inline(always)]
+pub(super) fn spring_loop<B: Beta>(
+    a: [&[f32]; 6],
+    b: [&[f32]; 6],
+    k: &[f32],
+    rest: &[f32],
+    beta: B,
+    out: [&mut [f32]; 3],
+) {
+    let n = k.len();
+    let rest = &rest[..n];
+    let [ax, ay, az, avx, avy, avz] = a.map(|v| &v[..n]);
+    let [bx, by, bz, bvx, bvy, bvz] = b.map(|v| &v[..n]);
+    let [ox, oy, oz] = out;
     let (ox, oy, oz) = (&mut ox[..n], &mut oy[..n], &mut oz[..n]);
     for j in 0..n {
         let (dx, dy, dz) = (bx[j] - ax[j], by[j] - ay[j], bz[j] - az[j]);
         let len = (dx * dx + dy * dy + dz * dz).sqrt();
         let inv = 1.0 / if len > 1e-20 { len } else { 1e-20 };
         let along = (bvx[j] - avx[j]) * dx + (bvy[j] - avy[j]) * dy + (bvz[j] - avz[j]) * dz;
-        let s = k[j] * ((len - rest[j]) + beta * along * inv) * inv;
+        let s = k[j] * ((len - rest[j]) + beta.at(j) * along * inv) * inv;
         ox[j] = dx * s;
         oy[j] = dy * s;
         oz[j] = dz * s;
+    }
+}
+
+/// The shear tethers of one middle layer for every element: the force pulling node `nd[j]`
+/// sideways (across its column's line from `a[j]`, layer 0, to `b[j]`, layer 3) back onto
+/// that line at its weight `wt[j]` along it, into `out`.
+#[inline(always)]
+pub(super) fn tethers(
+    a: [&[f32]; 3],
+    b: [&[f32]; 3],
+    nd: [&[f32]; 3],
+    k: &[f32],
+    wt: &[f32],
+    out: [&mut [f32]; 3],
+) {
+    let n = k.len();
+    let wt = &wt[..n];
+    let [ax, ay, az] = a.map(|v| &v[..n]);
+    let [bx, by, bz] = b.map(|v| &v[..n]);
+    let [nx, ny, nz] = nd.map(|v| &v[..n]);
+    let [sx, sy, sz] = out;
+    let (sx, sy, sz) = (&mut sx[..n], &mut sy[..n], &mut sz[..n]);
+    for j in 0..n {
+        let (ux, uy, uz) = (bx[j] - ax[j], by[j] - ay[j], bz[j] - az[j]);
+        let len2 = ux * ux + uy * uy + uz * uz;
+        let inv2 = 1.0 / if len2 > 1e-30 { len2 } else { 1e-30 };
+        let (dx, dy, dz) = (
+            nx[j] - (ax[j] + wt[j] * ux),
+            ny[j] - (ay[j] + wt[j] * uy),
+            nz[j] - (az[j] + wt[j] * uz),
+        );
+        let along = (dx * ux + dy * uy + dz * uz) * inv2;
+        sx[j] = -k[j] * (dx - along * ux);
+        sy[j] = -k[j] * (dy - along * uy);
+        sz[j] = -k[j] * (dz - along * uz);
     }
 }
 
@@ -300,27 +379,16 @@ pub(super) fn row<R: Rows, const LAYER0: bool>(
             &r[c * cols + c0..c * cols + c0 + n]
         }
         let px = |r, c| px(r, c, cols, c0, wx);
-        let (ax, ay, az) = (px(x0, 0), px(x0, 1), px(x0, 2));
-        let (bx, by, bz) = (px(x3, 0), px(x3, 1), px(x3, 2));
-        let (nx, ny, nz) = (px(xl, 0), px(xl, 1), px(xl, 2));
         let (sx, rest_s) = s.split_at_mut(cols);
         let (sy, sz) = rest_s.split_at_mut(cols);
-        let (sx, sy, sz) = (&mut sx[..wx], &mut sy[..wx], &mut sz[..wx]);
-        let (k, wt) = (&k[..wx], &wt[..wx]);
-        for j in 0..wx {
-            let (ux, uy, uz) = (bx[j] - ax[j], by[j] - ay[j], bz[j] - az[j]);
-            let len2 = ux * ux + uy * uy + uz * uz;
-            let inv2 = 1.0 / if len2 > 1e-30 { len2 } else { 1e-30 };
-            let (dx, dy, dz) = (
-                nx[j] - (ax[j] + wt[j] * ux),
-                ny[j] - (ay[j] + wt[j] * uy),
-                nz[j] - (az[j] + wt[j] * uz),
-            );
-            let along = (dx * ux + dy * uy + dz * uz) * inv2;
-            sx[j] = -k[j] * (dx - along * ux);
-            sy[j] = -k[j] * (dy - along * uy);
-            sz[j] = -k[j] * (dz - along * uz);
-        }
+        tethers(
+            [px(x0, 0), px(x0, 1), px(x0, 2)],
+            [px(x3, 0), px(x3, 1), px(x3, 2)],
+            [px(xl, 0), px(xl, 1), px(xl, 2)],
+            &k[..wx],
+            &wt[..wx],
+            [&mut sx[..wx], &mut sy[..wx], &mut sz[..wx]],
+        );
         for c in 0..3 {
             let sv = &s[c * cols..c * cols + w];
             let r = c * cols + c0..c * cols + c1;

@@ -542,6 +542,8 @@ pub fn bench_line(
         nodes: Some(m.len()),
         springs: Some(m.springs()),
         integrator: Some(super::Integrator::Symplectic.name()),
+        substeps: Some(n),
+        step_limit_s: Some(m.step_limit),
     };
     let moved = t.bytes_per_substep as f64 * t.substeps as f64;
     line.compute = crate::sim::ComputeFigures {

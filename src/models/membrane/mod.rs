@@ -27,6 +27,9 @@
 
 mod active;
 mod anchors;
+mod block;
+#[cfg(test)]
+mod block_tests;
 mod cuts;
 mod device;
 mod forces;

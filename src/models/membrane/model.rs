@@ -37,9 +37,14 @@ impl Membrane {
         let b = l * self.rows + i;
         (0..3).all(|f| {
             let at = (b * 6 + f) * self.cols;
-            self.state.data[at + c[0]..at + c[1]]
+            // Branch-free (an OR over exponent tests), so it runs as vector code: this
+            // is checked over every awake node each step.
+            let bad = self.state.data[at + c[0]..at + c[1]]
                 .iter()
-                .all(|v| v.is_finite())
+                .fold(0u32, |acc, v| {
+                    acc | u32::from(v.to_bits() & 0x7f80_0000 == 0x7f80_0000)
+                });
+            bad == 0
         })
     }
 
@@ -215,6 +220,8 @@ impl TissueModel for Membrane {
             nodes: Some(self.len()),
             springs: Some(self.springs()),
             integrator: Some(self.params.integrator.name()),
+            substeps: Some(self.last_substeps),
+            step_limit_s: Some(self.step_limit),
         }
     }
 

@@ -120,6 +120,7 @@ impl TissueModel for CatheterModel {
             nodes: Some(self.catheter.balls.len()),
             springs: Some(self.catheter.springs.len() + self.catheter.angles.len()),
             integrator: Some("semi_implicit_euler"),
+            ..MassSpring::default()
         }
     }
 
@@ -209,6 +210,7 @@ impl TissueModel for VesselModel {
             nodes: Some(self.vessel.balls.len()),
             springs: Some(self.vessel.springs.len()),
             integrator: Some("semi_implicit_euler"),
+            ..MassSpring::default()
         }
     }
 

@@ -44,8 +44,8 @@ pub fn preset_cases() -> Vec<Case> {
         model: "rectum scene",
         case: "membrane_load_on_rod_preset",
         description: "membrane_load_on_rod on the membrane of the cpu preset \
-                      (assets/presets/cpu/rectum.toml as shipped: 150 x 100 a layer, its \
-                      springs' damping), every tile awake: the membrane's load on the rod \
+                      (assets/presets/cpu/rectum.toml as shipped: 90 x 60 a layer, its \
+                      springs' and links' damping), every tile awake: the membrane's load on the rod \
                       after 0.8 s vs the load; tolerance 5 %",
         unit: "N",
         tolerance: 0.05,

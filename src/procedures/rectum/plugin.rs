@@ -61,9 +61,12 @@ impl Procedure for Rectum {
             )
             .with_triangles(rod.surface().triangles.len())
             .with_nodes(rod.params().elements + 1),
-            ModelReport::new("membrane", "mass_spring_4_layer", m.len(), m.springs())
-                .with_springs(self.scene.params.membrane.integrator.name())
-                .on_gpu(m.gpu_adapter()),
+            ModelReport {
+                // Its integrator, and the substeps of a step at its stability limit.
+                mass_spring: TissueModel::mass_spring(m),
+                ..ModelReport::new("membrane", "mass_spring_4_layer", m.len(), m.springs())
+                    .on_gpu(m.gpu_adapter())
+            },
             // The membrane's nodes it tests, as `nodes` (not `vertices`: the procedure's
             // totals would count them twice).
             ModelReport::new("collision", "generalized_cylinders", 0, 0).with_nodes(m.len()),

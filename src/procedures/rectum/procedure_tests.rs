@@ -101,8 +101,9 @@ fn the_shipped_scenario_is_the_papers_grid_and_bad_values_name_their_key() {
     let p = Scenario::parse(&file, &text)
         .expect("preset")
         .scene_params();
-    assert_eq!((p.activity.tile_rows, p.activity.tile_cols), (4, 4));
-    assert_eq!(p.membrane.spring_damping_ratio, 0.125);
+    assert_eq!((p.activity.tile_rows, p.activity.tile_cols), (2, 4));
+    assert_eq!(p.membrane.spring_damping_ratio, 0.075);
+    assert_eq!(p.membrane.link_damping_ratio, 0.1);
 }
 
 #[test]
