@@ -10,6 +10,8 @@ use std::ops::Range;
 /// Points per block of the broad phase ([`PointBlocks`]): block `b` holds the points
 /// `b * BLOCK_POINTS .. (b + 1) * BLOCK_POINTS`.
 pub const BLOCK_POINTS: usize = 256;
+/// Points below which the blocks' boxes are refreshed on the calling thread.
+const PARALLEL_POINTS: usize = 16_384;
 
 /// A tissue point set, borrowed: either one slice per coordinate (the membrane's layout) or a
 /// slice of `Vec3` (meshes). Positions in metres.
@@ -111,17 +113,21 @@ impl PointBlocks {
     }
 
     /// Recomputes every block's box (and the block count, if the number of points changed),
-    /// in parallel over blocks; each box depends only on its own points, so the result is the
+    /// in parallel over blocks on a large cloud; each box depends only on its own points, so the result is the
     /// same on any thread count.
     pub fn refresh(&mut self, points: PointCloud<'_>) {
         let n = points.len();
         self.points = n;
         self.bounds
             .resize(n.div_ceil(BLOCK_POINTS), (Vec3::ZERO, Vec3::ZERO));
-        self.bounds
-            .par_iter_mut()
-            .enumerate()
-            .for_each(|(b, bound)| *bound = block_bounds(points, b));
+        let one = |(b, bound): (usize, &mut (Vec3, Vec3))| *bound = block_bounds(points, b);
+        // A small cloud stays on this thread: handing a few blocks to a second one costs
+        // more than it saves.
+        if n >= PARALLEL_POINTS && rayon::current_num_threads() > 1 {
+            self.bounds.par_iter_mut().enumerate().for_each(one);
+        } else {
+            self.bounds.iter_mut().enumerate().for_each(one);
+        }
     }
 
     /// Recomputes only the boxes of `blocks` (the owner knows which points moved). The point

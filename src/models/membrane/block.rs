@@ -1,15 +1,18 @@
-//! The active set's block kernel: one run of awake tiles (rows `r0..r1`, columns `c0..c1`,
-//! every layer) stepped as one block, its nodes side by side with a ring of one node around
-//! them, as the GPU's kernels see a tile.
+//! The active set's block kernel: a rectangle of the grid (rows `r0..r1`, columns `c0..c1`,
+//! every layer) holding one or more runs of awake tiles, stepped as one block, its nodes side
+//! by side with a ring of one node around them, as the GPU's kernels see a tile.
 //!
 //! The row kernel ([`super::forces::row`]) pays a fixed cost for each of its some eighty
 //! short loops on every row, which on a run a few tiles wide outweighs the arithmetic. Here
-//! every spring family of the whole block is one loop: the block's state is gathered once a
-//! substep into `[layer][component][(rows + 2) x (width + 2)]` (the ring's nodes are the
-//! neighbours' or, round the section, the wrapped columns), its parameters once a step.
+//! every spring family of the whole block is one loop: the block's state is gathered into
+//! `[layer][component][(rows + 2) x (width + 2)]` (the ring's nodes are the neighbours' or,
+//! round the section, the wrapped columns), its parameters once a step. After a substep the
+//! runs' nodes keep their new state in the block; the ring and the sleeping nodes between
+//! the runs are read again from the membrane (they are stepped with the rest, but their
+//! results are never written back).
 //!
 //! Each node's force is summed in exactly the row kernel's order (the spring from the row
-//! before, the springs around with the run's two edge springs on their own, the spring to
+//! before, the springs around with each run's two edge springs on their own, the spring to
 //! the row after, the links, the tethers, the attachments, the external forces), so a step
 //! gives the same bytes as the row kernel's and the whole grid's.
 
@@ -81,8 +84,8 @@ impl Block {
         (self.span.0[0] + r).checked_sub(1).filter(|&i| i < m.rows)
     }
 
-    /// Copies, for block row `r`, the `cols`-long run `src` (a state or parameter row) at
-    /// the block's columns (the ring's two wrapped round the section) into `dst`.
+    /// Copies the `cols`-long run `src` (a row of the state or of a parameter) at the block's
+    /// columns (the ring's two wrapped round the section) into `dst`.
     fn gather_row(&self, src: &[f32], dst: &mut [f32]) {
         let cols = src.len();
         let [c0, c1] = self.span.1;
