@@ -240,8 +240,7 @@ impl Block {
     /// The block's state (and its ring's) from the membrane's.
     fn gather_state(&mut self, m: &Membrane) {
         let mut x = std::mem::take(&mut self.x);
-        let all: Vec<usize> = (0..self.rows() + 2).collect();
-        self.gather_rows(m, &mut x, all);
+        self.gather_rows(m, &mut x, 0..self.rows() + 2);
         self.x = x;
     }
 
