@@ -34,7 +34,28 @@ fn a_recording_is_scored_again_with_another_tree_deterministically() {
     let r = report(&out);
     let a = &r["assessment"];
     assert_eq!(a["tree"], "sandbox");
-    assert_eq!(a["tree_version"], 1);
+    // The shipped tree: its references and weights are read from its file.
+    let shipped = vesalius::assess::Tree::parse(
+        "sandbox.toml",
+        &std::fs::read_to_string(asset("assets/assessment/sandbox.toml")).expect("tree"),
+    )
+    .expect("tree");
+    assert_eq!(a["tree_version"], shipped.version);
+    let leaf = |p: &str| {
+        shipped
+            .nodes
+            .iter()
+            .find(|n| n.path == p)
+            .and_then(|n| n.leaf.clone())
+            .expect("leaf")
+    };
+    let weight = |p: &str| {
+        shipped
+            .nodes
+            .iter()
+            .find(|n| n.path == p)
+            .map_or(0.0, |n| n.weight)
+    };
     let score = r["score"].as_f64().unwrap_or(f64::NAN);
     assert!(
         (score - a["score"].as_f64().unwrap_or(0.0)).abs() < 1e-4,
@@ -47,7 +68,8 @@ fn a_recording_is_scored_again_with_another_tree_deterministically() {
     let time = r["metrics"]["completion_time_s"]
         .as_f64()
         .unwrap_or(f64::NAN);
-    let want_time = (100.0 * (time - 40.0) / (10.0 - 40.0)).clamp(0.0, 100.0);
+    let t = leaf("efficiency/completion_time");
+    let want_time = (100.0 * (time - t.novice) / (t.expert - t.novice)).clamp(0.0, 100.0);
     let got_time = node(&r, "efficiency/completion_time")["score"]
         .as_f64()
         .unwrap_or(f64::NAN);
@@ -55,7 +77,18 @@ fn a_recording_is_scored_again_with_another_tree_deterministically() {
         (got_time - want_time).abs() < 1e-9,
         "{got_time} vs {want_time}"
     );
-    let want = (0.3 * want_time + 0.3 * 100.0 + 0.4 * 100.0) / 1.0;
+    // The grades' weighted mean: efficiency is its one leaf, safety and quality are full,
+    // dexterity as scored.
+    let dexterity = node(&r, "dexterity")["score"]
+        .as_f64()
+        .expect("dexterity scored");
+    let (we, ws, wq, wd) = (
+        weight("efficiency"),
+        weight("safety"),
+        weight("quality"),
+        weight("dexterity"),
+    );
+    let want = (we * want_time + ws * 100.0 + wq * 100.0 + wd * dexterity) / (we + ws + wq + wd);
     assert!(
         (a["score"].as_f64().unwrap_or(0.0) - want).abs() < 1e-9,
         "{a}"

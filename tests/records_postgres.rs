@@ -270,3 +270,95 @@ fn a_station_waits_for_the_server_and_an_unreachable_one_keeps_the_session() {
     );
     assert_eq!(db.sessions(Some("early")).expect("sessions").len(), 1);
 }
+
+#[test]
+fn calibrating_from_a_server_gives_what_a_file_gives() {
+    // Ten copies of the sandbox demo's session under two groups, their completion times and
+    // paths spread apart (experts 8-12 s and 0.2-0.24 m, novices 30-50 s and 0.8-1.2 m),
+    // stored in a server and in a file: the same validation table and calibrated tree.
+    let d = tmp("records_postgres", "calibrate");
+    let mut server = Server::init(&d);
+    server.start();
+    let url = server.url();
+    let file = d.join("records.sqlite");
+    let dirs = sessions(&d, "c", 10);
+    for (k, dir) in dirs.iter().enumerate() {
+        let mut r = report(dir);
+        let expert = k < 5;
+        let j = (k % 5) as f64;
+        r["metrics"]["completion_time_s"] = (if expert { 8.0 + j } else { 30.0 + 5.0 * j }).into();
+        r["motion"]["path_m"] = (if expert {
+            0.2 + 0.01 * j
+        } else {
+            0.8 + 0.1 * j
+        })
+        .into();
+        std::fs::write(dir.join("report.json"), r.to_string()).expect("report");
+    }
+    for db in [url.as_str(), file.to_str().expect("path")] {
+        for (who, group, range) in [("e", "experts", 0..5), ("n", "novices", 5..10)] {
+            ok(&bin()
+                .args(["records", "trainee", who, "--group", group, "--db", db])
+                .output()
+                .expect("trainee"));
+            ok(&bin()
+                .args(["records", "import", "--trainee", who, "--db", db])
+                .args(&dirs[range])
+                .output()
+                .expect("import"));
+        }
+    }
+    let calibrate = |db: &str, out: &Path| {
+        ok(&bin()
+            .args([
+                "records",
+                "calibrate",
+                "--tree",
+                "sandbox",
+                "--expert",
+                "experts",
+                "--novice",
+                "novices",
+                "--json",
+                "--db",
+                db,
+                "--out",
+            ])
+            .arg(out)
+            .output()
+            .expect("calibrate"))
+    };
+    let (a, b) = (
+        calibrate(&url, &d.join("a.toml")),
+        calibrate(file.to_str().expect("path"), &d.join("b.toml")),
+    );
+    let table: serde_json::Value = serde_json::from_str(
+        a.lines()
+            .take_while(|l| !l.starts_with("calibrated tree"))
+            .collect::<Vec<_>>()
+            .join("\n")
+            .as_str(),
+    )
+    .expect("JSON table");
+    assert_eq!(
+        a,
+        b.replace(
+            &*d.join("b.toml").to_string_lossy(),
+            &d.join("a.toml").to_string_lossy()
+        )
+    );
+    let time = table["rows"]
+        .as_array()
+        .expect("rows")
+        .iter()
+        .find(|r| r["metric"] == "completion_time_s")
+        .expect("the time's row");
+    // Medians 10 s and 40 s; every expert faster: U = 0, exact p = 2 / 252.
+    assert_eq!(time["now"], serde_json::json!([10.0, 40.0]));
+    assert_eq!(time["test"]["u"], 0.0);
+    assert!((time["test"]["p"].as_f64().expect("p") - 2.0 / 252.0).abs() < 1e-12);
+    assert_eq!(
+        std::fs::read_to_string(d.join("a.toml")).expect("a"),
+        std::fs::read_to_string(d.join("b.toml")).expect("b")
+    );
+}

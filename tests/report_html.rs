@@ -97,6 +97,12 @@ fn the_html_report_renders_in_chromium_with_its_tree_and_plots() {
     let level = r["level"].as_str().unwrap_or("?");
     assert!(dom.contains(&format!(": {level}</h2>")), "{dom}");
     assert!(dom.contains("id=\"tree\"") && dom.contains("completion time"));
+    // The motion analysis, the tips' path as the report has it (4 decimals below 1 m).
+    let path = r["motion"]["path_m"].as_f64().expect("the motion analysis");
+    assert!(
+        dom.contains("id=\"motion\"") && dom.contains(&format!("<td>{path:.4}</td>")),
+        "{dom}"
+    );
     assert_eq!(
         dom.matches("<polyline").count(),
         5,

@@ -245,7 +245,9 @@ pub fn page(report: &Value, events: &[Value], frames: &[Vec<u8>]) -> String {
             score.unwrap_or(0.0)
         );
     }
-    h.push_str("</table><h2>Over time</h2>");
+    h.push_str("</table>");
+    motion_table(&mut h, &report["motion"]);
+    h.push_str("<h2>Over time</h2>");
     let timeline = report["timeline"].as_array().cloned().unwrap_or_default();
     let dt = report["dt_s"].as_f64().unwrap_or(0.0);
     let marks = markers(events, dt);
@@ -315,6 +317,36 @@ pub fn page(report: &Value, events: &[Value], frames: &[Vec<u8>]) -> String {
     }
     h.push_str("</body></html>\n");
     h
+}
+
+/// The motion analysis (`report.json`'s `motion`), one row a measure (nothing for an old
+/// report without it).
+fn motion_table(h: &mut String, motion: &Value) {
+    let Some(m) = motion.as_object() else { return };
+    const ROWS: [(&str, &str, &str); 10] = [
+        ("path_m", "path of both tips", "m"),
+        ("left_path_m", "path of the left tip", "m"),
+        ("right_path_m", "path of the right tip", "m"),
+        ("movements", "movements", ""),
+        ("economy", "economy of motion", ""),
+        ("ldlj", "smoothness (log dimensionless jerk)", ""),
+        ("idle_s", "idle time", "s"),
+        ("speed_m_per_s", "mean speed while moving", "m/s"),
+        ("bimanual", "bimanual speed correlation", ""),
+        ("instruments", "instruments that worked", ""),
+    ];
+    h.push_str(
+        "<h2>Motion analysis</h2><table id=\"motion\"><tr><th>measure</th><th>value</th>\
+         <th>unit</th></tr>",
+    );
+    for (key, label, unit) in ROWS {
+        let _ = write!(
+            h,
+            "<tr><td>{label}</td><td>{}</td><td>{unit}</td></tr>",
+            num(m.get(key).and_then(Value::as_f64))
+        );
+    }
+    h.push_str("</table>");
 }
 
 #[cfg(test)]

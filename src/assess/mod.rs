@@ -4,10 +4,14 @@
 //! under `procedures/`); the tree says how the measures are weighed.
 
 pub mod alarms;
+pub mod calibrate;
 pub mod fuzzy;
 pub mod html;
+pub mod motion;
 pub mod rules;
+pub mod stats;
 pub mod tree;
+pub mod validation;
 
 pub use tree::{Assessment, Tree};
 
@@ -26,10 +30,16 @@ pub fn check_for(info: &ProcedureInfo, file: &str, tree: &Tree) -> Result<(), In
             ),
         ));
     }
-    let names: Vec<String> =
+    let mut names: Vec<String> =
         tree::measures(&(info.blank_metrics)(), false, 0, 0, info.steps.len(), 0.0)
             .into_keys()
             .collect();
+    names.extend(
+        motion::Motion::default()
+            .measures()
+            .into_iter()
+            .map(|(k, _)| k),
+    );
     tree.check_measures(file, &names)
 }
 

@@ -5,6 +5,7 @@
 #[macro_use]
 mod output;
 mod bench;
+mod calibrate;
 mod haptics;
 mod precompute;
 mod records;

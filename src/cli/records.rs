@@ -87,6 +87,32 @@ pub enum RecordsCommand {
         #[arg(long, value_name = "FILE")]
         db: Option<PathBuf>,
     },
+    /// Sets a tree's expert and novice references from two groups' stored sessions (each
+    /// leaf: the group's median) and prints the validation table: per metric both groups'
+    /// medians and IQRs, the Mann-Whitney U test's p, the effect size, and whether it
+    /// separates the groups.
+    Calibrate {
+        /// The tree: a file, or a procedure's name for its built-in tree.
+        #[arg(long, value_name = "TREE")]
+        tree: String,
+        /// The expert group (trainees' `--group`).
+        #[arg(long, value_name = "GROUP")]
+        expert: String,
+        /// The novice group.
+        #[arg(long, value_name = "GROUP")]
+        novice: String,
+        /// Writes the calibrated tree here (its version one up, comments kept).
+        #[arg(long, value_name = "FILE")]
+        out: Option<PathBuf>,
+        /// Writes the validation table as an HTML page.
+        #[arg(long, value_name = "FILE")]
+        html: Option<PathBuf>,
+        /// The table as one JSON object.
+        #[arg(long)]
+        json: bool,
+        #[arg(long, value_name = "FILE")]
+        db: Option<PathBuf>,
+    },
     /// How many trainees are at each level by their latest session (of one procedure, or of
     /// any), and the trainees with their session counts.
     Levels {
@@ -361,6 +387,22 @@ pub fn run(c: RecordsCommand) -> Result<(), CliError> {
                 )))
             }
         }
+        RecordsCommand::Calibrate {
+            tree,
+            expert,
+            novice,
+            out,
+            html,
+            json,
+            db,
+        } => super::calibrate::run(
+            &tree,
+            (&expert, &novice),
+            out.as_deref(),
+            html.as_deref(),
+            json,
+            &mut open(db)?,
+        ),
         RecordsCommand::Levels { procedure, db } => {
             let mut r = open(db)?;
             let dist = r.level_distribution(procedure.as_deref())?;

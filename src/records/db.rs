@@ -74,6 +74,17 @@ impl Db {
         }
     }
 
+    pub fn group_reports(
+        &mut self,
+        procedure: &str,
+        group: &str,
+    ) -> Result<Vec<super::GroupReport>, RecordsError> {
+        match self {
+            Db::Sqlite(r) => r.group_reports(procedure, group),
+            Db::Postgres(p) => p.group_reports(procedure, group),
+        }
+    }
+
     pub fn trainees(&mut self) -> Result<Vec<Trainee>, RecordsError> {
         match self {
             Db::Sqlite(r) => r.trainees(),

@@ -94,6 +94,36 @@ pub struct SessionDetail {
     pub report: serde_json::Value,
 }
 
+/// A stored session's report, as calibrating reads it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GroupReport {
+    pub session_id: String,
+    pub trainee: String,
+    pub report: serde_json::Value,
+}
+
+impl GroupReport {
+    /// A stored report's text, checked to be a JSON object (`path`: the records, in errors).
+    pub fn parse(
+        path: &str,
+        session_id: String,
+        trainee: String,
+        text: &str,
+    ) -> Result<GroupReport, RecordsError> {
+        match serde_json::from_str::<serde_json::Value>(text) {
+            Ok(report) if report.is_object() => Ok(GroupReport {
+                session_id,
+                trainee,
+                report,
+            }),
+            _ => Err(RecordsError::Invalid {
+                path: path.to_string(),
+                message: format!("session {session_id}: its stored report is not a JSON object"),
+            }),
+        }
+    }
+}
+
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct NodeValue {
     pub path: String,
@@ -321,6 +351,38 @@ impl Records {
             nodes,
             report: serde_json::from_str(&report).unwrap_or_default(),
         }))
+    }
+
+    /// The stored reports of one procedure's sessions by the trainees of one group: (session
+    /// id, trainee, report), by session id.
+    pub fn group_reports(
+        &self,
+        procedure: &str,
+        group: &str,
+    ) -> Result<Vec<GroupReport>, RecordsError> {
+        let mut st = self
+            .conn
+            .prepare(
+                "SELECT s.id, t.pseudonym, s.report
+                 FROM sessions s JOIN trainees t ON t.id = s.trainee_id
+                 WHERE s.procedure = ?1 AND t.group_name = ?2
+                 ORDER BY s.id",
+            )
+            .map_err(self.sql())?;
+        let rows = st
+            .query_map(params![procedure, group], |r| {
+                Ok((
+                    r.get::<_, String>(0)?,
+                    r.get::<_, String>(1)?,
+                    r.get::<_, String>(2)?,
+                ))
+            })
+            .map_err(self.sql())?
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(self.sql())?;
+        rows.into_iter()
+            .map(|(id, trainee, text)| GroupReport::parse(&self.path, id, trainee, &text))
+            .collect()
     }
 
     /// Trainees with their session counts, by pseudonym.

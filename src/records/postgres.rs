@@ -309,6 +309,35 @@ impl PgRecords {
         rows.iter().map(|r| row_of(r).map_err(self.err())).collect()
     }
 
+    /// See [`super::Records::group_reports`].
+    pub fn group_reports(
+        &mut self,
+        procedure: &str,
+        group: &str,
+    ) -> Result<Vec<super::GroupReport>, RecordsError> {
+        let rows = self
+            .client
+            .query(
+                "SELECT s.id, t.pseudonym, s.report
+                 FROM sessions s JOIN trainees t ON t.id = s.trainee_id
+                 WHERE s.procedure = $1 AND t.group_name = $2
+                 ORDER BY s.id",
+                &[&procedure, &group],
+            )
+            .map_err(self.err())?;
+        let shown = self.shown().to_string();
+        rows.iter()
+            .map(|r| {
+                let (id, trainee, text): (String, String, String) = (
+                    r.try_get(0).map_err(self.err())?,
+                    r.try_get(1).map_err(self.err())?,
+                    r.try_get(2).map_err(self.err())?,
+                );
+                super::GroupReport::parse(&shown, id, trainee, &text)
+            })
+            .collect()
+    }
+
     /// See [`super::Records::session`].
     pub fn session(&mut self, id: &str) -> Result<Option<SessionDetail>, RecordsError> {
         let Some(r) = self

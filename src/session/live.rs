@@ -50,6 +50,10 @@ pub struct Live {
     timeline: Vec<super::Sample>,
     /// The instruments' path lengths at the last sample (for their speeds), m.
     last_path_m: [f32; 2],
+    /// The instruments' tips over the session, for the motion analysis...
+    motion: crate::assess::motion::MotionRecorder,
+    /// ...and its last analysis with the samples it was made of.
+    motion_now: std::cell::RefCell<(u64, crate::assess::motion::Motion)>,
 }
 
 /// Simulated seconds between two evaluations of the dynamic assessment's rules.
@@ -150,6 +154,8 @@ impl Live {
             instructions: Vec::new(),
             timeline: Vec::new(),
             last_path_m: [0.0; 2],
+            motion: crate::assess::motion::MotionRecorder::new(),
+            motion_now: std::cell::RefCell::new((u64::MAX, Default::default())),
         })
     }
 
@@ -178,14 +184,27 @@ impl Live {
             .get("steps_done")
             .and_then(serde_json::Value::as_array)
             .map_or(0, Vec::len);
-        crate::assess::tree::measures(
+        let mut m = crate::assess::tree::measures(
             &report.metrics,
             report.completed,
             report.errors,
             steps_done,
             self.info.steps.len(),
             self.clock.time_s(),
-        )
+        );
+        m.extend(self.motion_analysis().measures());
+        m
+    }
+
+    /// The motion analysis of the session so far (made again only when there are new
+    /// samples).
+    fn motion_analysis(&self) -> crate::assess::motion::Motion {
+        let mut now = self.motion_now.borrow_mut();
+        let taken = self.motion.samples();
+        if now.0 != taken {
+            *now = (taken, self.motion.analyse());
+        }
+        now.1.clone()
     }
 
     /// The session's measures now, scored by its tree.
@@ -281,6 +300,14 @@ impl Live {
             None => self.frames.push(frame),
         }
         self.clock.tick();
+        let tips = self
+            .proc_
+            .instrument_tips()
+            .unwrap_or_else(|| frame.hands.map(|h| h.pose.position));
+        let acting = frame
+            .hands
+            .map(|h| h.buttons.trigger > 0.5 || h.buttons.grip > 0.5 || h.buttons.mark);
+        self.motion.record(self.clock.time_s(), tips, acting);
         let forces = self.proc_.reactions();
         let contacts = self.proc_.contacts_now();
         let last = self.last_haptics.tools;
@@ -487,6 +514,7 @@ impl Live {
         crate::sim::shortest_f32(&mut done.metrics);
         crate::sim::shortest_f32(&mut done.score_parts);
         let assessment = self.assess(&done);
+        let motion = self.motion_analysis();
         let scenario_digest = format!(
             "{:016x}",
             crate::assess::tree::fnv1a(self.scenario_text.as_bytes())
@@ -540,6 +568,7 @@ impl Live {
             score: assessment.score as f32,
             level: assessment.level.clone(),
             assessment,
+            motion,
             timeline: self.timeline,
             state_hash: format!("{:016x}", self.proc_.state_hash()),
             replay_note: None,

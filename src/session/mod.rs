@@ -89,6 +89,8 @@ pub struct Report {
     pub level: String,
     /// The whole assessment: the tree scored node by node, the fuzzy memberships.
     pub assessment: crate::assess::Assessment,
+    /// How the instruments moved (`assess::motion`; the measures `motion.<key>`).
+    pub motion: crate::assess::motion::Motion,
     /// The session over time, a sample every 0.1 s simulated (for reports' plots).
     pub timeline: Vec<Sample>,
     /// FNV-1a digest of the final simulation state.

@@ -417,6 +417,11 @@ pub trait Procedure: Send {
     /// Where each instrument touches tissue after the last step: the point and the tissue's
     /// outward normal there (none: no contact).
     fn contacts_now(&self) -> [Option<(Vec3, Vec3)>; 2];
+    /// Where each instrument (left, right) works after the last step, for the motion
+    /// analysis (`assess::motion`); none: the hands' positions stand for them.
+    fn instrument_tips(&self) -> Option<[Vec3; 2]> {
+        None
+    }
     /// The world its models step in, for the model figures below (a procedure whose models
     /// are not in a world yet gives none and answers those itself).
     fn models(&self) -> Option<&dyn ModelSet> {

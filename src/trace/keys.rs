@@ -1,4 +1,5 @@
-//! Keyframed TOML traces: written by hand, sampled once per step.
+//! Keyframed TOML traces: written by hand, sampled once per step with the file's
+//! interpolation and tremor (see `xr_bindings::keyframes`).
 
 use crate::scenario::{InputError, check_procedure};
 use crate::sim::{Buttons, Hand, HandInput, InputFrame, Pose};
@@ -6,7 +7,7 @@ use std::path::Path;
 
 /// One keyframe of one hand (the format is shared with the simulated XR runtime).
 pub use xr_bindings::keyframes::HandKey as Key;
-use xr_bindings::keyframes::{HeadKey, KeyframeFile};
+use xr_bindings::keyframes::{HeadKey, Interpolation, KeyframeFile, Tremor};
 
 /// A validated keyframed trace.
 #[derive(Debug, Clone, PartialEq)]
@@ -15,6 +16,11 @@ pub struct KeyTrace {
     pub keys: [Vec<Key>; 2],
     /// Head keys: played by the simulated XR runtime; headless sessions keep their camera.
     pub head: Vec<HeadKey>,
+    /// How positions and targets move between keys (the file's `interpolation`).
+    pub interpolation: Interpolation,
+    /// The hands' tremor (`[[tremor]]`), each with its end set (the file's last key unless
+    /// it gives `to_s`).
+    pub tremor: Vec<Tremor>,
 }
 
 impl KeyTrace {
@@ -32,6 +38,8 @@ impl KeyTrace {
             procedure: t.procedure,
             keys: [t.left, t.right],
             head: t.head,
+            interpolation: t.interpolation,
+            tremor: t.tremor,
         })
     }
 
@@ -47,13 +55,16 @@ impl KeyTrace {
         Self::parse_within(&file, &text, max_s)
     }
 
-    /// Drops every keyframe after `t_s` (each hand keeps at least its first).
+    /// Drops every keyframe after `t_s` (each hand keeps at least its first) and every
+    /// tremor that starts after it; one under way at `t_s` keeps its end, so the tremor up to
+    /// `t_s` is unchanged.
     pub fn truncate_to(&mut self, t_s: f64) {
         for keys in &mut self.keys {
             let keep = keys.iter().filter(|k| k.t_s <= t_s).count().max(1);
             keys.truncate(keep);
         }
         self.head.retain(|k| k.t_s <= t_s);
+        self.tremor.retain(|tr| tr.from_s <= t_s);
     }
 
     /// Time of the last hand keyframe, seconds.
@@ -65,12 +76,21 @@ impl KeyTrace {
             .fold(0.0, f64::max)
     }
 
-    /// The input at time `t_s`.
+    /// The input at time `t_s`, with the trace's interpolation and tremor (as the simulated
+    /// XR runtime plays the same file).
     pub fn sample(&self, t_s: f64) -> InputFrame {
         let mut frame = InputFrame::default();
         for hand in Hand::BOTH {
-            if let Some(h) = xr_bindings::keyframes::sample_hand(&self.keys[hand.index()], t_s) {
-                frame.hands[hand.index()] = HandInput {
+            let i = hand.index();
+            let sample = xr_bindings::keyframes::sample_hand_with(
+                &self.keys[i],
+                self.interpolation,
+                &self.tremor,
+                i,
+                t_s,
+            );
+            if let Some(h) = sample {
+                frame.hands[i] = HandInput {
                     pose: Pose::looking_at(h.position, h.target),
                     buttons: Buttons {
                         trigger: h.trigger,

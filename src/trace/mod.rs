@@ -6,6 +6,7 @@ mod blocks;
 mod codec;
 mod keys;
 mod legacy;
+pub mod operator;
 mod recording;
 mod stream;
 #[cfg(test)]

@@ -149,8 +149,7 @@ mod tests {
         let mut r = Db::open(&d.join("records.sqlite")).expect("records");
         r.put_trainee("res-01", "A. Resident", "residents")
             .expect("trainee");
-        let info = crate::registry::find("sandbox").expect("sandbox");
-        let tree = crate::assess::Tree::parse("t", info.assessment).expect("tree");
+        let tree = crate::assess::Tree::parse("t", crate::testing::SANDBOX_TREE).expect("tree");
         for (k, (who, time_s)) in [("res-01", 34.0), ("res-02", 8.0), ("res-01", 8.0)]
             .into_iter()
             .enumerate()

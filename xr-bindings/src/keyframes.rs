@@ -4,21 +4,55 @@
 //! hand's instrument points from `position` to `target`; values interpolate linearly between
 //! keys and `mark` holds until the next key. `[[head]]` keys are optional (the runtime's
 //! default head is [`crate::stage::DEFAULT_HEAD`]; headless sessions ignore them).
+//!
+//! Two optional top-level features describe a person's hand motion compactly (see
+//! [`motion`]): `interpolation = "smooth"` moves positions and targets along a C1 curve
+//! through the keys instead of straight lines, and `[[tremor]]` entries add a small
+//! deterministic oscillation to a hand over an interval:
+//!
+//! ```toml
+//! procedure = "nephrectomy"
+//! interpolation = "smooth"   # or "linear", the default
+//!
+//! [[tremor]]
+//! hand = "right"
+//! amplitude_m = [0.0004, 0.0003, 0.0004]  # per axis, metres, at most 0.02
+//! hz = 9.0                                 # at most 30
+//! phase = 0.5                              # radians, default 0
+//! from_s = 2.0                             # default 0
+//! to_s = 6.0                               # default: the trace's last key
+//! ```
+//!
+//! [`sample_hand`] and [`sample_head`] sample keys alone (linear, no tremor);
+//! [`KeyframeFile::sample_hand_of`] and [`KeyframeFile::sample_head_of`] apply the file's
+//! interpolation and tremor, as both players do.
+
+pub mod motion;
+#[cfg(test)]
+mod motion_tests;
 
 use glam::Vec3;
 use serde::Deserialize;
 
-/// A whole trace file as written.
+pub use motion::{Interpolation, Side, TREMOR_FADE_S, Tremor};
+
+/// A whole trace file as written (after [`KeyframeFile::parse`], each tremor's `to_s` is set).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct KeyframeFile {
     pub procedure: String,
+    /// How positions and targets move between keys; linear unless the file says otherwise.
+    #[serde(default)]
+    pub interpolation: Interpolation,
     #[serde(default)]
     pub left: Vec<HandKey>,
     #[serde(default)]
     pub right: Vec<HandKey>,
     #[serde(default)]
     pub head: Vec<HeadKey>,
+    /// Tremor added to the hands, `[[tremor]]` entries.
+    #[serde(default)]
+    pub tremor: Vec<Tremor>,
 }
 
 /// One keyframe of one hand.
@@ -149,10 +183,15 @@ impl KeyframeFile {
 
     /// Parses and checks a trace: both hands have keys, times run forward from 0 to at most
     /// `max_s`, positions are finite and within 10 m, targets differ from positions, trigger
-    /// and grip are in [0, 1].
+    /// and grip are in [0, 1], `interpolation` is `"linear"` or `"smooth"`, and each tremor
+    /// names a hand and has amplitudes in [0, 0.02] m, a frequency in (0, 30] Hz, a finite
+    /// phase and `from_s <= to_s` within `max_s`. A tremor without `to_s` gets the time of the
+    /// trace's last key (of any kind), so that it ends with the trace.
     pub fn parse_within(text: &str, max_s: f64) -> Result<Self, KeyError> {
-        let t: KeyframeFile = toml::from_str(text).map_err(|e| {
-            KeyError::new("toml".into(), e.to_string().trim_end().replace('\n', " | "))
+        let mut t: KeyframeFile = toml::from_str(text).map_err(|e| {
+            motion::named_error(text).unwrap_or_else(|| {
+                KeyError::new("toml".into(), e.to_string().trim_end().replace('\n', " | "))
+            })
         })?;
         for (name, keys) in [("left", &t.left), ("right", &t.right)] {
             if keys.is_empty() {
@@ -174,7 +213,26 @@ impl KeyframeFile {
             }
         }
         check_keys("head", &t.head, max_s)?;
+        let end_s = t.duration_s();
+        motion::check_tremor(&mut t.tremor, end_s, max_s)?;
         Ok(t)
+    }
+
+    /// A hand (0 left, 1 right) at time `t_s`, seconds, with the file's interpolation and
+    /// tremor; `None` for a hand without keys (or another index).
+    pub fn sample_hand_of(&self, hand: usize, t_s: f64) -> Option<HandSample> {
+        let keys = match hand {
+            0 => &self.left,
+            1 => &self.right,
+            _ => return None,
+        };
+        sample_hand_with(keys, self.interpolation, &self.tremor, hand, t_s)
+    }
+
+    /// The head (position, looked-at point) at time `t_s` with the file's interpolation: its
+    /// keys, or the default head.
+    pub fn sample_head_of(&self, t_s: f64) -> (Vec3, Vec3) {
+        sample_head_with(&self.head, self.interpolation, t_s)
     }
 
     /// Time of the last keyframe, seconds.
@@ -238,6 +296,37 @@ pub fn sample_head(keys: &[HeadKey], t_s: f64) -> (Vec3, Vec3) {
         Vec3::from(a.position).lerp(Vec3::from(b.position), s),
         Vec3::from(a.target).lerp(Vec3::from(b.target), s),
     )
+}
+
+/// A hand at time `t_s` as [`sample_hand`], its position and target moved as `interpolation`
+/// says and shaken by the entries of `tremor` for `hand` (0 left, 1 right); trigger, grip and
+/// mark are [`sample_hand`]'s. Linear without a tremor on the hand at `t_s` gives
+/// [`sample_hand`]'s sample, bit for bit.
+pub fn sample_hand_with(
+    keys: &[HandKey],
+    interpolation: Interpolation,
+    tremor: &[Tremor],
+    hand: usize,
+    t_s: f64,
+) -> Option<HandSample> {
+    let mut s = sample_hand(keys, t_s)?;
+    if interpolation == Interpolation::Smooth {
+        (s.position, s.target) = motion::smooth(keys, t_s);
+    }
+    if let Some(d) = motion::tremor_offset(tremor, hand, t_s) {
+        // The same offset on both ends: the instrument shakes without turning.
+        s.position += d;
+        s.target += d;
+    }
+    Some(s)
+}
+
+/// The head at time `t_s` as [`sample_head`], moving as `interpolation` says.
+pub fn sample_head_with(keys: &[HeadKey], interpolation: Interpolation, t_s: f64) -> (Vec3, Vec3) {
+    if interpolation == Interpolation::Smooth && !keys.is_empty() {
+        return motion::smooth(keys, t_s);
+    }
+    sample_head(keys, t_s)
 }
 
 #[cfg(test)]

@@ -69,6 +69,10 @@ pub const SETTLE_DAMPING_PER_S: f32 = 60.0;
 impl Procedure for Cholecystectomy {
     crate::procedure_basics!(INFO, report(errors: metrics.errors), models: [scene]);
 
+    fn instrument_tips(&self) -> Option<[Vec3; 2]> {
+        Some([self.tool_tip(0), self.tool_tip(1)])
+    }
+
     fn contacts_now(&self) -> [Option<(Vec3, Vec3)>; 2] {
         let r = Cholecystectomy::reactions(self);
         let at = |k: usize| {

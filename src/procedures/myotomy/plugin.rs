@@ -66,6 +66,10 @@ pub fn build_procedure(s: Scenario, cache_dir: &Path) -> Result<Myotomy, BuildEr
 impl Procedure for Myotomy {
     crate::procedure_basics!(INFO, report(errors: metrics.errors), models: []);
 
+    fn instrument_tips(&self) -> Option<[Vec3; 2]> {
+        Some([self.tool_tip(0), self.tool_tip(1)])
+    }
+
     fn contacts_now(&self) -> [Option<(Vec3, Vec3)>; 2] {
         let r = Myotomy::reactions(self);
         let tips = [self.tool_tip(0), self.tool_tip(1)];

@@ -43,6 +43,10 @@ pub const INFO: ProcedureInfo = crate::procedure_info! {
 impl Procedure for Rectum {
     crate::procedure_basics!(INFO, report(errors: metrics.alarms), models: [scene]);
 
+    fn instrument_tips(&self) -> Option<[Vec3; 2]> {
+        Some([self.tool_tip(0), self.tool_tip(1)])
+    }
+
     fn contacts_now(&self) -> [Option<(Vec3, Vec3)>; 2] {
         let [grasper, hook] = Rectum::reactions(self);
         let at = |k: usize, f: Vec3| (f.length() > 0.0).then(|| (self.tool_tip(k), -f.normalize()));

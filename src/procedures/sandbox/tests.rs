@@ -57,6 +57,8 @@ fn demo_keys() -> KeyTrace {
         procedure: file.procedure,
         keys: [file.left, file.right],
         head: file.head,
+        interpolation: file.interpolation,
+        tremor: file.tremor,
     }
 }
 

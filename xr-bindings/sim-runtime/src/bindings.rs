@@ -74,8 +74,7 @@ fn component(rt: &Runtime, hand: usize, binding: &str, display_ns: i64) -> f32 {
     let Some(trace) = rt.trace.as_ref() else {
         return 0.0;
     };
-    let keys = if hand == 0 { &trace.left } else { &trace.right };
-    let Some(s) = xr_bindings::keyframes::sample_hand(keys, trace_time_s(display_ns)) else {
+    let Some(s) = trace.sample_hand_of(hand, trace_time_s(display_ns)) else {
         return 0.0;
     };
     match binding {

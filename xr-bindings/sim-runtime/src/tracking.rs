@@ -1,8 +1,8 @@
 //! Where things are: the head and the controllers move as the trace says (`[[head]]`,
 //! `[[left]]`, `[[right]]` keys in the operating field's frame, placed in the room by
-//! `xr_bindings::stage`), at any display time, so the app sees the same motion however fast
-//! it renders; and whether a controller is there (the trace moves it and no injected loss
-//! covers the time).
+//! `xr_bindings::stage`, moving as its `interpolation` says and shaken by its `[[tremor]]`),
+//! at any display time, so the app sees the same motion however fast it renders; and whether
+//! a controller is there (the trace moves it and no injected loss covers the time).
 
 use crate::pose::Rigid;
 use crate::state::Runtime;
@@ -24,8 +24,11 @@ fn looking(from: Vec3, to: Vec3) -> Quat {
 
 /// The head (the eyes' midpoint) in STAGE at a display time.
 pub(crate) fn head_at(rt: &Runtime, display_ns: i64) -> Rigid {
-    let keys = rt.trace.as_ref().map_or(&[][..], |t| &t.head[..]);
-    let (p, target) = xr_bindings::keyframes::sample_head(keys, trace_time_s(display_ns));
+    let t = trace_time_s(display_ns);
+    let (p, target) = match rt.trace.as_ref() {
+        Some(trace) => trace.sample_head_of(t),
+        None => xr_bindings::keyframes::sample_head(&[], t),
+    };
     Rigid {
         rot: looking(p, target),
         pos: xr_bindings::stage::field_to_stage(p),
@@ -36,8 +39,7 @@ pub(crate) fn head_at(rt: &Runtime, display_ns: i64) -> Rigid {
 /// its -Z towards the target (the app's convention). `None` for a hand the trace leaves out.
 pub(crate) fn hand_at(rt: &Runtime, hand: usize, display_ns: i64) -> Option<Rigid> {
     let trace = rt.trace.as_ref()?;
-    let keys = if hand == 0 { &trace.left } else { &trace.right };
-    let s = xr_bindings::keyframes::sample_hand(keys, trace_time_s(display_ns))?;
+    let s = trace.sample_hand_of(hand, trace_time_s(display_ns))?;
     let dir = (s.target - s.position).normalize_or_zero();
     Some(Rigid {
         rot: Quat::from_rotation_arc(Vec3::NEG_Z, dir),
