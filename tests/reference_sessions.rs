@@ -270,3 +270,36 @@ fn a_calibrated_tree_scores_a_replayed_session() {
         score(&first)
     );
 }
+
+#[test]
+fn the_sessions_play_in_the_simulated_headset_as_they_play_headless() {
+    // The sandbox's first expert and novice sessions through the real XR path (the Khronos
+    // loader, our simulated runtime playing the trace at 90 Hz): the same levels as headless,
+    // the scores within 2 points (the headset samples the hands at its frames, not at every
+    // step), and the novice still 15 points below the expert.
+    let d = tmp("reference-sessions", "headset");
+    let mut scores = Vec::new();
+    for name in ["expert-1", "novice-1"] {
+        let trace = root().join(format!("assets/sessions/sandbox/{name}.toml"));
+        let headless = play("sandbox", &trace, &d.join(format!("{name}-headless")));
+        let out = d.join(format!("{name}-headset"));
+        ok(&bin()
+            .args(["run", "sandbox", "--xr-sim"])
+            .arg(&trace)
+            .arg("--out")
+            .arg(&out)
+            .args(["--no-window", "--eye-size", "64x64"])
+            .output()
+            .expect("runs"));
+        let headset = report(&out);
+        assert_eq!(headset["level"], headless["level"], "{name}");
+        assert!(
+            (score(&headset) - score(&headless)).abs() < 2.0,
+            "{name}: {} in the headset, {} headless",
+            score(&headset),
+            score(&headless)
+        );
+        scores.push(score(&headset));
+    }
+    assert!(scores[1] <= scores[0] - 15.0, "{scores:?}");
+}
