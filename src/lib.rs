@@ -8,6 +8,7 @@ pub mod collision;
 pub mod diagnostics;
 pub mod gpu;
 pub mod haptics;
+pub mod imaging;
 pub mod input_error;
 pub mod mesh;
 pub mod models;

@@ -4,7 +4,7 @@
 //!
 //! Layers, top to bottom: the command line (the binary); `ui`, `xr`, `haptics`; `session`;
 //! `registry`; `procedures`; then the generic layers that may not name those above: `render`,
-//! `assess`, `trace`, `verify`, `models`, `sim`, `collision`, `mesh`, `gpu`, `scenario`,
+//! `imaging`, `assess`, `trace`, `verify`, `models`, `sim`, `collision`, `mesh`, `gpu`, `scenario`,
 //! `params`.
 
 use std::collections::{BTreeMap, BTreeSet};
@@ -21,8 +21,9 @@ const HIGH: [&str; 7] = [
     "haptics",
     "cli",
 ];
-const LOW: [&str; 12] = [
+const LOW: [&str; 13] = [
     "render",
+    "imaging",
     "assess",
     "trace",
     "verify",

@@ -1,0 +1,243 @@
+//! X-ray projection (fluoroscopy) of a scene of convex bodies: the C-arm's source is a point,
+//! its detector a grid of pixels, and each pixel receives `N0 exp(-sum over materials of
+//! mu_m L_m)` photons (Beer-Lambert), `L_m` the length of the ray from the source to the pixel
+//! inside material `m` (bodies of one material that overlap count once: their intervals along
+//! the ray are merged), `mu_m` its linear attenuation coefficient, 1/m. Quantum noise: the
+//! count is Poisson, drawn here as a normal of mean and variance N (N is large wherever the
+//! image is worth looking at), from a seeded generator so a frame is the same on every
+//! machine. The image shown is the log of the transmission, as a fluoroscope shows it: dark
+//! where the ray crossed much attenuation.
+
+use glam::DVec3;
+
+/// A convex body of one material.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Body {
+    Sphere {
+        centre: DVec3,
+        radius: f64,
+    },
+    /// The points within `radius` of the segment from `a` to `b` (a tube with round ends).
+    Capsule {
+        a: DVec3,
+        b: DVec3,
+        radius: f64,
+    },
+    /// A cylinder with flat ends from `a` to `b`.
+    Cylinder {
+        a: DVec3,
+        b: DVec3,
+        radius: f64,
+    },
+}
+
+/// Where a ray `o + t d` (d unit) is inside a body: `[t0, t1]`, if it is.
+pub fn chord(body: &Body, o: DVec3, d: DVec3) -> Option<(f64, f64)> {
+    match *body {
+        Body::Sphere { centre, radius } => sphere(o, d, centre, radius),
+        Body::Capsule { a, b, radius } => {
+            // Convex: the union of the tube and the two end spheres is one interval.
+            let parts = [
+                tube(o, d, a, b, radius),
+                sphere(o, d, a, radius),
+                sphere(o, d, b, radius),
+            ];
+            parts
+                .into_iter()
+                .flatten()
+                .fold(None, |acc: Option<(f64, f64)>, (s, e)| {
+                    Some(acc.map_or((s, e), |(x, y)| (x.min(s), y.max(e))))
+                })
+        }
+        Body::Cylinder { a, b, radius } => tube(o, d, a, b, radius),
+    }
+}
+
+fn sphere(o: DVec3, d: DVec3, c: DVec3, r: f64) -> Option<(f64, f64)> {
+    let oc = o - c;
+    let b = oc.dot(d);
+    let disc = b * b - (oc.length_squared() - r * r);
+    (disc > 0.0).then(|| {
+        let s = disc.sqrt();
+        (-b - s, -b + s)
+    })
+}
+
+/// The ray inside the infinite cylinder about `a`-`b` of radius `r`, cut to the slab between
+/// the planes through `a` and `b`: a cylinder with flat ends (a capsule adds its end spheres).
+fn tube(o: DVec3, d: DVec3, a: DVec3, b: DVec3, r: f64) -> Option<(f64, f64)> {
+    let axis = b - a;
+    let len = axis.length();
+    if len <= 0.0 {
+        return None;
+    }
+    let u = axis / len;
+    // Across the axis.
+    let (oa, dp) = (o - a, d - u * d.dot(u));
+    let op = oa - u * oa.dot(u);
+    let qa = dp.length_squared();
+    let (mut t0, mut t1) = if qa < 1e-18 {
+        // Along the axis: inside the side for every t, or never.
+        if op.length_squared() < r * r {
+            (f64::NEG_INFINITY, f64::INFINITY)
+        } else {
+            return None;
+        }
+    } else {
+        let qb = op.dot(dp);
+        let qc = op.length_squared() - r * r;
+        let disc = qb * qb - qa * qc;
+        if disc <= 0.0 {
+            return None;
+        }
+        let s = disc.sqrt();
+        ((-qb - s) / qa, (-qb + s) / qa)
+    };
+    // The slab 0 <= (p - a).u <= len.
+    let (h0, dh) = (oa.dot(u), d.dot(u));
+    if dh.abs() < 1e-18 {
+        if !(0.0..=len).contains(&h0) {
+            return None;
+        }
+    } else {
+        let (s0, s1) = ((0.0 - h0) / dh, (len - h0) / dh);
+        let (lo, hi) = (s0.min(s1), s0.max(s1));
+        t0 = t0.max(lo);
+        t1 = t1.min(hi);
+    }
+    (t1 > t0).then_some((t0, t1))
+}
+
+/// The total length of the union of intervals (each `start <= end`), clipped to `[lo, hi]`.
+pub fn union_length(mut spans: Vec<(f64, f64)>, lo: f64, hi: f64) -> f64 {
+    spans.retain(|s| s.1 > lo && s.0 < hi);
+    spans.sort_by(|x, y| x.0.total_cmp(&y.0));
+    let (mut total, mut at) = (0.0, lo);
+    for (s, e) in spans {
+        let (s, e) = (s.max(at), e.min(hi));
+        if e > s {
+            total += e - s;
+            at = e;
+        }
+    }
+    total
+}
+
+/// A material: its name and linear attenuation coefficient, 1/m.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Material {
+    pub name: String,
+    pub mu_per_m: f64,
+}
+
+/// The scene: bodies, each of a material (an index into `materials`).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Scene {
+    pub materials: Vec<Material>,
+    pub bodies: Vec<(Body, usize)>,
+}
+
+impl Scene {
+    /// The attenuation `sum mu_m L_m` along the segment from `source` to `pixel`.
+    pub fn attenuation(&self, source: DVec3, pixel: DVec3) -> f64 {
+        let span = pixel - source;
+        let length = span.length();
+        if length <= 0.0 {
+            return 0.0;
+        }
+        let d = span / length;
+        let mut per: Vec<Vec<(f64, f64)>> = vec![Vec::new(); self.materials.len()];
+        for (body, m) in &self.bodies {
+            if let (Some(c), Some(list)) = (chord(body, source, d), per.get_mut(*m)) {
+                list.push(c);
+            }
+        }
+        per.into_iter()
+            .zip(&self.materials)
+            .map(|(spans, m)| m.mu_per_m * union_length(spans, 0.0, length))
+            .sum()
+    }
+}
+
+/// The C-arm: a point source and a flat detector of `width` x `height` pixels of `pixel_m`,
+/// its centre `distance_m` from the source along `forward`, its rows along `right`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CArm {
+    pub source: DVec3,
+    pub forward: DVec3,
+    pub right: DVec3,
+    pub distance_m: f64,
+    pub width: usize,
+    pub height: usize,
+    pub pixel_m: f64,
+}
+
+impl CArm {
+    /// The centre of pixel (column `i`, row `j`).
+    pub fn pixel(&self, i: usize, j: usize) -> DVec3 {
+        let f = self.forward.normalize_or_zero();
+        let r = self.right.normalize_or_zero();
+        let up = r.cross(f);
+        let x = (i as f64 + 0.5 - self.width as f64 / 2.0) * self.pixel_m;
+        let y = (self.height as f64 / 2.0 - j as f64 - 0.5) * self.pixel_m;
+        self.source + f * self.distance_m + r * x + up * y
+    }
+}
+
+/// A frame: each pixel's detected photons, and what the fluoroscope shows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Frame {
+    pub width: usize,
+    pub height: usize,
+    /// Photons each pixel counted (noisy).
+    pub counts: Vec<f64>,
+    /// `-ln(counts / N0)`: the measured line integral (0 where nothing attenuates).
+    pub line_integrals: Vec<f64>,
+}
+
+/// A small deterministic generator (SplitMix64) for the quantum noise.
+struct Noise(u64);
+
+impl Noise {
+    fn unit(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn normal(&mut self) -> f64 {
+        let u = self.unit().max(1e-300);
+        let v = self.unit();
+        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+    }
+}
+
+/// One exposure: `photons` per pixel without attenuation (the dose per frame sets it), noise
+/// drawn from `seed` (none with `seed = None`: the expected counts).
+pub fn expose(scene: &Scene, arm: &CArm, photons: f64, seed: Option<u64>) -> Frame {
+    let mut noise = seed.map(Noise);
+    let n = arm.width * arm.height;
+    let (mut counts, mut line_integrals) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    for j in 0..arm.height {
+        for i in 0..arm.width {
+            let mean = photons * (-scene.attenuation(arm.source, arm.pixel(i, j))).exp();
+            let c = match &mut noise {
+                Some(g) => (mean + mean.sqrt() * g.normal()).max(1.0),
+                None => mean.max(1e-300),
+            };
+            counts.push(c);
+            line_integrals.push(-(c / photons).ln());
+        }
+    }
+    Frame {
+        width: arm.width,
+        height: arm.height,
+        counts,
+        line_integrals,
+    }
+}
+
+#[cfg(test)]
+#[path = "xray_tests.rs"]
+mod tests;
