@@ -19,6 +19,7 @@ pub mod progress;
 pub mod records;
 pub mod registry;
 pub mod render;
+pub mod rng;
 pub mod scenario;
 pub mod session;
 pub mod sim;

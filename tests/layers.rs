@@ -21,9 +21,10 @@ const HIGH: [&str; 7] = [
     "haptics",
     "cli",
 ];
-const LOW: [&str; 13] = [
+const LOW: [&str; 14] = [
     "render",
     "imaging",
+    "rng",
     "assess",
     "trace",
     "verify",

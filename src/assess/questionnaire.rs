@@ -505,20 +505,7 @@ pub fn sample_variance(values: &[f64]) -> Option<f64> {
     Some(ss / (values.len() - 1) as f64)
 }
 
-/// The `p` quantile (0 <= p <= 1) of `sorted` (ascending) by linear interpolation between
-/// order statistics: at position h = (n - 1) p, counted from 0, it is
-/// `x[floor h] + (h - floor h) (x[floor h + 1] - x[floor h])`, numpy's default ("linear",
-/// Hyndman and Fan's type 7). `None` for no values or `p` outside [0, 1].
-pub fn quantile(sorted: &[f64], p: f64) -> Option<f64> {
-    if sorted.is_empty() || !(0.0..=1.0).contains(&p) {
-        return None;
-    }
-    let h = (sorted.len() - 1) as f64 * p;
-    let lo = h.floor() as usize;
-    let x_lo = *sorted.get(lo)?;
-    let x_hi = *sorted.get(lo + 1).unwrap_or(&x_lo);
-    Some(x_lo + (h - lo as f64) * (x_hi - x_lo))
-}
+pub use super::stats::quantile;
 
 /// Cronbach's alpha of a scale's items, `rows` one per participant, each the k item scores:
 /// alpha = k / (k - 1) (1 - sum of the items' variances / variance of the participants'

@@ -195,28 +195,10 @@ pub struct Frame {
     pub line_integrals: Vec<f64>,
 }
 
-/// A small deterministic generator (SplitMix64) for the quantum noise.
-struct Noise(u64);
-
-impl Noise {
-    fn unit(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn normal(&mut self) -> f64 {
-        let u = self.unit().max(1e-300);
-        let v = self.unit();
-        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
-    }
-}
-
 /// One exposure: `photons` per pixel without attenuation (the dose per frame sets it), noise
 /// drawn from `seed` (none with `seed = None`: the expected counts).
 pub fn expose(scene: &Scene, arm: &CArm, photons: f64, seed: Option<u64>) -> Frame {
-    let mut noise = seed.map(Noise);
+    let mut noise = seed.map(crate::rng::SplitMix64);
     let n = arm.width * arm.height;
     let (mut counts, mut line_integrals) = (Vec::with_capacity(n), Vec::with_capacity(n));
     for j in 0..arm.height {

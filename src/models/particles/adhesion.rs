@@ -218,24 +218,6 @@ pub struct Adhesion {
     colours: Vec<u32>,
 }
 
-/// splitmix64 (Steele, Lea and Flood 2014): a 64-bit counter through a mixing function.
-struct SplitMix64(u64);
-
-impl SplitMix64 {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-
-    /// A number in `0..n` (the high 32 bits scaled; the bias is below 2^-32 n).
-    fn below(&mut self, n: u32) -> u32 {
-        (((self.next() >> 32) * u64::from(n)) >> 32) as u32
-    }
-}
-
 impl Adhesion {
     /// Strands between `pairs` of particles (gallbladder, liver), their interior particles
     /// added to `p`; `seed` picks the breakable segments. Nothing is added when refused.
@@ -278,7 +260,7 @@ impl Adhesion {
             });
         }
         let mass = params.strand_mass_kg / interior as f32;
-        let mut rng = SplitMix64(seed);
+        let mut rng = crate::rng::SplitMix64(seed);
         let mut order: Vec<u32> = Vec::with_capacity(segs as usize);
         let mut strands = Vec::with_capacity(pairs.len());
         let mut segments = Vec::with_capacity(pairs.len() * segs as usize);
