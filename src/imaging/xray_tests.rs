@@ -160,3 +160,90 @@ fn the_noise_grows_as_the_dose_falls() {
         expose(&scene, &arm, 1000.0, Some(3))
     );
 }
+
+/// The tiles' lists of bodies leave out only bodies a ray cannot meet: a scene of 90 bodies
+/// of three kinds and two materials, scattered round the beam (some near the source, one
+/// holding it), gives every pixel the attenuation the ray through every body gives, to the
+/// bit, and the lists are shorter than the scene.
+#[test]
+fn the_tiles_lists_of_bodies_change_no_pixel() {
+    let mut g = crate::rng::SplitMix64(11);
+    let mut at = || DVec3::new(g.unit() - 0.5, 0.8 * g.unit() - 0.4, g.unit() - 0.5) * 0.4;
+    let mut bodies = Vec::new();
+    for k in 0..90 {
+        let (a, b) = (at(), at());
+        let body = match k % 3 {
+            0 => Body::Sphere {
+                centre: a,
+                radius: 0.01 + 0.02 * (k as f64 / 90.0),
+            },
+            1 => Body::Capsule {
+                a,
+                b: a + 0.2 * (b - a),
+                radius: 0.005,
+            },
+            _ => Body::Cylinder {
+                a,
+                b: a + 0.3 * (b - a),
+                radius: 0.008,
+            },
+        };
+        bodies.push((body, k % 2));
+    }
+    // One body holding the source, one beside it.
+    bodies.push((
+        Body::Sphere {
+            centre: DVec3::new(0.0, 1.0, 0.0),
+            radius: 0.05,
+        },
+        0,
+    ));
+    bodies.push((
+        Body::Sphere {
+            centre: DVec3::new(0.03, 0.97, 0.0),
+            radius: 0.01,
+        },
+        1,
+    ));
+    let scene = Scene {
+        materials: vec![
+            Material {
+                name: "tissue".into(),
+                mu_per_m: 20.0,
+            },
+            Material {
+                name: "bone".into(),
+                mu_per_m: 50.0,
+            },
+        ],
+        bodies,
+    };
+    let arm = CArm {
+        source: DVec3::new(0.0, 1.0, 0.0),
+        forward: DVec3::NEG_Y,
+        right: DVec3::X,
+        distance_m: 1.5,
+        width: 80,
+        height: 72,
+        pixel_m: 0.006,
+    };
+    let f = expose(&scene, &arm, 1e5, None);
+    let mut shadowed = 0;
+    for j in 0..arm.height {
+        for i in 0..arm.width {
+            let direct = scene.attenuation(arm.source, arm.pixel(i, j));
+            let got = f.line_integrals[j * arm.width + i];
+            let want = -((1e5 * (-direct).exp()).max(1e-300) / 1e5).ln();
+            assert_eq!(got.to_bits(), want.to_bits(), "pixel {i}, {j}");
+            shadowed += usize::from(direct > 0.05 * 20.0);
+        }
+    }
+    assert!(shadowed > 500, "the bodies show: {shadowed}");
+    let lists = scene.tiles(&arm);
+    let longest = lists.iter().map(Vec::len).max().unwrap_or(0);
+    assert!(longest < scene.bodies.len(), "{longest}");
+    assert!(
+        lists.iter().all(|l| l.contains(&90)),
+        "the source's own body in every list"
+    );
+}
