@@ -45,6 +45,21 @@ fn the_demo_reaches_the_target_branch_the_same_on_one_and_two_threads_and_replay
     assert!((0.5..=3.5).contains(&head), "head force {head} N");
     assert!(m["wall_contacts"].as_u64().unwrap_or(0) >= 1, "{r}");
     assert!(m["force_time_n_s"].as_f64().unwrap_or(0.0) > 0.0, "{r}");
+    // The left hand's imaging: three runs of the pedal, two puffs of 4 mL/s (0.5 and 0.4 s),
+    // 7.5 pulses a second over 4.8 s of fluoroscopy, each pulse's dose-area product the
+    // same (one field, never collimated).
+    let f = &m["fluoroscopy"];
+    let num = |k: &str| f[k].as_f64().unwrap_or(f64::NAN);
+    assert_eq!(
+        (num("fluoro_runs"), num("contrast_runs")),
+        (3.0, 2.0),
+        "{f}"
+    );
+    assert!((num("contrast_ml") - 3.6).abs() < 1e-3, "{f}");
+    assert!((num("fluoro_time_s") - 4.8).abs() < 0.01, "{f}");
+    assert!((36.0..=39.0).contains(&num("pulses")), "{f}");
+    let per_pulse = num("dap_gy_cm2") / num("pulses");
+    assert!((1e-4..1e-2).contains(&per_pulse), "{f}");
     // The force over time: a sample every 20 ms over the 6.5 s session.
     let trace = m["force_trace"].as_array().cloned().unwrap_or_default();
     assert!(trace.len() >= 300, "{} samples", trace.len());
@@ -68,4 +83,49 @@ fn the_demo_reaches_the_target_branch_the_same_on_one_and_two_threads_and_replay
             "{f}"
         );
     }
+}
+
+/// Headless frames of the catheterisation carry the fluoroscope's picture beside the eyes'
+/// teaching view: grey, the picture's size, the catheter dark in the last one.
+#[test]
+fn headless_frames_write_the_fluoroscopes_picture() {
+    let d = tmp("catheter", "fluoro");
+    let trace = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/traces/catheter-demo.toml");
+    let o = bin()
+        .args([
+            "run",
+            "catheter",
+            "--headless",
+            "--frames",
+            "3",
+            "--eye-size",
+            "64x48",
+            "--trace",
+        ])
+        .arg(&trace)
+        .arg("--out")
+        .arg(d.join("out"))
+        .output()
+        .expect("runs");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let png = d.join("out/frames/fluoro_0002.png");
+    let decoder = png::Decoder::new(std::io::BufReader::new(
+        std::fs::File::open(&png).expect("the last frame's picture"),
+    ));
+    let mut reader = decoder.read_info().expect("a png");
+    let mut buf = vec![0; reader.output_buffer_size().expect("a size")];
+    let info = reader.next_frame(&mut buf).expect("pixels");
+    assert_eq!((info.width, info.height), (256, 256));
+    let px = &buf[..info.buffer_size()];
+    let channels = px.len() / (256 * 256);
+    let grey: Vec<u8> = px.chunks(channels).map(|c| c[0]).collect();
+    assert!(
+        px.chunks(channels).all(|c| c[0] == c[1] && c[1] == c[2]),
+        "grey"
+    );
+    // Dense is dark: the catheter and the contrast's roadmap take the darkest few percent,
+    // the open field around the patient's tissue the lightest.
+    let dark = grey.iter().filter(|&&g| g < 40).count();
+    let light = grey.iter().filter(|&&g| g > 200).count();
+    assert!(dark > 300 && light > 10_000, "dark {dark}, light {light}");
 }

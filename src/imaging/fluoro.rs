@@ -111,10 +111,12 @@ pub struct Fluoroscope {
     /// Time until the next pulse while the pedal is down, s.
     next_pulse_s: f64,
     last: Option<Frame>,
-    /// The last frame without contrast (the mask), and the contrast over it at the run's
-    /// fullest (the roadmap), as line integrals.
+    /// The last frame without contrast (the mask), and each pixel's most contrast over it
+    /// through the run (the roadmap: peak opacification), as line integrals; whether the
+    /// next frame with contrast starts a new roadmap.
     mask: Option<Vec<f64>>,
-    roadmap: Option<(f64, Vec<f64>)>,
+    roadmap: Option<Vec<f64>>,
+    new_roadmap: bool,
 }
 
 impl Fluoroscope {
@@ -129,6 +131,7 @@ impl Fluoroscope {
             last: None,
             mask: None,
             roadmap: None,
+            new_roadmap: true,
         }
     }
 
@@ -258,9 +261,10 @@ impl Fluoroscope {
     }
 
     /// A pulse's frame of `scene` (noise from `seed`), kept as the last; `contrast` says
-    /// whether contrast is in the vessels now: a frame without it is the roadmap's mask,
-    /// a frame with it replaces the roadmap where its contrast over the mask is the fullest
-    /// of the run so far (a new run's contrast starts a new roadmap).
+    /// whether contrast is in the vessels now: a frame without it is the roadmap's mask, a
+    /// frame with it raises each pixel of the roadmap to its contrast over the mask (so a
+    /// bolus moving through the vessels paints them all), the first such frame after a mask
+    /// starting a new roadmap.
     pub fn expose(&mut self, scene: &Scene, contrast: bool, seed: u64) -> &Frame {
         let frame = expose_within(
             scene,
@@ -277,18 +281,18 @@ impl Fluoroscope {
                     .zip(mask)
                     .map(|(l, m)| if l - m > ROADMAP_MIN { l - m } else { 0.0 })
                     .collect();
-                let fill: f64 = over.iter().sum();
-                let fresh = self.roadmap.as_ref().is_none_or(|(best, _)| fill > *best);
-                if fresh {
-                    self.roadmap = Some((fill, over));
+                match &mut self.roadmap {
+                    Some(road) if !self.new_roadmap => {
+                        road.iter_mut().zip(&over).for_each(|(r, o)| *r = r.max(*o));
+                    }
+                    _ => self.roadmap = Some(over),
                 }
+                self.new_roadmap = false;
             }
         } else {
             self.mask = Some(frame.line_integrals.clone());
             // The next contrast starts a new roadmap; the old one shows until then.
-            if let Some((best, _)) = &mut self.roadmap {
-                *best = f64::NEG_INFINITY;
-            }
+            self.new_roadmap = true;
         }
         self.last.insert(frame)
     }
@@ -310,7 +314,7 @@ impl Fluoroscope {
     pub fn picture(&self) -> Option<Picture> {
         let f = self.last.as_ref()?;
         let road = self.roadmap.as_ref().filter(|_| self.roadmap_on);
-        let value = |k: usize| f.line_integrals[k] + road.map_or(0.0, |(_, r)| r[k]);
+        let value = |k: usize| f.line_integrals[k] + road.map_or(0.0, |r| r[k]);
         let mut seen: Vec<f64> = (0..f.width * f.height)
             .filter(|k| f.exposed(k % f.width, k / f.width))
             .map(|k| f.line_integrals[k])

@@ -138,6 +138,12 @@ pub fn render_snapshots(
             let [l, r] = target.read(gpu)?;
             write_png(&dir.join(format!("left_{k:04}.png")), eye_size, &l)?;
             write_png(&dir.join(format!("right_{k:04}.png")), eye_size, &r)?;
+            // The procedure's own picture (a fluoroscope's), at its own size.
+            if let Some(p) = &snap.picture {
+                let rgba: Vec<u8> = p.grey.iter().flat_map(|&g| [g, g, g, 255]).collect();
+                let size = (p.width as u32, p.height as u32);
+                write_png(&dir.join(format!("fluoro_{k:04}.png")), size, &rgba)?;
+            }
         }
         counters.push(c);
     }

@@ -1,10 +1,11 @@
 //! Interventional catheterisation (the catheter paper, issue 18): the skeleton-spring
 //! catheter and bifurcating vessel of [`crate::models::skeleton`] under a force-feedback
-//! handle: the scenario, the procedure (task, metrics, events, drawing) and its registry
-//! entry.
+//! handle, under fluoroscopy: the scenario, the procedure (task, metrics, events, drawing),
+//! the fluoroscope and contrast (`fluoroscopy`) and its registry entry.
 
 mod bench;
 mod field;
+pub mod fluoroscopy;
 mod plugin;
 mod procedure;
 pub mod scenario;

@@ -8,6 +8,7 @@
 //! force, force-time integral, the force over time as the paper's Fig. 15), the events and
 //! what the renderer draws.
 
+use super::fluoroscopy::{Console, Imaging};
 use super::scenario::Scenario;
 use crate::models::skeleton::catheter::Drive;
 use crate::models::skeleton::in_vessel::CatheterInVessel;
@@ -74,6 +75,9 @@ pub struct Metrics {
     /// The force on the catheter over the session (the paper's Fig. 15): `[t s, |F|, Fx, Fy,
     /// Fz]` every 20 ms, N.
     pub force_trace: Vec<[f64; 5]>,
+    /// What the interventional console counted: fluoroscopy time, runs, pulses, the dose,
+    /// the contrast.
+    pub fluoroscopy: Console,
 }
 
 pub struct Catheterisation {
@@ -89,12 +93,16 @@ pub struct Catheterisation {
     /// The tip is in the wrong branch now.
     astray: bool,
     triangles: Vec<[u32; 3]>,
+    /// The fluoroscope and the contrast, under the left hand.
+    pub imaging: Imaging,
 }
 
 impl Catheterisation {
     pub fn new(scenario: Scenario, scene: CatheterInVessel) -> Catheterisation {
         let triangles = scene.vessel().triangles();
+        let imaging = Imaging::new(scenario.fluoroscopy, &scene, f64::from(scenario.dt_s));
         Catheterisation {
+            imaging,
             scenario,
             scene,
             metrics: Metrics::default(),
@@ -170,6 +178,8 @@ impl Catheterisation {
         m.peak_head_normal_n = m.peak_head_normal_n.max(out.head_normal_n);
         // A contact counts once however the head chatters on the wall: a new one only after
         // `CONTACT_GAP_S` off it.
+        self.imaging.step(input, &self.scene, dt, step);
+        m.fluoroscopy = self.imaging.console;
         let touching = out.head_normal_n > 0.0;
         if touching {
             m.contact_steps += 1;
@@ -262,6 +272,7 @@ impl Catheterisation {
             emissions: Vec::new(),
             bleeding: Vec::new(),
             scope: None,
+            picture: self.imaging.picture.clone(),
         }
     }
 
@@ -355,6 +366,12 @@ impl Catheterisation {
         let mut h = Fnv(self.scene.state_hash());
         h.write(self.metrics.steps_done.len() as u32);
         h.write(self.metrics.errors);
+        let c = &self.metrics.fluoroscopy;
+        h.write(c.pulses);
+        h.write(c.contrast_runs);
+        let dap = c.dap_gy_cm2.to_bits();
+        h.write(dap as u32);
+        h.write((dap >> 32) as u32);
         h.0
     }
 }

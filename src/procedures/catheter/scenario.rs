@@ -341,7 +341,9 @@ crate::scenario_tables! {
     dt: (0.001, "the simulation step: the Falcon's 1 kHz servo period"),
     nodes: balls,
     tables: [vessel: VesselTable, catheter: CatheterTable, contact: ContactTable,
-        device: DeviceTable, task: Task],
+        device: DeviceTable, task: Task,
+        #[serde(default = "super::fluoroscopy::table_default")]
+        fluoroscopy: super::fluoroscopy::FluoroTable],
 }
 
 impl Scenario {

@@ -704,6 +704,7 @@ impl Cholecystectomy {
             emissions: self.smoke.at(time_s),
             bleeding: self.bleeds.iter().map(|b| b.bleed).collect(),
             scope: self.scope.snapshot_view(),
+            picture: None,
         }
     }
 

@@ -455,6 +455,7 @@ impl Myotomy {
             emissions: self.smoke.at(time_s),
             bleeding: Vec::new(),
             scope: None,
+            picture: None,
         }
     }
 

@@ -719,6 +719,7 @@ impl Nephrectomy {
             emissions: self.smoke.at(step as f64 * self.scenario.dt_s as f64),
             bleeding: self.bleeds.clone(),
             scope: None,
+            picture: None,
         }
     }
 }

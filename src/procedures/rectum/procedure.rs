@@ -580,6 +580,7 @@ impl Rectum {
             emissions: self.smoke.at(time_s),
             bleeding: Vec::new(),
             scope: self.scope.snapshot_view(),
+            picture: None,
         }
     }
 

@@ -326,6 +326,7 @@ impl Sandbox {
             emissions: Vec::new(),
             bleeding: Vec::new(),
             scope: None,
+            picture: None,
         }
     }
 
