@@ -3,7 +3,7 @@
 //! the end. The screenshot must show the kidney in the 3D view and text in the side panels,
 //! and the session's report must be the headless one.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn read_png(p: &Path) -> (u32, u32, Vec<u8>) {
@@ -60,24 +60,33 @@ fn light(p: &[u8]) -> bool {
     p[0] > 100 && p[1] > 100 && p[2] > 100
 }
 
-#[test]
-fn the_demo_plays_in_a_window_and_the_screenshot_shows_the_kidney_and_the_panels() {
-    let dir = std::env::temp_dir().join(format!("vesalius-window-{}", std::process::id()));
+/// `procedure`'s demo trace played in a window under Xvfb, a screenshot at its end: the
+/// scratch folder (`shot.png`, `out/`), the trace and how the run went.
+fn demo_in_window(procedure: &str, name: &str) -> (PathBuf, PathBuf, std::process::Output) {
+    let dir = std::env::temp_dir().join(format!("vesalius-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("temp dir");
-    let shot = dir.join("shot.png");
-    let trace = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/traces/nephrectomy-demo.toml");
+    let trace = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("assets/traces")
+        .join(format!("{procedure}-demo.toml"));
     let o = Command::new("xvfb-run")
         .args(["-a", "-s", "-screen 0 1920x1080x24"])
         .arg(env!("CARGO_BIN_EXE_vesalius"))
-        .args(["run", "nephrectomy", "--trace"])
+        .args(["run", procedure, "--trace"])
         .arg(&trace)
         .arg("--screenshot")
-        .arg(&shot)
+        .arg(dir.join("shot.png"))
         .arg("--out")
         .arg(dir.join("out"))
         .output()
         .expect("xvfb-run (apt-get install xvfb xauth)");
+    (dir, trace, o)
+}
+
+#[test]
+fn the_demo_plays_in_a_window_and_the_screenshot_shows_the_kidney_and_the_panels() {
+    let (dir, trace, o) = demo_in_window("nephrectomy", "window");
+    let shot = dir.join("shot.png");
     let stdout = succeeded(&o);
     // The window's session is the headless session: same trace, same report.
     let report = read_report(&dir.join("out"));
@@ -378,6 +387,35 @@ fn a_stylus_drives_the_probe_in_the_window_and_the_session_replays() {
         list.lines()
             .any(|l| l.starts_with(id) && l.contains("res-03")),
         "{list}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The catheterisation's demo in the window shows the fluoroscope, not the 3D view: the
+/// middle of the view is grey (the monitor's picture), with the catheter and the roadmap
+/// dark in it and the open field light.
+#[test]
+fn the_catheterisation_plays_under_fluoroscopy_in_the_window() {
+    let (dir, _, o) = demo_in_window("catheter", "window-fluoro");
+    let shot = dir.join("shot.png");
+    succeeded(&o);
+    let report = read_report(&dir.join("out"));
+    assert_eq!(report["completed"], true, "{report}");
+    let img = read_png(&shot);
+    let grey = |p: &[u8]| p[0] == p[1] && p[1] == p[2];
+    let middle = share(&img, (0.4, 0.6), (0.3, 0.8), grey);
+    assert!(
+        middle > 0.99,
+        "grey in {:.1}% of the view's middle",
+        middle * 100.0
+    );
+    let dark = share(&img, (0.4, 0.6), (0.3, 0.8), |p| p[0] < 60 && p[0] == p[2]);
+    let light = share(&img, (0.4, 0.6), (0.3, 0.8), |p| p[0] > 180 && p[0] == p[2]);
+    assert!(
+        dark > 0.02 && light > 0.2,
+        "dark {:.1}%, light {:.1}%",
+        dark * 100.0,
+        light * 100.0
     );
     let _ = std::fs::remove_dir_all(&dir);
 }

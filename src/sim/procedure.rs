@@ -217,6 +217,10 @@ pub struct Options {
     /// The hand whose primary button makes its device drive the laparoscope (its instrument
     /// waits meanwhile), if any.
     pub scope_hand: Option<Hand>,
+    /// The hand whose buttons work the procedure's imaging, if it has any (trigger: the
+    /// fluoroscope's pedal, grip: a puff of contrast, primary button: the roadmap): the
+    /// desktop gives them keys.
+    pub imaging_hand: Option<Hand>,
     /// The other instruments one hand can change to with its primary button (the scrub
     /// nurse hands the next over; after the last, the hand's own comes back), all for the
     /// same hand; empty where the procedure offers none. The snapshot's
@@ -257,6 +261,7 @@ impl Options {
         profile_reference: None,
         bench_all_awake_s: super::bench::ALL_AWAKE_S,
         scope_hand: None,
+        imaging_hand: None,
         swap: &[],
         legacy_tuned_model: None,
         haptic_device: DeviceChoice::Phantom,

@@ -139,6 +139,9 @@ pub struct DesktopHands {
     pub origin_offset: [Vec3; 2],
     last: Option<(Vec3, Quat, Vec2)>,
     tips: [Option<(Vec3, Vec3)>; 2],
+    /// The procedure's imaging hand and the buttons its keys hold down (F: the pedal, C:
+    /// contrast, M: the roadmap, for one published frame).
+    pub imaging: Option<(Hand, Buttons)>,
 }
 
 impl DesktopHands {
@@ -162,7 +165,38 @@ impl DesktopHands {
             origin_offset: [Vec3::ZERO; 2],
             last: None,
             tips: [None; 2],
+            imaging: info.options.imaging_hand.map(|h| (h, Buttons::default())),
         }
+    }
+
+    /// An imaging key (F, C or M, either case): the pedal and the contrast on or off, the
+    /// roadmap pressed. False for any other key, or without an imaging hand.
+    pub fn imaging_key(&mut self, key: &str) -> bool {
+        let Some((_, b)) = self.imaging.as_mut() else {
+            return false;
+        };
+        let flip = |v: f32| if v > 0.5 { 0.0 } else { 1.0 };
+        match key {
+            "f" | "F" => b.trigger = flip(b.trigger),
+            "c" | "C" => b.grip = flip(b.grip),
+            "m" | "M" => b.mark = true,
+            _ => return false,
+        }
+        true
+    }
+
+    /// The frame to publish: the hands, the imaging keys' buttons added to the imaging
+    /// hand's own. A roadmap press is published once.
+    pub fn published(&mut self) -> InputFrame {
+        let mut f = self.frame;
+        if let Some((h, b)) = self.imaging.as_mut() {
+            let own = &mut f.hands[h.index()].buttons;
+            own.trigger = own.trigger.max(b.trigger);
+            own.grip = own.grip.max(b.grip);
+            own.mark |= b.mark;
+            b.mark = false;
+        }
+        f
     }
 }
 
@@ -289,6 +323,15 @@ impl DesktopHands {
             lines.push((
                 "right button".to_string(),
                 format!("twist ({}): half a turn while held", c.name),
+            ));
+        }
+        if self.imaging.is_some() {
+            lines.push(("F".to_string(), "fluoroscopy pedal on / off".to_string()));
+            lines.push(("C".to_string(), "contrast puff on / off".to_string()));
+            lines.push(("M".to_string(), "roadmap on / off".to_string()));
+            lines.push((
+                "T".to_string(),
+                "the X-ray / the 3D teaching view".to_string(),
             ));
         }
         if let Some(s) = self.swap.first() {
@@ -569,5 +612,53 @@ mod hand_tests {
         h.selected = Hand::Left;
         h.pointer(&view, both);
         assert!(!h.frame.hands[0].buttons.mark);
+    }
+
+    /// The catheterisation's imaging keys hold the left hand's buttons down whatever the
+    /// mouse does with it: F the pedal, C the contrast (each on until pressed again), M one
+    /// roadmap press; a procedure without imaging takes none of them.
+    #[test]
+    fn the_imaging_keys_work_the_imaging_hands_buttons() {
+        let reg = crate::registry::REGISTRY;
+        let info = reg
+            .iter()
+            .copied()
+            .find(|p| p.options.imaging_hand.is_some())
+            .expect("a procedure with imaging");
+        let hand = info.options.imaging_hand.expect("its hand").index();
+        let mut h = DesktopHands::parked(info);
+        assert!(h.imaging_key("F") && h.imaging_key("c") && h.imaging_key("m"));
+        assert!(!h.imaging_key("x"));
+        let b = h.published().hands[hand].buttons;
+        assert_eq!((b.trigger, b.grip, b.mark), (1.0, 1.0, true));
+        // The press is published once; the pedal and the contrast stay on.
+        let b = h.published().hands[hand].buttons;
+        assert_eq!((b.trigger, b.grip, b.mark), (1.0, 1.0, false));
+        // With the imaging hand selected the mouse's buttons add to the keys'.
+        h.selected = Hand::BOTH[hand];
+        let view = OrbitCamera::at(&info.view).view(16.0 / 9.0);
+        let over = Pointer {
+            ndc: Some(Vec2::ZERO),
+            ..Pointer::default()
+        };
+        h.pointer(&view, over);
+        assert_eq!(h.published().hands[hand].buttons.trigger, 1.0);
+        // F again: the pedal is up.
+        h.imaging_key("f");
+        assert_eq!(h.published().hands[hand].buttons.trigger, 0.0);
+        assert!(
+            h.key_map()
+                .iter()
+                .any(|(k, v)| k == "F" && v.contains("pedal"))
+        );
+        // Without imaging, the keys do nothing.
+        let plain = reg
+            .iter()
+            .copied()
+            .find(|p| p.options.imaging_hand.is_none())
+            .expect("a procedure without");
+        let mut h = DesktopHands::parked(plain);
+        assert!(!h.imaging_key("f"));
+        assert_eq!(h.published(), h.frame);
     }
 }

@@ -24,6 +24,8 @@ pub const INFO: ProcedureInfo = crate::procedure_info! {
     desk_park: [(-0.05, -0.04, 0.03), (-0.1, 0.0, 0.0)],
     // The paper's Novint Falcon (9 N, 1 kHz).
     haptic_device: DeviceChoice::Falcon,
+    // The left hand works the fluoroscope (`fluoroscopy.rs`).
+    imaging_hand: Some(crate::sim::Hand::Left),
     bench_extra: Some(super::bench::extra),
 };
 

@@ -59,6 +59,28 @@ impl App {
             self.camera = OrbitCamera::looking(scope.eye, scope.target);
             self.scope_seen = Some(scope);
         }
+        // The procedure's own picture: a texture of its grey, made again when it changes.
+        let picture = snapshot.as_ref().and_then(|s| s.picture.clone());
+        match (&picture, &mut self.picture) {
+            (Some(p), Some((seen, handle))) if !Arc::ptr_eq(p, seen) => {
+                handle.set(grey_image(p), egui::TextureOptions::LINEAR);
+                *seen = p.clone();
+            }
+            (Some(p), None) => {
+                let handle = v.egui.egui_ctx().load_texture(
+                    "procedure picture",
+                    grey_image(p),
+                    egui::TextureOptions::LINEAR,
+                );
+                self.picture = Some((p.clone(), handle));
+            }
+            _ => {}
+        }
+        let shown_picture = self
+            .picture
+            .as_ref()
+            .filter(|_| !self.teaching_view && mirror.is_none())
+            .map(|(p, h)| (h.id(), (p.width as f32, p.height as f32)));
         // Panels first: they decide how large the 3D view is.
         let input = v.egui.take_egui_input(&v.window);
         let ppp = v.egui.egui_ctx().pixels_per_point();
@@ -92,6 +114,22 @@ impl App {
                         fit,
                         egui::Image::new(egui::load::SizedTexture::new(id, fit.size())),
                     );
+                } else if let (Some((id, (w, h))), Some(_)) = (shown_picture, scene_id) {
+                    // The fluoroscope's monitor, whole and centred; the mouse still drives
+                    // the instruments over it as over the 3D view.
+                    let scale = (rect.width() / w).min(rect.height() / h);
+                    let fit = egui::Rect::from_center_size(rect.center(), egui::vec2(w, h) * scale);
+                    ui.painter().rect_filled(rect, 0.0, egui::Color32::BLACK);
+                    ui.put(
+                        fit,
+                        egui::Image::new(egui::load::SizedTexture::new(id, fit.size())),
+                    );
+                    let r = ui.interact(
+                        rect,
+                        egui::Id::unique("procedure picture"),
+                        egui::Sense::click_and_drag(),
+                    );
+                    pointer = read_pointer(ui, &r, rect);
                 } else if let Some(id) = scene_id {
                     let r = ui.put(
                         rect,
@@ -127,7 +165,7 @@ impl App {
             let eye = self.camera.view(aspect);
             if let Some((hands, shared)) = self.desktop.as_mut() {
                 hands.pointer(&eye, pointer);
-                shared.store(Arc::new(hands.frame));
+                shared.store(Arc::new(hands.published()));
             }
             counters =
                 v.renderer
@@ -218,6 +256,11 @@ impl App {
 }
 
 /// The mouse over the 3D view: where (normalised, y up), its buttons, the wheel's notches.
+/// A grey picture as egui's image.
+fn grey_image(p: &crate::imaging::fluoro::Picture) -> egui::ColorImage {
+    egui::ColorImage::from_gray([p.width, p.height], &p.grey)
+}
+
 fn read_pointer(ui: &egui::Ui, r: &egui::Response, rect: egui::Rect) -> Pointer {
     let ndc = r.hover_pos().map(|p| {
         Vec2::new(

@@ -287,6 +287,8 @@ pub fn run(mut opts: WindowOptions) -> Result<WindowRun, WindowError> {
         view_mode,
         mirror_id: None,
         mirror_size: (1, 1),
+        picture: None,
+        teaching_view: false,
         scene_renders: 0,
         last_window_frame: None,
         view: None,
@@ -375,6 +377,10 @@ struct App {
     /// The mirrored eye's texture in egui.
     mirror_id: Option<egui::TextureId>,
     mirror_size: (u32, u32),
+    /// The procedure's own picture (a fluoroscope's) as egui shows it, and the snapshot's
+    /// copy it was made from; `teaching_view`: the 3D view instead (T).
+    picture: Option<(Arc<crate::imaging::fluoro::Picture>, egui::TextureHandle)>,
+    teaching_view: bool,
     scene_renders: u64,
     /// Simulated and wall time of the last window frame under XR.
     last_window_frame: Option<(f64, Instant)>,
@@ -481,7 +487,12 @@ impl App {
                 "2" => self.select(Hand::Right),
                 "v" | "V" if self.xr.is_some() => self.next_view(),
                 "p" | "P" => self.toggle_pause(),
-                _ => {}
+                "t" | "T" => self.teaching_view = !self.teaching_view,
+                other => {
+                    if let Some((h, _)) = self.desktop.as_mut() {
+                        h.imaging_key(other);
+                    }
+                }
             },
             _ => {}
         }
