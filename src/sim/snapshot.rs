@@ -109,7 +109,7 @@ pub struct Snapshot {
     /// device (`ProcedureInfo::scope_hand`); `None`: the procedure's own viewpoint. The
     /// desktop window and headless frames show the field from here.
     pub scope: Option<ScopeView>,
-    /// A picture the procedure's imaging shows, where it has one (the catheterisation's
+    /// A picture the procedure's imaging shows, where it has one (an interventional
     /// fluoroscope: the last frame held, the roadmap over it when on); headless frames write
     /// it beside the eyes' as `fluoro_NNNN.png`. None for the others.
     pub picture: Option<std::sync::Arc<crate::imaging::fluoro::Picture>>,

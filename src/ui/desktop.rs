@@ -614,7 +614,7 @@ mod hand_tests {
         assert!(!h.frame.hands[0].buttons.mark);
     }
 
-    /// The catheterisation's imaging keys hold the left hand's buttons down whatever the
+    /// A procedure's imaging keys hold its imaging hand's buttons down whatever the
     /// mouse does with it: F the pedal, C the contrast (each on until pressed again), M one
     /// roadmap press; a procedure without imaging takes none of them.
     #[test]
