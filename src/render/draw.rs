@@ -212,6 +212,22 @@ impl Renderer {
         c
     }
 
+    /// A frame's counters when nothing is drawn (a procedure's own picture covers the view):
+    /// what the renderer holds on the device and in memory, no draw calls.
+    pub fn idle_counters(&self) -> FrameCounters {
+        let vram_bytes = self.ledger.total_bytes();
+        let mut materials = self.ledger.live(Category::Material);
+        materials.count = material::COUNT as u64;
+        FrameCounters {
+            textures: self.ledger.live(Category::Texture),
+            meshes: self.ledger.live(Category::Mesh),
+            materials,
+            vram_bytes,
+            total_memory_bytes: crate::profiler::heap_bytes() + vram_bytes,
+            ..FrameCounters::default()
+        }
+    }
+
     /// Writes the frame uniform of each pass: both eyes in one (`multiview`), or one buffer
     /// per eye's pass with that eye first.
     fn write_frame(

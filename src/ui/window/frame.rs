@@ -160,16 +160,20 @@ impl App {
             _ => Default::default(),
         };
         if let Some(scene) = v.scene.as_ref().filter(|_| mirror.is_none()) {
-            self.scene_renders += 1;
             let aspect = scene.size.0 as f32 / scene.size.1 as f32;
             let eye = self.camera.view(aspect);
             if let Some((hands, shared)) = self.desktop.as_mut() {
                 hands.pointer(&eye, pointer);
                 shared.store(Arc::new(hands.published()));
             }
-            counters =
+            // Under the procedure's own picture no part of the 3D view shows: not drawn.
+            counters = if shown_picture.is_none() {
+                self.scene_renders += 1;
                 v.renderer
-                    .render(RenderTarget::Single(&scene.view), scene.size, &[eye, eye]);
+                    .render(RenderTarget::Single(&scene.view), scene.size, &[eye, eye])
+            } else {
+                v.renderer.idle_counters()
+            };
         }
         let render_ms = render_start.elapsed().as_secs_f32() * 1e3;
         // The panels over the swapchain image.
