@@ -1,22 +1,25 @@
 use super::*;
 
-/// A water-like phantom: a cylinder of radius 5 cm along z, mu = 20 /m (about water's at
-/// 60 keV), 10 cm long; the source 1 m above it on y, the detector 0.5 m below, rows along x.
-fn phantom() -> (Scene, CArm) {
-    let scene = Scene {
+/// A scene of one flat-ended cylinder of water-like material (mu = 20 /m, about water's at
+/// 60 keV) from `a` to `b`.
+fn water_cylinder(a: DVec3, b: DVec3, radius: f64) -> Scene {
+    Scene {
         materials: vec![Material {
             name: "water".into(),
             mu_per_m: 20.0,
         }],
-        bodies: vec![(
-            Body::Cylinder {
-                a: DVec3::new(0.0, 0.0, -0.05),
-                b: DVec3::new(0.0, 0.0, 0.05),
-                radius: 0.05,
-            },
-            0,
-        )],
-    };
+        bodies: vec![(Body::Cylinder { a, b, radius }, 0)],
+    }
+}
+
+/// A water-like phantom: a cylinder of radius 5 cm along z, mu = 20 /m (about water's at
+/// 60 keV), 10 cm long; the source 1 m above it on y, the detector 0.5 m below, rows along x.
+fn phantom() -> (Scene, CArm) {
+    let scene = water_cylinder(
+        DVec3::new(0.0, 0.0, -0.05),
+        DVec3::new(0.0, 0.0, 0.05),
+        0.05,
+    );
     let arm = CArm {
         source: DVec3::new(0.0, 1.0, 0.0),
         forward: DVec3::NEG_Y,
@@ -110,20 +113,11 @@ fn the_noise_grows_as_the_dose_falls() {
     // A flat field behind 5 cm of the phantom's material (transmission exp(-1)): the
     // measured line integral -ln(N / N0) has variance 1 / (N0 exp(-1)) to first order (a
     // Poisson count's relative variance is 1 / N); a quarter of the dose, four times it.
-    let scene = Scene {
-        materials: vec![Material {
-            name: "water".into(),
-            mu_per_m: 20.0,
-        }],
-        bodies: vec![(
-            Body::Cylinder {
-                a: DVec3::new(0.0, 0.025, 0.0),
-                b: DVec3::new(0.0, -0.025, 0.0),
-                radius: 1.0,
-            },
-            0,
-        )],
-    };
+    let scene = water_cylinder(
+        DVec3::new(0.0, 0.025, 0.0),
+        DVec3::new(0.0, -0.025, 0.0),
+        1.0,
+    );
     let arm = CArm {
         source: DVec3::new(0.0, 1.0, 0.0),
         forward: DVec3::NEG_Y,
