@@ -110,6 +110,15 @@ impl Renderer {
         let _span = tracing::debug_span!("render_frame", width = size.0, height = size.1).entered();
         let t0 = Instant::now();
         self.ensure_depth(size);
+        // A procedure's own picture goes on the monitor in place of the scope's scene.
+        let own_picture = match (self.monitor.as_mut(), &self.picture) {
+            (Some(m), Some(p)) => m.show_picture(&self.queue, p),
+            (Some(m), None) => {
+                m.forget_picture();
+                false
+            }
+            _ => false,
+        };
         // Where the scene is seen from: the eyes, or the scope whose picture the monitor shows.
         let (scene_eyes, scene_size, optics) = match &self.monitor {
             Some(m) => {
@@ -165,10 +174,13 @@ impl Renderer {
         let frame = |k: usize| &self.bind_groups[k.min(self.bind_groups.len() - 1)];
         match &self.monitor {
             Some(m) => {
-                // Outside the image circle the monitor's picture is black.
-                let picture = (&m.view, &m.depth, None);
-                let scene = (&m.pipelines, &m.bind_groups[0]);
-                self.scene_pass(&mut encoder, picture, scene, [0.0; 3], &mut c);
+                // Outside the image circle the monitor's picture is black. A procedure's own
+                // picture is on the screen already (written in before the frame).
+                if !own_picture {
+                    let picture = (&m.view, &m.depth, None);
+                    let scene = (&m.pipelines, &m.bind_groups[0]);
+                    self.scene_pass(&mut encoder, picture, scene, [0.0; 3], &mut c);
+                }
                 for (k, p) in passes.into_iter().enumerate() {
                     let mut pass = begin(&mut encoder, p, super::monitor::ROOM, "room");
                     c.passes += 1;

@@ -268,6 +268,8 @@ pub struct Renderer {
     monitor: Option<monitor::Monitor>,
     /// The snapshot's laparoscope, where a hand drives it (the monitor's picture follows).
     scope: Option<ScopeView>,
+    /// The procedure's own picture in the snapshot (a fluoroscope's): a monitor shows it.
+    picture: Option<Arc<crate::imaging::fluoro::Picture>>,
     instruments: GpuMesh,
     depth: Option<Depth>,
     format: wgpu::TextureFormat,
@@ -380,6 +382,7 @@ impl Renderer {
             overlay: None,
             monitor: None,
             scope: None,
+            picture: None,
             instruments,
             depth: None,
             format,
@@ -552,6 +555,7 @@ impl Renderer {
         self.bleeds.clone_from(&snap.bleeding);
         self.time_s = snap.time_s;
         self.scope = snap.scope;
+        self.picture.clone_from(&snap.picture);
         // Instruments and beams are built per frame, clipped to the eyes (see `render`).
         self.tools = snap.tools;
         let tools = snap
