@@ -129,3 +129,75 @@ fn headless_frames_write_the_fluoroscopes_picture() {
     let light = grey.iter().filter(|&&g| g > 200).count();
     assert!(dark > 300 && light > 10_000, "dark {dark}, light {light}");
 }
+
+/// The C-arm under the pads, headless and in the headset under the simulated runtime: the
+/// left pad held at its right edge for a second turns the arm 15 degrees LAO, at its top
+/// edge for half a second 7.5 degrees cranial; the right pad at its top edge for 0.4 s
+/// moves the table 2 cm towards the head. The headset reads the pads through the
+/// trackpad's position and click; both runs agree within a display frame's worth.
+#[test]
+fn the_pads_turn_the_c_arm_and_move_the_table_headless_and_in_the_headset() {
+    let d = tmp("catheter", "arm");
+    std::fs::create_dir_all(d.join("in")).expect("dir");
+    let hand = |side: &str, t: f64, at: &str, to: &str, pad: Option<&str>| {
+        let pad = pad.map_or(String::new(), |p| format!("pad = \"{p}\"\n"));
+        format!("[[{side}]]\nt_s = {t}\nposition = {at}\ntarget = {to}\n{pad}\n")
+    };
+    let (handle, ahead) = ("[-0.1, 0.0, 0.0]", "[0.0, 0.0, 0.0]");
+    let (aside, away) = ("[-0.05, -0.04, 0.03]", "[0.0, -0.04, 0.03]");
+    let mut trace = String::from("procedure = \"catheter\"\n\n");
+    for (t, pad) in [
+        (0.0, None),
+        (0.2, Some("right")),
+        (1.2, None),
+        (1.4, Some("up")),
+        (1.9, None),
+        (2.2, None),
+    ] {
+        trace += &hand("left", t, aside, away, pad);
+    }
+    for (t, pad) in [(0.0, None), (0.2, Some("up")), (0.6, None), (2.2, None)] {
+        trace += &hand("right", t, handle, ahead, pad);
+    }
+    let file = d.join("in/arm.toml");
+    std::fs::write(&file, trace).expect("trace");
+    let console = |out: &Path| {
+        let r = report(out);
+        let f = r["metrics"]["fluoroscopy"].clone();
+        let num = |k: &str| f[k].as_f64().unwrap_or(f64::NAN);
+        let table = f["table_cm"][0].as_f64().unwrap_or(f64::NAN);
+        (num("lao_deg"), num("cranial_deg"), table)
+    };
+    let o = bin()
+        .args(["run", "catheter", "--headless", "--trace"])
+        .arg(&file)
+        .arg("--out")
+        .arg(d.join("headless"))
+        .output()
+        .expect("runs");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (lao, cranial, table) = console(&d.join("headless"));
+    assert!((lao - 15.0).abs() < 0.05, "LAO {lao}");
+    assert!((cranial - 7.5).abs() < 0.05, "cranial {cranial}");
+    assert!((table - 2.0).abs() < 0.01, "table {table} cm");
+    let o = bin()
+        .args(["run", "catheter", "--xr-sim"])
+        .arg(&file)
+        .arg("--out")
+        .arg(d.join("xr"))
+        .args(["--eye-size", "64x64", "--no-window", "--xr-duration", "2.3"])
+        .output()
+        .expect("runs");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (xlao, xcranial, xtable) = console(&d.join("xr"));
+    // A display frame is 11.1 ms: 0.17 degrees of turn, 0.06 cm of table.
+    assert!(
+        (xlao - lao).abs() < 0.35,
+        "LAO {xlao} in the headset, {lao} headless"
+    );
+    assert!(
+        (xcranial - cranial).abs() < 0.35,
+        "cranial {xcranial}, {cranial}"
+    );
+    assert!((xtable - table).abs() < 0.12, "table {xtable}, {table}");
+}

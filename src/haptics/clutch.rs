@@ -110,6 +110,7 @@ impl Binding {
             trigger: f32::from(u8::from(stylus.buttons & 1 != 0)),
             grip: f32::from(u8::from(stylus.buttons & 2 != 0)),
             mark: false,
+            pad: None,
         };
     }
 }

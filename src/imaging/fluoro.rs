@@ -143,19 +143,31 @@ impl Fluoroscope {
             .unwrap_or(0.3)
     }
 
-    /// Turns the arm and pans the table by the given amounts, within their ranges.
+    /// Turns the arm and pans the table by the given amounts, within their ranges. A move
+    /// loses the roadmap and its mask: they no longer lie over the picture.
     pub fn move_by(&mut self, d_lao_deg: f64, d_cranial_deg: f64, d_pan_m: [f64; 2]) {
+        let before = self.pose;
         let p = &mut self.pose;
         p.lao_deg = (p.lao_deg + d_lao_deg).clamp(-MAX_LAO_DEG, MAX_LAO_DEG);
         p.cranial_deg = (p.cranial_deg + d_cranial_deg).clamp(-MAX_CRANIAL_DEG, MAX_CRANIAL_DEG);
         for (at, d) in p.pan_m.iter_mut().zip(d_pan_m) {
             *at = (*at + d).clamp(-MAX_PAN_M, MAX_PAN_M);
         }
+        if self.pose != before {
+            self.lose_registration();
+        }
     }
 
-    /// The next field size (after the smallest, the largest again).
+    /// The next field size (after the smallest, the largest again); the roadmap is lost.
     pub fn next_zoom(&mut self) {
         self.pose.zoom = (self.pose.zoom + 1) % self.settings.fields_m.len().max(1);
+        self.lose_registration();
+    }
+
+    fn lose_registration(&mut self) {
+        self.mask = None;
+        self.roadmap = None;
+        self.new_roadmap = true;
     }
 
     /// The beam's direction (source to detector) at the pose.

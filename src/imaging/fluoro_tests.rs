@@ -243,6 +243,17 @@ fn the_roadmap_lays_the_last_runs_contrast_over_the_live_picture() {
     // Away from the vessel both show the same tissue: the window is the live image's, and
     // the noise between the contrast frame and its mask stays out of the roadmap.
     assert_eq!(mean(&road, 50), mean(&live, 50));
+    // Turning the arm loses the roadmap (it no longer lies over the picture); a move that
+    // the arm's range stops does not.
+    f.move_by(0.0, -100.0, [0.0; 2]);
+    assert!(!f.has_roadmap());
+    f.expose(&clear, false, 4);
+    f.expose(&filled, true, 5);
+    assert!(f.has_roadmap());
+    f.move_by(0.0, -1.0, [0.0; 2]);
+    assert!(f.has_roadmap(), "at the caudal limit already");
+    f.next_zoom();
+    assert!(!f.has_roadmap());
 }
 
 #[test]

@@ -1,5 +1,6 @@
 use glam::{Quat, Vec3};
 use serde::{Deserialize, Serialize};
+pub use xr_bindings::keyframes::PadDirection;
 
 /// Which hand. Index 0 is left, 1 is right.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -75,6 +76,11 @@ pub struct Buttons {
     pub grip: f32,
     /// Primary button: places a margin mark where the laser points.
     pub mark: bool,
+    /// The trackpad clicked at an edge (or the thumbstick pushed and pressed): a d-pad press,
+    /// which a procedure may use for controls of its own (a C-arm's angles). The click is
+    /// down with it (`mark`).
+    #[serde(default)]
+    pub pad: Option<PadDirection>,
 }
 
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]

@@ -39,7 +39,7 @@ pub use emission::{Bleed, Emission, EmissionKind, EmissionLog};
 pub use events::{EventKind, ProcedureEvent, SimEvent, shortest_f32};
 pub use haptic::{HapticFrame, HapticSlot, SeqWords, ToolHaptics};
 pub use hash::Fnv;
-pub use input::{Buttons, Hand, HandInput, InputFrame, Pose};
+pub use input::{Buttons, Hand, HandInput, InputFrame, PadDirection, Pose};
 pub use model::{Contact, ContactKind, CutStroke, ModelOutput, ModelSizes, TissueModel, ToolId};
 pub use plugin::{ChecklistScore, completion_share, time_efficiency, weighted_score};
 pub use procedure::{

@@ -2,7 +2,7 @@
 
 use super::blocks::BlockKind;
 use crate::scenario::InputError;
-use crate::sim::{Buttons, HandInput, InputFrame, Pose};
+use crate::sim::{Buttons, HandInput, InputFrame, PadDirection, Pose};
 use glam::{Quat, Vec3};
 use std::fmt::Display;
 
@@ -13,8 +13,30 @@ pub(super) const FRAME_BYTES: usize = 2 * HAND_BYTES;
 /// A frames block's payload before its frames: `first_step` (u64) and `count` (u32).
 pub(super) const FRAMES_HEAD_BYTES: usize = 8 + 4;
 
+/// The flag byte's low bit: the mark button (the trackpad's click).
+const MARK_BIT: u8 = 1;
+/// The flag byte's bits 1 to 3: the pad press (0 none, 1 up, 2 down, 3 left, 4 right).
+/// Recordings written before pad presses existed hold 0 there.
+const PAD_SHIFT: u8 = 1;
+const PAD_MASK: u8 = 0b1110;
+
+fn pad_code(p: Option<PadDirection>) -> u8 {
+    match p {
+        None => 0,
+        Some(PadDirection::Up) => 1,
+        Some(PadDirection::Down) => 2,
+        Some(PadDirection::Left) => 3,
+        Some(PadDirection::Right) => 4,
+    }
+}
+
+/// The buttons' flag byte: the mark, then the pad press.
+fn flags(b: &Buttons) -> u8 {
+    (u8::from(b.mark) * MARK_BIT) | (pad_code(b.pad) << PAD_SHIFT)
+}
+
 /// One frame: per hand (left, then right) position, orientation (x, y, z, w), trigger and grip
-/// as f32, then the mark button as one byte.
+/// as f32, then one byte of flags (the mark button, the pad press).
 pub(super) fn encode_frame(f: &InputFrame, out: &mut Vec<u8>) {
     for h in &f.hands {
         let p = h.pose.position.to_array();
@@ -26,7 +48,7 @@ pub(super) fn encode_frame(f: &InputFrame, out: &mut Vec<u8>) {
         {
             out.extend_from_slice(&v.to_le_bytes());
         }
-        out.push(u8::from(h.buttons.mark));
+        out.push(flags(&h.buttons));
     }
 }
 
@@ -39,7 +61,18 @@ pub(super) fn read_frame(r: &mut Reader, step: usize) -> Result<InputFrame, Inpu
         for c in &mut v {
             *c = r.f32("frame")?;
         }
-        let mark = r.take(1, "frame")?[0] != 0;
+        let flags = r.take(1, "frame")?[0];
+        let pad = match (flags & PAD_MASK) >> PAD_SHIFT {
+            0 => None,
+            code => PadDirection::ALL.get(usize::from(code) - 1).copied(),
+        };
+        if flags & !(MARK_BIT | PAD_MASK) != 0 || (pad.is_none() && flags & PAD_MASK != 0) {
+            return Err(r.fail(
+                &format!("frame {step}"),
+                format!("button flags {flags:#010b}: only the mark bit and a pad press 0-4 exist"),
+            ));
+        }
+        let mark = flags & MARK_BIT != 0;
         *hand = HandInput {
             pose: Pose {
                 position: Vec3::new(v[0], v[1], v[2]),
@@ -49,6 +82,7 @@ pub(super) fn read_frame(r: &mut Reader, step: usize) -> Result<InputFrame, Inpu
                 trigger: v[7],
                 grip: v[8],
                 mark,
+                pad,
             },
         };
     }

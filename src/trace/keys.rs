@@ -96,6 +96,7 @@ impl KeyTrace {
                         trigger: h.trigger,
                         grip: h.grip,
                         mark: h.mark,
+                        pad: h.pad,
                     },
                 };
             }

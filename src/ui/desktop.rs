@@ -4,7 +4,7 @@
 
 use crate::procedures::{ProcedureInfo, ToolInfo, ToolKind, Viewpoint};
 use crate::render::{EyeView, Fov};
-use crate::sim::{Buttons, Hand, HandInput, InputFrame, Pose};
+use crate::sim::{Buttons, Hand, HandInput, InputFrame, PadDirection, Pose};
 use glam::{Quat, Vec2, Vec3};
 
 /// Vertical field of view of the desktop view, radians (a laparoscope's is wider than the
@@ -140,8 +140,17 @@ pub struct DesktopHands {
     last: Option<(Vec3, Quat, Vec2)>,
     tips: [Option<(Vec3, Vec3)>; 2],
     /// The procedure's imaging hand and the buttons its keys hold down (F: the pedal, C:
-    /// contrast, M: the roadmap, for one published frame).
-    pub imaging: Option<(Hand, Buttons)>,
+    /// contrast, M: the roadmap, for one published frame; the arrows: its pad), and the
+    /// other hand's (shift and the arrows: its pad; Z: its centre click, once).
+    pub imaging: Option<ImagingKeys>,
+}
+
+/// What the imaging keys hold down on each hand.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ImagingKeys {
+    pub hand: Hand,
+    pub own: Buttons,
+    pub other: Buttons,
 }
 
 impl DesktopHands {
@@ -165,36 +174,61 @@ impl DesktopHands {
             origin_offset: [Vec3::ZERO; 2],
             last: None,
             tips: [None; 2],
-            imaging: info.options.imaging_hand.map(|h| (h, Buttons::default())),
+            imaging: info.options.imaging_hand.map(|hand| ImagingKeys {
+                hand,
+                own: Buttons::default(),
+                other: Buttons::default(),
+            }),
         }
     }
 
-    /// An imaging key (F, C or M, either case): the pedal and the contrast on or off, the
-    /// roadmap pressed. False for any other key, or without an imaging hand.
+    /// An imaging key (F, C, M or Z, either case): the pedal and the contrast on or off, the
+    /// roadmap pressed, the other hand's centre click (the zoom). False for any other key, or
+    /// without an imaging hand.
     pub fn imaging_key(&mut self, key: &str) -> bool {
-        let Some((_, b)) = self.imaging.as_mut() else {
+        let Some(k) = self.imaging.as_mut() else {
             return false;
         };
+        let b = &mut k.own;
         let flip = |v: f32| if v > 0.5 { 0.0 } else { 1.0 };
         match key {
             "f" | "F" => b.trigger = flip(b.trigger),
             "c" | "C" => b.grip = flip(b.grip),
             "m" | "M" => b.mark = true,
+            "z" | "Z" => k.other.mark = true,
             _ => return false,
         }
         true
     }
 
-    /// The frame to publish: the hands, the imaging keys' buttons added to the imaging
-    /// hand's own. A roadmap press is published once.
+    /// An arrow key down (`Some`) or up (`None`): the imaging hand's pad held at that edge,
+    /// or the other hand's. False without an imaging hand.
+    pub fn pad_key(&mut self, pad: Option<PadDirection>, other_hand: bool) -> bool {
+        let Some(k) = self.imaging.as_mut() else {
+            return false;
+        };
+        if other_hand {
+            k.other.pad = pad;
+        } else {
+            k.own.pad = pad;
+        }
+        true
+    }
+
+    /// The frame to publish: the hands, the imaging keys' buttons added to each hand's own
+    /// (a held pad clicks, as on the controller). A roadmap or zoom press is published once.
     pub fn published(&mut self) -> InputFrame {
         let mut f = self.frame;
-        if let Some((h, b)) = self.imaging.as_mut() {
-            let own = &mut f.hands[h.index()].buttons;
-            own.trigger = own.trigger.max(b.trigger);
-            own.grip = own.grip.max(b.grip);
-            own.mark |= b.mark;
-            b.mark = false;
+        if let Some(k) = self.imaging.as_mut() {
+            let hand = k.hand.index();
+            for (i, b) in [(hand, &mut k.own), (1 - hand, &mut k.other)] {
+                let held = &mut f.hands[i].buttons;
+                held.trigger = held.trigger.max(b.trigger);
+                held.grip = held.grip.max(b.grip);
+                held.mark |= b.mark || b.pad.is_some();
+                held.pad = held.pad.or(b.pad);
+                b.mark = false;
+            }
         }
         f
     }
@@ -281,7 +315,7 @@ impl DesktopHands {
                 buttons: Buttons {
                     trigger: if p.primary_down { 1.0 } else { 0.0 },
                     grip: if p.secondary_down { 1.0 } else { 0.0 },
-                    mark: false,
+                    ..Buttons::default()
                 },
             },
             ToolKind::Laser => HandInput {
@@ -329,6 +363,15 @@ impl DesktopHands {
             lines.push(("F".to_string(), "fluoroscopy pedal on / off".to_string()));
             lines.push(("C".to_string(), "contrast puff on / off".to_string()));
             lines.push(("M".to_string(), "roadmap on / off".to_string()));
+            lines.push((
+                "arrows".to_string(),
+                "over the X-ray: turn the C-arm (LAO / RAO, cranial / caudal)".to_string(),
+            ));
+            lines.push((
+                "shift + arrows".to_string(),
+                "over the X-ray: move the table".to_string(),
+            ));
+            lines.push(("Z".to_string(), "the next zoom field".to_string()));
             lines.push((
                 "T".to_string(),
                 "the X-ray / the 3D teaching view".to_string(),
@@ -646,6 +689,23 @@ mod hand_tests {
         // F again: the pedal is up.
         h.imaging_key("f");
         assert_eq!(h.published().hands[hand].buttons.trigger, 0.0);
+        // An arrow held: the imaging hand's pad at that edge, clicked, until it is let go;
+        // with shift, the other hand's; Z: the other hand's click, once.
+        assert!(h.pad_key(Some(PadDirection::Left), false));
+        h.pad_key(Some(PadDirection::Up), true);
+        for _ in 0..2 {
+            let f = h.published();
+            let (own, other) = (f.hands[hand].buttons, f.hands[1 - hand].buttons);
+            assert_eq!((own.pad, own.mark), (Some(PadDirection::Left), true));
+            assert_eq!((other.pad, other.mark), (Some(PadDirection::Up), true));
+        }
+        h.pad_key(None, false);
+        h.pad_key(None, true);
+        assert!(h.imaging_key("z"));
+        let f = h.published();
+        let (own, other) = (f.hands[hand].buttons, f.hands[1 - hand].buttons);
+        assert_eq!((own.pad, other.pad, other.mark), (None, None, true));
+        assert!(!h.published().hands[1 - hand].buttons.mark);
         assert!(
             h.key_map()
                 .iter()
@@ -659,6 +719,7 @@ mod hand_tests {
             .expect("a procedure without");
         let mut h = DesktopHands::parked(plain);
         assert!(!h.imaging_key("f"));
+        assert!(!h.pad_key(Some(PadDirection::Up), false));
         assert_eq!(h.published(), h.frame);
     }
 }

@@ -17,7 +17,7 @@ use crate::profiler::FrameCounters;
 use crate::render::{EyeView, Fov, Gpu, RenderError, RenderTarget, Renderer};
 use crate::scenario::HeadsetView;
 use crate::session::{Live, Outcome, SessionError, Status};
-use crate::sim::{Buttons, EventKind, Hand, HandInput, Pacing, Pose, Snapshot};
+use crate::sim::{Buttons, EventKind, Hand, HandInput, Pacing, PadDirection, Pose, Snapshot};
 use glam::{Quat, Vec3};
 use std::sync::Arc;
 use xr_bindings::app::{EYE_FORMAT, HandReading, XrApp, XrError, XrSession};
@@ -119,6 +119,7 @@ fn between(a: &HandInput, b: &HandInput, s: f32) -> HandInput {
             trigger: a.buttons.trigger + (b.buttons.trigger - a.buttons.trigger) * s,
             grip: a.buttons.grip + (b.buttons.grip - a.buttons.grip) * s,
             mark: b.buttons.mark,
+            pad: b.buttons.pad,
         },
     }
 }
@@ -429,6 +430,7 @@ impl XrLoop {
                         trigger: r.trigger,
                         grip: if r.squeeze { 1.0 } else { 0.0 },
                         mark: r.click,
+                        pad: PadDirection::of_click(r.click, r.pad),
                     },
                 };
             }

@@ -568,6 +568,8 @@ pub struct HandReading {
     pub trigger: f32,
     pub squeeze: bool,
     pub click: bool,
+    /// The thumb on the trackpad (or the thumbstick), x right and y up, -1 to 1.
+    pub pad: [f32; 2],
     /// Some binding of the hand is active (the controller is there).
     pub active: bool,
 }
@@ -607,10 +609,15 @@ impl XrSession {
                 "xrGetActionStateBoolean",
                 c.click.state(&self.session, path),
             )?;
+            let pad = call(
+                "xrGetActionStateVector2f",
+                c.trackpad.state(&self.session, path),
+            )?;
             let pose_active = call("xrGetActionStatePose", c.aim.is_active(&self.session, path))?;
             r.trigger = trigger.current_state;
             r.squeeze = squeeze.current_state;
             r.click = click.current_state;
+            r.pad = [pad.current_state.x, pad.current_state.y];
             r.active = pose_active || trigger.is_active;
             let loc = call("xrLocateSpace", self.aim[h].locate(&self.stage, time))?;
             let f = loc.location_flags;

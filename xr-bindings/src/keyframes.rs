@@ -2,7 +2,9 @@
 //! sessions and the simulated OpenXR runtime, which plays the same file as head and controller
 //! motion. Positions are metres in the operating field's frame (see [`crate::stage`]); each
 //! hand's instrument points from `position` to `target`; values interpolate linearly between
-//! keys and `mark` holds until the next key. `[[head]]` keys are optional (the runtime's
+//! keys and `mark` and `pad` hold until the next key. `pad = "up"` (`"down"`, `"left"`,
+//! `"right"`) is the trackpad clicked at that edge (or a thumbstick pushed and pressed): the
+//! click is down too, as on the controller. `[[head]]` keys are optional (the runtime's
 //! default head is [`crate::stage::DEFAULT_HEAD`]; headless sessions ignore them).
 //!
 //! Two optional top-level features describe a person's hand motion compactly (see
@@ -74,6 +76,49 @@ pub struct HandKey {
     /// The mark button (trackpad click) is down.
     #[serde(default)]
     pub mark: bool,
+    /// The trackpad is clicked at one edge (a d-pad press); the click is down with it.
+    #[serde(default)]
+    pub pad: Option<PadDirection>,
+}
+
+/// Which edge of the trackpad (or which way the thumbstick) a press is at.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PadDirection {
+    Up,
+    Down,
+    Left,
+    Right,
+}
+
+impl PadDirection {
+    pub const ALL: [PadDirection; 4] = [Self::Up, Self::Down, Self::Left, Self::Right];
+
+    /// The trackpad position of a press at this edge (x right, y up, each -1 to 1).
+    pub fn axes(self) -> [f32; 2] {
+        match self {
+            Self::Up => [0.0, 1.0],
+            Self::Down => [0.0, -1.0],
+            Self::Left => [-1.0, 0.0],
+            Self::Right => [1.0, 0.0],
+        }
+    }
+
+    /// The edge a click at trackpad position `axes` is at: none within half the pad's
+    /// radius of its centre (a plain click), else the nearer axis's end.
+    pub fn of_click(click: bool, axes: [f32; 2]) -> Option<Self> {
+        let [x, y] = axes;
+        if !(click && x.is_finite() && y.is_finite()) || x * x + y * y < 0.25 {
+            return None;
+        }
+        Some(if x.abs() > y.abs() {
+            if x > 0.0 { Self::Right } else { Self::Left }
+        } else if y > 0.0 {
+            Self::Up
+        } else {
+            Self::Down
+        })
+    }
 }
 
 /// One keyframe of the head: where the eyes' midpoint is and a point it looks at, metres.
@@ -251,7 +296,9 @@ pub struct HandSample {
     pub target: Vec3,
     pub trigger: f32,
     pub grip: f32,
+    /// The click: the key's mark, or its pad press.
     pub mark: bool,
+    pub pad: Option<PadDirection>,
 }
 
 /// The two keys around `t` and how far between them (0 to 1). `keys` must not be empty.
@@ -281,7 +328,8 @@ pub fn sample_hand(keys: &[HandKey], t_s: f64) -> Option<HandSample> {
         target: Vec3::from(a.target).lerp(Vec3::from(b.target), s),
         trigger: a.trigger + (b.trigger - a.trigger) * s,
         grip: a.grip + (b.grip - a.grip) * s,
-        mark: a.mark,
+        mark: a.mark || a.pad.is_some(),
+        pad: a.pad,
     })
 }
 
@@ -362,6 +410,33 @@ mark = true
         // No head keys: the default head.
         let (p, _) = sample_head(&f.head, 1.0);
         assert_eq!(p, Vec3::from(crate::stage::DEFAULT_HEAD.0));
+    }
+
+    /// A pad press holds until the next key and clicks the pad; a press is read back from
+    /// the pad's position only at its edges.
+    #[test]
+    fn a_pad_press_is_a_click_at_an_edge() {
+        let f =
+            KeyframeFile::parse(&TWO_KEYS.replace("mark = true", "pad = \"left\"")).expect("valid");
+        let h = sample_hand(&f.right, 3.0).expect("keys");
+        assert_eq!((h.pad, h.mark), (Some(PadDirection::Left), true));
+        assert_eq!(sample_hand(&f.right, 1.0).expect("keys").pad, None);
+        for d in PadDirection::ALL {
+            assert_eq!(PadDirection::of_click(true, d.axes()), Some(d));
+            assert_eq!(PadDirection::of_click(false, d.axes()), None);
+        }
+        assert_eq!(PadDirection::of_click(true, [0.3, -0.3]), None);
+        assert_eq!(
+            PadDirection::of_click(true, [0.4, -0.6]),
+            Some(PadDirection::Down)
+        );
+        assert_eq!(PadDirection::of_click(true, [f32::NAN, 1.0]), None);
+        let bad =
+            KeyframeFile::parse(&TWO_KEYS.replace("mark = true", "pad = \"north\"")).unwrap_err();
+        assert!(
+            bad.message.contains("line 15") && bad.message.contains("expected one of `up`"),
+            "{bad:?}"
+        );
     }
 
     #[test]

@@ -14,7 +14,7 @@ use crate::imaging::xray::{Body, Material, Scene};
 use crate::models::skeleton::in_vessel::CatheterInVessel;
 use crate::param_fields;
 use crate::params::{ParamSpec, Params};
-use crate::sim::{Hand, InputFrame};
+use crate::sim::{Hand, InputFrame, PadDirection};
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -194,7 +194,19 @@ pub struct Console {
     /// Contrast injected, mL, and the puffs.
     pub contrast_ml: f64,
     pub contrast_runs: u32,
+    /// Where the arm and the table are: LAO (negative: RAO) and cranial (negative: caudal),
+    /// degrees; the table's travel towards the head and the patient's left, cm; the
+    /// detector's field, cm.
+    pub lao_deg: f64,
+    pub cranial_deg: f64,
+    pub table_cm: [f64; 2],
+    pub field_cm: f64,
 }
+
+/// How fast the arm turns while its pad is held, degrees a second (a motorised C-arm's
+/// range), and how fast the table travels, m/s.
+pub const ARM_DEG_PER_S: f64 = 15.0;
+pub const TABLE_M_PER_S: f64 = 0.05;
 
 /// The fluoroscope, the contrast and the controls' last state.
 pub struct Imaging {
@@ -207,7 +219,9 @@ pub struct Imaging {
     /// What the monitor shows now (made again after each pulse and roadmap toggle).
     pub picture: Option<Arc<Picture>>,
     injecting: bool,
+    /// The clicks at the last step: the imaging hand's (the roadmap), the other's (zoom).
     mark: bool,
+    zoom_click: bool,
 }
 
 impl Imaging {
@@ -273,13 +287,21 @@ impl Imaging {
             picture: None,
             injecting: false,
             mark: false,
+            zoom_click: false,
         }
     }
 
-    /// One step of `dt_s` under the left hand's controls: the contrast moves on (a puff at
-    /// the catheter's tip while the grip is held), the pedal's pulses fire and are exposed
-    /// (noise seeded by `step`), the roadmap toggles on a press of the primary button.
+    /// One step of `dt_s` under the hands' controls. The left hand's: the contrast moves on
+    /// (a puff at the catheter's tip while the grip is held), the pedal's pulses fire and
+    /// are exposed (noise seeded by `step`), a click in the pad's centre toggles the roadmap,
+    /// and the pad held at an edge turns the arm (right: LAO, left: RAO, up: cranial, down:
+    /// caudal). The right hand's pad (its trigger and grip steer the catheter): held at an
+    /// edge it moves the table (up: towards the head, right: towards the patient's left),
+    /// and a click in its centre steps the zoom.
     pub fn step(&mut self, input: &InputFrame, scene: &CatheterInVessel, dt_s: f64, step: u64) {
+        let had_roadmap = self.scope.has_roadmap();
+        self.work_the_arm(input, dt_s);
+        let lost_roadmap = had_roadmap && !self.scope.has_roadmap();
         let b = input.hand(Hand::Left).buttons;
         let inject = b.grip > 0.5;
         let puff = if inject {
@@ -296,11 +318,14 @@ impl Imaging {
         if let Some(c) = &mut self.contrast {
             c.step(puff);
         }
-        let mut changed = b.mark && !self.mark;
-        if changed {
+        // A click at the pad's edge is the arm's, not the roadmap's.
+        let click = b.mark && b.pad.is_none();
+        let toggled = click && !self.mark;
+        let mut changed = toggled || lost_roadmap;
+        if toggled {
             self.scope.roadmap_on = !self.scope.roadmap_on;
         }
-        self.mark = b.mark;
+        self.mark = click;
         if self.scope.step(dt_s, b.trigger > 0.5) {
             let (xray, filled) = self.scene(scene);
             self.scope.expose(&xray, filled, step);
@@ -313,6 +338,39 @@ impl Imaging {
         let c = &mut self.console;
         (c.fluoro_time_s, c.fluoro_runs, c.pulses) = (d.fluoro_time_s, d.runs, d.pulses);
         (c.dap_gy_cm2, c.reference_kerma_mgy) = (d.dap_gy_cm2, d.reference_kerma_mgy);
+        let p = self.scope.pose;
+        (c.lao_deg, c.cranial_deg) = (p.lao_deg, p.cranial_deg);
+        c.table_cm = p.pan_m.map(|m| m * 100.0);
+        c.field_cm = self.scope.field_m() * 100.0;
+    }
+
+    /// The arm and the table under the pads (see [`Imaging::step`]).
+    fn work_the_arm(&mut self, input: &InputFrame, dt_s: f64) {
+        let turn = ARM_DEG_PER_S * dt_s;
+        let (d_lao, d_cranial) = match input.hand(Hand::Left).buttons.pad {
+            Some(PadDirection::Right) => (turn, 0.0),
+            Some(PadDirection::Left) => (-turn, 0.0),
+            Some(PadDirection::Up) => (0.0, turn),
+            Some(PadDirection::Down) => (0.0, -turn),
+            None => (0.0, 0.0),
+        };
+        let r = input.hand(Hand::Right).buttons;
+        let travel = TABLE_M_PER_S * dt_s;
+        let pan = match r.pad {
+            Some(PadDirection::Up) => [travel, 0.0],
+            Some(PadDirection::Down) => [-travel, 0.0],
+            Some(PadDirection::Right) => [0.0, travel],
+            Some(PadDirection::Left) => [0.0, -travel],
+            None => [0.0; 2],
+        };
+        if d_lao != 0.0 || d_cranial != 0.0 || pan != [0.0; 2] {
+            self.scope.move_by(d_lao, d_cranial, pan);
+        }
+        let zoom = r.mark && r.pad.is_none();
+        if zoom && !self.zoom_click {
+            self.scope.next_zoom();
+        }
+        self.zoom_click = zoom;
     }
 
     /// The X-ray scene now, and whether any contrast is in it: the soft tissue (a slab

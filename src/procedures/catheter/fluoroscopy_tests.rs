@@ -26,6 +26,7 @@ fn input(trigger: f32, grip: f32, mark: bool) -> InputFrame {
         trigger,
         grip,
         mark,
+        pad: None,
     };
     f.hands[0] = hand(Vec3::new(-0.05, -0.04, 0.03), left);
     f.hands[1] = hand(Vec3::new(-0.1, 0.0, 0.0), Buttons::default());
@@ -243,4 +244,66 @@ fn a_scenario_without_fluoroscopy_gets_its_defaults_and_a_bad_value_is_named() {
         said.contains("tuned.toml") && said.contains("fluoroscopy") && said.contains("pulse_hz"),
         "{said}"
     );
+}
+
+/// The left pad held at its right edge turns the arm towards LAO at the arm's rate, its top
+/// edge tilts it cranial; the right pad moves the table and its centre click steps the zoom;
+/// the pad's edge clicks do not toggle the roadmap, and turning the arm loses it.
+#[test]
+fn the_pads_turn_the_arm_move_the_table_and_zoom() {
+    let mut p = procedure();
+    let dt = f64::from(p.scenario.dt_s);
+    let press = |left: Option<PadDirection>, right: Option<PadDirection>, right_click: bool| {
+        let mut f = input(0.0, 0.0, left.is_some());
+        f.hands[0].buttons.pad = left;
+        f.hands[1].buttons.pad = right;
+        f.hands[1].buttons.mark = right_click || right.is_some();
+        f
+    };
+    // A run with a puff, so that there is a roadmap; then the roadmap on.
+    let mut k = run(&mut p, 0, 0.3, input(1.0, 0.0, false));
+    k = run(&mut p, k, 0.6, input(1.0, 1.0, false));
+    k = run(&mut p, k, 0.1, input(0.0, 0.0, true));
+    k = run(&mut p, k, 0.1, input(0.0, 0.0, false));
+    assert!(p.imaging.scope.roadmap_on && p.imaging.scope.has_roadmap());
+    // One second of the right edge: 15 degrees LAO (to the step's rounding); the roadmap is
+    // lost but still on, and the edge click did not toggle it.
+    k = run(
+        &mut p,
+        k,
+        1.0,
+        press(Some(PadDirection::Right), None, false),
+    );
+    let c = p.imaging.console;
+    let steps = (1.0 / dt).round();
+    assert!(
+        (c.lao_deg - ARM_DEG_PER_S * steps * dt).abs() < 1e-9,
+        "{c:?}"
+    );
+    assert_eq!(c.cranial_deg, 0.0);
+    assert!(p.imaging.scope.roadmap_on && !p.imaging.scope.has_roadmap());
+    // Half a second up: 7.5 degrees cranial.
+    k = run(&mut p, k, 0.5, press(Some(PadDirection::Up), None, false));
+    assert!((p.imaging.console.cranial_deg - 7.5).abs() < 0.05);
+    // The right pad's top edge for 0.4 s: the table 2 cm towards the head; its left edge
+    // 0.2 s: 1 cm towards the patient's right.
+    k = run(&mut p, k, 0.4, press(None, Some(PadDirection::Up), false));
+    k = run(&mut p, k, 0.2, press(None, Some(PadDirection::Left), false));
+    let t = p.imaging.console.table_cm;
+    assert!(
+        (t[0] - 2.0).abs() < 0.02 && (t[1] + 1.0).abs() < 0.02,
+        "{t:?}"
+    );
+    // A centre click on the right steps the zoom once however long it is held.
+    let field = p.imaging.console.field_cm;
+    k = run(&mut p, k, 0.3, press(None, None, true));
+    assert!((p.imaging.console.field_cm - 0.75 * field).abs() < 1e-9);
+    run(&mut p, k, 0.1, press(None, None, false));
+    assert!(
+        p.imaging.scope.roadmap_on,
+        "no edge click toggled the roadmap"
+    );
+    // The turned arm shows the vessel from the new angle: the beam has left the frontal.
+    let beam = p.imaging.scope.beam();
+    assert!(beam.dot(DVec3::Z).abs() < 0.99, "{beam}");
 }

@@ -372,6 +372,11 @@ impl Catheterisation {
         let dap = c.dap_gy_cm2.to_bits();
         h.write(dap as u32);
         h.write((dap >> 32) as u32);
+        for angle in [c.lao_deg, c.cranial_deg] {
+            let b = angle.to_bits();
+            h.write(b as u32);
+            h.write((b >> 32) as u32);
+        }
         h.0
     }
 }

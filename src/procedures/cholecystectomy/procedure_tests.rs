@@ -24,6 +24,7 @@ fn frame(right: Vec3, trigger: f32, mark: bool) -> InputFrame {
             trigger,
             grip: 0.0,
             mark,
+            pad: None,
         },
     };
     f

@@ -32,7 +32,7 @@ fn frame(left: Option<(Vec3, f32)>, right: Option<(Vec3, f32)>) -> InputFrame {
         buttons: Buttons {
             trigger,
             grip,
-            mark: false,
+            ..Buttons::default()
         },
     };
     let (l, grip) = left.unwrap_or((Vec3::new(-0.03, 0.05, 0.03), 0.0));

@@ -180,6 +180,10 @@ fn structural_errors_name_the_block_and_what_is_wrong() {
     let end = |seq, total| (seq, BlockKind::End, end_payload(total, "completed"));
     let mut nan = frame(0);
     nan.hands[1].buttons.grip = f32::NAN;
+    // A flag byte with a pad press code past right (5): the first hand's flags end its
+    // 9 floats.
+    let mut bad_pad = frames_payload(0, &[frame(0)]);
+    bad_pad[12 + 36] = 5 << 1;
     let mut bad_utf8 = header_payload(0.01, "dt_s = 0.01");
     bad_utf8[4] = 0xff; // inside the session id
     let unknown = {
@@ -232,6 +236,11 @@ fn structural_errors_name_the_block_and_what_is_wrong() {
             v3(&[h(), (1, BlockKind::Frames, frames_payload(0, &[nan]))]),
             "block 1",
             "frame 0: pose or button is not a finite number",
+        ),
+        (
+            v3(&[h(), (1, BlockKind::Frames, bad_pad)]),
+            "block 1",
+            "frame 0: button flags 0b00001010: only the mark bit and a pad press 0-4 exist",
         ),
         (
             v3(&[

@@ -48,6 +48,8 @@ fn frame(i: usize) -> InputFrame {
             trigger: (i % 10) as f32 / 10.0,
             grip: (i % 3) as f32 / 3.0 + k * 0.1,
             mark: i.is_multiple_of(7),
+            // Every press, and none, in turn.
+            pad: crate::sim::PadDirection::ALL.get(i % 6).copied(),
         },
     };
     InputFrame {

@@ -14,7 +14,7 @@ use crate::profiler::Tracked;
 use crate::render::gpu::{EYE_FORMAT, colour_texture, tracked_texture};
 use crate::render::{Gpu, RenderError, RenderTarget, Renderer};
 use crate::session::{Outcome, SessionError};
-use crate::sim::{Hand, InputFrame, Pacing};
+use crate::sim::{Hand, InputFrame, Pacing, PadDirection};
 use crate::xr::{MirrorEye, Tick, XrLoop, XrOptions, XrRunError};
 use arc_swap::ArcSwap;
 use glam::Vec2;
@@ -466,7 +466,29 @@ impl App {
         }
     }
 
+    /// Over the procedure's own picture (the X-ray) the arrows are its pads': held down they
+    /// turn the C-arm, with shift they move the table. True where the key was taken.
+    fn pad_key(&mut self, key: &Key, down: bool) -> bool {
+        let over_picture = self.picture.is_some() && !self.teaching_view;
+        let dir = match key {
+            Key::Named(NamedKey::ArrowLeft) => PadDirection::Left,
+            Key::Named(NamedKey::ArrowRight) => PadDirection::Right,
+            Key::Named(NamedKey::ArrowUp) => PadDirection::Up,
+            Key::Named(NamedKey::ArrowDown) => PadDirection::Down,
+            _ => return false,
+        };
+        match self.desktop.as_mut() {
+            Some((h, _)) if over_picture && down => h.pad_key(Some(dir), self.shift),
+            // Let go: both pads (shift may have been let go first).
+            Some((h, _)) => h.pad_key(None, false) && h.pad_key(None, true),
+            None => false,
+        }
+    }
+
     fn key(&mut self, key: &Key) {
+        if self.pad_key(key, true) {
+            return;
+        }
         let c = &mut self.camera;
         // Orbit 0.05 rad, pan 5 mm, zoom 10 % a press.
         let (turn, pan) = (0.05, 0.005);
@@ -624,6 +646,9 @@ impl ApplicationHandler for App {
                 if !used && event.state == ElementState::Pressed =>
             {
                 self.key(&event.logical_key);
+            }
+            WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Released => {
+                self.pad_key(&event.logical_key, false);
             }
             WindowEvent::RedrawRequested => {
                 if let Err(e) = self.redraw(el) {

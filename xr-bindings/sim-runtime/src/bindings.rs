@@ -87,6 +87,20 @@ fn component(rt: &Runtime, hand: usize, binding: &str, display_ns: i64) -> f32 {
     }
 }
 
+/// What a two-axis input (the trackpad, a thumbstick) reads on the trace at a display time:
+/// the thumb at the pressed edge, else at rest in the centre.
+fn axes(rt: &Runtime, hand: usize, binding: &str, display_ns: i64) -> [f32; 2] {
+    let pressed = rt
+        .trace
+        .as_ref()
+        .and_then(|trace| trace.sample_hand_of(hand, trace_time_s(display_ns)))
+        .and_then(|s| s.pad);
+    match (binding, pressed) {
+        ("/input/trackpad" | "/input/thumbstick", Some(d)) => d.axes(),
+        _ => [0.0; 2],
+    }
+}
+
 /// An action's value (largest over the hands it covers) and whether any bound controller is
 /// there, at the last sync and the one before.
 pub(crate) struct Reading {
@@ -94,6 +108,9 @@ pub(crate) struct Reading {
     pub(crate) now: f32,
     pub(crate) before: f32,
     pub(crate) changed_at_ns: i64,
+    /// A two-axis action's value (the hand's farthest from the centre), now and before.
+    pub(crate) axes: [f32; 2],
+    pub(crate) axes_before: [f32; 2],
 }
 
 pub(crate) fn read(
@@ -122,6 +139,8 @@ pub(crate) fn read(
         now: 0.0,
         before: 0.0,
         changed_at_ns: 0,
+        axes: [0.0; 2],
+        axes_before: [0.0; 2],
     };
     if t == 0 {
         return Ok(r);
@@ -136,9 +155,22 @@ pub(crate) fn read(
             if t0 > 0 {
                 r.before = r.before.max(component(rt, h, b, t0));
             }
+            if kind == sys::ActionType::VECTOR2F_INPUT {
+                let far = |a: [f32; 2], b: [f32; 2]| {
+                    if b[0].hypot(b[1]) > a[0].hypot(a[1]) {
+                        b
+                    } else {
+                        a
+                    }
+                };
+                r.axes = far(r.axes, axes(rt, h, b, t));
+                if t0 > 0 {
+                    r.axes_before = far(r.axes_before, axes(rt, h, b, t0));
+                }
+            }
         }
     }
-    if r.now != r.before {
+    if r.now != r.before || r.axes != r.axes_before {
         r.changed_at_ns = t;
     }
     Ok(r)

@@ -348,11 +348,14 @@ unsafe extern "system" fn state_vector2(
 ) -> sys::Result {
     // SAFETY: the caller passes a writable state or null (rejected).
     let state = xr_try!(unsafe { arg_mut(state) });
-    // The trace has no trackpad position: the thumb rests at the centre.
+    // The trace's pad presses put the thumb at the pressed edge; else it rests at the centre.
     let r = xr_try!(with_reading(session, info, sys::ActionType::VECTOR2F_INPUT));
-    state.current_state = sys::Vector2f { x: 0.0, y: 0.0 };
-    state.changed_since_last_sync = false.into();
-    state.last_change_time = sys::Time::from_nanos(0);
+    state.current_state = sys::Vector2f {
+        x: r.axes[0],
+        y: r.axes[1],
+    };
+    state.changed_since_last_sync = (r.active && r.axes != r.axes_before).into();
+    state.last_change_time = sys::Time::from_nanos(r.changed_at_ns);
     state.is_active = r.active.into();
     sys::Result::SUCCESS
 }
