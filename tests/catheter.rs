@@ -4,7 +4,7 @@
 //! worker threads give the same bytes, and the recording replays byte for byte.
 
 mod common;
-use common::{bin, report, tmp, without_id};
+use common::{bin, ok, report, tmp, without_id};
 use std::path::Path;
 
 fn run(dir: &Path, threads: &str) -> Vec<u8> {
@@ -168,27 +168,25 @@ fn the_pads_turn_the_c_arm_and_move_the_table_headless_and_in_the_headset() {
         let table = f["table_cm"][0].as_f64().unwrap_or(f64::NAN);
         (num("lao_deg"), num("cranial_deg"), table)
     };
-    let o = bin()
+    ok(&bin()
         .args(["run", "catheter", "--headless", "--trace"])
         .arg(&file)
         .arg("--out")
         .arg(d.join("headless"))
         .output()
-        .expect("runs");
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        .expect("runs"));
     let (lao, cranial, table) = console(&d.join("headless"));
     assert!((lao - 15.0).abs() < 0.05, "LAO {lao}");
     assert!((cranial - 7.5).abs() < 0.05, "cranial {cranial}");
     assert!((table - 2.0).abs() < 0.01, "table {table} cm");
-    let o = bin()
+    ok(&bin()
         .args(["run", "catheter", "--xr-sim"])
         .arg(&file)
         .arg("--out")
         .arg(d.join("xr"))
         .args(["--eye-size", "64x64", "--no-window", "--xr-duration", "2.3"])
         .output()
-        .expect("runs");
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        .expect("runs"));
     let (xlao, xcranial, xtable) = console(&d.join("xr"));
     // A display frame is 11.1 ms: 0.17 degrees of turn, 0.06 cm of table.
     assert!(
