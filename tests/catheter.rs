@@ -128,6 +128,20 @@ fn headless_frames_write_the_fluoroscopes_picture() {
     let dark = grey.iter().filter(|&&g| g < 40).count();
     let light = grey.iter().filter(|&&g| g > 200).count();
     assert!(dark > 300 && light > 10_000, "dark {dark}, light {light}");
+    // The HTML report's key frames are those pictures, and it has the console's table.
+    let html = d.join("report.html");
+    let said = ok(&bin()
+        .arg("report")
+        .arg(d.join("out"))
+        .arg("--html")
+        .arg(&html)
+        .output()
+        .expect("runs"));
+    assert!(said.contains("3 key frames"), "{said}");
+    let page = std::fs::read_to_string(&html).expect("the page");
+    let last = std::fs::read(&png).expect("the picture");
+    assert!(page.contains(&vesalius::assess::html::base64(&last)));
+    assert!(page.contains("<td>fluoroscopy runs</td><td>3</td>"));
 }
 
 /// The C-arm under the pads, headless and in the headset under the simulated runtime: the

@@ -247,6 +247,7 @@ pub fn page(report: &Value, events: &[Value], frames: &[Vec<u8>]) -> String {
     }
     h.push_str("</table>");
     motion_table(&mut h, &report["motion"]);
+    console_table(&mut h, &report["metrics"]["fluoroscopy"]);
     h.push_str("<h2>Over time</h2>");
     let timeline = report["timeline"].as_array().cloned().unwrap_or_default();
     let dt = report["dt_s"].as_f64().unwrap_or(0.0);
@@ -349,6 +350,47 @@ fn motion_table(h: &mut String, motion: &Value) {
     h.push_str("</table>");
 }
 
+/// An interventional console's figures (`metrics.fluoroscopy`, where the procedure works
+/// under fluoroscopy): the dose and contrast an interventional educator reads first.
+fn console_table(h: &mut String, console: &Value) {
+    let Some(c) = console.as_object() else { return };
+    const ROWS: [(&str, &str, &str); 9] = [
+        ("fluoro_time_s", "fluoroscopy time", "s"),
+        ("fluoro_runs", "fluoroscopy runs", ""),
+        ("pulses", "pulses", ""),
+        (
+            "reference_kerma_mgy",
+            "air kerma at the reference point",
+            "mGy",
+        ),
+        ("dap_gy_cm2", "dose-area product", "Gy cm²"),
+        ("contrast_ml", "contrast", "mL"),
+        ("contrast_runs", "contrast puffs", ""),
+        ("lao_deg", "C-arm at the end: LAO (negative: RAO)", "°"),
+        (
+            "cranial_deg",
+            "C-arm at the end: cranial (negative: caudal)",
+            "°",
+        ),
+    ];
+    h.push_str(
+        "<h2>Fluoroscopy and contrast</h2><table id=\"console\"><tr><th>measure</th>\
+         <th>value</th><th>unit</th></tr>",
+    );
+    for (key, label, unit) in ROWS {
+        // Counts as they are; measures as `num` writes them.
+        let value = match c.get(key) {
+            Some(v) if v.is_u64() => v.to_string(),
+            v => num(v.and_then(Value::as_f64)),
+        };
+        let _ = write!(
+            h,
+            "<tr><td>{label}</td><td>{value}</td><td>{unit}</td></tr>"
+        );
+    }
+    h.push_str("</table>");
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -390,5 +432,34 @@ mod tests {
         assert!(svg.contains("points=\"56.0,192.0 632.0,16.8\""), "{svg}");
         assert!(svg.contains("x1=\"344.0\""), "{svg}");
         assert!(svg.contains("speed &lt;m/s&gt;"));
+    }
+
+    /// A report with an interventional console gets its table, each figure as `num` writes
+    /// it; one without gets none.
+    #[test]
+    fn the_console_shows_where_the_report_has_one() {
+        let report = serde_json::json!({
+            "metrics": {"fluoroscopy": {
+                "fluoro_time_s": 4.8, "fluoro_runs": 3, "pulses": 38,
+                "reference_kerma_mgy": 0.76, "dap_gy_cm2": 0.0921, "contrast_ml": 3.6,
+                "contrast_runs": 2, "lao_deg": -15.0, "cranial_deg": 0.0
+            }}
+        });
+        let page = page(&report, &[], &[]);
+        assert!(page.contains("<table id=\"console\">"));
+        for row in [
+            format!(
+                "<td>fluoroscopy time</td><td>{}</td><td>s</td>",
+                num(Some(4.8))
+            ),
+            format!("<td>dose-area product</td><td>{}</td>", num(Some(0.0921))),
+            format!("<td>contrast</td><td>{}</td><td>mL</td>", num(Some(3.6))),
+            format!("(negative: RAO)</td><td>{}</td>", num(Some(-15.0))),
+            "<td>fluoroscopy runs</td><td>3</td>".to_string(),
+        ] {
+            assert!(page.contains(&row), "{row}");
+        }
+        let plain = super::page(&serde_json::json!({"metrics": {}}), &[], &[]);
+        assert!(!plain.contains("id=\"console\""));
     }
 }

@@ -457,18 +457,27 @@ pub fn report(session: &str, html: &Path, db: Option<PathBuf>) -> Result<(), Cli
                 .filter_map(|l| serde_json::from_str(l).ok())
                 .collect();
         }
-        let mut lefts: Vec<PathBuf> = std::fs::read_dir(dir.join("frames"))
-            .map(|d| {
-                d.filter_map(|e| e.ok().map(|e| e.path()))
-                    .filter(|p| {
-                        p.file_name()
-                            .and_then(|n| n.to_str())
-                            .is_some_and(|n| n.starts_with("left_") && n.ends_with(".png"))
-                    })
-                    .collect()
-            })
-            .unwrap_or_default();
-        lefts.sort();
+        // The procedure's own pictures where it has them (a fluoroscope's: what the trainee
+        // worked by), else the left eyes.
+        let pictures = |prefix: &str| -> Vec<PathBuf> {
+            let mut found: Vec<PathBuf> = std::fs::read_dir(dir.join("frames"))
+                .map(|d| {
+                    d.filter_map(|e| e.ok().map(|e| e.path()))
+                        .filter(|p| {
+                            p.file_name()
+                                .and_then(|n| n.to_str())
+                                .is_some_and(|n| n.starts_with(prefix) && n.ends_with(".png"))
+                        })
+                        .collect()
+                })
+                .unwrap_or_default();
+            found.sort();
+            found
+        };
+        let mut lefts = pictures("fluoro_");
+        if lefts.is_empty() {
+            lefts = pictures("left_");
+        }
         let step = lefts.len().div_ceil(KEY_FRAMES).max(1);
         frames = lefts
             .iter()

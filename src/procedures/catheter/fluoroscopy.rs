@@ -203,6 +203,48 @@ pub struct Console {
     pub field_cm: f64,
 }
 
+impl Console {
+    /// The console's lines for a live panel: fluoroscopy time and runs, the dose at the
+    /// reference point and the dose-area product, the contrast, the arm's angles and the
+    /// field.
+    pub fn figures(&self) -> Vec<(String, String)> {
+        let angle = |deg: f64, plus: &str, minus: &str| {
+            format!("{} {:.0}", if deg < 0.0 { minus } else { plus }, deg.abs())
+        };
+        vec![
+            (
+                "fluoroscopy".to_string(),
+                format!(
+                    "{:.1} s, {} run{}",
+                    self.fluoro_time_s,
+                    self.fluoro_runs,
+                    if self.fluoro_runs == 1 { "" } else { "s" }
+                ),
+            ),
+            (
+                "dose".to_string(),
+                format!(
+                    "{:.2} mGy, {:.3} Gy cm2",
+                    self.reference_kerma_mgy, self.dap_gy_cm2
+                ),
+            ),
+            (
+                "contrast".to_string(),
+                format!("{:.1} mL in {}", self.contrast_ml, self.contrast_runs),
+            ),
+            (
+                "C-arm".to_string(),
+                format!(
+                    "{}, {} deg, {:.0} cm field",
+                    angle(self.lao_deg, "LAO", "RAO"),
+                    angle(self.cranial_deg, "cran", "caud"),
+                    self.field_cm
+                ),
+            ),
+        ]
+    }
+}
+
 /// How fast the arm turns while its pad is held, degrees a second (a motorised C-arm's
 /// range), and how fast the table travels, m/s.
 pub const ARM_DEG_PER_S: f64 = 15.0;

@@ -306,4 +306,11 @@ fn the_pads_turn_the_arm_move_the_table_and_zoom() {
     // The turned arm shows the vessel from the new angle: the beam has left the frontal.
     let beam = p.imaging.scope.beam();
     assert!(beam.dot(DVec3::Z).abs() < 0.99, "{beam}");
+    // The panel's line for the arm: 15 degrees LAO, the 20 cm field at 75 %.
+    let figures = p.imaging.console.figures();
+    let arm = figures.iter().find(|(k, _)| k == "C-arm").expect("the arm");
+    assert!(
+        arm.1.starts_with("LAO 15, cran ") && arm.1.ends_with(" deg, 15 cm field"),
+        "{arm:?}"
+    );
 }

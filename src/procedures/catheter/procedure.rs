@@ -395,7 +395,8 @@ struct WrongBranch {
 
 impl Catheterisation {
     /// The panel's live part: the handle's path, the force, the peak force, the wall
-    /// contacts and the reach into the branch (nothing here is vulnerable to touch).
+    /// contacts and the reach into the branch (nothing here is vulnerable to touch), then
+    /// the interventional console's figures.
     pub(super) fn panel(&self, _near_m: f32) -> TaskStatus {
         let m = &self.metrics;
         TaskStatus {
@@ -411,7 +412,10 @@ impl Catheterisation {
                     "into the branch".to_string(),
                     format!("{:.0} mm", 1e3 * m.reach_m),
                 ),
-            ],
+            ]
+            .into_iter()
+            .chain(self.imaging.console.figures())
+            .collect(),
             ..TaskStatus::default()
         }
     }
