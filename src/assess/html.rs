@@ -323,7 +323,6 @@ pub fn page(report: &Value, events: &[Value], frames: &[Vec<u8>]) -> String {
 /// The motion analysis (`report.json`'s `motion`), one row a measure (nothing for an old
 /// report without it).
 fn motion_table(h: &mut String, motion: &Value) {
-    let Some(m) = motion.as_object() else { return };
     const ROWS: [(&str, &str, &str); 10] = [
         ("path_m", "path of both tips", "m"),
         ("left_path_m", "path of the left tip", "m"),
@@ -336,24 +335,12 @@ fn motion_table(h: &mut String, motion: &Value) {
         ("bimanual", "bimanual speed correlation", ""),
         ("instruments", "instruments that worked", ""),
     ];
-    h.push_str(
-        "<h2>Motion analysis</h2><table id=\"motion\"><tr><th>measure</th><th>value</th>\
-         <th>unit</th></tr>",
-    );
-    for (key, label, unit) in ROWS {
-        let _ = write!(
-            h,
-            "<tr><td>{label}</td><td>{}</td><td>{unit}</td></tr>",
-            num(m.get(key).and_then(Value::as_f64))
-        );
-    }
-    h.push_str("</table>");
+    measures(h, ("Motion analysis", "motion"), motion, &ROWS, false);
 }
 
 /// An interventional console's figures (`metrics.fluoroscopy`, where the procedure works
 /// under fluoroscopy): the dose and contrast an interventional educator reads first.
 fn console_table(h: &mut String, console: &Value) {
-    let Some(c) = console.as_object() else { return };
     const ROWS: [(&str, &str, &str); 9] = [
         ("fluoro_time_s", "fluoroscopy time", "s"),
         ("fluoro_runs", "fluoroscopy runs", ""),
@@ -373,14 +360,34 @@ fn console_table(h: &mut String, console: &Value) {
             "°",
         ),
     ];
-    h.push_str(
-        "<h2>Fluoroscopy and contrast</h2><table id=\"console\"><tr><th>measure</th>\
-         <th>value</th><th>unit</th></tr>",
+    measures(
+        h,
+        ("Fluoroscopy and contrast", "console"),
+        console,
+        &ROWS,
+        true,
     );
-    for (key, label, unit) in ROWS {
-        // Counts as they are; measures as `num` writes them.
-        let value = match c.get(key) {
-            Some(v) if v.is_u64() => v.to_string(),
+}
+
+/// A table of measures under a heading (`title`, the table's `id`): one row for each of
+/// `rows` (key in `values`, label, unit); nothing where `values` is not an object. Counts
+/// are written as integers where `counts` says so; measures as [`num`] writes them.
+fn measures(
+    h: &mut String,
+    (title, id): (&str, &str),
+    values: &Value,
+    rows: &[(&str, &str, &str)],
+    counts: bool,
+) {
+    let Some(m) = values.as_object() else { return };
+    let _ = write!(
+        h,
+        "<h2>{title}</h2><table id=\"{id}\"><tr><th>measure</th><th>value</th>\
+         <th>unit</th></tr>"
+    );
+    for (key, label, unit) in rows {
+        let value = match m.get(*key) {
+            Some(v) if counts && v.is_u64() => v.to_string(),
             v => num(v.and_then(Value::as_f64)),
         };
         let _ = write!(
