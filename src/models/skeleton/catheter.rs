@@ -171,7 +171,14 @@ impl Catheter {
     /// One sub-step of `dt_s` under the device's drive and the contact forces on each ball
     /// (after [`Catheter::orient`] for the step).
     pub fn step(&mut self, drive: &Drive, contact: &[DVec3], dt_s: f64) {
-        let n = self.balls.len();
+        let v0 = self.gather(drive, contact, dt_s);
+        self.advance(dt_s, v0);
+    }
+
+    /// The first half of a substep: the handle moved by the drive and the forces gathered
+    /// (contact, springs, bending). Returns the handle's speed, for [`Catheter::advance`].
+    /// A guidewire inside adds its lumen forces between the two.
+    pub fn gather(&mut self, drive: &Drive, contact: &[DVec3], dt_s: f64) -> DVec3 {
         let p = self.params;
         // The handle: kinematic, along the axis, at most `HANDLE_M_PER_S` fast (a drive that
         // jumps is followed, not obeyed at once).
@@ -188,6 +195,13 @@ impl Catheter {
         }
         add_spring_forces(&mut self.balls, &self.springs);
         add_angle_forces(&mut self.balls, &self.angles);
+        v0
+    }
+
+    /// The second half: the balls moved under the gathered forces, the sheath, the twist.
+    pub fn advance(&mut self, dt_s: f64, v0: DVec3) {
+        let n = self.balls.len();
+        let p = self.params;
         self.balls.integrate(dt_s);
         self.balls.v[0] = v0;
         // The sheath: behind the entry, on the axis.
@@ -257,7 +271,7 @@ impl Catheter {
 }
 
 /// A unit vector across `axis`: `+y` made perpendicular to it (or `+z` for an axis along y).
-fn any_across(axis: DVec3) -> DVec3 {
+pub(super) fn any_across(axis: DVec3) -> DVec3 {
     let y = DVec3::Y - axis * axis.dot(DVec3::Y);
     if y.length_squared() > 1e-12 {
         y.normalize()

@@ -13,6 +13,7 @@ pub mod bending;
 pub mod catheter;
 pub mod collision;
 pub mod contact;
+pub mod guidewire;
 pub mod in_vessel;
 pub mod model;
 pub mod vessel;

@@ -1,0 +1,300 @@
+//! The guidewire: a thin chain of skeleton balls run inside the catheter's lumen, fed and
+//! turned on its own. Its bending is the same angle springs as the catheter's, set from the
+//! wire's flexural rigidity `EI` (a discretised rod: `k_t = EI / lambda` at each inner ball
+//! `lambda` apart), stiff along its core and soft over its distal tip, which rests straight
+//! or curved into a J (a shapeable tip, curved at rest through `j_angle_deg` over its soft
+//! part, in the plane the wire's twist turns). Guidewires carry torque almost one to one, so
+//! the tip's plane is the handle's twist, without the catheter's torsion dynamics.
+//!
+//! Inside the catheter the lumen holds the wire on the catheter's axis ([`coaxial`]): each
+//! wire ball inside is pulled towards the nearest point of the catheter's centreline, and
+//! the two balls of that segment take the opposite force, split by where the point lies.
+//! Along the axis the wire slides freely (a lubricious coating). Held together, the two bend
+//! as one rod whose rigidity is the sum of theirs; past the catheter's tip the wire leads
+//! on its own.
+//!
+//! Material figures are ours (the catheter paper has no guidewire): a nitinol core of
+//! 6,450 kg/m^3 in a 0.9 mm (0.035 in) wire, `EI` of the order of a diagnostic wire's.
+
+use super::catheter::{Catheter, Drive};
+use super::{AngleSpring, Balls, LinearSpring, add_angle_forces, add_spring_forces};
+use glam::{DQuat, DVec3};
+
+/// The wire's size and materials.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GuidewireParams {
+    pub length_m: f64,
+    pub diameter_m: f64,
+    pub density_kg_per_m3: f64,
+    /// The balls' spacing along the wire, m.
+    pub spacing_m: f64,
+    /// Each segment's axial spring, N/m, and the springs' damping, N/(m/s).
+    pub axial_n_per_m: f64,
+    pub damping_n_s_per_m: f64,
+    /// Flexural rigidity of the core and of the soft tip, N m^2.
+    pub core_ei_n_m2: f64,
+    pub tip_ei_n_m2: f64,
+    /// The soft tip's length, m, and its curve at rest (0: straight; a J at 90 to 180).
+    pub tip_length_m: f64,
+    pub j_angle_deg: f64,
+    /// The lumen's hold on each wire ball inside the catheter, N/m, and its damping.
+    pub lumen_n_per_m: f64,
+    pub lumen_damping_n_s_per_m: f64,
+}
+
+impl Default for GuidewireParams {
+    fn default() -> Self {
+        GuidewireParams {
+            length_m: 0.150,
+            diameter_m: 0.0009,
+            density_kg_per_m3: 6450.0,
+            spacing_m: 0.005,
+            axial_n_per_m: 100.0,
+            damping_n_s_per_m: 0.002,
+            core_ei_n_m2: 2.0e-5,
+            tip_ei_n_m2: 2.0e-6,
+            tip_length_m: 0.020,
+            j_angle_deg: 0.0,
+            lumen_n_per_m: 50.0,
+            lumen_damping_n_s_per_m: 0.002,
+        }
+    }
+}
+
+/// What the hand asks of the wire this step.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct WireDrive {
+    /// How far the wire's tip is past the entry along its axis when straight, m.
+    pub insertion_m: f64,
+    /// The handle's twist, rad: the tip's curve turns with it.
+    pub twist_rad: f64,
+}
+
+/// The fastest the wire's handle follows the hand, m/s.
+pub const WIRE_HANDLE_M_PER_S: f64 = 0.5;
+
+/// The guidewire: balls (0 at the handle, the last the tip), springs and where it enters.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Guidewire {
+    pub balls: Balls,
+    pub springs: Vec<LinearSpring>,
+    pub angles: Vec<AngleSpring>,
+    pub entry: DVec3,
+    pub axis: DVec3,
+    /// The balls of the soft tip (the last ones).
+    pub tip_balls: usize,
+    pub params: GuidewireParams,
+}
+
+impl Guidewire {
+    /// A straight wire along `axis` with its tip at `entry` (all of it behind the entry).
+    pub fn new(p: &GuidewireParams, entry: DVec3, axis: DVec3) -> Guidewire {
+        let axis = axis.normalize_or(DVec3::X);
+        let r = 0.5 * p.diameter_m;
+        let n = ((p.length_m / p.spacing_m).round() as usize + 1).max(3);
+        let spacing = p.length_m / (n - 1) as f64;
+        let area = std::f64::consts::PI * r * r;
+        let mut balls = Balls::default();
+        for i in 0..n {
+            let share = if i == 0 || i == n - 1 { 0.5 } else { 1.0 };
+            let m = p.density_kg_per_m3 * area * spacing * share;
+            balls.push(entry - axis * (p.length_m - spacing * i as f64), m, r);
+        }
+        balls.fixed[0] = true;
+        let springs = (0..n - 1)
+            .map(|i| {
+                LinearSpring::between(
+                    &balls,
+                    i as u32,
+                    i as u32 + 1,
+                    p.axial_n_per_m,
+                    p.damping_n_s_per_m,
+                )
+            })
+            .collect();
+        let tip_balls = ((p.tip_length_m / spacing).round() as usize + 1).clamp(2, n);
+        let angles = (1..n - 1)
+            .map(|i| {
+                let ei = if i >= n - tip_balls {
+                    p.tip_ei_n_m2
+                } else {
+                    p.core_ei_n_m2
+                };
+                let k_t = ei / spacing;
+                // A twentieth of one joint's critical damping (its stiffness against a ball's
+                // mass at one segment's lever, `2 sqrt(k_t m lambda^2)`): a ball feels up to
+                // three joints' damping, some 16 times one joint's in a zig-zag, which the
+                // explicit substep must stay well within.
+                let m = balls.mass_kg[i];
+                AngleSpring {
+                    prev: i as u32 - 1,
+                    mid: i as u32,
+                    next: i as u32 + 1,
+                    stiffness_n_m_per_rad: k_t,
+                    damping_n_m_s_per_rad: 0.1 * (k_t * m * spacing * spacing).sqrt(),
+                    rest_turn: DVec3::ZERO,
+                }
+            })
+            .collect();
+        Guidewire {
+            balls,
+            springs,
+            angles,
+            entry,
+            axis,
+            tip_balls,
+            params: *p,
+        }
+    }
+
+    pub fn tip(&self) -> DVec3 {
+        self.balls.x[self.balls.len() - 1]
+    }
+
+    /// The rest turns of the soft tip for the J curve in the plane turned by `twist_rad`
+    /// about the wire's own direction: once a step.
+    pub fn orient(&mut self, twist_rad: f64) {
+        let n = self.balls.len();
+        let first = n - self.tip_balls;
+        let joints = (self.tip_balls - 1).max(1) as f64;
+        let per_joint = self.params.j_angle_deg.to_radians() / joints;
+        let across = super::catheter::any_across(self.axis);
+        for s in &mut self.angles {
+            let mid = s.mid as usize;
+            if mid < first || per_joint == 0.0 {
+                s.rest_turn = DVec3::ZERO;
+                continue;
+            }
+            let e1 = (self.balls.x[mid] - self.balls.x[s.prev as usize]).normalize_or(self.axis);
+            // The curve's side: the entry's "up" turned by the twist, carried onto this arm.
+            let up = DQuat::from_axis_angle(self.axis, twist_rad) * across;
+            let up = (up - e1 * e1.dot(up)).normalize_or(across);
+            s.rest_turn = e1.cross(up).normalize_or_zero() * per_joint;
+        }
+    }
+
+    /// The handle's place for the drive, moved at most [`WIRE_HANDLE_M_PER_S`] over `dt_s`,
+    /// and the speed that takes it there.
+    fn handle(&self, drive: &WireDrive, dt_s: f64) -> (DVec3, DVec3) {
+        let want = self.entry + self.axis * (drive.insertion_m - self.params.length_m);
+        let step = (want - self.balls.x[0]).clamp_length_max(WIRE_HANDLE_M_PER_S * dt_s);
+        (self.balls.x[0] + step, step / dt_s.max(1e-12))
+    }
+
+    /// The wire's own forces for a substep: the handle moved by the drive, the given
+    /// external forces (the wall's), its springs and its bending.
+    pub fn gather(&mut self, drive: &WireDrive, external: &[DVec3], dt_s: f64) {
+        let (handle, _) = self.handle(drive, dt_s);
+        self.balls.x[0] = handle;
+        self.balls.start_forces(DVec3::ZERO);
+        for (f, e) in self.balls.f.iter_mut().zip(external) {
+            *f += *e;
+        }
+        add_spring_forces(&mut self.balls, &self.springs);
+        add_angle_forces(&mut self.balls, &self.angles);
+    }
+
+    /// Moves the balls under the gathered forces; behind the entry they are held on its
+    /// axis (the introducer), the handle moves at `handle_speed`.
+    pub fn advance(&mut self, dt_s: f64, handle_speed: DVec3) {
+        self.balls.integrate(dt_s);
+        self.balls.v[0] = handle_speed;
+        for i in 1..self.balls.len() {
+            let along = (self.balls.x[i] - self.entry).dot(self.axis);
+            if along < 0.0 {
+                self.balls.x[i] = self.entry + self.axis * along;
+                let va = self.balls.v[i].dot(self.axis);
+                self.balls.v[i] = self.axis * va;
+            }
+        }
+    }
+
+    /// One substep on its own (no catheter around it): gather, then advance.
+    pub fn step(&mut self, drive: &WireDrive, external: &[DVec3], dt_s: f64) {
+        let (_, speed) = self.handle(drive, dt_s);
+        self.gather(drive, external, dt_s);
+        self.advance(dt_s, speed);
+    }
+}
+
+/// One substep of the catheter with the wire in its lumen: both gather their own forces
+/// (each with its wall contact), the lumen's hold joins them ([`coaxial`], within the
+/// catheter's radius of its axis), then both move. Returns how many wire balls are held.
+#[allow(clippy::too_many_arguments)]
+pub fn step_together(
+    catheter: &mut Catheter,
+    (drive, contact): (&Drive, &[DVec3]),
+    wire: &mut Guidewire,
+    (wire_drive, wire_contact): (&WireDrive, &[DVec3]),
+    dt_s: f64,
+) -> usize {
+    let v0 = catheter.gather(drive, contact, dt_s);
+    let (_, wire_v0) = wire.handle(wire_drive, dt_s);
+    wire.gather(wire_drive, wire_contact, dt_s);
+    let p = wire.params;
+    let held = coaxial(
+        &mut wire.balls,
+        &mut catheter.balls,
+        p.lumen_n_per_m,
+        p.lumen_damping_n_s_per_m,
+        0.5 * catheter.params.diameter_m,
+    );
+    catheter.advance(dt_s, v0);
+    wire.advance(dt_s, wire_v0);
+    held
+}
+
+/// The lumen's hold: each of `wire`'s balls that lies within the catheter (its nearest point
+/// on the catheter's centreline `tube` falls inside a segment, not past the tip, within
+/// `reach_m` of it) is pulled towards that point across the segment (`k` N/m, `c` N s/m on
+/// the relative speed across it), and the segment's two balls take the opposite force,
+/// shared as the point divides the segment. Forces go into both chains' gathered forces, in
+/// index order. Returns how many wire balls are held.
+pub fn coaxial(wire: &mut Balls, tube: &mut Balls, k: f64, c: f64, reach_m: f64) -> usize {
+    let segments = tube.len().saturating_sub(1);
+    let mut held = 0;
+    for i in 0..wire.len() {
+        if wire.fixed[i] {
+            continue;
+        }
+        let x = wire.x[i];
+        // The nearest point over the segments (the first of equals), with its parameter
+        // along the segment unclamped.
+        let mut best: Option<(usize, f64, f64)> = None;
+        for j in 0..segments {
+            let (a, b) = (tube.x[j], tube.x[j + 1]);
+            let d = b - a;
+            let len2 = d.length_squared();
+            if len2 <= 0.0 {
+                continue;
+            }
+            let t = (x - a).dot(d) / len2;
+            let p = a + d * t.clamp(0.0, 1.0);
+            let dist2 = p.distance_squared(x);
+            if best.is_none_or(|(_, _, bd)| dist2 < bd) {
+                best = Some((j, t, dist2));
+            }
+        }
+        let Some((j, t, dist2)) = best else { continue };
+        // Outside the lumen: past the tip, before the first ball, or too far across.
+        if (j + 1 == segments && t > 1.0) || (j == 0 && t < 0.0) || dist2 > reach_m * reach_m {
+            continue;
+        }
+        let t = t.clamp(0.0, 1.0);
+        let (a, b) = (j, j + 1);
+        let axis = (tube.x[b] - tube.x[a]).normalize_or_zero();
+        let p = tube.x[a].lerp(tube.x[b], t);
+        let vp = tube.v[a].lerp(tube.v[b], t);
+        let across = |v: DVec3| v - axis * axis.dot(v);
+        let f = across(p - x) * k + across(vp - wire.v[i]) * c;
+        wire.f[i] += f;
+        tube.f[a] -= f * (1.0 - t);
+        tube.f[b] -= f * t;
+        held += 1;
+    }
+    held
+}
+
+#[cfg(test)]
+#[path = "guidewire_tests.rs"]
+mod tests;
