@@ -10,7 +10,7 @@
 //! The paper gives no catheter material: masses here come from a polymer's density and each
 //! ball's share of the rod, the springs' stiffnesses are ours (documented in the scenario).
 
-use super::{AngleSpring, Balls, LinearSpring, add_angle_forces, add_spring_forces, bending};
+use super::{AngleSpring, Balls, LinearSpring, Rod, add_angle_forces, add_spring_forces, bending};
 use glam::{DQuat, DVec3};
 
 /// The fastest the handle follows the device, m/s (a hand pushes a catheter at centimetres a
@@ -93,26 +93,13 @@ impl Catheter {
         let r = 0.5 * p.diameter_m;
         let n = ((p.length_m / r).round() as usize + 1).max(3);
         let spacing = p.length_m / (n - 1) as f64;
-        let area = std::f64::consts::PI * r * r;
-        let mut balls = Balls::default();
-        for i in 0..n {
-            // Each ball carries its share of the rod (half a segment at either end).
-            let share = if i == 0 || i == n - 1 { 0.5 } else { 1.0 };
-            let m = p.density_kg_per_m3 * area * spacing * share;
-            balls.push(entry - axis * (p.length_m - spacing * i as f64), m, r);
-        }
-        balls.fixed[0] = true;
-        let springs = (0..n - 1)
-            .map(|i| {
-                LinearSpring::between(
-                    &balls,
-                    i as u32,
-                    i as u32 + 1,
-                    p.axial_n_per_m,
-                    p.damping_n_s_per_m,
-                )
-            })
-            .collect();
+        let rod = Rod {
+            length_m: p.length_m,
+            radius_m: r,
+            density_kg_per_m3: p.density_kg_per_m3,
+            n,
+        };
+        let (balls, springs) = rod.chain(entry, axis, p.axial_n_per_m, p.damping_n_s_per_m);
         let k_t = p.bending_n_per_m * spacing * spacing;
         let angles = (1..n - 1)
             .map(|i| AngleSpring {

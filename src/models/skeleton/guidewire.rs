@@ -17,7 +17,7 @@
 //! 6,450 kg/m^3 in a 0.9 mm (0.035 in) wire, `EI` of the order of a diagnostic wire's.
 
 use super::catheter::{Catheter, Drive};
-use super::{AngleSpring, Balls, LinearSpring, add_angle_forces, add_spring_forces};
+use super::{AngleSpring, Balls, LinearSpring, Rod, add_angle_forces, add_spring_forces};
 use glam::{DQuat, DVec3};
 
 /// The wire's size and materials.
@@ -93,25 +93,13 @@ impl Guidewire {
         let r = 0.5 * p.diameter_m;
         let n = ((p.length_m / p.spacing_m).round() as usize + 1).max(3);
         let spacing = p.length_m / (n - 1) as f64;
-        let area = std::f64::consts::PI * r * r;
-        let mut balls = Balls::default();
-        for i in 0..n {
-            let share = if i == 0 || i == n - 1 { 0.5 } else { 1.0 };
-            let m = p.density_kg_per_m3 * area * spacing * share;
-            balls.push(entry - axis * (p.length_m - spacing * i as f64), m, r);
-        }
-        balls.fixed[0] = true;
-        let springs = (0..n - 1)
-            .map(|i| {
-                LinearSpring::between(
-                    &balls,
-                    i as u32,
-                    i as u32 + 1,
-                    p.axial_n_per_m,
-                    p.damping_n_s_per_m,
-                )
-            })
-            .collect();
+        let rod = Rod {
+            length_m: p.length_m,
+            radius_m: r,
+            density_kg_per_m3: p.density_kg_per_m3,
+            n,
+        };
+        let (balls, springs) = rod.chain(entry, axis, p.axial_n_per_m, p.damping_n_s_per_m);
         let tip_balls = ((p.tip_length_m / spacing).round() as usize + 1).clamp(2, n);
         let angles = (1..n - 1)
             .map(|i| {

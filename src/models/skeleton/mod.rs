@@ -87,6 +87,40 @@ impl Balls {
     }
 }
 
+/// A rod as a straight chain of `n` balls along `axis` ending at `tip`: each ball carries its
+/// share of the rod's mass (half a segment at either end) from the density and the cross
+/// section of `radius_m`, the first ball is held (the handle), and a damped linear spring
+/// (`k`, `c`) joins each pair of neighbours at rest.
+pub struct Rod {
+    pub length_m: f64,
+    pub radius_m: f64,
+    pub density_kg_per_m3: f64,
+    pub n: usize,
+}
+
+impl Rod {
+    pub fn chain(&self, tip: DVec3, axis: DVec3, k: f64, c: f64) -> (Balls, Vec<LinearSpring>) {
+        let n = self.n.max(2);
+        let spacing = self.length_m / (n - 1) as f64;
+        let area = std::f64::consts::PI * self.radius_m * self.radius_m;
+        let mut balls = Balls::default();
+        for i in 0..n {
+            let share = if i == 0 || i == n - 1 { 0.5 } else { 1.0 };
+            let m = self.density_kg_per_m3 * area * spacing * share;
+            balls.push(
+                tip - axis * (self.length_m - spacing * i as f64),
+                m,
+                self.radius_m,
+            );
+        }
+        balls.fixed[0] = true;
+        let springs = (0..n - 1)
+            .map(|i| LinearSpring::between(&balls, i as u32, i as u32 + 1, k, c))
+            .collect();
+        (balls, springs)
+    }
+}
+
 /// A damped linear spring between two balls (eqs 1-3).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LinearSpring {
