@@ -100,6 +100,28 @@ pub struct Picture {
     pub grey: Vec<u8>,
 }
 
+/// A pulse to expose: everything the projection needs but the scene.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Shot {
+    pub arm: CArm,
+    pub photons_per_pixel: f64,
+    pub seed: u64,
+    pub open: [usize; 4],
+}
+
+impl Shot {
+    /// The frame of `scene` (the same bytes wherever and on however many threads it runs).
+    pub fn develop(&self, scene: &Scene) -> Frame {
+        expose_within(
+            scene,
+            &self.arm,
+            self.photons_per_pixel,
+            Some(self.seed),
+            self.open,
+        )
+    }
+}
+
 /// The fluoroscope: settings, pose, pedal and dose, the last frame and the roadmap.
 #[derive(Debug, Clone)]
 pub struct Fluoroscope {
@@ -278,13 +300,24 @@ impl Fluoroscope {
     /// bolus moving through the vessels paints them all), the first such frame after a mask
     /// starting a new roadmap.
     pub fn expose(&mut self, scene: &Scene, contrast: bool, seed: u64) -> &Frame {
-        let frame = expose_within(
-            scene,
-            &self.arm(),
-            self.photons_per_pixel(),
-            Some(seed),
-            self.open(),
-        );
+        let frame = self.shot(seed).develop(scene);
+        self.receive(frame, contrast)
+    }
+
+    /// What a pulse now needs to be exposed elsewhere (another thread): the arm, the dose
+    /// and the collimation as they are, and the noise's seed.
+    pub fn shot(&self, seed: u64) -> Shot {
+        Shot {
+            arm: self.arm(),
+            photons_per_pixel: self.photons_per_pixel(),
+            seed,
+            open: self.open(),
+        }
+    }
+
+    /// A pulse's frame exposed from [`Fluoroscope::shot`], taken in as [`Fluoroscope::expose`]
+    /// takes its own: the last frame, the mask or the roadmap.
+    pub fn receive(&mut self, frame: Frame, contrast: bool) -> &Frame {
         if contrast {
             if let Some(mask) = &self.mask {
                 let over: Vec<f64> = frame
@@ -331,10 +364,11 @@ impl Fluoroscope {
             .filter(|k| f.exposed(k % f.width, k / f.width))
             .map(|k| f.line_integrals[k])
             .collect();
-        seen.sort_by(f64::total_cmp);
-        let pick = |q: f64| {
-            seen.get(((seen.len() as f64 - 1.0) * q).round() as usize)
-                .copied()
+        // The two percentiles by selection (linear time), each the value a full sort would
+        // put at its rank.
+        let mut pick = |q: f64| {
+            let rank = ((seen.len() as f64 - 1.0) * q).round() as usize;
+            (rank < seen.len()).then(|| *seen.select_nth_unstable_by(rank, f64::total_cmp).1)
         };
         let (lo, hi) = (pick(0.01).unwrap_or(0.0), pick(0.99).unwrap_or(1.0));
         let span = (hi - lo).max(1e-9);
