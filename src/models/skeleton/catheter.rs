@@ -192,14 +192,7 @@ impl Catheter {
         self.balls.integrate(dt_s);
         self.balls.v[0] = v0;
         // The sheath: behind the entry, on the axis.
-        for i in 1..n {
-            let along = (self.balls.x[i] - self.entry).dot(self.axis);
-            if along < 0.0 {
-                self.balls.x[i] = self.entry + self.axis * along;
-                let va = self.balls.v[i].dot(self.axis);
-                self.balls.v[i] = self.axis * va;
-            }
-        }
+        self.balls.hold_behind(self.entry, self.axis);
         // Twist: damped torsion springs between neighbours (the damping on their relative
         // spin: a catheter turned as a whole is not held back), the handle's held.
         let (k, c) = (p.torsion_n_m_per_rad, p.torsion_damping);

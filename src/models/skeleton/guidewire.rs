@@ -187,14 +187,7 @@ impl Guidewire {
     pub fn advance(&mut self, dt_s: f64, handle_speed: DVec3) {
         self.balls.integrate(dt_s);
         self.balls.v[0] = handle_speed;
-        for i in 1..self.balls.len() {
-            let along = (self.balls.x[i] - self.entry).dot(self.axis);
-            if along < 0.0 {
-                self.balls.x[i] = self.entry + self.axis * along;
-                let va = self.balls.v[i].dot(self.axis);
-                self.balls.v[i] = self.axis * va;
-            }
-        }
+        self.balls.hold_behind(self.entry, self.axis);
     }
 
     /// One substep on its own (no catheter around it): gather, then advance.

@@ -73,6 +73,19 @@ impl Balls {
         }
     }
 
+    /// The introducer sheath: every ball but the handle (ball 0) that lies behind `entry`
+    /// along `axis` is put back on the axis, keeping only its speed along it.
+    pub fn hold_behind(&mut self, entry: DVec3, axis: DVec3) {
+        for i in 1..self.x.len() {
+            let along = (self.x[i] - entry).dot(axis);
+            if along < 0.0 {
+                self.x[i] = entry + axis * along;
+                let va = self.v[i].dot(axis);
+                self.v[i] = axis * va;
+            }
+        }
+    }
+
     /// The kinetic energy, J.
     pub fn kinetic_energy_j(&self) -> f64 {
         self.v
