@@ -1,7 +1,9 @@
-//! The catheterisation through the command line: the demo trace twists the catheter half a
-//! turn, bends its tip and pushes it into the -y branch at 20 mm/s without a puncture, the
-//! head's force within the paper's 0.5-3.5 N, the force over time in the report; 1 and 2
-//! worker threads give the same bytes, and the recording replays byte for byte.
+//! The catheterisation through the command line: the demo trace leads the guidewire into the
+//! -y branch (the left hand's wrist rolled half a turn turns its angled tip) and runs the
+//! catheter over it without a puncture, the head's force within the paper's 0.5-3.5 N, the
+//! force over time in the report; 1 and 2 worker threads give the same bytes, the recording
+//! replays byte for byte, and the headset's controllers (the roll through the simulated
+//! runtime) lead the wire the same way.
 
 mod common;
 use common::{bin, ok, report, tmp, without_id};
@@ -46,7 +48,7 @@ fn the_demo_reaches_the_target_branch_the_same_on_one_and_two_threads_and_replay
     assert!(m["wall_contacts"].as_u64().unwrap_or(0) >= 1, "{r}");
     assert!(m["force_time_n_s"].as_f64().unwrap_or(0.0) > 0.0, "{r}");
     // The left hand's imaging: three runs of the pedal, two puffs of 4 mL/s (0.5 and 0.4 s),
-    // 7.5 pulses a second over 4.8 s of fluoroscopy, each pulse's dose-area product the
+    // 7.5 pulses a second over 5.0 s of fluoroscopy, each pulse's dose-area product the
     // same (one field, never collimated).
     let f = &m["fluoroscopy"];
     let num = |k: &str| f[k].as_f64().unwrap_or(f64::NAN);
@@ -56,18 +58,27 @@ fn the_demo_reaches_the_target_branch_the_same_on_one_and_two_threads_and_replay
         "{f}"
     );
     assert!((num("contrast_ml") - 3.6).abs() < 1e-3, "{f}");
-    assert!((num("fluoro_time_s") - 4.8).abs() < 0.01, "{f}");
+    assert!((num("fluoro_time_s") - 5.0).abs() < 0.01, "{f}");
     assert!((36.0..=39.0).contains(&num("pulses")), "{f}");
     let per_pulse = num("dap_gy_cm2") / num("pulses");
     assert!((1e-4..1e-2).contains(&per_pulse), "{f}");
-    // The force over time: a sample every 20 ms over the 6.5 s session.
+    // The wire led: 30 mm and more into the target branch, well ahead of the catheter,
+    // without entering the other branch or puncturing; the wall's force on it stays below
+    // its puncture force (0.27 N).
+    let w = &m["guidewire"];
+    let wnum = |k: &str| w[k].as_f64().unwrap_or(f64::NAN);
+    assert!(wnum("reach_m") >= 0.03, "{w}");
+    assert!(wnum("lead_m") >= 0.05, "{w}");
+    assert_eq!((wnum("wrong_branch"), wnum("punctures")), (0.0, 0.0), "{w}");
+    assert!((0.0..0.27).contains(&wnum("peak_force_n")), "{w}");
+    // The force over time: a sample every 20 ms over the 8.25 s session.
     let trace = m["force_trace"].as_array().cloned().unwrap_or_default();
     assert!(trace.len() >= 300, "{} samples", trace.len());
     let models: Vec<&str> = r["models"]
         .as_array()
         .map(|m| m.iter().filter_map(|x| x["name"].as_str()).collect())
         .unwrap_or_default();
-    assert_eq!(models, ["catheter", "vessel", "collision"]);
+    assert_eq!(models, ["catheter", "vessel", "collision", "guidewire"]);
     let o = bin()
         .args(["--threads", "2", "replay"])
         .arg(d.join("t1/out/input.vtrace"))
@@ -212,4 +223,54 @@ fn the_pads_turn_the_c_arm_and_move_the_table_headless_and_in_the_headset() {
         "cranial {xcranial}, {cranial}"
     );
     assert!((xtable - table).abs() < 0.12, "table {xtable}, {table}");
+}
+
+/// The demo's first 4.7 s in the headset (the simulated runtime plays the trace's roll as the
+/// left controller's orientation, through the Khronos loader): the wire enters the target
+/// branch as headless, its reach within 3 mm of the headless run's at the same time.
+#[test]
+fn the_headsets_wrist_roll_leads_the_wire_into_the_branch_as_headless() {
+    let d = tmp("catheter", "wire_xr");
+    let trace = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/traces/catheter-demo.toml");
+    let cut = d.join("in/first.toml");
+    std::fs::create_dir_all(d.join("in")).expect("dir");
+    // The trace to 4.7 s: keys after it dropped, so the headless run ends there too.
+    let text = std::fs::read_to_string(&trace).expect("demo");
+    let mut kept = String::new();
+    for block in text.split("\n\n") {
+        let late = block
+            .lines()
+            .find_map(|l| l.strip_prefix("t_s = "))
+            .and_then(|t| t.trim().parse::<f64>().ok())
+            .is_some_and(|t| t > 4.7);
+        if !late {
+            kept += block;
+            kept += "\n\n";
+        }
+    }
+    std::fs::write(&cut, kept).expect("trace");
+    ok(&bin()
+        .args(["run", "catheter", "--headless", "--trace"])
+        .arg(&cut)
+        .arg("--out")
+        .arg(d.join("headless"))
+        .output()
+        .expect("runs"));
+    ok(&bin()
+        .args(["run", "catheter", "--xr-sim"])
+        .arg(&cut)
+        .arg("--out")
+        .arg(d.join("xr"))
+        .args(["--eye-size", "64x64", "--no-window", "--xr-duration", "4.7"])
+        .output()
+        .expect("runs"));
+    let wire = |out: &Path| report(out)["metrics"]["guidewire"].clone();
+    let (h, x) = (wire(&d.join("headless")), wire(&d.join("xr")));
+    let reach = |w: &serde_json::Value| w["reach_m"].as_f64().unwrap_or(f64::NAN);
+    assert!(reach(&h) >= 0.03, "{h}");
+    assert!(
+        (reach(&x) - reach(&h)).abs() < 0.003,
+        "headset {x}, headless {h}"
+    );
+    assert_eq!(x["wrong_branch"], 0, "{x}");
 }

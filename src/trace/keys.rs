@@ -91,7 +91,12 @@ impl KeyTrace {
             );
             if let Some(h) = sample {
                 frame.hands[i] = HandInput {
-                    pose: Pose::looking_at(h.position, h.target),
+                    pose: Pose {
+                        position: h.position,
+                        orientation: xr_bindings::keyframes::hand_orientation(
+                            h.position, h.target, h.roll_deg,
+                        ),
+                    },
                     buttons: Buttons {
                         trigger: h.trigger,
                         grip: h.grip,

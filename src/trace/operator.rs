@@ -143,6 +143,8 @@ pub struct Step {
     pub trigger: f32,
     pub grip: f32,
     pub mark: bool,
+    /// The wrist's roll, degrees (as the trace key).
+    pub roll_deg: f32,
 }
 
 impl Step {
@@ -164,6 +166,7 @@ fn plan_of(trace: &KeyTrace, hand: Hand) -> Vec<Step> {
             trigger: k.trigger,
             grip: k.grip,
             mark: k.mark,
+            roll_deg: k.roll_deg,
         })
         .collect()
 }
@@ -178,6 +181,7 @@ fn at(plan: &[Step], t: f64) -> Step {
             trigger: 0.0,
             grip: 0.0,
             mark: false,
+            roll_deg: 0.0,
         };
     };
     if t <= first.t_s {
@@ -198,6 +202,7 @@ fn at(plan: &[Step], t: f64) -> Step {
                 trigger: w[0].trigger + (w[1].trigger - w[0].trigger) * s,
                 grip: w[0].grip + (w[1].grip - w[0].grip) * s,
                 mark: w[0].mark,
+                roll_deg: w[0].roll_deg + (w[1].roll_deg - w[0].roll_deg) * s,
             };
         }
     }
@@ -481,6 +486,9 @@ impl Performance {
                 }
                 if k.mark {
                     extra.push_str(", mark = true");
+                }
+                if k.roll_deg != 0.0 {
+                    let _ = write!(extra, ", roll_deg = {:.2}", k.roll_deg);
                 }
                 let _ = writeln!(
                     out,

@@ -4,7 +4,9 @@
 //! hand's instrument points from `position` to `target`; values interpolate linearly between
 //! keys and `mark` and `pad` hold until the next key. `pad = "up"` (`"down"`, `"left"`,
 //! `"right"`) is the trackpad clicked at that edge (or a thumbstick pushed and pressed): the
-//! click is down too, as on the controller. `[[head]]` keys are optional (the runtime's
+//! click is down too, as on the controller. `roll_deg` turns the hand about its pointing
+//! direction (the wrist's roll, clockwise as the hand sees it; 0 by default), interpolated
+//! like the positions ([`hand_orientation`]). `[[head]]` keys are optional (the runtime's
 //! default head is [`crate::stage::DEFAULT_HEAD`]; headless sessions ignore them).
 //!
 //! Two optional top-level features describe a person's hand motion compactly (see
@@ -79,6 +81,10 @@ pub struct HandKey {
     /// The trackpad is clicked at one edge (a d-pad press); the click is down with it.
     #[serde(default)]
     pub pad: Option<PadDirection>,
+    /// The wrist's roll about the pointing direction, degrees (clockwise as the hand sees
+    /// it).
+    #[serde(default)]
+    pub roll_deg: f32,
 }
 
 /// Which edge of the trackpad (or which way the thumbstick) a press is at.
@@ -255,6 +261,12 @@ impl KeyframeFile {
                         ));
                     }
                 }
+                if !k.roll_deg.is_finite() || k.roll_deg.abs() > 720.0 {
+                    return Err(KeyError::new(
+                        format!("{name}[{i}].roll_deg"),
+                        format!("must be between -720 and 720 degrees, got {}", k.roll_deg),
+                    ));
+                }
             }
         }
         check_keys("head", &t.head, max_s)?;
@@ -299,6 +311,49 @@ pub struct HandSample {
     /// The click: the key's mark, or its pad press.
     pub mark: bool,
     pub pad: Option<PadDirection>,
+    /// The wrist's roll, degrees.
+    pub roll_deg: f32,
+}
+
+/// A hand's orientation: its -Z (the instrument's pointing direction) from `position` to
+/// `target` by the shortest arc from -Z, then turned by `roll_deg` about that direction
+/// (clockwise as the hand sees it, looking along it). The simulated runtime's controllers
+/// and the headless sessions both take their poses from here.
+pub fn hand_orientation(position: Vec3, target: Vec3, roll_deg: f32) -> glam::Quat {
+    let dir = (target - position).normalize_or_zero();
+    let arc = if dir == Vec3::ZERO {
+        glam::Quat::IDENTITY
+    } else {
+        glam::Quat::from_rotation_arc(Vec3::NEG_Z, dir)
+    };
+    if roll_deg == 0.0 {
+        arc
+    } else {
+        // About the local -Z (right-handed about the pointing direction: clockwise seen
+        // from behind, looking along it).
+        arc * glam::Quat::from_rotation_z(-roll_deg.to_radians())
+    }
+}
+
+/// The roll `orientation` holds about its own pointing direction, radians in (-pi, pi]: the
+/// inverse of [`hand_orientation`]'s turn, for any orientation.
+pub fn roll_of(orientation: glam::Quat) -> f32 {
+    let dir = orientation * Vec3::NEG_Z;
+    let arc = if dir.length_squared() > 0.0 {
+        glam::Quat::from_rotation_arc(Vec3::NEG_Z, dir.normalize())
+    } else {
+        glam::Quat::IDENTITY
+    };
+    let r = arc.inverse() * orientation;
+    // What is left is a turn about Z: (0, 0, sin(a/2), cos(a/2)); the roll is about -Z.
+    let a = -2.0 * r.z.atan2(r.w);
+    if a > std::f32::consts::PI {
+        a - std::f32::consts::TAU
+    } else if a <= -std::f32::consts::PI {
+        a + std::f32::consts::TAU
+    } else {
+        a
+    }
 }
 
 /// The two keys around `t` and how far between them (0 to 1). `keys` must not be empty.
@@ -330,6 +385,7 @@ pub fn sample_hand(keys: &[HandKey], t_s: f64) -> Option<HandSample> {
         grip: a.grip + (b.grip - a.grip) * s,
         mark: a.mark || a.pad.is_some(),
         pad: a.pad,
+        roll_deg: a.roll_deg + (b.roll_deg - a.roll_deg) * s,
     })
 }
 
@@ -476,5 +532,42 @@ mark = true
         assert!(KeyframeFile::parse(&five_h).is_err());
         let f = KeyframeFile::parse_within(&five_h, 6.0 * 3600.0).expect("allowed when asked");
         assert_eq!(f.duration_s(), 18000.0);
+    }
+
+    /// A roll turns the hand about where it points, right-handed (pointing along +x, its up
+    /// turns from +y to +z at 90 degrees), and `roll_of` reads back the roll from the
+    /// orientation for any pointing direction; keys interpolate it and a roll out of range is
+    /// named.
+    #[test]
+    fn a_roll_turns_the_hand_about_where_it_points_and_reads_back() {
+        let q = hand_orientation(Vec3::ZERO, Vec3::X, 90.0);
+        assert!(
+            (q * Vec3::NEG_Z - Vec3::X).length() < 1e-6,
+            "{}",
+            q * Vec3::NEG_Z
+        );
+        assert!((q * Vec3::Y - Vec3::Z).length() < 1e-6, "{}", q * Vec3::Y);
+        assert_eq!(
+            hand_orientation(Vec3::ZERO, Vec3::X, 0.0),
+            glam::Quat::from_rotation_arc(Vec3::NEG_Z, Vec3::X)
+        );
+        for to in [
+            Vec3::X,
+            Vec3::new(0.2, -1.0, 0.3),
+            Vec3::new(1.0, 2.0, -3.0),
+        ] {
+            for roll in [-170.0f32, -45.0, 0.0, 30.0, 179.0] {
+                let got = roll_of(hand_orientation(Vec3::ZERO, to, roll)).to_degrees();
+                assert!((got - roll).abs() < 1e-3, "{to} {roll}: {got}");
+            }
+        }
+        let rolled = TWO_KEYS.replacen("mark = true", "mark = true\nroll_deg = 90.0", 1);
+        let f = KeyframeFile::parse(&rolled).expect("valid");
+        // A quarter of the way from no roll to 90 degrees.
+        let mid = sample_hand(&f.right, 0.5).expect("keys").roll_deg;
+        assert!((mid - 22.5).abs() < 1e-4, "{mid}");
+        let bad = TWO_KEYS.replacen("mark = true", "mark = true\nroll_deg = 1000.0", 1);
+        let e = KeyframeFile::parse(&bad).unwrap_err();
+        assert_eq!(e.key, "right[1].roll_deg", "{e:?}");
     }
 }

@@ -164,8 +164,7 @@ impl Catheter {
 
     /// The first half of a substep: the handle moved by the drive and the forces gathered
     /// (contact, springs, bending). Returns the handle's speed, for [`Catheter::advance`].
-    /// A guidewire inside adds its lumen forces between the two.
-    pub fn gather(&mut self, drive: &Drive, contact: &[DVec3], dt_s: f64) -> DVec3 {
+    fn gather(&mut self, drive: &Drive, contact: &[DVec3], dt_s: f64) -> DVec3 {
         let p = self.params;
         // The handle: kinematic, along the axis, at most `HANDLE_M_PER_S` fast (a drive that
         // jumps is followed, not obeyed at once).
@@ -186,7 +185,7 @@ impl Catheter {
     }
 
     /// The second half: the balls moved under the gathered forces, the sheath, the twist.
-    pub fn advance(&mut self, dt_s: f64, v0: DVec3) {
+    fn advance(&mut self, dt_s: f64, v0: DVec3) {
         let n = self.balls.len();
         let p = self.params;
         self.balls.integrate(dt_s);
@@ -251,7 +250,7 @@ impl Catheter {
 }
 
 /// A unit vector across `axis`: `+y` made perpendicular to it (or `+z` for an axis along y).
-pub(super) fn any_across(axis: DVec3) -> DVec3 {
+pub fn any_across(axis: DVec3) -> DVec3 {
     let y = DVec3::Y - axis * axis.dot(DVec3::Y);
     if y.length_squared() > 1e-12 {
         y.normalize()

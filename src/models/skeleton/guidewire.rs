@@ -70,6 +70,15 @@ pub struct WireDrive {
     pub twist_rad: f64,
 }
 
+/// Each joint's damping as a share of the core joint's `sqrt(k_t m lambda^2)` (a twentieth
+/// of its critical damping): a ball feels up to three joints' damping, some 16 times one
+/// joint's in a zig-zag, which the explicit substep must stay well within (a quarter of
+/// critical was unstable on the core at 0.1 ms). The soft tip's joints get the core's
+/// coefficient, stable as the core's: a larger share of their own critical damping (a third
+/// of it for a tip ten times softer), which calms the tip's swing where the lumen holds a
+/// curved tip straight (the catheter coming over it).
+pub const JOINT_DAMPING: f64 = 0.1;
+
 /// The fastest the wire's handle follows the hand, m/s.
 pub const WIRE_HANDLE_M_PER_S: f64 = 0.5;
 
@@ -109,17 +118,16 @@ impl Guidewire {
                     p.core_ei_n_m2
                 };
                 let k_t = ei / spacing;
-                // A twentieth of one joint's critical damping (its stiffness against a ball's
-                // mass at one segment's lever, `2 sqrt(k_t m lambda^2)`): a ball feels up to
-                // three joints' damping, some 16 times one joint's in a zig-zag, which the
-                // explicit substep must stay well within.
+                // The core's coefficient at every joint (see JOINT_DAMPING).
                 let m = balls.mass_kg[i];
+                let core_k_t = p.core_ei_n_m2 / spacing;
                 AngleSpring {
                     prev: i as u32 - 1,
                     mid: i as u32,
                     next: i as u32 + 1,
                     stiffness_n_m_per_rad: k_t,
-                    damping_n_m_s_per_rad: 0.1 * (k_t * m * spacing * spacing).sqrt(),
+                    damping_n_m_s_per_rad: JOINT_DAMPING
+                        * (core_k_t * m * spacing * spacing).sqrt(),
                     rest_turn: DVec3::ZERO,
                 }
             })
@@ -135,8 +143,25 @@ impl Guidewire {
         }
     }
 
+    /// The same wire moved along its axis so that its tip is `insertion_m` past the entry.
+    pub fn inserted(mut self, insertion_m: f64) -> Guidewire {
+        let d = self.axis * insertion_m;
+        self.balls.x.iter_mut().for_each(|x| *x += d);
+        self.balls.hold_behind(self.entry, self.axis);
+        self
+    }
+
     pub fn tip(&self) -> DVec3 {
         self.balls.x[self.balls.len() - 1]
+    }
+
+    /// The first ball past the entry (those before are in the introducer).
+    pub fn first_inside(&self) -> usize {
+        self.balls
+            .x
+            .iter()
+            .position(|x| (*x - self.entry).dot(self.axis) >= 0.0)
+            .unwrap_or(self.balls.len())
     }
 
     /// The rest turns of the soft tip for the J curve in the plane turned by `twist_rad`
@@ -171,7 +196,7 @@ impl Guidewire {
 
     /// The wire's own forces for a substep: the handle moved by the drive, the given
     /// external forces (the wall's), its springs and its bending.
-    pub fn gather(&mut self, drive: &WireDrive, external: &[DVec3], dt_s: f64) {
+    fn gather(&mut self, drive: &WireDrive, external: &[DVec3], dt_s: f64) {
         let (handle, _) = self.handle(drive, dt_s);
         self.balls.x[0] = handle;
         self.balls.start_forces(DVec3::ZERO);
@@ -184,24 +209,31 @@ impl Guidewire {
 
     /// Moves the balls under the gathered forces; behind the entry they are held on its
     /// axis (the introducer), the handle moves at `handle_speed`.
-    pub fn advance(&mut self, dt_s: f64, handle_speed: DVec3) {
+    fn advance(&mut self, dt_s: f64, handle_speed: DVec3) {
         self.balls.integrate(dt_s);
         self.balls.v[0] = handle_speed;
         self.balls.hold_behind(self.entry, self.axis);
     }
 
-    /// One substep on its own (no catheter around it): gather, then advance.
+    /// One substep under the given external forces (the wall's, the lumen's): the tip's
+    /// rest curve turned to the drive's twist where the wire is now (every substep: a curve
+    /// set from where the wire was a whole step ago lags it, and a lagging follower pumps
+    /// energy into the soft tip's swing), then its forces gathered and the balls moved.
     pub fn step(&mut self, drive: &WireDrive, external: &[DVec3], dt_s: f64) {
+        if self.params.j_angle_deg != 0.0 {
+            self.orient(drive.twist_rad);
+        }
         let (_, speed) = self.handle(drive, dt_s);
         self.gather(drive, external, dt_s);
         self.advance(dt_s, speed);
     }
 }
 
-/// One substep of the catheter with the wire in its lumen: both gather their own forces
-/// (each with its wall contact), the lumen's hold joins them ([`coaxial`], within the
-/// catheter's radius of its axis), then both move. Returns how many wire balls are held.
-#[allow(clippy::too_many_arguments)]
+/// One substep of the catheter with the wire in its lumen: the lumen's hold ([`coaxial`],
+/// within the catheter's radius of its axis) from where both are now joins each one's wall
+/// contact, then both take their substep. The world's coupling
+/// ([`super::wall::WallContact`]) does the same between the two models. Returns how many
+/// wire balls are held.
 pub fn step_together(
     catheter: &mut Catheter,
     (drive, contact): (&Drive, &[DVec3]),
@@ -209,30 +241,54 @@ pub fn step_together(
     (wire_drive, wire_contact): (&WireDrive, &[DVec3]),
     dt_s: f64,
 ) -> usize {
-    let v0 = catheter.gather(drive, contact, dt_s);
-    let (_, wire_v0) = wire.handle(wire_drive, dt_s);
-    wire.gather(wire_drive, wire_contact, dt_s);
-    let p = wire.params;
-    let held = coaxial(
-        &mut wire.balls,
-        &mut catheter.balls,
-        p.lumen_n_per_m,
-        p.lumen_damping_n_s_per_m,
-        0.5 * catheter.params.diameter_m,
-    );
-    catheter.advance(dt_s, v0);
-    wire.advance(dt_s, wire_v0);
+    let mut on_catheter = contact.to_vec();
+    let mut on_wire = wire_contact.to_vec();
+    let held = lumen(catheter, wire, &mut on_wire, &mut on_catheter);
+    catheter.step(drive, &on_catheter, dt_s);
+    wire.step(wire_drive, &on_wire, dt_s);
     held
 }
 
+/// The lumen's forces between `catheter` and the `wire` in it, added to `on_wire` and
+/// `on_catheter` (per ball): [`coaxial`] with the wire's lumen stiffness and damping within
+/// the catheter's radius. Returns how many wire balls are held.
+pub fn lumen(
+    catheter: &Catheter,
+    wire: &Guidewire,
+    on_wire: &mut [DVec3],
+    on_catheter: &mut [DVec3],
+) -> usize {
+    let p = wire.params;
+    coaxial(
+        (&wire.balls, on_wire),
+        (&catheter.balls, on_catheter),
+        (p.lumen_n_per_m, p.lumen_damping_n_s_per_m),
+        0.5 * catheter.params.diameter_m,
+    )
+}
+
+/// How far past the catheter's tip the lumen's mouth still guides a wire ball, in segments:
+/// the hold fades from full at the tip to none this far out, so that a wire ball leaving or
+/// entering the catheter meets no jump in force.
+pub const MOUTH_SEGMENTS: f64 = 0.5;
+
 /// The lumen's hold: each of `wire`'s balls that lies within the catheter (its nearest point
-/// on the catheter's centreline `tube` falls inside a segment, not past the tip, within
-/// `reach_m` of it) is pulled towards that point across the segment (`k` N/m, `c` N s/m on
-/// the relative speed across it), and the segment's two balls take the opposite force,
-/// shared as the point divides the segment. Forces go into both chains' gathered forces, in
-/// index order. Returns how many wire balls are held.
-pub fn coaxial(wire: &mut Balls, tube: &mut Balls, k: f64, c: f64, reach_m: f64) -> usize {
+/// on the catheter's centreline `tube` falls inside a segment, or on the last one's line
+/// up to [`MOUTH_SEGMENTS`] past the tip, within `reach_m` of it) is pulled towards that
+/// point across the segment (`k` N/m, `c` N s/m on the relative speed across it), and the
+/// segment's two balls take the opposite force, shared as the point divides the segment (a
+/// lever past the tip). The hold is full within half of `reach_m` of the axis and inside
+/// the tip; beyond, it fades to nothing at `reach_m` across and at the mouth's end (a ball
+/// the catheter comes over is taken in without a jolt). The forces are added to `on_wire`
+/// and `on_tube` (per ball), in index order. Returns how many wire balls are held.
+pub fn coaxial(
+    (wire, on_wire): (&Balls, &mut [DVec3]),
+    (tube, on_tube): (&Balls, &mut [DVec3]),
+    (k, c): (f64, f64),
+    reach_m: f64,
+) -> usize {
     let segments = tube.len().saturating_sub(1);
+    let full_m = 0.5 * reach_m;
     let mut held = 0;
     for i in 0..wire.len() {
         if wire.fixed[i] {
@@ -257,20 +313,31 @@ pub fn coaxial(wire: &mut Balls, tube: &mut Balls, k: f64, c: f64, reach_m: f64)
             }
         }
         let Some((j, t, dist2)) = best else { continue };
-        // Outside the lumen: past the tip, before the first ball, or too far across.
-        if (j + 1 == segments && t > 1.0) || (j == 0 && t < 0.0) || dist2 > reach_m * reach_m {
+        let last = j + 1 == segments;
+        let beyond = if last { (t - 1.0).max(0.0) } else { 0.0 };
+        // Outside the lumen: past the mouth, before the first ball, or too far across.
+        if beyond >= MOUTH_SEGMENTS || (j == 0 && t < 0.0) || dist2 >= reach_m * reach_m {
             continue;
         }
-        let t = t.clamp(0.0, 1.0);
+        // The point on the segment (on its line past the tip).
+        let t = if last { t.max(0.0) } else { t.clamp(0.0, 1.0) };
         let (a, b) = (j, j + 1);
         let axis = (tube.x[b] - tube.x[a]).normalize_or_zero();
-        let p = tube.x[a].lerp(tube.x[b], t);
-        let vp = tube.v[a].lerp(tube.v[b], t);
+        let p = tube.x[a] + (tube.x[b] - tube.x[a]) * t;
+        let vp = tube.v[a] + (tube.v[b] - tube.v[a]) * t;
         let across = |v: DVec3| v - axis * axis.dot(v);
-        let f = across(p - x) * k + across(vp - wire.v[i]) * c;
-        wire.f[i] += f;
-        tube.f[a] -= f * (1.0 - t);
-        tube.f[b] -= f * t;
+        let off = across(p - x);
+        let d = off.length();
+        let fade_across = if d <= full_m {
+            1.0
+        } else {
+            full_m * (reach_m - d) / ((reach_m - full_m) * d)
+        };
+        let fade_mouth = 1.0 - beyond / MOUTH_SEGMENTS;
+        let f = (off * k * fade_across + across(vp - wire.v[i]) * c) * fade_mouth;
+        on_wire[i] += f;
+        on_tube[a] -= f * (1.0 - t);
+        on_tube[b] -= f * t;
         held += 1;
     }
     held

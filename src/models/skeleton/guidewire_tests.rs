@@ -170,3 +170,65 @@ fn a_j_tip_curls_in_the_plane_its_twist_turns() {
     );
     assert!(straight.dot(DVec3::X) > 1.0 - 1e-9, "{straight}");
 }
+
+/// The world (the catheter and the wire in its stage, the wall contact and the lumen as its
+/// coupling) steps the two as `step_together` does, bit for bit, while neither touches the
+/// wall: the catheter's tip at the inlet, the wire fed 6 mm past it and twisted, its tip
+/// angled.
+#[test]
+fn the_world_steps_wire_and_catheter_as_step_together_does() {
+    use crate::models::skeleton::contact::ContactLaw;
+    use crate::models::skeleton::in_vessel::CatheterInVessel;
+    use crate::models::skeleton::vessel::{Vessel, VesselParams};
+    let law = ContactLaw {
+        stiffness_n_per_m: 500.0,
+        damping_n_s_per_m: 0.3,
+        preload_n: 0.5,
+        friction: 0.1,
+    };
+    let p = GuidewireParams {
+        j_angle_deg: 45.0,
+        ..GuidewireParams::default()
+    };
+    let substeps = 10u32;
+    let mut scene = CatheterInVessel::new(
+        catheter(),
+        Vessel::new(&VesselParams::default()),
+        law,
+        3.0,
+        substeps,
+    )
+    .with_wire(Guidewire::new(&p, DVec3::ZERO, DVec3::X), law, 0.27);
+    let (mut c, mut w) = (catheter(), Guidewire::new(&p, DVec3::ZERO, DVec3::X));
+    let drive = Drive::default();
+    let wd = WireDrive {
+        insertion_m: 0.006,
+        twist_rad: 1.0,
+    };
+    let dt_s = 0.001f32;
+    let h = f64::from(dt_s) / f64::from(substeps);
+    let (none_c, none_w) = (
+        vec![DVec3::ZERO; c.balls.len()],
+        vec![DVec3::ZERO; w.balls.len()],
+    );
+    for step in 0..40 {
+        let out = scene.step((&drive, &wd), dt_s, step, &mut Vec::new());
+        let wire_out = scene.wire_outcome();
+        assert_eq!(
+            (out.reaction, wire_out.reaction),
+            (DVec3::ZERO, DVec3::ZERO),
+            "step {step}"
+        );
+        c.orient(&drive);
+        for _ in 0..substeps {
+            step_together(&mut c, (&drive, &none_c), &mut w, (&wd, &none_w), h);
+        }
+    }
+    let got = scene.guidewire().expect("a wire");
+    assert_eq!(got.balls.x, w.balls.x);
+    assert_eq!(got.balls.v, w.balls.v);
+    assert_eq!(scene.catheter().balls.x, c.balls.x);
+    // The wire came out ahead of the catheter, and the lumen held it inside.
+    assert!(w.tip().x > c.tip().x + 0.004, "{} {}", w.tip(), c.tip());
+    assert!(scene.wire_outcome().held > 10, "{:?}", scene.wire_outcome());
+}

@@ -16,6 +16,7 @@ pub mod contact;
 pub mod guidewire;
 pub mod in_vessel;
 pub mod model;
+pub mod surface;
 pub mod vessel;
 pub mod wall;
 

@@ -1,11 +1,13 @@
-//! The catheter and the vessel wall as models of a world. The catheter takes the substeps
-//! of its stage under the drive and the wall's contact forces its coupling sets before each
-//! ([`super::wall::WallContact`]); the vessel takes one step with the reaction gathered
-//! over them. Each checkpoint keeps the model's whole moving state (balls, and the
-//! catheter's twist, frames and bend).
+//! The catheter, the guidewire and the vessel wall as models of a world. The catheter and
+//! the wire take the substeps of their stage under their drives and the forces their
+//! coupling sets before each ([`super::wall::WallContact`]: the wall's contact, and the
+//! lumen's hold between the two); the vessel takes one step with the reaction gathered over
+//! them. Each checkpoint keeps the model's whole moving state (balls, and the catheter's
+//! twist, frames and bend, the wire's tip curve).
 
 use super::Balls;
 use super::catheter::{Catheter, Drive};
+use super::guidewire::{Guidewire, WireDrive};
 use super::vessel::Vessel;
 use crate::sim::{
     Collider, Contact, Fnv, MassSpring, ModelOutput, ModelSizes, ModelSnapshot, SurfaceRole,
@@ -14,10 +16,11 @@ use crate::sim::{
 use glam::{DVec3, Vec3};
 
 crate::tissue_models! {
-    /// The skeleton-spring models: the catheter and the vessel wall.
+    /// The skeleton-spring models: the catheter, the vessel wall and the guidewire.
     pub enum Skeleton {
         Catheter(CatheterModel),
         Vessel(VesselModel),
+        Guidewire(GuidewireModel),
     }
 }
 
@@ -39,6 +42,30 @@ impl CatheterModel {
         CatheterModel {
             catheter,
             drive: Drive::default(),
+            contact: vec![DVec3::ZERO; n],
+            substep_s: 0.0,
+            saved: None,
+        }
+    }
+}
+
+/// The guidewire, its drive and the forces for its next substep.
+pub struct GuidewireModel {
+    pub wire: Guidewire,
+    pub drive: WireDrive,
+    /// The wall's and the lumen's force on each ball for the next substep, N.
+    pub contact: Vec<DVec3>,
+    /// The substep, s, set by the coupling (as the catheter's).
+    pub substep_s: f64,
+    saved: Option<Box<Guidewire>>,
+}
+
+impl GuidewireModel {
+    pub fn new(wire: Guidewire) -> GuidewireModel {
+        let n = wire.balls.len();
+        GuidewireModel {
+            wire,
+            drive: WireDrive::default(),
             contact: vec![DVec3::ZERO; n],
             substep_s: 0.0,
             saved: None,
@@ -185,6 +212,90 @@ impl TissueModel for CatheterModel {
 
     fn point(&self, i: u32) -> Option<Vec3> {
         self.catheter.balls.x.get(i as usize).map(|p| p.as_vec3())
+    }
+}
+
+impl TissueModel for GuidewireModel {
+    fn name(&self) -> &str {
+        "guidewire"
+    }
+
+    fn kind(&self) -> &'static str {
+        "skeleton_springs"
+    }
+
+    fn sizes(&self) -> ModelSizes {
+        let w = &self.wire;
+        ModelSizes {
+            vertices: w.balls.len(),
+            triangles: 0,
+            constraints: w.springs.len() + w.angles.len(),
+        }
+    }
+
+    fn mass_spring(&self) -> MassSpring {
+        MassSpring {
+            nodes: Some(self.wire.balls.len()),
+            springs: Some(self.wire.springs.len() + self.wire.angles.len()),
+            integrator: Some("semi_implicit_euler"),
+            ..MassSpring::default()
+        }
+    }
+
+    /// One substep under the drive and the forces the coupling set.
+    fn step(&mut self, _dt_s: f32, _contacts: &[Contact], _out: &mut ModelOutput) {
+        self.wire.step(&self.drive, &self.contact, self.substep_s);
+    }
+
+    fn collider(&self) -> Collider<'_> {
+        Collider::none()
+    }
+
+    fn render_mesh(&mut self) -> ModelSnapshot {
+        points("guidewire", &self.wire.balls)
+    }
+
+    fn checkpoint(&mut self) {
+        match &mut self.saved {
+            Some(s) => (**s).clone_from(&self.wire),
+            None => self.saved = Some(Box::new(self.wire.clone())),
+        }
+    }
+
+    fn restore(&mut self) {
+        if let Some(s) = &self.saved {
+            self.wire.clone_from(s);
+        }
+        self.contact.iter_mut().for_each(|f| *f = DVec3::ZERO);
+    }
+
+    fn state_is_finite(&self) -> bool {
+        finite(&self.wire.balls)
+    }
+
+    fn state_hash(&self) -> u64 {
+        let mut h = Fnv::default();
+        hash_balls(&mut h, &self.wire.balls);
+        h.0
+    }
+
+    /// A NaN speed on the tip ball.
+    fn inject_nan(&mut self) -> bool {
+        match self.wire.balls.v.last_mut() {
+            Some(v) => {
+                v.x = f64::NAN;
+                true
+            }
+            None => false,
+        }
+    }
+
+    fn memory(&self) -> Vec<(&'static str, usize)> {
+        vec![("guidewire", 80 * self.wire.balls.len())]
+    }
+
+    fn point(&self, i: u32) -> Option<Vec3> {
+        self.wire.balls.x.get(i as usize).map(|p| p.as_vec3())
     }
 }
 

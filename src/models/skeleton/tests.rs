@@ -276,7 +276,12 @@ fn the_bent_catheter_enters_the_branch_it_points_to_within_the_papers_forces() {
             twist_rad: 0.0,
             bend: if insertion > 0.045 { 1.0 } else { 0.0 },
         };
-        let out = s.step(&drive, 0.001, k as u64, &mut Vec::new());
+        let out = s.step(
+            (&drive, &Default::default()),
+            0.001,
+            k as u64,
+            &mut Vec::new(),
+        );
         assert!(out.punctures.is_empty(), "punctured at {t} s");
         if out.head_normal_n > 0.0 {
             touched += 1;
@@ -308,7 +313,12 @@ fn a_puncture_fires_above_its_threshold_and_not_below() {
                 twist_rad: 0.0,
                 bend: 0.0,
             };
-            let out = s.step(&drive, 0.001, k as u64, &mut Vec::new());
+            let out = s.step(
+                (&drive, &Default::default()),
+                0.001,
+                k as u64,
+                &mut Vec::new(),
+            );
             largest = largest.max(out.largest_push_n);
             punctures.extend(out.punctures);
         }

@@ -1,14 +1,19 @@
-//! The catheter against the vessel's wall, as the couplings of their world: before each of
-//! the catheter's substeps, the collision (by sections, the paper's contact law) against the
-//! wall where it is sets the catheter's contact forces, and the wall's reaction is gathered
-//! over them; before the vessel's one step, that mean reaction is handed to it. A wall ball
-//! pushed harder than the puncture force gives way: it and the wall balls within the
-//! catheter's radius of it stop colliding (a hole the catheter can pass), and the puncture is
-//! reported.
+//! The catheter (and the guidewire, when there is one) against the vessel's wall, as the
+//! couplings of their world: before each of the instruments' substeps, the collision (by
+//! sections, the paper's contact law) against the wall where they are sets their contact
+//! forces, the lumen holds the wire in the catheter ([`super::guidewire::lumen`]), and the
+//! wall's reaction is gathered over them; before the vessel's one step, that mean reaction is
+//! handed to it. A wall ball pushed harder than an instrument's puncture force gives way: it
+//! and the wall balls within that instrument's radius of it stop colliding (a hole it can
+//! pass), and the puncture is reported.
 
+use super::Balls;
 use super::collision::{Hit, contact_forces, detect_within, narrow};
 use super::contact::ContactLaw;
+use super::guidewire::lumen;
 use super::model::Skeleton;
+use super::surface::{SurfaceHit, WallSurface};
+use super::vessel::Vessel;
 use crate::sim::{Couplings, EventKind, ModelId, Models, Phase};
 use glam::DVec3;
 
@@ -23,6 +28,8 @@ pub struct Puncture {
     pub wall: u32,
     pub position: DVec3,
     pub force_n: f64,
+    /// The guidewire made it (else the catheter).
+    pub by_wire: bool,
 }
 
 /// What a step did.
@@ -44,11 +51,62 @@ pub struct StepOutcome {
     pub pair_tests: u64,
 }
 
-/// The catheter's and the vessel's places in their world (stages 0 and 1).
+/// What a step did to the guidewire.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct WireOutcome {
+    /// The wall's force on the whole wire and on its tip ball, N (means over the substeps).
+    pub reaction: DVec3,
+    pub tip: DVec3,
+    /// The tip's largest normal force over the substeps, N.
+    pub tip_normal_n: f64,
+    /// Wire-wall contacts at the last substep.
+    pub contacts: usize,
+    /// Wire balls the catheter's lumen held at the last substep.
+    pub held: usize,
+}
+
+/// The catheter's, the vessel's and the guidewire's places in their world (the catheter
+/// and the wire in stage 0, the vessel in stage 1).
 pub const CATHETER: ModelId = ModelId(0);
 pub const VESSEL: ModelId = ModelId(1);
+pub const GUIDEWIRE: ModelId = ModelId(2);
 
-/// The wall contact between the catheter and the vessel, and what it keeps between steps.
+/// One instrument's collision with the wall: its candidate pairs for the step, this
+/// substep's hits, the wall's force on each of its balls, its contact law and the push
+/// that punctures the wall under it.
+struct Probe {
+    law: ContactLaw,
+    puncture_n: f64,
+    candidates: Vec<Hit>,
+    hits: Vec<Hit>,
+    on_balls: Vec<DVec3>,
+}
+
+impl Probe {
+    fn new(law: ContactLaw, puncture_n: f64, balls: usize) -> Probe {
+        Probe {
+            law,
+            puncture_n,
+            candidates: Vec::new(),
+            hits: Vec::new(),
+            on_balls: vec![DVec3::ZERO; balls],
+        }
+    }
+}
+
+/// The guidewire's collision with the wall's surface: as [`Probe`], by triangles.
+struct WireProbe {
+    law: ContactLaw,
+    puncture_n: f64,
+    surface: WallSurface,
+    candidates: Vec<(u32, u32)>,
+    hits: Vec<SurfaceHit>,
+    on_balls: Vec<DVec3>,
+}
+
+/// The wall contact between the instruments (the catheter, and the guidewire when there is
+/// one) and the vessel, the lumen between the two instruments, and what it keeps between
+/// steps.
 pub struct WallContact {
     pub law: ContactLaw,
     pub puncture_n: f64,
@@ -56,8 +114,10 @@ pub struct WallContact {
     pub holes: Vec<bool>,
     /// What the last step did.
     pub out: StepOutcome,
-    candidates: Vec<Hit>,
-    hits: Vec<Hit>,
+    /// What the last step did to the wire.
+    pub wire_out: WireOutcome,
+    catheter: Probe,
+    wire: Option<WireProbe>,
     /// Per wall ball scratch: this sub-step's push and reaction, the step's mean reaction,
     /// and the balls it was gathered on.
     pushed: Vec<f64>,
@@ -66,7 +126,6 @@ pub struct WallContact {
     touched: Vec<u32>,
     /// The wall balls the vessel's force buffer holds forces on (from the last hand-over).
     handed: Vec<u32>,
-    on_catheter: Vec<DVec3>,
 }
 
 impl WallContact {
@@ -77,25 +136,52 @@ impl WallContact {
             puncture_n,
             holes: vec![false; wall_balls],
             out: StepOutcome::default(),
-            candidates: Vec::new(),
-            hits: Vec::new(),
+            wire_out: WireOutcome::default(),
+            catheter: Probe::new(law, puncture_n, catheter_balls),
+            wire: None,
             pushed: vec![0.0; wall_balls],
             on_wall: vec![DVec3::ZERO; wall_balls],
             wall_mean: vec![DVec3::ZERO; wall_balls],
             touched: Vec::new(),
             handed: Vec::new(),
-            on_catheter: vec![DVec3::ZERO; catheter_balls],
         }
+    }
+
+    /// A guidewire of `balls` balls touches the wall's `surface` too, under its own law and
+    /// puncture force.
+    pub fn add_wire(
+        &mut self,
+        law: ContactLaw,
+        puncture_n: f64,
+        balls: usize,
+        surface: WallSurface,
+    ) {
+        self.wire = Some(WireProbe {
+            law,
+            puncture_n,
+            surface,
+            candidates: Vec::new(),
+            hits: Vec::new(),
+            on_balls: vec![DVec3::ZERO; balls],
+        });
+    }
+
+    /// The wire's contact law and puncture force, if there is a wire.
+    pub fn wire_law(&self) -> Option<(ContactLaw, f64)> {
+        self.wire.as_ref().map(|p| (p.law, p.puncture_n))
     }
 
     /// Once a step, before the first substep: the candidate pairs (those within
     /// [`CANDIDATE_MARGIN_M`] of touching; each substep tests only those), then the
-    /// catheter's drive for the step.
+    /// catheter's drive for the step (the wire turns its tip's curve at each substep) and
+    /// the substep.
     fn begin(&mut self, phase: Phase, dt_s: f32, models: &mut Models<'_, Skeleton>) {
         self.out = StepOutcome::default();
-        if let (Some(Skeleton::Catheter(c)), Some(Skeleton::Vessel(v))) =
-            (models.get(CATHETER), models.get(VESSEL))
-        {
+        self.wire_out = WireOutcome::default();
+        let Some(Skeleton::Vessel(v)) = models.get(VESSEL) else {
+            return;
+        };
+        if let Some(Skeleton::Catheter(c)) = models.get(CATHETER) {
             let inside = c.catheter.first_inside();
             self.out.pair_tests = detect_within(
                 &c.catheter.balls,
@@ -103,18 +189,34 @@ impl WallContact {
                 &v.vessel,
                 &self.holes,
                 CANDIDATE_MARGIN_M,
-                &mut self.candidates,
+                &mut self.catheter.candidates,
             );
         }
+        if let (Some(Skeleton::Guidewire(w)), Some(probe)) = (models.get(GUIDEWIRE), &mut self.wire)
+        {
+            self.out.pair_tests += probe.surface.candidates(
+                &w.wire.balls,
+                w.wire.first_inside(),
+                &v.vessel,
+                &self.holes,
+                CANDIDATE_MARGIN_M,
+                &mut probe.candidates,
+            );
+        }
+        let substep_s = f64::from(dt_s) / f64::from(phase.substeps);
         if let Some(Skeleton::Catheter(c)) = models.get_mut(CATHETER) {
             let drive = c.drive;
             c.catheter.orient(&drive);
-            c.substep_s = f64::from(dt_s) / f64::from(phase.substeps);
+            c.substep_s = substep_s;
+        }
+        if let Some(Skeleton::Guidewire(w)) = models.get_mut(GUIDEWIRE) {
+            w.substep_s = substep_s;
         }
     }
 
-    /// Before each substep: the hits, the forces on the catheter's balls (set for its
-    /// substep) and on the wall's (into the step's mean), and punctures.
+    /// Before each substep: each instrument's hits, the wall's forces on its balls and the
+    /// opposite on the wall's (into the step's mean), punctures; then the lumen's hold
+    /// between catheter and wire; the sums are set for the instruments' substep.
     fn substep(&mut self, phase: Phase, models: &mut Models<'_, Skeleton>) {
         let (Some(Skeleton::Catheter(c)), Some(Skeleton::Vessel(v))) =
             (models.get(CATHETER), models.get(VESSEL))
@@ -122,56 +224,65 @@ impl WallContact {
             return;
         };
         let (catheter, vessel) = (&c.catheter, &v.vessel);
-        let head = catheter.balls.len() - 1;
         let share = 1.0 / f64::from(phase.substeps);
-        narrow(&self.candidates, &catheter.balls, vessel, &mut self.hits);
-        self.on_catheter.iter_mut().for_each(|f| *f = DVec3::ZERO);
-        let forces = contact_forces(
-            &self.hits,
-            &self.law,
-            &catheter.balls,
-            vessel,
-            &mut self.on_catheter,
-            &mut self.on_wall,
-        );
-        for (hit, f) in self.hits.iter().zip(&forces) {
-            let w = hit.wall as usize;
-            self.pushed[w] += f.normal.length();
-            if hit.catheter as usize == head {
-                self.out.head_normal_n = self.out.head_normal_n.max(f.normal.length());
-            }
-        }
         let radius = 0.5 * catheter.params.diameter_m;
-        // The wall's reaction this sub-step into the step's mean; the scratch cleared
-        // where it was used.
-        for k in 0..self.hits.len() {
-            let hit = self.hits[k];
-            let w = hit.wall as usize;
-            if self.pushed[w] > 0.0 {
-                self.out.largest_push_n = self.out.largest_push_n.max(self.pushed[w]);
-                if self.pushed[w] > self.puncture_n && !self.holes[w] {
-                    self.puncture(w, self.pushed[w], radius, &vessel.balls.x);
-                }
-                self.pushed[w] = 0.0;
+        let head = catheter.balls.len() - 1;
+        let mut wall = WallScratch {
+            holes: &mut self.holes,
+            pushed: &mut self.pushed,
+            on_wall: &mut self.on_wall,
+            wall_mean: &mut self.wall_mean,
+            touched: &mut self.touched,
+            out: &mut self.out,
+        };
+        let head_normal = wall.touch(
+            &mut self.catheter,
+            (&catheter.balls, radius, false),
+            vessel,
+            share,
+        );
+        self.out.head_normal_n = self.out.head_normal_n.max(head_normal);
+        let on = &self.catheter.on_balls;
+        self.out.reaction += on.iter().sum::<DVec3>() * share;
+        self.out.head += on[head] * share;
+        self.out.contacts = self.catheter.hits.len();
+        let mut on_catheter = self.catheter.on_balls.clone();
+        let wire_forces = match (models.get(GUIDEWIRE), &mut self.wire) {
+            (Some(Skeleton::Guidewire(w)), Some(probe)) => {
+                let wire = &w.wire;
+                let tip = wire.balls.len() - 1;
+                let mut wall = WallScratch {
+                    holes: &mut self.holes,
+                    pushed: &mut self.pushed,
+                    on_wall: &mut self.on_wall,
+                    wall_mean: &mut self.wall_mean,
+                    touched: &mut self.touched,
+                    out: &mut self.out,
+                };
+                let r = 0.5 * wire.params.diameter_m;
+                let normal = wall.touch_surface(probe, (&wire.balls, r), vessel, share);
+                let o = &mut self.wire_out;
+                o.tip_normal_n = o.tip_normal_n.max(normal);
+                o.reaction += probe.on_balls.iter().sum::<DVec3>() * share;
+                o.tip += probe.on_balls[tip] * share;
+                o.contacts = probe.hits.len();
+                let mut on_wire = probe.on_balls.clone();
+                o.held = lumen(catheter, wire, &mut on_wire, &mut on_catheter);
+                Some(on_wire)
             }
-            if self.on_wall[w] != DVec3::ZERO {
-                if self.wall_mean[w] == DVec3::ZERO {
-                    self.touched.push(hit.wall);
-                }
-                self.wall_mean[w] += self.on_wall[w] * share;
-                self.on_wall[w] = DVec3::ZERO;
-            }
-        }
-        self.out.reaction += self.on_catheter.iter().sum::<DVec3>() * share;
-        self.out.head += self.on_catheter[head] * share;
-        self.out.contacts = self.hits.len();
+            _ => None,
+        };
         if let Some(Skeleton::Catheter(c)) = models.get_mut(CATHETER) {
-            c.contact.copy_from_slice(&self.on_catheter);
+            c.contact.copy_from_slice(&on_catheter);
+        }
+        if let (Some(f), Some(Skeleton::Guidewire(w))) = (wire_forces, models.get_mut(GUIDEWIRE)) {
+            w.contact.copy_from_slice(&f);
         }
     }
 
-    /// Before the vessel's step: the mean reaction over the catheter's substeps. The buffers
-    /// are swapped, not copied: the vessel's last one comes back, cleared where it was used.
+    /// Before the vessel's step: the mean reaction over the instruments' substeps. The
+    /// buffers are swapped, not copied: the vessel's last one comes back, cleared where it
+    /// was used.
     fn hand_to_vessel(&mut self, models: &mut Models<'_, Skeleton>) {
         let handed = match models.get_mut(VESSEL) {
             Some(Skeleton::Vessel(v)) => {
@@ -191,24 +302,167 @@ impl WallContact {
         self.touched = stale;
         self.touched.clear();
     }
+}
 
-    /// Wall ball `b`, pushed with `force_n`, gives way, with those within the catheter's
-    /// radius `radius_m` of it.
-    fn puncture(&mut self, b: usize, force_n: f64, radius_m: f64, wall: &[DVec3]) {
-        let at = wall[b];
-        self.out.punctures.push(Puncture {
-            wall: b as u32,
-            position: at,
-            force_n,
-        });
-        for (k, x) in wall.iter().enumerate() {
-            if x.distance(at) <= radius_m {
-                self.holes[k] = true;
+/// The wall's per-ball scratch, borrowed for one instrument's contact.
+struct WallScratch<'a> {
+    holes: &'a mut Vec<bool>,
+    pushed: &'a mut Vec<f64>,
+    on_wall: &'a mut Vec<DVec3>,
+    wall_mean: &'a mut Vec<DVec3>,
+    touched: &'a mut Vec<u32>,
+    out: &'a mut StepOutcome,
+}
+
+impl WallScratch<'_> {
+    /// One instrument's contact this substep: its hits among its candidates, the wall's
+    /// forces on its balls (into `probe.on_balls`, cleared first) and the opposite on the
+    /// wall's (into the step's mean, `share` of it), punctures where a wall ball is pushed
+    /// harder than the probe's puncture force (the hole as wide as the instrument's
+    /// `radius_m`; `by_wire` says which instrument made it). Returns the largest normal
+    /// force on the instrument's last ball (its tip).
+    fn touch(
+        &mut self,
+        probe: &mut Probe,
+        (balls, radius_m, by_wire): (&Balls, f64, bool),
+        vessel: &Vessel,
+        share: f64,
+    ) -> f64 {
+        if !self.out.punctures.is_empty() {
+            // Holes the other instrument made this step.
+            let holes = &*self.holes;
+            probe.candidates.retain(|c| !holes[c.wall as usize]);
+        }
+        narrow(&probe.candidates, balls, vessel, &mut probe.hits);
+        probe.on_balls.iter_mut().for_each(|f| *f = DVec3::ZERO);
+        let forces = contact_forces(
+            &probe.hits,
+            &probe.law,
+            balls,
+            vessel,
+            &mut probe.on_balls,
+            self.on_wall,
+        );
+        let last = balls.len().saturating_sub(1) as u32;
+        let mut tip_normal: f64 = 0.0;
+        for (hit, f) in probe.hits.iter().zip(&forces) {
+            let n = f.normal.length();
+            self.pushed[hit.wall as usize] += n;
+            if hit.catheter == last {
+                tip_normal = tip_normal.max(n);
             }
         }
-        // The candidates through the hole go.
-        let holes = &self.holes;
-        self.candidates.retain(|c| !holes[c.wall as usize]);
+        // The wall's reaction this sub-step into the step's mean; the scratch cleared
+        // where it was used.
+        for k in 0..probe.hits.len() {
+            let w = probe.hits[k].wall as usize;
+            if self.settle(w, (probe.puncture_n, radius_m, by_wire), vessel, share) {
+                // The candidates through the hole go.
+                let holes = &*self.holes;
+                probe.candidates.retain(|c| !holes[c.wall as usize]);
+            }
+        }
+        tip_normal
+    }
+
+    /// The wire's contact this substep, against the wall's surface ([`WallSurface`]): as
+    /// [`WallScratch::touch`], each hit's normal force pushing the triangle's corners by
+    /// their weights.
+    fn touch_surface(
+        &mut self,
+        probe: &mut WireProbe,
+        (balls, radius_m): (&Balls, f64),
+        vessel: &Vessel,
+        share: f64,
+    ) -> f64 {
+        let surface = &probe.surface;
+        if !self.out.punctures.is_empty() {
+            let holes = &*self.holes;
+            probe.candidates.retain(|&(_, t)| {
+                surface.triangles[t as usize]
+                    .iter()
+                    .all(|&c| !holes[c as usize])
+            });
+        }
+        surface.narrow(&probe.candidates, balls, vessel, &mut probe.hits);
+        probe.on_balls.iter_mut().for_each(|f| *f = DVec3::ZERO);
+        let forces = surface.forces(
+            &probe.hits,
+            &probe.law,
+            balls,
+            vessel,
+            &mut probe.on_balls,
+            self.on_wall,
+        );
+        let last = balls.len().saturating_sub(1) as u32;
+        let mut tip_normal: f64 = 0.0;
+        for (hit, f) in probe.hits.iter().zip(&forces) {
+            let n = f.normal.length();
+            let tri = surface.triangles[hit.triangle as usize];
+            for (&c, w) in tri.iter().zip(hit.weights) {
+                self.pushed[c as usize] += n * w;
+            }
+            if hit.ball == last {
+                tip_normal = tip_normal.max(n);
+            }
+        }
+        let mut punctured = false;
+        for k in 0..probe.hits.len() {
+            let tri = surface.triangles[probe.hits[k].triangle as usize];
+            for c in tri {
+                let how = (probe.puncture_n, radius_m, true);
+                punctured |= self.settle(c as usize, how, vessel, share);
+            }
+        }
+        if punctured {
+            let holes = &*self.holes;
+            probe.candidates.retain(|&(_, t)| {
+                surface.triangles[t as usize]
+                    .iter()
+                    .all(|&c| !holes[c as usize])
+            });
+        }
+        tip_normal
+    }
+
+    /// Wall ball `w` after a contact's forces: a push past `puncture_n` punctures it (a hole
+    /// of `radius_m`, made by the wire if `by_wire`), and its reaction goes into the step's
+    /// mean (`share` of it); its scratch is cleared. Returns whether it was punctured.
+    fn settle(
+        &mut self,
+        w: usize,
+        (puncture_n, radius_m, by_wire): (f64, f64, bool),
+        vessel: &Vessel,
+        share: f64,
+    ) -> bool {
+        let mut punctured = false;
+        if self.pushed[w] > 0.0 {
+            self.out.largest_push_n = self.out.largest_push_n.max(self.pushed[w]);
+            if self.pushed[w] > puncture_n && !self.holes[w] {
+                let at = vessel.balls.x[w];
+                self.out.punctures.push(Puncture {
+                    wall: w as u32,
+                    position: at,
+                    force_n: self.pushed[w],
+                    by_wire,
+                });
+                for (k, x) in vessel.balls.x.iter().enumerate() {
+                    if x.distance(at) <= radius_m {
+                        self.holes[k] = true;
+                    }
+                }
+                punctured = true;
+            }
+            self.pushed[w] = 0.0;
+        }
+        if self.on_wall[w] != DVec3::ZERO {
+            if self.wall_mean[w] == DVec3::ZERO {
+                self.touched.push(w as u32);
+            }
+            self.wall_mean[w] += self.on_wall[w] * share;
+            self.on_wall[w] = DVec3::ZERO;
+        }
+        punctured
     }
 }
 

@@ -25,8 +25,9 @@ pub fn extra() -> Result<Vec<BenchLine>, BenchError> {
         let mut tests = 0u64;
         for k in 0..steps {
             let f = trace.sample(k as f64 * dt);
-            let drive = p.drive(&f);
-            tests += p.scene.step(&drive, s.dt_s, k, &mut Vec::new()).pair_tests;
+            let (drive, wire) = p.drives(&f);
+            let out = p.scene.step((&drive, &wire), s.dt_s, k, &mut Vec::new());
+            tests += out.pair_tests;
         }
         out.push(BenchLine {
             vertices: p.scene.vessel().balls.len(),

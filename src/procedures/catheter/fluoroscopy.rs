@@ -264,6 +264,9 @@ pub struct Imaging {
     /// The clicks at the last step: the imaging hand's (the roadmap), the other's (zoom).
     mark: bool,
     zoom_click: bool,
+    /// The guidewire's attenuation, 1/m (the scenario's `guidewire.mu_per_m`; unused
+    /// without a wire).
+    pub wire_mu_per_m: f64,
 }
 
 impl Imaging {
@@ -330,6 +333,7 @@ impl Imaging {
             injecting: false,
             mark: false,
             zoom_click: false,
+            wire_mu_per_m: 0.0,
         }
     }
 
@@ -480,19 +484,30 @@ impl Imaging {
             }
         }
         let c = scene.catheter();
-        let r = 0.5 * c.params.diameter_m;
-        bodies.extend(c.balls.x.windows(2).map(|w| {
-            (
-                Body::Capsule {
-                    a: w[0],
-                    b: w[1],
-                    radius: r,
-                },
-                2,
-            )
-        }));
+        bodies.extend(capsules(&c.balls.x, 0.5 * c.params.diameter_m, 2));
+        // The guidewire, a material of its own after the contrast levels: inside the
+        // catheter its path adds to the catheter's.
+        if let Some(wire) = scene.guidewire() {
+            let m = materials.len();
+            materials.push(material("guidewire", self.wire_mu_per_m));
+            bodies.extend(capsules(&wire.balls.x, 0.5 * wire.params.diameter_m, m));
+        }
         (Scene { materials, bodies }, filled)
     }
+}
+
+/// A chain of balls as capsules of `radius` between neighbours, of material `m`.
+fn capsules(x: &[DVec3], radius: f64, m: usize) -> impl Iterator<Item = (Body, usize)> + '_ {
+    x.windows(2).map(move |w| {
+        (
+            Body::Capsule {
+                a: w[0],
+                b: w[1],
+                radius,
+            },
+            m,
+        )
+    })
 }
 
 fn material(name: &str, mu_per_m: f64) -> Material {

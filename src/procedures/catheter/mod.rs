@@ -9,6 +9,7 @@ pub mod fluoroscopy;
 mod plugin;
 mod procedure;
 pub mod scenario;
+pub mod wire_table;
 
 pub use plugin::{INFO, build_procedure, build_scene, score};
 pub use procedure::{Catheterisation, Metrics, STEPS};

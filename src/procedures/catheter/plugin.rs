@@ -5,6 +5,7 @@ use super::field;
 use super::procedure::{Catheterisation, Metrics, STEPS};
 use super::scenario::{self, NAME, Scenario};
 use crate::models::skeleton::catheter::Catheter;
+use crate::models::skeleton::guidewire::Guidewire;
 use crate::models::skeleton::in_vessel::CatheterInVessel;
 use crate::models::skeleton::vessel::Vessel;
 use crate::procedures::{ModelReport, Procedure, ProcedureInfo};
@@ -17,7 +18,8 @@ pub const INFO: ProcedureInfo = crate::procedure_info! {
     title: "Interventional catheterisation (a bifurcating vessel)",
     build: |_, s| build_procedure(s),
     // The catheter's: the Novint Falcon's largest force.
-    tools: [("introducer", Probe, 9.0), ("catheter", Steerable, 9.0)],
+    // The left hand's: the guidewire, when the scenario has one.
+    tools: [("guidewire", Probe, 9.0), ("catheter", Steerable, 9.0)],
     // The paper's view: the vessel from the side (+z), the bifurcation in the middle.
     view: (0.055, 0.0, 0.16) -> (0.055, 0.0, 0.0),
     // The handle's hand at the catheter's end, the other aside.
@@ -30,17 +32,26 @@ pub const INFO: ProcedureInfo = crate::procedure_info! {
 };
 
 /// The scene for a checked scenario: the vessel, the catheter straight in its introducer
-/// with its tip at the inlet, pointing along the trunk.
+/// with its tip at the inlet, pointing along the trunk, and the guidewire in it when the
+/// scenario has one.
 pub fn build_scene(s: &Scenario) -> CatheterInVessel {
     let vessel = Vessel::new(&s.vessel_params());
     let catheter = Catheter::new(&s.catheter_params(), DVec3::ZERO, DVec3::X);
-    CatheterInVessel::new(
+    let scene = CatheterInVessel::new(
         catheter,
         vessel,
         s.law(),
         s.contact.puncture_n,
         s.catheter.substeps,
-    )
+    );
+    match &s.guidewire {
+        Some(w) => {
+            let wire = Guidewire::new(&w.params(), DVec3::ZERO, DVec3::X).inserted(w.start_m);
+            let (law, puncture_n) = w.law(&s.law(), s.contact.puncture_n, s.catheter.diameter_m);
+            scene.with_wire(wire, law, puncture_n)
+        }
+        None => scene,
+    }
 }
 
 /// The procedure for a checked scenario.
@@ -55,8 +66,14 @@ impl Procedure for Catheterisation {
     fn contacts_now(&self) -> [Option<(Vec3, Vec3)>; 2] {
         let r = self.reaction();
         let tip = self.scene.catheter().tip().as_vec3();
+        let w = self.wire_reaction();
+        let wire = self
+            .scene
+            .guidewire()
+            .filter(|_| w.length() > 0.0)
+            .map(|g| (g.tip().as_vec3(), w.normalize_or(DVec3::Y).as_vec3()));
         [
-            None,
+            wire,
             (r.length() > 0.0).then(|| (tip, r.normalize_or(DVec3::Y).as_vec3())),
         ]
     }
@@ -82,16 +99,31 @@ impl Procedure for Catheterisation {
             .with_triangles(s.vessel().triangles().len()),
             ModelReport::new("collision", "sphere_sections", 0, 0),
         ]
+        .into_iter()
+        .chain(s.guidewire().map(|w| {
+            ModelReport::new(
+                "guidewire",
+                "skeleton_springs",
+                w.balls.len(),
+                w.springs.len() + w.angles.len(),
+            )
+            .with_springs(springs)
+        }))
+        .collect()
     }
 
     fn model_times(&self) -> Vec<f64> {
-        self.scene.times().to_vec()
+        self.scene.times()
     }
 
     fn memory(&self) -> Vec<(&'static str, usize)> {
         let s = &self.scene;
         vec![
             ("catheter", s.catheter().balls.heap_bytes()),
+            (
+                "guidewire",
+                s.guidewire().map_or(0, |w| w.balls.heap_bytes()),
+            ),
             (
                 "vessel",
                 s.vessel().balls.heap_bytes() + s.vessel().springs.capacity() * 40,

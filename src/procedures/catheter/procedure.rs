@@ -10,8 +10,10 @@
 
 use super::fluoroscopy::{Console, Imaging};
 use super::scenario::Scenario;
-use crate::models::skeleton::catheter::Drive;
+use crate::models::skeleton::catheter::{Drive, any_across};
+use crate::models::skeleton::guidewire::WireDrive;
 use crate::models::skeleton::in_vessel::CatheterInVessel;
+use crate::models::skeleton::vessel::Vessel;
 use crate::procedures::TaskStep;
 use crate::sim::Fnv;
 use crate::sim::TaskStatus;
@@ -34,8 +36,8 @@ pub const STEPS: [TaskStep; 3] = [
     },
     TaskStep {
         id: "branch",
-        text: "Bend and twist the tip into the target branch and advance along it without \
-               puncturing the wall",
+        text: "Enter the target branch (the catheter's tip bent and twisted into it, or over \
+               the guidewire led in first) and advance along it without puncturing the wall",
     },
 ];
 
@@ -78,6 +80,30 @@ pub struct Metrics {
     /// What the interventional console counted: fluoroscopy time, runs, pulses, the dose,
     /// the contrast.
     pub fluoroscopy: Console,
+    /// The guidewire's own figures, when the scenario has one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub guidewire: Option<WireMetrics>,
+}
+
+/// What the guidewire did over a session.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct WireMetrics {
+    /// The wire tip's path, m, from its places every 20 ms.
+    pub tip_path_m: f64,
+    /// Times its tip came onto the wall, and the steps it was on it.
+    pub wall_contacts: u32,
+    pub contact_steps: u32,
+    /// The largest force the wall put on the wire, N, and on its tip alone (normal).
+    pub peak_force_n: f64,
+    pub peak_tip_normal_n: f64,
+    /// Punctures by the wire (counted in the session's punctures too).
+    pub punctures: u32,
+    /// Times the wire's tip went into the other branch.
+    pub wrong_branch: u32,
+    /// How far the wire's tip has gone into the target branch at most, m.
+    pub reach_m: f64,
+    /// How far the wire's tip led the catheter's at most, m (along the path both follow).
+    pub lead_m: f64,
 }
 
 pub struct Catheterisation {
@@ -95,12 +121,20 @@ pub struct Catheterisation {
     triangles: Vec<[u32; 3]>,
     /// The fluoroscope and the contrast, under the left hand.
     pub imaging: Imaging,
+    /// The left hand's place along the entry when it was first seen: its travel from there
+    /// feeds the wire.
+    wire_origin: Option<f64>,
+    wire_reaction: DVec3,
+    wire_prev: Option<DVec3>,
+    wire_touching_off: u32,
+    wire_astray: bool,
 }
 
 impl Catheterisation {
     pub fn new(scenario: Scenario, scene: CatheterInVessel) -> Catheterisation {
         let triangles = scene.vessel().triangles();
-        let imaging = Imaging::new(scenario.fluoroscopy, &scene, f64::from(scenario.dt_s));
+        let mut imaging = Imaging::new(scenario.fluoroscopy, &scene, f64::from(scenario.dt_s));
+        imaging.wire_mu_per_m = scenario.guidewire.map_or(0.0, |w| w.mu_per_m);
         Catheterisation {
             imaging,
             scenario,
@@ -113,6 +147,11 @@ impl Catheterisation {
             off_steps: u32::MAX,
             astray: false,
             triangles,
+            wire_origin: None,
+            wire_reaction: DVec3::ZERO,
+            wire_prev: None,
+            wire_touching_off: u32::MAX,
+            wire_astray: false,
         }
     }
 
@@ -153,12 +192,45 @@ impl Catheterisation {
         }
     }
 
+    /// The wire's drive from the left hand: its travel along the entry axis since it was
+    /// first seen feeds the wire from `guidewire.start_m` (clamped between there, or the
+    /// entry if that is further in, and the wire's length), its wrist's roll turns it (one
+    /// to one: a wire carries torque to its tip). Zero without a wire.
+    pub fn wire_drive(&mut self, input: &InputFrame) -> WireDrive {
+        let (Some(w), Some(wire)) = (self.scenario.guidewire, self.scene.guidewire()) else {
+            return WireDrive::default();
+        };
+        let h = input.hand(Hand::Left);
+        let p = h.pose.position.as_dvec3();
+        let along = (p - wire.entry).dot(wire.axis);
+        if !h.pose.is_finite() || !along.is_finite() {
+            // An untracked hand leaves the wire where it is.
+            return WireDrive {
+                insertion_m: (wire.tip() - wire.entry).dot(wire.axis),
+                twist_rad: 0.0,
+            };
+        }
+        let origin = *self.wire_origin.get_or_insert(along);
+        let least = w.start_m.min(0.0);
+        WireDrive {
+            insertion_m: (w.start_m + along - origin).clamp(least, w.length_m),
+            twist_rad: f64::from(xr_bindings::keyframes::roll_of(h.pose.orientation)),
+        }
+    }
+
+    /// Both drives for this step's input: the catheter's and the wire's.
+    pub fn drives(&mut self, input: &InputFrame) -> (Drive, WireDrive) {
+        (self.drive(input), self.wire_drive(input))
+    }
+
     /// Advances one step.
     pub fn step(&mut self, input: &InputFrame, step: u64, events: &mut Vec<SimEvent>) {
         let dt = f64::from(self.scenario.dt_s);
-        let drive = self.drive(input);
+        let (drive, wire_drive) = self.drives(input);
         let mut ev: Vec<EventKind> = Vec::new();
-        let out = self.scene.step(&drive, self.scenario.dt_s, step, &mut ev);
+        let out = self
+            .scene
+            .step((&drive, &wire_drive), self.scenario.dt_s, step, &mut ev);
         self.reaction = out.reaction;
         let now_s = self.time_s(step + 1);
         let hand = input.hand(Hand::Right).pose.position;
@@ -199,41 +271,67 @@ impl Catheterisation {
         for p in &out.punctures {
             m.punctures += 1;
             m.errors += 1;
+            let tool = if p.by_wire { "guidewire" } else { "catheter" };
+            if p.by_wire
+                && let Some(w) = &mut m.guidewire
+            {
+                w.punctures += 1;
+            }
             ev.push(EventKind::Procedure(ProcedureEvent::new(
                 "puncture",
                 PunctureEvent {
                     position: p.position.as_vec3().to_array(),
                     force_n: p.force_n,
                     wall_ball: p.wall,
+                    tool,
                 },
             )));
             ev.push(EventKind::Alarm {
-                tool: "catheter".to_string(),
-                message: "the catheter has punctured the vessel wall".to_string(),
+                tool: tool.to_string(),
+                message: format!("the {tool} has punctured the vessel wall"),
             });
         }
         // Where the tip is: which branch, how far along.
         let target = self.scenario.task.branch as usize;
         let v = &self.scene.vessel();
-        let in_branch = |k: usize| {
-            let t = &v.tubes[k];
-            let along = t.along(tip);
-            (along > IN_BRANCH_M && t.from_axis(tip) < v.mid_radius_m).then_some(along)
-        };
+        let in_branch = |k: usize| in_branch_at(v, k, tip);
         let other = if target == 1 { 2 } else { 1 };
         let astray = in_branch(other).is_some();
-        if astray && !self.astray {
-            m.wrong_branch += 1;
-            ev.push(EventKind::Procedure(ProcedureEvent::new(
-                "wrong_branch",
-                WrongBranch {
-                    branch: other as u32,
-                },
-            )));
-        }
-        self.astray = astray;
+        m.wrong_branch += entered(&mut self.astray, astray, (other, "catheter"), &mut ev);
         if let Some(along) = in_branch(target) {
             m.reach_m = m.reach_m.max(along);
+        }
+        if let Some(wire) = self.scene.guidewire() {
+            let w = m.guidewire.get_or_insert_with(WireMetrics::default);
+            let wo = self.scene.wire_outcome();
+            self.wire_reaction = wo.reaction;
+            let wtip = wire.tip();
+            // The path from the tip's places every `TRACE_EVERY_S`: the light tip's
+            // tremble at the substeps' rate is not travel.
+            if (step + 1).is_multiple_of(every) {
+                if let Some(t0) = self.wire_prev {
+                    w.tip_path_m += wtip.distance(t0);
+                }
+                self.wire_prev = Some(wtip);
+            }
+            w.peak_force_n = w.peak_force_n.max(wo.reaction.length());
+            w.peak_tip_normal_n = w.peak_tip_normal_n.max(wo.tip_normal_n);
+            if wo.tip_normal_n > 0.0 {
+                w.contact_steps += 1;
+                if self.wire_touching_off as f64 * dt >= CONTACT_GAP_S {
+                    w.wall_contacts += 1;
+                }
+                self.wire_touching_off = 0;
+            } else {
+                self.wire_touching_off = self.wire_touching_off.saturating_add(1);
+            }
+            let astray = in_branch_at(v, other, wtip).is_some();
+            let tool = (other, "guidewire");
+            w.wrong_branch += entered(&mut self.wire_astray, astray, tool, &mut ev);
+            if let Some(along) = in_branch_at(v, target, wtip) {
+                w.reach_m = w.reach_m.max(along);
+            }
+            w.lead_m = w.lead_m.max(lead_m(v, wtip, tip));
         }
         let trunk = &v.tubes[0];
         let done = [
@@ -265,9 +363,13 @@ impl Catheterisation {
         Snapshot {
             step,
             time_s,
-            models: vec![self.vessel_mesh(), self.catheter_mesh()],
+            models: [self.vessel_mesh(), self.catheter_mesh()]
+                .into_iter()
+                .chain(self.wire_mesh())
+                .collect(),
+            // The wire is drawn as a model: no instrument shaft for the left hand.
             tools: [ToolSnapshot::default(), self.tool],
-            reactions: [Vec3::ZERO, self.reaction.as_vec3()],
+            reactions: self.reactions(),
             target_found: true,
             emissions: Vec::new(),
             bleeding: Vec::new(),
@@ -312,53 +414,16 @@ impl Catheterisation {
 
     /// The catheter as a tube through its balls (8 sides), closed at the tip.
     fn catheter_mesh(&self) -> ModelSnapshot {
-        const SIDES: usize = 8;
         let c = &self.scene.catheter();
-        let x = &c.balls.x;
         let r = 0.5 * c.params.diameter_m;
-        let mut m = ModelSnapshot {
-            name: "catheter".to_string(),
-            roles: vec![SurfaceRole::Duct],
-            ..ModelSnapshot::default()
-        };
-        for i in 0..x.len() {
-            let along = if i + 1 < x.len() {
-                x[i + 1] - x[i]
-            } else {
-                x[i] - x[i - 1]
-            }
-            .normalize_or(c.axis);
-            let side = c.up[i].cross(along).normalize_or(DVec3::Z);
-            let up = along.cross(side);
-            for k in 0..SIDES {
-                let a = std::f64::consts::TAU * k as f64 / SIDES as f64;
-                let n = side * a.cos() + up * a.sin();
-                m.positions.push((x[i] + n * r).as_vec3());
-                m.normals.push(n.as_vec3());
-            }
-        }
-        for i in 0..x.len() - 1 {
-            for k in 0..SIDES {
-                let (a, b) = ((i * SIDES + k) as u32, (i * SIDES + (k + 1) % SIDES) as u32);
-                let (c2, d) = (a + SIDES as u32, b + SIDES as u32);
-                m.indices.extend([a, b, c2, b, d, c2]);
-                m.regions.extend([0, 0]);
-            }
-        }
-        // The tip's cap.
-        let last = x.len() - 1;
-        let centre = m.positions.len() as u32;
-        let tip_dir = (x[last] - x[last - 1]).normalize_or(c.axis);
-        m.positions.push((x[last] + tip_dir * r).as_vec3());
-        m.normals.push(tip_dir.as_vec3());
-        for k in 0..SIDES {
-            let a = (last * SIDES + k) as u32;
-            let b = (last * SIDES + (k + 1) % SIDES) as u32;
-            m.indices.extend([a, b, centre]);
-            m.regions.push(0);
-        }
-        m.cut_edge = vec![false; m.positions.len()];
-        m
+        tube_mesh("catheter", &c.balls.x, Some(&c.up), r, 8, c.axis)
+    }
+
+    /// The guidewire as a thin tube (6 sides), when there is one.
+    fn wire_mesh(&self) -> Option<ModelSnapshot> {
+        let w = self.scene.guidewire()?;
+        let r = 0.5 * w.params.diameter_m;
+        Some(tube_mesh("guidewire", &w.balls.x, None, r, 6, w.axis))
     }
 
     /// Digest of the balls, the holes and the task's progress.
@@ -381,16 +446,127 @@ impl Catheterisation {
     }
 }
 
+/// A tip is in the wrong branch now (`astray`) after it was not (`was`): a `wrong_branch`
+/// event for `(branch, tool)`; returns the entries (0 or 1) and keeps the state.
+fn entered(
+    was: &mut bool,
+    astray: bool,
+    (branch, tool): (usize, &'static str),
+    ev: &mut Vec<EventKind>,
+) -> u32 {
+    let new = astray && !*was;
+    *was = astray;
+    if new {
+        ev.push(EventKind::Procedure(ProcedureEvent::new(
+            "wrong_branch",
+            WrongBranch {
+                branch: branch as u32,
+                tool,
+            },
+        )));
+    }
+    u32::from(new)
+}
+
+/// How far `p` is along branch `k` of `v`, once it is [`IN_BRANCH_M`] into it and inside
+/// the wall's central surface.
+fn in_branch_at(v: &Vessel, k: usize, p: DVec3) -> Option<f64> {
+    let t = &v.tubes[k];
+    let along = t.along(p);
+    (along > IN_BRANCH_M && t.from_axis(p) < v.mid_radius_m).then_some(along)
+}
+
+/// How far point `a` is ahead of point `b` along the vessel's path from the inlet (the
+/// trunk's length, then along the branch the point is nearer the axis of), m.
+fn lead_m(v: &Vessel, a: DVec3, b: DVec3) -> f64 {
+    let path = |p: DVec3| {
+        let trunk = &v.tubes[0];
+        let along = trunk.along(p);
+        if along <= trunk.length_m {
+            return along;
+        }
+        let branch = v.tubes[1..]
+            .iter()
+            .min_by(|x, y| x.from_axis(p).total_cmp(&y.from_axis(p)));
+        branch.map_or(along, |t| trunk.length_m + t.along(p).max(0.0))
+    };
+    path(a) - path(b)
+}
+
+/// A tube of `radius` through the points `x` (`sides` sides), closed at the last point; each
+/// ring's sides turn with `ups` when given (the catheter's frames), else from any direction
+/// across the tube.
+fn tube_mesh(
+    name: &str,
+    x: &[DVec3],
+    ups: Option<&[DVec3]>,
+    radius: f64,
+    sides: usize,
+    axis: DVec3,
+) -> ModelSnapshot {
+    let mut m = ModelSnapshot {
+        name: name.to_string(),
+        roles: vec![SurfaceRole::Duct],
+        ..ModelSnapshot::default()
+    };
+    if x.len() < 2 {
+        return m;
+    }
+    for i in 0..x.len() {
+        let along = if i + 1 < x.len() {
+            x[i + 1] - x[i]
+        } else {
+            x[i] - x[i - 1]
+        }
+        .normalize_or(axis);
+        let up = ups
+            .and_then(|u| u.get(i).copied())
+            .unwrap_or_else(|| any_across(along));
+        let side = up.cross(along).normalize_or(DVec3::Z);
+        let up = along.cross(side);
+        for k in 0..sides {
+            let a = std::f64::consts::TAU * k as f64 / sides as f64;
+            let n = side * a.cos() + up * a.sin();
+            m.positions.push((x[i] + n * radius).as_vec3());
+            m.normals.push(n.as_vec3());
+        }
+    }
+    for i in 0..x.len() - 1 {
+        for k in 0..sides {
+            let (a, b) = ((i * sides + k) as u32, (i * sides + (k + 1) % sides) as u32);
+            let (c2, d) = (a + sides as u32, b + sides as u32);
+            m.indices.extend([a, b, c2, b, d, c2]);
+            m.regions.extend([0, 0]);
+        }
+    }
+    // The tip's cap.
+    let last = x.len() - 1;
+    let centre = m.positions.len() as u32;
+    let tip_dir = (x[last] - x[last - 1]).normalize_or(axis);
+    m.positions.push((x[last] + tip_dir * radius).as_vec3());
+    m.normals.push(tip_dir.as_vec3());
+    for k in 0..sides {
+        let a = (last * sides + k) as u32;
+        let b = (last * sides + (k + 1) % sides) as u32;
+        m.indices.extend([a, b, centre]);
+        m.regions.push(0);
+    }
+    m.cut_edge = vec![false; m.positions.len()];
+    m
+}
+
 #[derive(Serialize)]
 struct PunctureEvent {
     position: [f32; 3],
     force_n: f64,
     wall_ball: u32,
+    tool: &'static str,
 }
 
 #[derive(Serialize)]
 struct WrongBranch {
     branch: u32,
+    tool: &'static str,
 }
 
 impl Catheterisation {
@@ -414,15 +590,32 @@ impl Catheterisation {
                 ),
             ]
             .into_iter()
+            .chain(m.guidewire.iter().flat_map(|w| {
+                [
+                    (
+                        "wire force".to_string(),
+                        format!("{:.3} N", self.wire_reaction.length()),
+                    ),
+                    (
+                        "wire into the branch".to_string(),
+                        format!("{:.0} mm", 1e3 * w.reach_m),
+                    ),
+                ]
+            }))
             .chain(self.imaging.console.figures())
             .collect(),
             ..TaskStatus::default()
         }
     }
 
-    /// Reaction force on each instrument (left, right) after the last step: none on the
-    /// introducer, the vessel's on the catheter.
+    /// Reaction force on each instrument (left, right) after the last step: the vessel's on
+    /// the guidewire (zero without one) and on the catheter.
     pub fn reactions(&self) -> [Vec3; 2] {
-        [Vec3::ZERO, self.reaction().as_vec3()]
+        [self.wire_reaction.as_vec3(), self.reaction().as_vec3()]
+    }
+
+    /// The wall's force on the guidewire after the last step, N.
+    pub fn wire_reaction(&self) -> DVec3 {
+        self.wire_reaction
     }
 }

@@ -344,6 +344,11 @@ crate::scenario_tables! {
         device: DeviceTable, task: Task,
         #[serde(default = "super::fluoroscopy::table_default")]
         fluoroscopy: super::fluoroscopy::FluoroTable],
+    extra: [
+        /// Optional: a guidewire in the catheter's lumen, under the left hand.
+        #[serde(default)]
+        guidewire: Option<super::wire_table::GuidewireTable>,
+    ],
 }
 
 impl Scenario {
@@ -358,6 +363,24 @@ impl Scenario {
         InputError::require(c < lumen, file, "catheter.diameter_m", || {
             format!("expected a catheter narrower than the lumen ({lumen} m), got {c} m")
         })?;
+        if let Some(w) = &self.guidewire {
+            crate::params::validate(file, "guidewire", w)?;
+            let d = w.diameter_m;
+            InputError::require(d < 0.5 * c, file, "guidewire.diameter_m", || {
+                format!("expected a wire narrower than half the catheter ({c} m), got {d} m")
+            })?;
+            InputError::require(
+                w.tip_length_m < w.length_m,
+                file,
+                "guidewire.tip_length_m",
+                || {
+                    format!(
+                        "expected a soft tip shorter than the wire's {} m, got {} m",
+                        w.length_m, w.tip_length_m
+                    )
+                },
+            )?;
+        }
         let reach = self.task.reach_m;
         InputError::require(reach <= v.branch_m, file, "task.reach_m", || {
             format!(

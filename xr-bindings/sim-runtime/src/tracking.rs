@@ -36,13 +36,13 @@ pub(crate) fn head_at(rt: &Runtime, display_ns: i64) -> Rigid {
 }
 
 /// A controller's aim pose in STAGE at a display time: where the trace puts the instrument,
-/// its -Z towards the target (the app's convention). `None` for a hand the trace leaves out.
+/// its -Z towards the target (the app's convention), turned by its roll. `None` for a hand
+/// the trace leaves out.
 pub(crate) fn hand_at(rt: &Runtime, hand: usize, display_ns: i64) -> Option<Rigid> {
     let trace = rt.trace.as_ref()?;
     let s = trace.sample_hand_of(hand, trace_time_s(display_ns))?;
-    let dir = (s.target - s.position).normalize_or_zero();
     Some(Rigid {
-        rot: Quat::from_rotation_arc(Vec3::NEG_Z, dir),
+        rot: xr_bindings::keyframes::hand_orientation(s.position, s.target, s.roll_deg),
         pos: xr_bindings::stage::field_to_stage(s.position),
     })
 }
