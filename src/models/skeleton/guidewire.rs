@@ -280,7 +280,9 @@ pub const MOUTH_SEGMENTS: f64 = 0.5;
 /// lever past the tip). The hold is full within half of `reach_m` of the axis and inside
 /// the tip; beyond, it fades to nothing at `reach_m` across and at the mouth's end (a ball
 /// the catheter comes over is taken in without a jolt). The forces are added to `on_wire`
-/// and `on_tube` (per ball), in index order. Returns how many wire balls are held.
+/// and `on_tube` (per ball), in index order; one that is not finite (from a chain gone bad,
+/// which its world rolls back) is dropped, so the other chain stays good. Returns how many
+/// wire balls are held.
 pub fn coaxial(
     (wire, on_wire): (&Balls, &mut [DVec3]),
     (tube, on_tube): (&Balls, &mut [DVec3]),
@@ -335,6 +337,10 @@ pub fn coaxial(
         };
         let fade_mouth = 1.0 - beyond / MOUTH_SEGMENTS;
         let f = (off * k * fade_across + across(vp - wire.v[i]) * c) * fade_mouth;
+        if !f.is_finite() {
+            // A chain gone non-finite (its world rolls it back) passes nothing to the other.
+            continue;
+        }
         on_wire[i] += f;
         on_tube[a] -= f * (1.0 - t);
         on_tube[b] -= f * t;
