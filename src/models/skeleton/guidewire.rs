@@ -267,6 +267,47 @@ pub fn lumen(
     )
 }
 
+/// The segment of the chain `tube` nearest `x` (the first of equals), the parameter of the
+/// nearest point's projection along it (unclamped: below 0 before its first ball, above 1
+/// past its second) and the squared distance to the segment.
+fn nearest_segment(tube: &Balls, x: DVec3) -> Option<(usize, f64, f64)> {
+    let mut best: Option<(usize, f64, f64)> = None;
+    for j in 0..tube.len().saturating_sub(1) {
+        let (a, b) = (tube.x[j], tube.x[j + 1]);
+        let d = b - a;
+        let len2 = d.length_squared();
+        if len2 <= 0.0 {
+            continue;
+        }
+        let t = (x - a).dot(d) / len2;
+        let p = a + d * t.clamp(0.0, 1.0);
+        let dist2 = p.distance_squared(x);
+        if best.is_none_or(|(_, _, bd)| dist2 < bd) {
+            best = Some((j, t, dist2));
+        }
+    }
+    best
+}
+
+/// Which of the wire's balls lie inside the catheter (their nearest point on its centreline
+/// not past the tip nor before the handle, within the catheter's radius): the catheter
+/// shields them from the wall, so the wall's collision leaves them out.
+pub fn shielded(catheter: &Catheter, wire: &Guidewire) -> Vec<bool> {
+    let reach = 0.5 * catheter.params.diameter_m;
+    let segments = catheter.balls.len().saturating_sub(1);
+    wire.balls
+        .x
+        .iter()
+        .map(|&x| {
+            nearest_segment(&catheter.balls, x).is_some_and(|(j, t, dist2)| {
+                let past_tip = j + 1 == segments && t > 1.0;
+                let before_handle = j == 0 && t < 0.0;
+                !past_tip && !before_handle && dist2 < reach * reach
+            })
+        })
+        .collect()
+}
+
 /// How far past the catheter's tip the lumen's mouth still guides a wire ball, in segments:
 /// the hold fades from full at the tip to none this far out, so that a wire ball leaving or
 /// entering the catheter meets no jump in force.
@@ -297,24 +338,9 @@ pub fn coaxial(
             continue;
         }
         let x = wire.x[i];
-        // The nearest point over the segments (the first of equals), with its parameter
-        // along the segment unclamped.
-        let mut best: Option<(usize, f64, f64)> = None;
-        for j in 0..segments {
-            let (a, b) = (tube.x[j], tube.x[j + 1]);
-            let d = b - a;
-            let len2 = d.length_squared();
-            if len2 <= 0.0 {
-                continue;
-            }
-            let t = (x - a).dot(d) / len2;
-            let p = a + d * t.clamp(0.0, 1.0);
-            let dist2 = p.distance_squared(x);
-            if best.is_none_or(|(_, _, bd)| dist2 < bd) {
-                best = Some((j, t, dist2));
-            }
-        }
-        let Some((j, t, dist2)) = best else { continue };
+        let Some((j, t, dist2)) = nearest_segment(tube, x) else {
+            continue;
+        };
         let last = j + 1 == segments;
         let beyond = if last { (t - 1.0).max(0.0) } else { 0.0 };
         // Outside the lumen: past the mouth, before the first ball, or too far across.

@@ -232,3 +232,19 @@ fn the_world_steps_wire_and_catheter_as_step_together_does() {
     assert!(w.tip().x > c.tip().x + 0.004, "{} {}", w.tip(), c.tip());
     assert!(scene.wire_outcome().held > 10, "{:?}", scene.wire_outcome());
 }
+
+/// The catheter shields the wire's balls inside it from the wall: those along its length
+/// are marked, those past its tip and behind its handle are not.
+#[test]
+fn the_catheter_shields_the_wire_inside_it() {
+    let c = catheter();
+    let w = Guidewire::new(&GuidewireParams::default(), DVec3::ZERO, DVec3::X).inserted(0.02);
+    let inside = shielded(&c, &w);
+    let (handle, tip) = (c.balls.x[0].x, c.tip().x);
+    for (x, s) in w.balls.x.iter().zip(&inside) {
+        let within = (handle..=tip).contains(&x.x);
+        assert_eq!(*s, within, "{x} (catheter {handle} to {tip})");
+    }
+    assert!(inside.iter().filter(|s| **s).count() >= 19, "{inside:?}");
+    assert!(!inside[inside.len() - 1]);
+}

@@ -72,6 +72,20 @@ impl WallSurface {
         margin_m: f64,
         out: &mut Vec<(u32, u32)>,
     ) -> u64 {
+        self.candidates_of(balls, (from, &[]), vessel, holes, margin_m, out)
+    }
+
+    /// [`WallSurface::candidates`] leaving out the balls marked in `skip` (those another
+    /// body shields from the wall).
+    pub fn candidates_of(
+        &self,
+        balls: &Balls,
+        (from, skip): (usize, &[bool]),
+        vessel: &Vessel,
+        holes: &[bool],
+        margin_m: f64,
+        out: &mut Vec<(u32, u32)>,
+    ) -> u64 {
         out.clear();
         let mut near = Vec::new();
         let tests = super::collision::detect_within(
@@ -88,6 +102,10 @@ impl WallSurface {
         while start < near.len() {
             let ball = near[start].catheter;
             let end = start + near[start..].partition_point(|h| h.catheter == ball);
+            if skip.get(ball as usize).copied().unwrap_or(false) {
+                start = end;
+                continue;
+            }
             let x = balls.x[ball as usize];
             let reach = balls.radius_m[ball as usize] + half_wall + margin_m;
             tris.clear();

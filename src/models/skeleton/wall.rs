@@ -10,7 +10,7 @@
 use super::Balls;
 use super::collision::{Hit, contact_forces, detect_within, narrow};
 use super::contact::ContactLaw;
-use super::guidewire::lumen;
+use super::guidewire::{lumen, shielded};
 use super::model::Skeleton;
 use super::surface::{SurfaceHit, WallSurface};
 use super::vessel::Vessel;
@@ -192,11 +192,14 @@ impl WallContact {
                 &mut self.catheter.candidates,
             );
         }
-        if let (Some(Skeleton::Guidewire(w)), Some(probe)) = (models.get(GUIDEWIRE), &mut self.wire)
+        if let (Some(Skeleton::Guidewire(w)), Some(Skeleton::Catheter(c)), Some(probe)) =
+            (models.get(GUIDEWIRE), models.get(CATHETER), &mut self.wire)
         {
-            self.out.pair_tests += probe.surface.candidates(
+            // The wire's balls inside the catheter are out of the wall's reach.
+            let inside = shielded(&c.catheter, &w.wire);
+            self.out.pair_tests += probe.surface.candidates_of(
                 &w.wire.balls,
-                w.wire.first_inside(),
+                (w.wire.first_inside(), &inside),
                 &v.vessel,
                 &self.holes,
                 CANDIDATE_MARGIN_M,
