@@ -9,7 +9,7 @@
 
 use super::Balls;
 use super::collision::{Hit, contact_forces, detect_within, narrow};
-use super::contact::ContactLaw;
+use super::contact::{ContactForce, ContactLaw};
 use super::guidewire::{lumen, shielded};
 use super::model::Skeleton;
 use super::surface::{SurfaceHit, WallSurface};
@@ -238,12 +238,8 @@ impl WallContact {
             touched: &mut self.touched,
             out: &mut self.out,
         };
-        let head_normal = wall.touch(
-            &mut self.catheter,
-            (&catheter.balls, radius, false),
-            vessel,
-            share,
-        );
+        let how = (&catheter.balls, radius, false, self.catheter.puncture_n);
+        let head_normal = wall.touch(&mut self.catheter, how, vessel, share);
         self.out.head_normal_n = self.out.head_normal_n.max(head_normal);
         let on = &self.catheter.on_balls;
         self.out.reaction += on.iter().sum::<DVec3>() * share;
@@ -263,7 +259,8 @@ impl WallContact {
                     out: &mut self.out,
                 };
                 let r = 0.5 * wire.params.diameter_m;
-                let normal = wall.touch_surface(probe, (&wire.balls, r), vessel, share);
+                let how = (&wire.balls, r, true, probe.puncture_n);
+                let normal = wall.touch(probe, how, vessel, share);
                 let o = &mut self.wire_out;
                 o.tip_normal_n = o.tip_normal_n.max(normal);
                 o.reaction += probe.on_balls.iter().sum::<DVec3>() * share;
@@ -317,113 +314,108 @@ struct WallScratch<'a> {
     out: &'a mut StepOutcome,
 }
 
+/// What [`WallScratch::touch`] needs of an instrument's probe, by balls ([`Probe`]) or by
+/// the wall's surface ([`WireProbe`]).
+trait Touching {
+    /// Drops the candidates through the wall balls marked in `holes`.
+    fn drop_holes(&mut self, holes: &[bool]);
+    /// This substep's hits among the candidates and their forces (in hit order): the wall's
+    /// on the instrument's balls (cleared first), the opposite into `on_wall`.
+    fn contact(&mut self, at: (&Balls, &Vessel), on_wall: &mut [DVec3]) -> Vec<ContactForce>;
+    /// Hit `k`'s instrument ball, and the wall balls its push lands on with their shares
+    /// (the first `n` of three).
+    fn hit(&self, k: usize) -> (u32, [(u32, f64); 3], usize);
+}
+
+impl Touching for Probe {
+    fn drop_holes(&mut self, holes: &[bool]) {
+        self.candidates.retain(|c| !holes[c.wall as usize]);
+    }
+
+    fn contact(
+        &mut self,
+        (balls, vessel): (&Balls, &Vessel),
+        on: &mut [DVec3],
+    ) -> Vec<ContactForce> {
+        narrow(&self.candidates, balls, vessel, &mut self.hits);
+        self.on_balls.iter_mut().for_each(|f| *f = DVec3::ZERO);
+        let hits = &self.hits;
+        contact_forces(hits, &self.law, balls, vessel, &mut self.on_balls, on)
+    }
+
+    fn hit(&self, k: usize) -> (u32, [(u32, f64); 3], usize) {
+        let h = &self.hits[k];
+        (h.catheter, [(h.wall, 1.0); 3], 1)
+    }
+}
+
+impl Touching for WireProbe {
+    fn drop_holes(&mut self, holes: &[bool]) {
+        let triangles = &self.surface.triangles;
+        self.candidates
+            .retain(|&(_, t)| triangles[t as usize].iter().all(|&c| !holes[c as usize]));
+    }
+
+    fn contact(&mut self, at: (&Balls, &Vessel), on_wall: &mut [DVec3]) -> Vec<ContactForce> {
+        let (surface, hits) = (&self.surface, &mut self.hits);
+        surface.narrow(&self.candidates, at.0, at.1, hits);
+        self.on_balls.fill(DVec3::ZERO);
+        surface.forces(hits, &self.law, at.0, at.1, &mut self.on_balls, on_wall)
+    }
+
+    fn hit(&self, k: usize) -> (u32, [(u32, f64); 3], usize) {
+        let h = &self.hits[k];
+        let tri = self.surface.triangles[h.triangle as usize];
+        let w = h.weights;
+        (h.ball, [(tri[0], w[0]), (tri[1], w[1]), (tri[2], w[2])], 3)
+    }
+}
+
 impl WallScratch<'_> {
     /// One instrument's contact this substep: its hits among its candidates, the wall's
-    /// forces on its balls (into `probe.on_balls`, cleared first) and the opposite on the
-    /// wall's (into the step's mean, `share` of it), punctures where a wall ball is pushed
-    /// harder than the probe's puncture force (the hole as wide as the instrument's
-    /// `radius_m`; `by_wire` says which instrument made it). Returns the largest normal
-    /// force on the instrument's last ball (its tip).
-    fn touch(
+    /// forces on its balls (into the probe's, cleared first) and the opposite on the wall's
+    /// (into the step's mean, `share` of it), each hit's normal force pushing the wall balls
+    /// under it by their shares; punctures where a wall ball is pushed harder than the
+    /// `puncture_n` (the hole as wide as the instrument's `radius_m`; `by_wire`
+    /// says which instrument made it). Returns the largest normal force on the
+    /// instrument's last ball (its tip).
+    fn touch<P: Touching>(
         &mut self,
-        probe: &mut Probe,
-        (balls, radius_m, by_wire): (&Balls, f64, bool),
+        probe: &mut P,
+        (balls, radius_m, by_wire, puncture_n): (&Balls, f64, bool, f64),
         vessel: &Vessel,
         share: f64,
     ) -> f64 {
         if !self.out.punctures.is_empty() {
             // Holes the other instrument made this step.
-            let holes = &*self.holes;
-            probe.candidates.retain(|c| !holes[c.wall as usize]);
+            probe.drop_holes(self.holes);
         }
-        narrow(&probe.candidates, balls, vessel, &mut probe.hits);
-        probe.on_balls.iter_mut().for_each(|f| *f = DVec3::ZERO);
-        let forces = contact_forces(
-            &probe.hits,
-            &probe.law,
-            balls,
-            vessel,
-            &mut probe.on_balls,
-            self.on_wall,
-        );
+        let forces = probe.contact((balls, vessel), self.on_wall);
         let last = balls.len().saturating_sub(1) as u32;
         let mut tip_normal: f64 = 0.0;
-        for (hit, f) in probe.hits.iter().zip(&forces) {
+        for (k, f) in forces.iter().enumerate() {
             let n = f.normal.length();
-            self.pushed[hit.wall as usize] += n;
-            if hit.catheter == last {
-                tip_normal = tip_normal.max(n);
-            }
-        }
-        // The wall's reaction this sub-step into the step's mean; the scratch cleared
-        // where it was used.
-        for k in 0..probe.hits.len() {
-            let w = probe.hits[k].wall as usize;
-            if self.settle(w, (probe.puncture_n, radius_m, by_wire), vessel, share) {
-                // The candidates through the hole go.
-                let holes = &*self.holes;
-                probe.candidates.retain(|c| !holes[c.wall as usize]);
-            }
-        }
-        tip_normal
-    }
-
-    /// The wire's contact this substep, against the wall's surface ([`WallSurface`]): as
-    /// [`WallScratch::touch`], each hit's normal force pushing the triangle's corners by
-    /// their weights.
-    fn touch_surface(
-        &mut self,
-        probe: &mut WireProbe,
-        (balls, radius_m): (&Balls, f64),
-        vessel: &Vessel,
-        share: f64,
-    ) -> f64 {
-        let surface = &probe.surface;
-        if !self.out.punctures.is_empty() {
-            let holes = &*self.holes;
-            probe.candidates.retain(|&(_, t)| {
-                surface.triangles[t as usize]
-                    .iter()
-                    .all(|&c| !holes[c as usize])
-            });
-        }
-        surface.narrow(&probe.candidates, balls, vessel, &mut probe.hits);
-        probe.on_balls.iter_mut().for_each(|f| *f = DVec3::ZERO);
-        let forces = surface.forces(
-            &probe.hits,
-            &probe.law,
-            balls,
-            vessel,
-            &mut probe.on_balls,
-            self.on_wall,
-        );
-        let last = balls.len().saturating_sub(1) as u32;
-        let mut tip_normal: f64 = 0.0;
-        for (hit, f) in probe.hits.iter().zip(&forces) {
-            let n = f.normal.length();
-            let tri = surface.triangles[hit.triangle as usize];
-            for (&c, w) in tri.iter().zip(hit.weights) {
+            let (ball, corners, count) = probe.hit(k);
+            for &(c, w) in &corners[..count] {
                 self.pushed[c as usize] += n * w;
             }
-            if hit.ball == last {
+            if ball == last {
                 tip_normal = tip_normal.max(n);
             }
         }
+        // The wall's reaction this substep into the step's mean; the scratch cleared
+        // where it was used.
+        let how = (puncture_n, radius_m, by_wire);
         let mut punctured = false;
-        for k in 0..probe.hits.len() {
-            let tri = surface.triangles[probe.hits[k].triangle as usize];
-            for c in tri {
-                let how = (probe.puncture_n, radius_m, true);
+        for k in 0..forces.len() {
+            let (_, corners, count) = probe.hit(k);
+            for &(c, _) in &corners[..count] {
                 punctured |= self.settle(c as usize, how, vessel, share);
             }
         }
         if punctured {
-            let holes = &*self.holes;
-            probe.candidates.retain(|&(_, t)| {
-                surface.triangles[t as usize]
-                    .iter()
-                    .all(|&c| !holes[c as usize])
-            });
+            // The candidates through the hole go.
+            probe.drop_holes(self.holes);
         }
         tip_normal
     }
