@@ -63,7 +63,7 @@ pub fn detect_within(
             if t < -reach - section || t > tube.length_m + reach + section {
                 continue;
             }
-            if tube.from_axis(p) > vessel.mid_radius_m + reach + SECTION_SLACK * section {
+            if tube.from_axis(p) > tube.mid_radius_m + reach + SECTION_SLACK * section {
                 continue;
             }
             let n = tube.sections.len() as i64;

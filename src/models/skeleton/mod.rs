@@ -17,6 +17,7 @@ pub mod guidewire;
 pub mod in_vessel;
 pub mod model;
 pub mod surface;
+pub mod tree;
 pub mod vessel;
 pub mod wall;
 

@@ -420,7 +420,8 @@ impl WallScratch<'_> {
         tip_normal
     }
 
-    /// Wall ball `w` after a contact's forces: a push past `puncture_n` punctures it (a hole
+    /// Wall ball `w` after a contact's forces: a push past `puncture_n` (times the ball's
+    /// strength: less at the ostia) punctures it (a hole
     /// of `radius_m`, made by the wire if `by_wire`), and its reaction goes into the step's
     /// mean (`share` of it); its scratch is cleared. Returns whether it was punctured.
     fn settle(
@@ -433,7 +434,7 @@ impl WallScratch<'_> {
         let mut punctured = false;
         if self.pushed[w] > 0.0 {
             self.out.largest_push_n = self.out.largest_push_n.max(self.pushed[w]);
-            if self.pushed[w] > puncture_n && !self.holes[w] {
+            if self.pushed[w] > puncture_n * vessel.strength[w] && !self.holes[w] {
                 let at = vessel.balls.x[w];
                 self.out.punctures.push(Puncture {
                     wall: w as u32,

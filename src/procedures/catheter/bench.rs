@@ -19,6 +19,9 @@ pub fn extra() -> Result<Vec<BenchLine>, BenchError> {
         let mut s = s.clone();
         s.vessel.trunk_m *= scale;
         s.vessel.branch_m *= scale;
+        if let Some(t) = &mut s.tree {
+            t.scale_lengths(scale);
+        }
         let mut p = super::procedure::Catheterisation::new(s.clone(), build_scene(&s));
         let dt = f64::from(s.dt_s);
         let steps = (SECONDS / dt).ceil() as u64;

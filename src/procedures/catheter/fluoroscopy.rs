@@ -12,6 +12,7 @@ use crate::imaging::contrast::{Contrast, Vessel as Flow};
 use crate::imaging::fluoro::{Fluoroscope, Patient, Picture, Settings};
 use crate::imaging::xray::{Body, Material, Scene};
 use crate::models::skeleton::in_vessel::CatheterInVessel;
+use crate::models::skeleton::vessel::{Tube, Vessel};
 use crate::param_fields;
 use crate::params::{ParamSpec, Params};
 use crate::sim::{Hand, InputFrame, PadDirection};
@@ -270,25 +271,18 @@ pub struct Imaging {
 }
 
 impl Imaging {
-    /// For `scene`'s vessel (its three tubes: the trunk, then branches 1 and 2), at steps of
-    /// `dt_s`.
-    pub fn new(table: FluoroTable, scene: &CatheterInVessel, dt_s: f64) -> Imaging {
+    /// For `scene`'s vessel (the contrast flows along its tubes), at steps of `dt_s`, with
+    /// the patient's head towards `head`.
+    pub fn new(table: FluoroTable, scene: &CatheterInVessel, dt_s: f64, head: DVec3) -> Imaging {
         let v = scene.vessel();
-        let lumen = lumen_radius(scene);
-        let q = table.flow_ml_per_s * 1e-6;
-        let flows: Vec<Flow> = v
-            .tubes
-            .iter()
-            .enumerate()
-            .map(|(k, t)| Flow {
-                parent: (k > 0).then_some(0),
+        let flows: Vec<Flow> = tube_flows(v, table.flow_ml_per_s * 1e-6)
+            .into_iter()
+            .zip(&v.tubes)
+            .map(|(q, t)| Flow {
+                parent: t.parent,
                 length_m: t.length_m,
-                radius_m: lumen,
-                flow_m3_per_s: if k == 0 {
-                    q
-                } else {
-                    q / (v.tubes.len() - 1) as f64
-                },
+                radius_m: t.lumen_m,
+                flow_m3_per_s: q,
             })
             .collect();
         // The scenario's ranges keep the lengths and flows positive, and the branches share
@@ -311,7 +305,7 @@ impl Imaging {
             .fold(DVec3::MIN, |a, b| a.max(*b));
         let settings = Settings {
             patient: Patient {
-                head: DVec3::X,
+                head,
                 anterior: DVec3::Z,
             },
             isocentre: 0.5 * (lo + hi),
@@ -457,7 +451,6 @@ impl Imaging {
             ),
         ];
         let v = scene.vessel();
-        let lumen = lumen_radius(scene);
         let mut filled = false;
         for (k, tube) in v.tubes.iter().enumerate() {
             let piece = tube.length_m / PIECES as f64;
@@ -477,7 +470,7 @@ impl Imaging {
                     Body::Capsule {
                         a,
                         b: a + tube.dir * piece,
-                        radius: lumen,
+                        radius: tube.lumen_m,
                     },
                     2 + level.min(LEVELS),
                 ));
@@ -517,23 +510,33 @@ fn material(name: &str, mu_per_m: f64) -> Material {
     }
 }
 
-/// The lumen's radius: the wall's inner surface.
-fn lumen_radius(scene: &CatheterInVessel) -> f64 {
-    let v = scene.vessel();
-    (0.5 * v.params.diameter_m - v.params.wall_m).max(1e-4)
+/// Each tube's blood flow, m^3/s: `q` into the inlet's, and each tube's outflow shared
+/// among the tubes leaving its end by their lumens' cubes (Murray's law).
+pub fn tube_flows(v: &Vessel, q: f64) -> Vec<f64> {
+    let mut flows = vec![0.0; v.tubes.len()];
+    for k in 0..v.tubes.len() {
+        let into = match v.tubes[k].parent {
+            None => q,
+            Some(p) => {
+                let cube = |t: &Tube| t.lumen_m.powi(3);
+                let all: f64 = v
+                    .tubes
+                    .iter()
+                    .filter(|t| t.parent == Some(p))
+                    .map(cube)
+                    .sum();
+                flows[p] * cube(&v.tubes[k]) / all
+            }
+        };
+        flows[k] = into;
+    }
+    flows
 }
 
-/// Which tube `p` lies in and how far along it (the branches first: past the bifurcation a
-/// point is in the branch whose axis is nearer); none outside the lumen.
+/// Which tube `p` lies in and how far along it (where tubes meet, the one whose axis is
+/// nearer); none outside the lumen.
 fn where_is(scene: &CatheterInVessel, p: DVec3) -> Option<(usize, f64)> {
-    let v = scene.vessel();
-    let lumen = lumen_radius(scene);
-    v.tubes
-        .iter()
-        .enumerate()
-        .filter(|(_, t)| (0.0..=t.length_m).contains(&t.along(p)) && t.from_axis(p) <= lumen)
-        .min_by(|a, b| a.1.from_axis(p).total_cmp(&b.1.from_axis(p)))
-        .map(|(k, t)| (k, t.along(p)))
+    scene.vessel().locate(p)
 }
 
 #[cfg(test)]

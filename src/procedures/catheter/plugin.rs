@@ -15,7 +15,7 @@ use glam::{DVec3, Vec3};
 /// The registry's entry.
 pub const INFO: ProcedureInfo = crate::procedure_info! {
     stem: "catheter", paper: "interventional-catheter.txt",
-    title: "Interventional catheterisation (a bifurcating vessel)",
+    title: "Interventional catheterisation (a vessel tree under fluoroscopy)",
     build: |_, s| build_procedure(s),
     // The catheter's: the Novint Falcon's largest force.
     // The left hand's: the guidewire, when the scenario has one.
@@ -31,11 +31,16 @@ pub const INFO: ProcedureInfo = crate::procedure_info! {
     bench_extra: Some(super::bench::extra),
 };
 
-/// The scene for a checked scenario: the vessel, the catheter straight in its introducer
-/// with its tip at the inlet, pointing along the trunk, and the guidewire in it when the
+/// The scene for a checked scenario: the vessel (its ostia weakened when it is a tree), the
+/// catheter straight in its introducer with its tip at the inlet, pointing along the first
+/// tube, and the guidewire in it when the
 /// scenario has one.
 pub fn build_scene(s: &Scenario) -> CatheterInVessel {
-    let vessel = Vessel::new(&s.vessel_params());
+    let (tubes, branches) = s.vessel_shape();
+    let mut vessel = Vessel::of_tubes(&s.vessel_params(), &tubes, branches);
+    if let Some(t) = &s.tree {
+        vessel.weaken_ostia(t.ostium_m, t.ostium_strength);
+    }
     let catheter = Catheter::new(&s.catheter_params(), DVec3::ZERO, DVec3::X);
     let scene = CatheterInVessel::new(
         catheter,

@@ -32,7 +32,7 @@ pub const STEPS: [TaskStep; 3] = [
     },
     TaskStep {
         id: "bifurcation",
-        text: "Bring the tip to the bifurcation",
+        text: "Bring the tip to the target branch's ostium",
     },
     TaskStep {
         id: "branch",
@@ -43,7 +43,7 @@ pub const STEPS: [TaskStep; 3] = [
 
 /// The first step's depth into the trunk, m.
 const ADVANCE_M: f64 = 0.020;
-/// The tip is at the bifurcation within this of the trunk's end, m.
+/// The tip is at the target's ostium within this of it along the tree, m.
 const AT_BIFURCATION_M: f64 = 0.005;
 /// The tip is in a branch once this far along it, m.
 const IN_BRANCH_M: f64 = 0.010;
@@ -116,8 +116,11 @@ pub struct Catheterisation {
     touching: bool,
     /// Steps since the head last touched the wall.
     off_steps: u32,
-    /// The tip is in the wrong branch now.
+    /// The tip is in a wrong branch now.
     astray: bool,
+    /// The vessel the task asks for, and how far from the inlet its ostium is, m.
+    target: usize,
+    ostium_m: f64,
     triangles: Vec<[u32; 3]>,
     /// The fluoroscope and the contrast, under the left hand.
     pub imaging: Imaging,
@@ -133,7 +136,15 @@ pub struct Catheterisation {
 impl Catheterisation {
     pub fn new(scenario: Scenario, scene: CatheterInVessel) -> Catheterisation {
         let triangles = scene.vessel().triangles();
-        let mut imaging = Imaging::new(scenario.fluoroscopy, &scene, f64::from(scenario.dt_s));
+        let dt = f64::from(scenario.dt_s);
+        let mut imaging = Imaging::new(scenario.fluoroscopy, &scene, dt, scenario.head());
+        let target = scenario.target_branch();
+        let v = scene.vessel();
+        let ostium_m = v
+            .tubes
+            .iter()
+            .find(|t| t.vessel == target)
+            .map_or(0.0, |t| t.from_inlet_m);
         imaging.wire_mu_per_m = scenario.guidewire.map_or(0.0, |w| w.mu_per_m);
         Catheterisation {
             imaging,
@@ -146,6 +157,8 @@ impl Catheterisation {
             touching: false,
             off_steps: u32::MAX,
             astray: false,
+            target,
+            ostium_m,
             triangles,
             wire_origin: None,
             wire_reaction: DVec3::ZERO,
@@ -292,13 +305,11 @@ impl Catheterisation {
             });
         }
         // Where the tip is: which branch, how far along.
-        let target = self.scenario.task.branch as usize;
+        let target = self.target;
         let v = &self.scene.vessel();
-        let in_branch = |k: usize| in_branch_at(v, k, tip);
-        let other = if target == 1 { 2 } else { 1 };
-        let astray = in_branch(other).is_some();
-        m.wrong_branch += entered(&mut self.astray, astray, (other, "catheter"), &mut ev);
-        if let Some(along) = in_branch(target) {
+        let astray = (v.astray(target, tip, IN_BRANCH_M), *v);
+        m.wrong_branch += entered(&mut self.astray, astray, "catheter", &mut ev);
+        if let Some(along) = in_branch_at(v, target, tip) {
             m.reach_m = m.reach_m.max(along);
         }
         if let Some(wire) = self.scene.guidewire() {
@@ -325,18 +336,17 @@ impl Catheterisation {
             } else {
                 self.wire_touching_off = self.wire_touching_off.saturating_add(1);
             }
-            let astray = in_branch_at(v, other, wtip).is_some();
-            let tool = (other, "guidewire");
-            w.wrong_branch += entered(&mut self.wire_astray, astray, tool, &mut ev);
+            let astray = (v.astray(target, wtip, IN_BRANCH_M), *v);
+            w.wrong_branch += entered(&mut self.wire_astray, astray, "guidewire", &mut ev);
             if let Some(along) = in_branch_at(v, target, wtip) {
                 w.reach_m = w.reach_m.max(along);
             }
-            w.lead_m = w.lead_m.max(lead_m(v, wtip, tip));
+            w.lead_m = w.lead_m.max(v.path_m(wtip) - v.path_m(tip));
         }
-        let trunk = &v.tubes[0];
+        let (path, ostium) = (v.path_m(tip), self.ostium_m);
         let done = [
-            trunk.along(tip) >= ADVANCE_M || m.reach_m > 0.0,
-            trunk.along(tip) >= trunk.length_m - AT_BIFURCATION_M || m.reach_m > 0.0,
+            path >= ADVANCE_M || m.reach_m > 0.0,
+            path >= ostium - AT_BIFURCATION_M || m.reach_m > 0.0,
             m.reach_m >= self.scenario.task.reach_m,
         ];
         crate::procedures::tick_off(&STEPS, &done, &mut m.steps_done, &mut ev);
@@ -446,21 +456,23 @@ impl Catheterisation {
     }
 }
 
-/// A tip is in the wrong branch now (`astray`) after it was not (`was`): a `wrong_branch`
-/// event for `(branch, tool)`; returns the entries (0 or 1) and keeps the state.
+/// A tip is in a wrong branch of `v` now (`astray`) after it was not (`was`): a
+/// `wrong_branch` event naming the branch and the tool; returns the entries (0 or 1) and keeps the state.
 fn entered(
     was: &mut bool,
-    astray: bool,
-    (branch, tool): (usize, &'static str),
+    (astray, v): (Option<usize>, &Vessel),
+    tool: &'static str,
     ev: &mut Vec<EventKind>,
 ) -> u32 {
-    let new = astray && !*was;
-    *was = astray;
-    if new {
+    let new = astray.is_some() && !*was;
+    *was = astray.is_some();
+    if let (true, Some(branch)) = (new, astray) {
+        let vessel = v.branches.get(branch).map_or("", |b| b.name.as_str());
         ev.push(EventKind::Procedure(ProcedureEvent::new(
             "wrong_branch",
             WrongBranch {
                 branch: branch as u32,
+                vessel: vessel.to_string(),
                 tool,
             },
         )));
@@ -468,29 +480,10 @@ fn entered(
     u32::from(new)
 }
 
-/// How far `p` is along branch `k` of `v`, once it is [`IN_BRANCH_M`] into it and inside
+/// How far `p` is along vessel `k` of `v`, once it is [`IN_BRANCH_M`] into it and inside
 /// the wall's central surface.
 fn in_branch_at(v: &Vessel, k: usize, p: DVec3) -> Option<f64> {
-    let t = &v.tubes[k];
-    let along = t.along(p);
-    (along > IN_BRANCH_M && t.from_axis(p) < v.mid_radius_m).then_some(along)
-}
-
-/// How far point `a` is ahead of point `b` along the vessel's path from the inlet (the
-/// trunk's length, then along the branch the point is nearer the axis of), m.
-fn lead_m(v: &Vessel, a: DVec3, b: DVec3) -> f64 {
-    let path = |p: DVec3| {
-        let trunk = &v.tubes[0];
-        let along = trunk.along(p);
-        if along <= trunk.length_m {
-            return along;
-        }
-        let branch = v.tubes[1..]
-            .iter()
-            .min_by(|x, y| x.from_axis(p).total_cmp(&y.from_axis(p)));
-        branch.map_or(along, |t| trunk.length_m + t.along(p).max(0.0))
-    };
-    path(a) - path(b)
+    v.along_branch(k, p).filter(|&along| along > IN_BRANCH_M)
 }
 
 /// A tube of `radius` through the points `x` (`sides` sides), closed at the last point; each
@@ -566,6 +559,7 @@ struct PunctureEvent {
 #[derive(Serialize)]
 struct WrongBranch {
     branch: u32,
+    vessel: String,
     tool: &'static str,
 }
 

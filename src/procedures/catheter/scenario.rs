@@ -4,16 +4,19 @@
 
 use crate::models::skeleton::catheter::CatheterParams;
 use crate::models::skeleton::contact::ContactLaw;
-use crate::models::skeleton::vessel::VesselParams;
+use crate::models::skeleton::tree::TubeSpec;
+use crate::models::skeleton::vessel::{Branch, VesselParams};
 use crate::param_fields;
 use crate::params::{ParamSpec, Params};
 use crate::scenario::InputError;
+use glam::DVec3;
 use serde::Deserialize;
 
 /// The name scenarios and traces give this procedure.
 pub const NAME: &str = "catheter";
 
-/// The bifurcating vessel.
+/// The vessel: its wall and materials, and the paper's bifurcation's size (unused when the
+/// scenario has a `[tree]`).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct VesselTable {
@@ -348,6 +351,9 @@ crate::scenario_tables! {
         /// Optional: a guidewire in the catheter's lumen, under the left hand.
         #[serde(default)]
         guidewire: Option<super::wire_table::GuidewireTable>,
+        /// Optional: the vessel tree from centrelines (else the paper's bifurcation).
+        #[serde(default)]
+        tree: Option<super::tree_table::TreeTable>,
     ],
 }
 
@@ -382,13 +388,37 @@ impl Scenario {
             )?;
         }
         let reach = self.task.reach_m;
-        InputError::require(reach <= v.branch_m, file, "task.reach_m", || {
-            format!(
-                "expected a reach within the branch's {} m, got {reach} m",
-                v.branch_m
-            )
-        })?;
+        match &self.tree {
+            Some(t) => t.validate(file, v.wall_m, c, reach)?,
+            None => InputError::require(reach <= v.branch_m, file, "task.reach_m", || {
+                format!(
+                    "expected a reach within the branch's {} m, got {reach} m",
+                    v.branch_m
+                )
+            })?,
+        }
         Ok(())
+    }
+
+    /// The vessel's tubes and named vessels: the tree's, else the paper's bifurcation.
+    pub fn vessel_shape(&self) -> (Vec<TubeSpec>, Vec<Branch>) {
+        match &self.tree {
+            Some(t) => t.tubes(),
+            None => self.vessel_params().bifurcation(),
+        }
+    }
+
+    /// The vessel the task asks to cannulate: the tree's named target, else `task.branch`.
+    pub fn target_branch(&self) -> usize {
+        match &self.tree {
+            Some(t) => t.target_index().unwrap_or(1),
+            None => self.task.branch as usize,
+        }
+    }
+
+    /// Where the patient's head lies (+x unless the tree says otherwise).
+    pub fn head(&self) -> DVec3 {
+        self.tree.as_ref().map_or(DVec3::X, |t| t.head())
     }
 
     pub fn vessel_params(&self) -> VesselParams {
@@ -438,7 +468,11 @@ impl Scenario {
     pub fn balls(&self) -> u64 {
         let v = &self.vessel;
         let spacing = std::f64::consts::PI * (v.diameter_m - v.wall_m) / f64::from(v.around);
-        let rings = (v.trunk_m + 2.0 * v.branch_m) / spacing;
+        let length = match &self.tree {
+            Some(t) => t.centrelines().iter().map(|c| c.length_m()).sum(),
+            None => v.trunk_m + 2.0 * v.branch_m,
+        };
+        let rings = length / spacing;
         let catheter = self.catheter.length_m / (0.5 * self.catheter.diameter_m);
         (rings * f64::from(v.around) + catheter) as u64
     }
