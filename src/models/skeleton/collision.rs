@@ -46,6 +46,19 @@ pub fn detect_within(
     margin_m: f64,
     out: &mut Vec<Hit>,
 ) -> u64 {
+    detect_skipping(catheter, (from, &[]), vessel, holes, margin_m, out)
+}
+
+/// [`detect_within`] leaving out the instrument's balls marked in `skip` (those another body
+/// shields from the wall): they are not searched at all.
+pub fn detect_skipping(
+    catheter: &Balls,
+    (from, skip): (usize, &[bool]),
+    vessel: &Vessel,
+    holes: &[bool],
+    margin_m: f64,
+    out: &mut Vec<Hit>,
+) -> u64 {
     out.clear();
     let mut tests = 0u64;
     let section = vessel.params.section_m;
@@ -57,6 +70,9 @@ pub fn detect_within(
         .enumerate()
         .skip(from)
     {
+        if skip.get(i).copied().unwrap_or(false) {
+            continue;
+        }
         let reach = r + wall_r + margin_m;
         for tube in &vessel.tubes {
             let t = tube.along(p);

@@ -88,9 +88,10 @@ impl WallSurface {
     ) -> u64 {
         out.clear();
         let mut near = Vec::new();
-        let tests = super::collision::detect_within(
+        // The shielded balls are left out of the wide search too.
+        let tests = super::collision::detect_skipping(
             balls,
-            from,
+            (from, skip),
             vessel,
             holes,
             margin_m + 1.2 * self.longest_edge_m,
