@@ -240,24 +240,17 @@ impl WallContact {
         };
         let how = (&catheter.balls, radius, false, self.catheter.puncture_n);
         let head_normal = wall.touch(&mut self.catheter, how, vessel, share);
-        self.out.head_normal_n = self.out.head_normal_n.max(head_normal);
+        let out = &mut *wall.out;
+        out.head_normal_n = out.head_normal_n.max(head_normal);
         let on = &self.catheter.on_balls;
-        self.out.reaction += on.iter().sum::<DVec3>() * share;
-        self.out.head += on[head] * share;
-        self.out.contacts = self.catheter.hits.len();
+        out.reaction += on.iter().sum::<DVec3>() * share;
+        out.head += on[head] * share;
+        out.contacts = self.catheter.hits.len();
         let mut on_catheter = self.catheter.on_balls.clone();
         let wire_forces = match (models.get(GUIDEWIRE), &mut self.wire) {
             (Some(Skeleton::Guidewire(w)), Some(probe)) => {
                 let wire = &w.wire;
                 let tip = wire.balls.len() - 1;
-                let mut wall = WallScratch {
-                    holes: &mut self.holes,
-                    pushed: &mut self.pushed,
-                    on_wall: &mut self.on_wall,
-                    wall_mean: &mut self.wall_mean,
-                    touched: &mut self.touched,
-                    out: &mut self.out,
-                };
                 let r = 0.5 * wire.params.diameter_m;
                 let how = (&wire.balls, r, true, probe.puncture_n);
                 let normal = wall.touch(probe, how, vessel, share);
