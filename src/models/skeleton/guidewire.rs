@@ -17,6 +17,7 @@
 //! 6,450 kg/m^3 in a 0.9 mm (0.035 in) wire, `EI` of the order of a diagnostic wire's.
 
 use super::catheter::{Catheter, Drive};
+use super::tree::nearest_segment;
 use super::{AngleSpring, Balls, LinearSpring, Rod, add_angle_forces, add_spring_forces};
 use glam::{DQuat, DVec3};
 
@@ -267,28 +268,6 @@ pub fn lumen(
     )
 }
 
-/// The segment of the chain `tube` nearest `x` (the first of equals), the parameter of the
-/// nearest point's projection along it (unclamped: below 0 before its first ball, above 1
-/// past its second) and the squared distance to the segment.
-fn nearest_segment(tube: &Balls, x: DVec3) -> Option<(usize, f64, f64)> {
-    let mut best: Option<(usize, f64, f64)> = None;
-    for j in 0..tube.len().saturating_sub(1) {
-        let (a, b) = (tube.x[j], tube.x[j + 1]);
-        let d = b - a;
-        let len2 = d.length_squared();
-        if len2 <= 0.0 {
-            continue;
-        }
-        let t = (x - a).dot(d) / len2;
-        let p = a + d * t.clamp(0.0, 1.0);
-        let dist2 = p.distance_squared(x);
-        if best.is_none_or(|(_, _, bd)| dist2 < bd) {
-            best = Some((j, t, dist2));
-        }
-    }
-    best
-}
-
 /// Which of the wire's balls lie inside the catheter (their nearest point on its centreline
 /// not past the tip nor before the handle, within the catheter's radius): the catheter
 /// shields them from the wall, so the wall's collision leaves them out.
@@ -299,7 +278,7 @@ pub fn shielded(catheter: &Catheter, wire: &Guidewire) -> Vec<bool> {
         .x
         .iter()
         .map(|&x| {
-            nearest_segment(&catheter.balls, x).is_some_and(|(j, t, dist2)| {
+            nearest_segment(&catheter.balls.x, x).is_some_and(|(j, t, dist2)| {
                 let past_tip = j + 1 == segments && t > 1.0;
                 let before_handle = j == 0 && t < 0.0;
                 !past_tip && !before_handle && dist2 < reach * reach
@@ -338,7 +317,7 @@ pub fn coaxial(
             continue;
         }
         let x = wire.x[i];
-        let Some((j, t, dist2)) = nearest_segment(tube, x) else {
+        let Some((j, t, dist2)) = nearest_segment(&tube.x, x) else {
             continue;
         };
         let last = j + 1 == segments;

@@ -29,21 +29,9 @@ impl Centreline {
     /// The point of the centreline nearest `p`: its segment, how far along that segment, and
     /// the distance (none for fewer than two points).
     pub fn nearest(&self, p: DVec3) -> Option<(usize, f64, f64)> {
-        let mut best: Option<(usize, f64, f64)> = None;
-        for (j, w) in self.points.windows(2).enumerate() {
-            let d = w[1] - w[0];
-            let len = d.length();
-            let t = if len > 0.0 {
-                ((p - w[0]).dot(d) / len).clamp(0.0, len)
-            } else {
-                0.0
-            };
-            let dist = (p - (w[0] + d.normalize_or_zero() * t)).length();
-            if best.is_none_or(|b| dist < b.2) {
-                best = Some((j, t, dist));
-            }
-        }
-        best
+        let (j, t, dist2) = nearest_segment(&self.points, p)?;
+        let len = self.points[j].distance(self.points[j + 1]);
+        Some((j, t.clamp(0.0, 1.0) * len, dist2.sqrt()))
     }
 }
 
@@ -131,6 +119,28 @@ pub fn tubes(tree: &[Centreline]) -> Vec<TubeSpec> {
         }
     }
     out
+}
+
+/// The segment of the polyline `points` nearest `x` (the first of equals), the parameter of the
+/// nearest point's projection along it (unclamped: below 0 before its first point, above 1
+/// past its second) and the squared distance to the segment.
+pub fn nearest_segment(points: &[DVec3], x: DVec3) -> Option<(usize, f64, f64)> {
+    let mut best: Option<(usize, f64, f64)> = None;
+    for j in 0..points.len().saturating_sub(1) {
+        let (a, b) = (points[j], points[j + 1]);
+        let d = b - a;
+        let len2 = d.length_squared();
+        if len2 <= 0.0 {
+            continue;
+        }
+        let t = (x - a).dot(d) / len2;
+        let p = a + d * t.clamp(0.0, 1.0);
+        let dist2 = p.distance_squared(x);
+        if best.is_none_or(|(_, _, bd)| dist2 < bd) {
+            best = Some((j, t, dist2));
+        }
+    }
+    best
 }
 
 /// The tree's tubes ([`tubes`]) and its named vessels.
