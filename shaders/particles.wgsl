@@ -10,6 +10,8 @@
 // `shape_particles` (a particle each), the ties, the cloth's edges and its hinges colour by
 // colour (`project_stretches`, `project_bends`: a constraint each, constraints of one colour
 // sharing no particle), the strands, the contacts between bodies, and `floor`; then `finish`.
+// Where the sets and the contacts are scheduled, each is one dispatch of one workgroup
+// (`project_scheduled`) running the same projections level by level.
 //
 // Layouts:
 // - x, x0: `vec4(position, inverse mass)`; v, ext: `vec4(velocity or force, 0)`;
@@ -286,8 +288,13 @@ fn project_bends(@builtin(global_invocation_id) gid: vec3<u32>) {
     if k >= range.end {
         return;
     }
-    let ids = bends[2u * k];
     let rest = bitcast<f32>(bends[2u * k + 1u].x);
+    bend_one(bends[2u * k], rest, range.compliance, range.lambda_base + (k - range.first));
+}
+
+// The bending constraint over particles `ids` of rest angle `rest` and compliance
+// `compliance`, its multiplier at `li`.
+fn bend_one(ids: vec4<u32>, rest: f32, compliance: f32, li: u32) {
     let a = x[ids.x];
     let b = x[ids.y];
     let pc = x[ids.z];
@@ -316,11 +323,10 @@ fn project_bends(@builtin(global_invocation_id) gid: vec3<u32>) {
     let g3 = -len * m2;
     constraint = clamp(constraint, -MAX_BEND_CORRECTION_RAD, MAX_BEND_CORRECTION_RAD);
     let denom = a.w * dot(g0, g0) + b.w * dot(g1, g1) + pc.w * dot(g2, g2) + pd.w * dot(g3, g3);
-    let alpha = range.compliance / (p.dt * p.dt);
+    let alpha = compliance / (p.dt * p.dt);
     if denom + alpha <= 1e-12 {
         return;
     }
-    let li = range.lambda_base + (k - range.first);
     let dl = (-constraint - alpha * lambda[li]) / (denom + alpha);
     x[ids.x] = vec4<f32>(a.xyz + g0 * (a.w * dl), a.w);
     x[ids.y] = vec4<f32>(b.xyz + g1 * (b.w * dl), b.w);
@@ -450,6 +456,11 @@ fn project_chains(@builtin(global_invocation_id) gid: vec3<u32>) {
     if k >= range.end {
         return;
     }
+    chain_one(k);
+}
+
+// Chain `k`: its runs of intact segments, then its bending springs.
+fn chain_one(k: u32) {
     let span = chains[3u * k];
     let how = chains[3u * k + 1u];
     let more = chains[3u * k + 2u];
@@ -490,14 +501,17 @@ fn project_contacts(@builtin(global_invocation_id) gid: vec3<u32>) {
     if k >= range.end {
         return;
     }
-    let pr = pairs[k];
+    contact_one(pairs[k], range.compliance);
+}
+
+// The pair of particles `pr`, pushed apart closer than `d0`.
+fn contact_one(pr: vec2<u32>, d0: f32) {
     let xi = x[pr.x];
     let xj = x[pr.y];
     let ws = xi.w + xj.w;
     if ws <= 0.0 {
         return;
     }
-    let d0 = range.compliance;
     let d = xi.xyz - xj.xyz;
     let len = length(d);
     if len >= d0 || len <= 1e-12 {
@@ -506,6 +520,56 @@ fn project_contacts(@builtin(global_invocation_id) gid: vec3<u32>) {
     let push = d * ((d0 - len) / (len * ws));
     x[pr.x] = vec4<f32>(xi.xyz + push * xi.w, xi.w);
     x[pr.y] = vec4<f32>(xj.xyz - push * xj.w, xj.w);
+}
+
+// A sweep's constraints in levels, run by one workgroup (`gpu_schedule.rs`): level by level,
+// each invocation taking every `SCHEDULE_GROUP`th item of the level, a storage barrier between
+// levels. A level's items share no particle, and items that share one keep their order from
+// the colour-by-colour sweep, so the bytes are that sweep's.
+//
+// schedule: `(levels, the first item's row, 0, 0)`; the level starts four a row (level `l`'s
+// items are `start(l)..start(l + 1)`); then two rows an item: `(kind, bits of the compliance or
+// the contact's distance, multiplier, bits of the rest length or angle, or the chain)`, then
+// the particles it moves.
+@group(0) @binding(29) var<storage, read> schedule: array<vec4<u32>>;
+
+const SCHEDULE_GROUP: u32 = 256u;
+const KIND_STRETCH: u32 = 0u;
+const KIND_BEND: u32 = 1u;
+const KIND_CHAIN: u32 = 2u;
+
+fn level_start(l: u32) -> u32 {
+    return schedule[1u + l / 4u][l % 4u];
+}
+
+// A sweep's scheduled constraints: its sets (the vessels, ties, cloth and strands) or its
+// contact pairs.
+@compute @workgroup_size(256)
+fn project_scheduled(@builtin(local_invocation_index) t: u32) {
+    let head = schedule[0];
+    for (var l = 0u; l < head.x; l++) {
+        let end = level_start(l + 1u);
+        for (var k = level_start(l) + t; k < end; k += SCHEDULE_GROUP) {
+            let it = schedule[head.y + 2u * k];
+            let ids = schedule[head.y + 2u * k + 1u];
+            let compliance = bitcast<f32>(it.y);
+            switch it.x {
+                case KIND_STRETCH: {
+                    stretch_one(ids.x, ids.y, bitcast<f32>(it.w), compliance, it.z);
+                }
+                case KIND_BEND: {
+                    bend_one(ids, bitcast<f32>(it.w), compliance, it.z);
+                }
+                case KIND_CHAIN: {
+                    chain_one(it.w);
+                }
+                default: {
+                    contact_one(ids.xy, compliance);
+                }
+            }
+        }
+        storageBarrier();
+    }
 }
 
 // The instruments (`contacts.rs`: `ToolPush`, `Grasp`), projected after the strands and before

@@ -66,6 +66,9 @@ pub struct ComputeFigures {
     /// The relative difference from the CPU's result on the same start.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub check_rel_err: Option<f64>,
+    /// Compute dispatches a substep (each waits for the one before it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub dispatches_per_substep: Option<usize>,
 }
 
 /// A one-off computation's seconds, size and rate, beside the machine's peak (each left out

@@ -558,6 +558,7 @@ pub fn bench_line(
         kernel_substeps_per_s: t.kernel_s.map(|k| t.substeps as f64 / k.max(1e-12)),
         latency_p99_ms: Some(1e3 * t.latency_p99_s),
         check_rel_err: Some(check),
+        dispatches_per_substep: Some(1),
     };
     Ok(line)
 }

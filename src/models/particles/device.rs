@@ -4,8 +4,9 @@
 //! clusters' frames come back in one round trip, so the CPU always holds the newest state.
 //!
 //! The device's kernels step shape matching, the vessels' chains, the ties, the cloth (its
-//! edges and hinges), the strands (each set colour by colour, as the CPU takes them),
-//! the contacts between bodies (their candidate pairs searched on the CPU before each
+//! edges and hinges), the strands (each set colour by colour, as the CPU takes them; in one
+//! dispatch a sweep where the levels of `gpu_schedule.rs` fit one workgroup), the contacts
+//! between bodies (their candidate pairs searched on the CPU before each
 //! substep, from the positions the prediction will give, and coloured), gravity, point
 //! damping and the floor. A cut, a tear or a weakened strand sends the constraints up
 //! again before the next device substep, a new search its pairs alone. The strands'
@@ -23,7 +24,7 @@
 //! dropped and the failure is reported once: the session goes on.
 
 use super::contacts::PUSH_LIST_MARGIN_M;
-use super::gpu::{Constraints, ParticlesGpu, Set, Stepping};
+use super::gpu::{Constraints, ParticlesGpu, Set, Stepping, Sweeps};
 use super::gpu_tools::DeviceTool;
 use super::solver::{HandTool, ParticleSolver, StepOutcome};
 use crate::gpu::{Gpu, RenderError};
@@ -103,7 +104,13 @@ impl ParticleSolver {
     /// Steps this solver on `gpu` from now on (see `device.rs`). An error names what the
     /// device refused; the solver stays on the CPU.
     pub fn use_gpu(&mut self, gpu: &Gpu) -> Result<(), RenderError> {
-        let k = ParticlesGpu::new(gpu, &self.particles, &self.shape, &self.constraints())?;
+        self.use_gpu_with(gpu, Sweeps::Scheduled)
+    }
+
+    /// As [`ParticleSolver::use_gpu`], its sweeps dispatched as `sweeps` says.
+    pub fn use_gpu_with(&mut self, gpu: &Gpu, sweeps: Sweeps) -> Result<(), RenderError> {
+        let c = self.constraints();
+        let k = ParticlesGpu::with_sweeps(gpu, &self.particles, &self.shape, &c, sweeps)?;
         self.device = Slot {
             on: Some(Box::new(k)),
             stale: false,
@@ -113,6 +120,19 @@ impl ParticleSolver {
             kernel_s: 0.0,
         };
         Ok(())
+    }
+
+    /// The dispatches a device sweep takes for the constraint sets and the contacts, and
+    /// their scheduled levels (`ParticlesGpu::sweep_dispatches`); none on the CPU.
+    pub fn gpu_sweep_dispatches(&self) -> Option<(usize, [usize; 2])> {
+        self.device.on.as_ref().map(|d| d.sweep_dispatches())
+    }
+
+    /// The dispatches a device substep takes (`ParticlesGpu::dispatches_per_substep`); none
+    /// on the CPU.
+    pub fn gpu_dispatches_per_substep(&self) -> Option<usize> {
+        let d = self.device.on.as_ref()?;
+        Some(d.dispatches_per_substep(self.params.iterations, true))
     }
 
     /// The adapter the solver steps on; none on the CPU.

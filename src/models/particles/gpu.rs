@@ -10,13 +10,11 @@
 //! positions within a tolerance (tested).
 
 use super::Particles;
-use super::colour;
 pub use super::gpu_sets::{ChainSegment, ChainSet, Constraints, DeviceChain, Set};
 use super::gpu_tools::{DeviceTool, Entries, ToolKernels, totals_from};
 use super::shape::{ShapeMatching, coefficients};
 use crate::gpu::compute::{self, PassTimer, bind};
 use crate::gpu::{Gpu, RenderError};
-use crate::models::xpbd::Stretch;
 use bytemuck::Zeroable;
 use glam::Vec3;
 
@@ -72,7 +70,7 @@ pub struct Stepping {
 }
 
 /// The entry points.
-const ENTRIES: [&str; 13] = [
+const ENTRIES: [&str; 14] = [
     "predict",
     "match_goals",
     "shape_particles",
@@ -86,6 +84,7 @@ const ENTRIES: [&str; 13] = [
     "push_tool",
     "grasp_tool",
     "tool_sums",
+    "project_scheduled",
 ];
 const PREDICT: usize = 0;
 const MATCH: usize = 1;
@@ -97,13 +96,25 @@ const BENDS: usize = 6;
 const FLOOR: usize = 7;
 const CHAINS: usize = 8;
 const CONTACTS: usize = 9;
+const SCHEDULED: usize = 13;
 const TOOLS: Entries = Entries {
     push: 10,
     grasp: 11,
     sums: 12,
 };
 
-/// One colour's dispatch: its entry point, bind group and workgroups.
+/// How a sweep's constraints are dispatched.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Sweeps {
+    /// In levels, one workgroup a sweep for the sets and one for the contacts
+    /// (`gpu_schedule.rs`), where no level is too wide for one workgroup; else as `ByColour`.
+    Scheduled,
+    /// A dispatch for each colour of each set (the same bytes; kept to compare).
+    ByColour,
+}
+
+/// One colour's dispatch (or a scheduled sweep's): its entry point, bind group and
+/// workgroups.
 struct ColourPass {
     entry: usize,
     bind: wgpu::BindGroup,
@@ -144,7 +155,16 @@ pub struct ParticlesGpu {
     timer: Option<PassTimer>,
     /// The instruments, once a step has had one (`gpu_tools.rs`).
     tools: Option<ToolKernels>,
+    sweeps: Sweeps,
+    /// The levels of the scheduled sets and contacts (0 where dispatched by colour).
+    levels: [usize; 2],
+    /// What a scheduled sweep binds beside its schedule (the contacts' too: one kernel takes
+    /// both): the multipliers, the chains, their segments, bending springs and rows.
+    set_buffers: Vec<(u32, wgpu::Buffer)>,
 }
+
+#[path = "gpu_constraints.rs"]
+mod constraints;
 
 fn bytes<T: bytemuck::Pod>(v: &[T]) -> &[u8] {
     bytemuck::cast_slice(v)
@@ -187,6 +207,17 @@ impl ParticlesGpu {
         p: &Particles,
         s: &ShapeMatching,
         c: &Constraints,
+    ) -> Result<ParticlesGpu, RenderError> {
+        Self::with_sweeps(gpu, p, s, c, Sweeps::Scheduled)
+    }
+
+    /// As [`ParticlesGpu::new`], its sweeps dispatched as `sweeps` says.
+    pub fn with_sweeps(
+        gpu: &Gpu,
+        p: &Particles,
+        s: &ShapeMatching,
+        c: &Constraints,
+        sweeps: Sweeps,
     ) -> Result<ParticlesGpu, RenderError> {
         let module = compute::compile(&gpu.device, "shaders/particles.wgsl", SHADER)?;
         let pipelines = ENTRIES
@@ -283,167 +314,13 @@ impl ParticlesGpu {
             coef_dt: 0.0,
             timer: PassTimer::new(gpu),
             tools: None,
+            sweeps,
+            levels: [0; 2],
+            set_buffers: Vec::new(),
         };
         out.set_constraints(c)?;
         gpu.check()?;
         Ok(out)
-    }
-
-    /// Replaces the constraints after the clusters (after a cut or a tear): their buffers,
-    /// their multipliers and a dispatch per colour of each set.
-    pub fn set_constraints(&mut self, c: &Constraints) -> Result<(), RenderError> {
-        let gpu = &self.gpu;
-        let stretch_row = |s: &Stretch| [s.a, s.b, s.rest_m.to_bits(), 0];
-        let stretches: Vec<[u32; 4]> = c
-            .ties
-            .items
-            .iter()
-            .chain(c.edges.items)
-            .map(stretch_row)
-            .collect();
-        let bends: Vec<[u32; 4]> = c
-            .hinges
-            .items
-            .iter()
-            .flat_map(|h| [[h.a, h.b, h.c, h.d], [h.rest_rad.to_bits(), 0, 0, 0]])
-            .collect();
-        // The chain sets side by side: segments, bending springs, and three rows a chain.
-        let chain_sets = [&c.vessels, &c.adhesion, &c.bonds];
-        let segs_total: usize = chain_sets.iter().map(|k| k.segs.len()).sum();
-        let chain_lambdas = stretches.len() + c.hinges.items.len();
-        let bend_lambdas = chain_lambdas + segs_total;
-        let (mut segs, mut chain_bends, mut info) = (Vec::new(), Vec::new(), Vec::new());
-        let mut chain_first = Vec::new();
-        for set in chain_sets {
-            chain_first.push(info.len() / 3);
-            let (s0, b0) = (segs.len() as u32, chain_bends.len() as u32);
-            segs.extend(set.segs.iter().map(|g| {
-                let flags = u32::from(g.intact) | (u32::from(g.breakable) << 1);
-                [g.c.a, g.c.b, g.c.rest_m.to_bits(), flags]
-            }));
-            chain_bends.extend(
-                set.bends
-                    .iter()
-                    .map(|(b, intact)| [b.a, b.b, b.rest_m.to_bits(), u32::from(*intact)]),
-            );
-            for ch in &set.chains {
-                let (first, bend_first) = (s0 + ch.segs.start, b0 + ch.bends.start);
-                info.push([first, s0 + ch.segs.end, bend_first, b0 + ch.bends.end]);
-                info.push([
-                    ch.compliance.to_bits(),
-                    ch.weak_compliance.to_bits(),
-                    u32::from(ch.weakened),
-                    ch.solves,
-                ]);
-                info.push([
-                    ch.bend_compliance.to_bits(),
-                    (chain_lambdas as u32) + first,
-                    (bend_lambdas as u32) + bend_first,
-                    0,
-                ]);
-            }
-        }
-        let lambdas = bend_lambdas + chain_bends.len();
-        let storage = |label: &str, data: &[u8]| compute::storage(gpu, label, data);
-        let stretch_buf = storage("stretch constraints", bytes(&stretches))?;
-        let bend_buf = storage("bending constraints", bytes(&bends))?;
-        let lambda = storage("constraint multipliers", &vec![0u8; 4 * lambdas])?;
-        let info_buf = storage("chains", bytes(&info))?;
-        let segs_buf = storage("chain segments", bytes(&segs))?;
-        let chain_bends_buf = storage("chain bending springs", bytes(&chain_bends))?;
-        let rows = storage("chain rows", &vec![0u8; 32 * segs_total.max(1)])?;
-        let mut passes = Vec::new();
-        let mut add = |entry: usize, first: usize, base: usize, colours: &[u32], comp: f32| {
-            for (_, a, b) in colour::ranges(colours) {
-                let range = Range {
-                    first: (first + a) as u32,
-                    end: (first + b) as u32,
-                    lambda_base: (base + a) as u32,
-                    compliance: comp,
-                };
-                let uniform = compute::uniform(gpu, "constraint colour", bytes(&[range]));
-                let mut buffers = vec![(0, &self.params), (1, &self.x), (14, &uniform)];
-                match entry {
-                    STRETCHES => buffers.push((15, &stretch_buf)),
-                    BENDS => buffers.push((16, &bend_buf)),
-                    _ => buffers.extend([
-                        (18, &info_buf),
-                        (19, &segs_buf),
-                        (20, &chain_bends_buf),
-                        (21, &rows),
-                    ]),
-                }
-                buffers.push((17, &lambda));
-                passes.push(ColourPass {
-                    entry,
-                    bind: bind(gpu, &self.pipelines[entry], ENTRIES[entry], &buffers),
-                    groups: groups((b - a) as u32),
-                });
-            }
-        };
-        let chain_colours =
-            |set: &ChainSet| set.chains.iter().map(|k| k.colour).collect::<Vec<_>>();
-        let ties = c.ties.items.len();
-        add(CHAINS, chain_first[0], 0, &chain_colours(&c.vessels), 0.0);
-        add(STRETCHES, 0, 0, c.ties.colours, c.ties.compliance);
-        add(STRETCHES, ties, ties, c.edges.colours, c.edges.compliance);
-        let hinge_base = stretches.len();
-        add(BENDS, 0, hinge_base, c.hinges.colours, c.hinges.compliance);
-        add(CHAINS, chain_first[1], 0, &chain_colours(&c.adhesion), 0.0);
-        add(CHAINS, chain_first[2], 0, &chain_colours(&c.bonds), 0.0);
-        self.binds[CLEAR] = Some(bind(
-            gpu,
-            &self.pipelines[CLEAR],
-            ENTRIES[CLEAR],
-            &[(0, &self.params), (17, &lambda)],
-        ));
-        self.passes = passes;
-        self.lambdas = lambdas as u32;
-        self.counts = [
-            stretches.len(),
-            c.hinges.items.len(),
-            segs_total,
-            chain_bends.len(),
-            0,
-        ]
-        .map(|n| n as u64);
-        gpu.check()?;
-        self.set_pairs(&c.pairs, c.pair_colours, c.contact_distance_m)
-    }
-
-    /// Replaces the contacts' candidate pairs (sorted by colour, `colours` theirs) alone,
-    /// after a search: their buffer and a dispatch per colour, pushed apart closer than
-    /// `distance_m`. The other sets' buffers stay as they are.
-    pub fn set_pairs(
-        &mut self,
-        pairs: &[(u32, u32)],
-        colours: &[u32],
-        distance_m: f32,
-    ) -> Result<(), RenderError> {
-        let gpu = &self.gpu;
-        let rows: Vec<[u32; 2]> = pairs.iter().map(|&(i, j)| [i, j]).collect();
-        let pairs_buf = compute::storage(gpu, "contact pairs", bytes(&rows))?;
-        self.contact_passes = colour::ranges(colours)
-            .into_iter()
-            .map(|(_, a, b)| {
-                let range = Range {
-                    first: a as u32,
-                    end: b as u32,
-                    lambda_base: 0,
-                    compliance: distance_m,
-                };
-                let uniform = compute::uniform(gpu, "contact colour", bytes(&[range]));
-                // The contacts' kernel reads no substep parameters and no multipliers.
-                let buffers = [(1, &self.x), (14, &uniform), (22, &pairs_buf)];
-                ColourPass {
-                    entry: CONTACTS,
-                    bind: bind(gpu, &self.pipelines[CONTACTS], ENTRIES[CONTACTS], &buffers),
-                    groups: groups((b - a) as u32),
-                }
-            })
-            .collect();
-        self.counts[4] = pairs.len() as u64;
-        gpu.check()
     }
 
     /// The fewest bytes a substep of `iterations` sweeps moves through device memory, each
@@ -520,6 +397,28 @@ impl ParticlesGpu {
             Some(k) => k.set(&self.gpu, tools, dt_s),
             None => Ok(()),
         }
+    }
+
+    /// The dispatches a substep of `iterations` sweeps takes (each waits for the one before
+    /// it), with the instruments of the latest submission.
+    pub fn dispatches_per_substep(&self, iterations: u32, floor: bool) -> usize {
+        let tools = self.tools.as_ref().filter(|t| t.active());
+        let sweep = |first: bool| {
+            usize::from(self.clusters > 0)
+                + 1
+                + self.passes.len()
+                + self.contact_passes.len()
+                + tools.map_or(0, |t| t.sweep(TOOLS, first, groups).len())
+                + usize::from(floor)
+        };
+        let sweeps: usize = (0..iterations.max(1)).map(|k| sweep(k == 0)).sum();
+        1 + usize::from(self.lambdas > 0) + sweeps + 1 + tools.map_or(0, |t| t.sums(TOOLS).len())
+    }
+
+    /// The dispatches a sweep takes for its constraint sets and contacts (a colour each, or
+    /// one each where scheduled), and the scheduled sets' and contacts' levels.
+    pub fn sweep_dispatches(&self) -> (usize, [usize; 2]) {
+        (self.passes.len() + self.contact_passes.len(), self.levels)
     }
 
     /// The device it runs on.

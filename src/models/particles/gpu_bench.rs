@@ -3,6 +3,7 @@
 //! contacts between bodies), at the scene's size, every particle awake, with no instrument
 //! (the coupled pass that follows it plays the demo with the instruments on the device).
 
+use super::gpu::Sweeps;
 use super::solver::ParticleSolver;
 use crate::gpu::{Gpu, RenderError};
 use crate::sim::{BenchLine, ComputeFigures, ModelOutput, TissueModel};
@@ -17,16 +18,19 @@ const CHECK_STEPS: usize = 20;
 /// `budget_s` wall seconds (at least 5 steps, at most 5,000); with the adapter, the substep
 /// rate by the wall clock and the GPU's, the bytes a substep moves at the least and the
 /// bandwidth that makes, the step's latency (p99), and the velocities' relative difference
-/// from the CPU's after [`CHECK_STEPS`] steps from the same start.
+/// from the CPU's after [`CHECK_STEPS`] steps from the same start, and the dispatches a
+/// substep. `sweeps` says how the sweeps are dispatched (the line named
+/// `particles_without_instruments`, or `..._by_colour` for a dispatch per colour).
 pub fn bench_line(
     gpu: &Gpu,
     s: &ParticleSolver,
     dt_s: f32,
     budget_s: f64,
+    sweeps: Sweeps,
 ) -> Result<BenchLine, RenderError> {
     let mut cpu = s.copy_without_instruments();
     let mut dev = s.copy_without_instruments();
-    dev.use_gpu(gpu)?;
+    dev.use_gpu_with(gpu, sweeps)?;
     let mut out = ModelOutput::default();
     let lost = |dev: &mut ParticleSolver| match dev.take_device_note() {
         Some(note) => Err(RenderError::Device(note)),
@@ -67,7 +71,11 @@ pub fn bench_line(
     let bytes = dev.gpu_bytes_per_substep().unwrap_or(0);
     let moved = bytes as f64 * substeps as f64;
     let sizes = dev.sizes();
-    let mut line = BenchLine::repeated("particles_without_instruments", steps, wall_s);
+    let name = match sweeps {
+        Sweeps::Scheduled => "particles_without_instruments",
+        Sweeps::ByColour => "particles_without_instruments_by_colour",
+    };
+    let mut line = BenchLine::repeated(name, steps, wall_s);
     line.dt_s = dt_s;
     line.realtime_factor = line.steps_per_s * f64::from(dt_s);
     line.vertices = sizes.vertices;
@@ -85,6 +93,7 @@ pub fn bench_line(
         kernel_substeps_per_s: kernel_s.map(|k| substeps as f64 / k.max(1e-12)),
         latency_p99_ms: Some(1e3 * p99),
         check_rel_err: Some(check),
+        dispatches_per_substep: dev.gpu_dispatches_per_substep(),
     };
     Ok(line)
 }

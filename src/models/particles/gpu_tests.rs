@@ -323,7 +323,7 @@ mod solver {
 
     /// A 10 x 10 sheet of cloth 4 mm apart, 20 mg a particle, hung from two corners by ties to
     /// pinned particles above them, falling and swinging under gravity.
-    fn sheet() -> ParticleSolver {
+    pub(super) fn sheet() -> ParticleSolver {
         let n = 10u32;
         let h = 0.004f32;
         let mut p = Particles::new();
@@ -428,7 +428,7 @@ mod solver {
     /// Two blocks of liver-like particles (6 x 4 x 6, 3.5 mm apart, contact radius 1.5 mm):
     /// the lower one's bottom pinned, the upper one (another body) falling onto it from 2 mm
     /// above; the contacts between bodies keep them apart.
-    fn stacked() -> ParticleSolver {
+    pub(super) fn stacked() -> ParticleSolver {
         let h = 0.0035f32;
         let rho = 1060.0;
         let mut p = Particles::new();
@@ -619,7 +619,7 @@ mod solver {
     /// The pinned block with a vessel hanging from its bottom corner (8 particles of 0.2 g,
     /// 3 mm apart) and strands from its bottom layer's 36 particles to pinned particles 1 cm
     /// below, each of 4 segments holding at 500 N/m and tearing past 30 % strain.
-    fn strands_scene() -> ParticleSolver {
+    pub(super) fn strands_scene() -> ParticleSolver {
         let (mut p, shape) = block(false);
         let corner = 47u32;
         let top = p.x[corner as usize];
@@ -656,7 +656,7 @@ mod solver {
 
     /// Steps `steps` with the bottom layer pulled up, harder every step (1 N more a particle a
     /// second): the strands below stretch, weaken and tear. Returns the strands torn each step.
-    fn pulled(s: &mut ParticleSolver, steps: std::ops::Range<usize>) -> Vec<usize> {
+    pub(super) fn pulled(s: &mut ParticleSolver, steps: std::ops::Range<usize>) -> Vec<usize> {
         let mut out = ModelOutput::default();
         let bottom: Vec<usize> = (0..288)
             .filter(|&i| (s.particles.x[i].y + 0.0245).abs() < 2e-3)
@@ -728,8 +728,9 @@ mod solver {
     fn the_bench_line_states_the_device_and_checks_it_against_the_cpu() {
         let gpu = gpu();
         let s = strands_scene();
-        let line = crate::models::particles::gpu_bench::bench_line(&gpu, &s, 1e-3, 0.2)
-            .expect("a line on the adapter there is");
+        let line =
+            crate::models::particles::gpu_bench::bench_line(&gpu, &s, 1e-3, 0.2, Sweeps::Scheduled)
+                .expect("a line on the adapter there is");
         let c = &line.compute;
         assert_eq!(c.backend, Some("gpu"));
         assert_eq!(c.adapter.as_deref(), Some(gpu.describe().as_str()));
@@ -749,3 +750,6 @@ mod solver {
 
 #[path = "gpu_tool_tests.rs"]
 mod tools;
+
+#[path = "gpu_schedule_tests.rs"]
+mod schedule;

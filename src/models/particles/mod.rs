@@ -20,6 +20,7 @@ pub mod contacts;
 mod device;
 pub mod gpu;
 pub mod gpu_bench;
+mod gpu_schedule;
 mod gpu_sets;
 pub mod gpu_tools;
 pub mod shape;

@@ -7,17 +7,25 @@ use super::Scenario;
 use super::plugin::build_procedure;
 use crate::gpu::Gpu;
 use crate::models::particles;
+use crate::models::particles::gpu::Sweeps;
 use crate::sim::{BenchError, BenchLine};
 
 /// Wall seconds the kernels are timed for.
 const BUDGET_S: f64 = 3.0;
 
-/// The solver's GPU line at the default scenario's size.
+/// The solver's GPU lines at the default scenario's size: its sweeps scheduled, and by
+/// colour.
 pub fn lines(gpu: &Gpu) -> Result<Vec<BenchLine>, BenchError> {
     let file = "builtin cholecystectomy scenario";
     let s = Scenario::parse(file, super::INFO.scenario)?;
     let dt = s.dt_s;
     let p = build_procedure(file, s)?;
-    let line = particles::gpu_bench::bench_line(gpu, p.scene.solver(), dt, BUDGET_S)?;
-    Ok(vec![line])
+    // Scheduled sweeps (as sessions run), then a dispatch per colour (the same bytes) beside.
+    [Sweeps::Scheduled, Sweeps::ByColour]
+        .into_iter()
+        .map(|w| {
+            let line = particles::gpu_bench::bench_line(gpu, p.scene.solver(), dt, BUDGET_S, w)?;
+            Ok(line)
+        })
+        .collect()
 }
