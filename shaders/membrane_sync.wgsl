@@ -14,6 +14,11 @@ struct Sync {
     tiles_c: u32,
     // Unpack: also the springs. Pack: read state buffer b rather than a.
     flag: u32,
+    // Unpack: the list's first tiles whose state goes up (the device holds the others').
+    state_tiles: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
 }
 
 const LAYERS: u32 = 4u;
@@ -45,7 +50,8 @@ fn node_of(wg: vec3<u32>, li: u32) -> vec3<u32> {
 }
 
 // The CPU's tiles into both state buffers (a sleeping neighbour must read the same in
-// either), layer 0's attachments, and with `flag` the springs.
+// either: the first `state_tiles` of the list), layer 0's attachments, and with `flag` the
+// springs.
 @compute @workgroup_size(128, 1, 1)
 fn unpack(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let k = node_of(wg, li);
@@ -55,10 +61,12 @@ fn unpack(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index)
     if (b == OUTSIDE) {
         return;
     }
-    for (var c = 0u; c < 6u; c++) {
-        let v = packed_state[n * 6u + c];
-        state_a[(b * 6u + c) * s.cols + j] = v;
-        state_b[(b * 6u + c) * s.cols + j] = v;
+    if (wg.x < s.state_tiles) {
+        for (var c = 0u; c < 6u; c++) {
+            let v = packed_state[n * 6u + c];
+            state_a[(b * 6u + c) * s.cols + j] = v;
+            state_b[(b * 6u + c) * s.cols + j] = v;
+        }
     }
     if (s.flag != 0u) {
         for (var f = 0u; f < FIELDS; f++) {

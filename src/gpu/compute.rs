@@ -165,6 +165,17 @@ pub(crate) fn map_read(
     staging: &wgpu::Buffer,
     bytes: u64,
 ) -> Result<Vec<u8>, RenderError> {
+    with_mapped(gpu, staging, bytes, <[u8]>::to_vec)
+}
+
+/// Maps a `MAP_READ` buffer once what was submitted before has run, hands its first `bytes`
+/// bytes to `read` (no copy) and unmaps it.
+pub(crate) fn with_mapped<R>(
+    gpu: &Gpu,
+    staging: &wgpu::Buffer,
+    bytes: u64,
+    read: impl FnOnce(&[u8]) -> R,
+) -> Result<R, RenderError> {
     let (tx, rx) = std::sync::mpsc::channel();
     staging
         .slice(..bytes)
@@ -177,11 +188,13 @@ pub(crate) fn map_read(
     rx.recv()
         .map_err(|e| RenderError::Readback(e.to_string()))?
         .map_err(|e| RenderError::Readback(e.to_string()))?;
-    let out = staging
-        .slice(..bytes)
-        .get_mapped_range()
-        .map_err(|e| RenderError::Readback(e.to_string()))?
-        .to_vec();
+    let out = {
+        let view = staging
+            .slice(..bytes)
+            .get_mapped_range()
+            .map_err(|e| RenderError::Readback(e.to_string()))?;
+        read(&view)
+    };
     staging.unmap();
     Ok(out)
 }
@@ -242,14 +255,26 @@ impl PassTimer {
         encoder.copy_buffer_to_buffer(&self.resolved, 0, &self.staging, 0, 16);
     }
 
+    /// After [`PassTimer::resolve`], in the same encoder: the timestamps (16 bytes) also into
+    /// `to` at `offset`, to be read with other results ([`PassTimer::seconds_of`]).
+    pub fn copy_into(&self, encoder: &mut wgpu::CommandEncoder, to: &wgpu::Buffer, offset: u64) {
+        encoder.copy_buffer_to_buffer(&self.resolved, 0, to, offset, 16);
+    }
+
     /// The last timed pass's length, seconds (waits for it).
     pub fn seconds(&self, gpu: &Gpu) -> Result<f64, RenderError> {
-        let bytes = map_read(gpu, &self.staging, 16)?;
+        with_mapped(gpu, &self.staging, 16, |b| self.seconds_of(b))
+    }
+
+    /// The pass's length, seconds, from its 16 bytes of timestamps.
+    pub fn seconds_of(&self, bytes: &[u8]) -> f64 {
         let tick = |k: usize| {
             let mut b = [0u8; 8];
-            b.copy_from_slice(&bytes[8 * k..8 * k + 8]);
+            if let Some(s) = bytes.get(8 * k..8 * k + 8) {
+                b.copy_from_slice(s);
+            }
             u64::from_le_bytes(b)
         };
-        Ok(tick(1).saturating_sub(tick(0)) as f64 * self.period_ns * 1e-9)
+        tick(1).saturating_sub(tick(0)) as f64 * self.period_ns * 1e-9
     }
 }

@@ -400,6 +400,7 @@ fn start_watch(m: &Membrane, a: &mut Activity, t: usize) {
 
 /// Places tile `t`'s nodes at anchor + offset, at rest relative to it.
 fn place_asleep(m: &mut Membrane, a: &Activity, t: usize) {
+    m.device.tile_changed(t);
     let ([r0, r1], [c0, c1]) = a.span(t, m.rows, m.cols);
     let cols = m.cols;
     let mut anchor = vec![0.0; c1 - c0];

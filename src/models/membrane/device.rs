@@ -2,14 +2,16 @@
 //! the couplings' reads and writes, checkpoints, the hash) and the device runs the explicit
 //! substeps of the awake tiles (`substep_tiles` in `shaders/membrane.wgsl`).
 //!
-//! Each step: the awake tiles and the sleeping tiles beside them (the halo) go up packed,
-//! their state into both of the device's state buffers, layer 0's targets, and the springs
-//! when a cut changed them; the substeps run; the awake tiles come back packed
-//! (`shaders/membrane_sync.wgsl`). All of it is one submission and one readback into a
-//! buffer kept for it. A tile outside that set is read by no awake node,
-//! so what the device holds for it may lag the CPU until it joins the set. Anything else
-//! that rewrites the model (a rollback, a detached layer) sends everything up at the next
-//! step.
+//! Each step: the awake tiles and the sleeping tiles beside them (the halo) go up packed:
+//! layer 0's targets, the springs when a cut changed them, and the state (into both of the
+//! device's state buffers) of those whose state the device lacks: the halo, which the CPU
+//! has just placed at its anchors, and tiles that woke since; an awake tile's state came back
+//! from the device last step and is not sent again (the bytes are the same: tested). The
+//! substeps run; the awake tiles come back packed (`shaders/membrane_sync.wgsl`). All of it
+//! is one submission and one readback into a buffer kept for it. A tile outside that set is
+//! read by no awake node, so what the device holds for it may lag the CPU until it joins the
+//! set. Anything else that rewrites the model (a rollback, a detached layer) sends everything
+//! up at the next step.
 //!
 //! Should the device fail (lost, out of memory, a command refused), the step runs on the
 //! CPU from the state the CPU holds, which the failed step has not touched, the device is
@@ -20,6 +22,7 @@ use super::gpu::MembraneGpu;
 use super::{LAYERS, Membrane, field};
 use crate::gpu::compute::{self, bind};
 use crate::gpu::{Gpu, RenderError};
+use bytemuck::Zeroable;
 
 const SYNC_SHADER: &str = include_str!("../../../shaders/membrane_sync.wgsl");
 /// Nodes of a tile in one layer (the kernels' workgroup).
@@ -69,6 +72,17 @@ impl Slot {
         }
     }
 
+    /// The CPU wrote tile `t`'s state (placed it at its anchors): it goes up when it next
+    /// joins the active set.
+    pub fn tile_changed(&mut self, t: usize) {
+        if let Some(d) = &mut self.on {
+            if let Some(h) = d.held.get_mut(t) {
+                *h = false;
+            }
+            d.all_held = false;
+        }
+    }
+
     /// The adapter, where the model runs on one.
     pub fn adapter(&self) -> Option<String> {
         self.on.as_ref().map(|d| d.k.gpu().describe())
@@ -104,13 +118,23 @@ struct OnDevice {
     tiles_c: u32,
     springs_changed: bool,
     whole_stale: bool,
+    /// Per tile of the active set: the device holds the CPU's state for it (it came back
+    /// from the device, or went up, and the CPU has not written it since); such a tile's
+    /// state does not go up again.
+    held: Vec<bool>,
+    /// The device holds the CPU's whole state (after a whole step's download).
+    all_held: bool,
+    /// Send every synced tile's state up each step, held or not (to compare; tests).
+    resend: bool,
+    /// Tiles whose state went up, over the device's life (a test's count).
+    tiles_sent: u64,
     /// CPU-side packing buffers, reused.
     up_state: Vec<f32>,
     up_springs: Vec<f32>,
     up_attach: Vec<f32>,
 }
 
-/// The shader's `Sync` (16 bytes).
+/// The shader's `Sync` (32 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 struct SyncParams {
@@ -118,6 +142,10 @@ struct SyncParams {
     cols: u32,
     tiles_c: u32,
     flag: u32,
+    /// The unpack's first tiles whose state goes up (the rest take their attachments and
+    /// springs alone).
+    state_tiles: u32,
+    pad: [u32; 3],
 }
 
 /// One pass of a sync kernel (`pipeline` bound to `bind`) over the first `tiles` tiles of its
@@ -171,12 +199,7 @@ impl OnDevice {
             "membrane packed attachments",
             &zeros(tiles * ATTACH_PER_TILE),
         )?;
-        let zero = SyncParams {
-            rows: 0,
-            cols: 0,
-            tiles_c: 0,
-            flag: 0,
-        };
+        let zero = SyncParams::zeroed();
         let sync_params =
             compute::uniform(gpu, "membrane unpack params", bytemuck::bytes_of(&zero));
         let pack_params = compute::uniform(gpu, "membrane pack params", bytemuck::bytes_of(&zero));
@@ -236,6 +259,10 @@ impl OnDevice {
             pack_bind,
             springs_changed: false,
             whole_stale: true,
+            held: vec![false; m.activity.as_ref().map_or(0, |a| a.awake.len())],
+            all_held: false,
+            resend: false,
+            tiles_sent: 0,
             up_state: Vec::new(),
             up_springs: Vec::new(),
             up_attach: Vec::new(),
@@ -280,6 +307,8 @@ impl OnDevice {
         self.k.upload_attachments(m);
         self.whole_stale = false;
         self.springs_changed = false;
+        self.held.iter_mut().for_each(|h| *h = true);
+        self.all_held = true;
     }
 
     /// Each node of the tiles `list` that lies in the grid, as (its tile's place in the
@@ -299,19 +328,21 @@ impl OnDevice {
         })
     }
 
-    /// Tiles `sync` packed from the CPU and unpacked on the device (springs only when
-    /// `springs`), encoded into `encoder`.
+    /// Tiles `sync` packed from the CPU and unpacked on the device: the state of the first
+    /// `state_tiles`, layer 0's attachments of all, and their springs when `springs`;
+    /// encoded into `encoder`.
     fn encode_up(
         &mut self,
         m: &Membrane,
         a: &Activity,
-        sync: &[u32],
+        (sync, state_tiles): (&[u32], usize),
         springs: bool,
         encoder: &mut wgpu::CommandEncoder,
     ) {
         let (rows, cols) = (m.rows, m.cols);
         self.up_state.clear();
-        self.up_state.resize(sync.len() * STATE_PER_TILE, 0.0);
+        self.up_state
+            .resize(state_tiles.max(1) * STATE_PER_TILE, 0.0);
         self.up_attach.clear();
         self.up_attach.resize(sync.len() * ATTACH_PER_TILE, 0.0);
         self.up_springs.clear();
@@ -322,8 +353,10 @@ impl OnDevice {
             for l in 0..LAYERS {
                 let b = l * rows + i;
                 let at = (r * LAYERS + l) * TILE + n;
-                for c in 0..6 {
-                    self.up_state[at * 6 + c] = m.state.data[(b * 6 + c) * cols + j];
+                if r < state_tiles {
+                    for c in 0..6 {
+                        self.up_state[at * 6 + c] = m.state.data[(b * 6 + c) * cols + j];
+                    }
                 }
                 if springs {
                     for f in 0..field::COUNT {
@@ -338,7 +371,9 @@ impl OnDevice {
         }
         let q = &self.k.gpu().queue;
         q.write_buffer(&self.sync_list, 0, bytemuck::cast_slice(sync));
-        q.write_buffer(&self.packed_state, 0, bytemuck::cast_slice(&self.up_state));
+        if state_tiles > 0 {
+            q.write_buffer(&self.packed_state, 0, bytemuck::cast_slice(&self.up_state));
+        }
         q.write_buffer(
             &self.packed_attach,
             0,
@@ -356,6 +391,8 @@ impl OnDevice {
             cols: cols as u32,
             tiles_c: self.tiles_c,
             flag: u32::from(springs),
+            state_tiles: state_tiles as u32,
+            pad: [0; 3],
         };
         q.write_buffer(&self.sync_params, 0, bytemuck::bytes_of(&params));
         sync_pass(
@@ -389,8 +426,14 @@ impl OnDevice {
             substeps
         )
         .entered();
-        let mut sync: Vec<u32> = awake.to_vec();
-        sync.extend(halo.iter().map(|&t| t as u32));
+        // The tiles whose state the device lacks first: only theirs goes up.
+        let all = || awake.iter().copied().chain(halo.iter().map(|&t| t as u32));
+        let (resend, held) = (self.resend, &self.held);
+        let fresh = |t: &u32| resend || !held.get(*t as usize).copied().unwrap_or(false);
+        let mut sync: Vec<u32> = all().filter(fresh).collect();
+        let state_tiles = sync.len();
+        sync.extend(all().filter(|t| !fresh(t)));
+        self.tiles_sent += state_tiles as u64;
         let gpu = self.k.gpu().clone();
         // One submission: the tiles up, the substeps, the awake tiles packed and copied to
         // the readback buffer.
@@ -400,7 +443,15 @@ impl OnDevice {
                 label: Some("membrane active step"),
             });
         let springs = std::mem::take(&mut self.springs_changed);
-        self.encode_up(m, a, &sync, springs, &mut encoder);
+        self.encode_up(m, a, (&sync, state_tiles), springs, &mut encoder);
+        // From here the device holds every synced tile as the CPU does (the awake ones come
+        // back below), and not necessarily anything else.
+        for &t in &sync {
+            if let Some(h) = self.held.get_mut(t as usize) {
+                *h = true;
+            }
+        }
+        self.all_held = false;
         if awake.is_empty() {
             m.external.clear();
             gpu.queue.submit([encoder.finish()]);
@@ -429,6 +480,7 @@ impl OnDevice {
             cols: m.cols as u32,
             tiles_c: self.tiles_c,
             flag: self.k.current as u32,
+            ..SyncParams::zeroed()
         };
         gpu.queue
             .write_buffer(&self.pack_params, 0, bytemuck::bytes_of(&params));
@@ -473,11 +525,16 @@ impl OnDevice {
         if self.whole_stale || self.springs_changed {
             self.upload_whole(m);
         } else {
-            self.k.upload_state(m);
+            if self.resend || !self.all_held {
+                self.k.upload_state(m);
+            }
             self.k.upload_attachments(m);
         }
         self.k.advance(m, dt, substeps)?;
-        self.k.download(m)
+        self.k.download(m)?;
+        self.all_held = true;
+        self.held.iter_mut().for_each(|h| *h = true);
+        Ok(())
     }
 }
 
@@ -505,6 +562,21 @@ impl Membrane {
             }
             None => false,
         }
+    }
+
+    /// Sends every synced tile's state up at each step, whether the device holds it or not
+    /// (to compare with the steps that send only what the device lacks).
+    #[cfg(test)]
+    pub(crate) fn gpu_resend_every_step(&mut self, on: bool) {
+        if let Some(d) = &mut self.device.on {
+            d.resend = on;
+        }
+    }
+
+    /// Tiles whose state went up to the device so far (none on the CPU).
+    #[cfg(test)]
+    pub(crate) fn gpu_tiles_sent(&self) -> Option<u64> {
+        self.device.on.as_ref().map(|d| d.tiles_sent)
     }
 
     /// Why the device was given up, once (the model reports it as an event).

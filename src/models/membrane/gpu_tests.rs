@@ -150,6 +150,22 @@ fn session_step(m: &mut Membrane, k: usize, out: &mut crate::sim::ModelOutput) {
     crate::sim::TissueModel::step(m, 1e-3, &[], out);
 }
 
+/// Step `k` of the session above with a cut through the pulled tissue at step 20 (new
+/// springs go up), a checkpoint at 25, and a rollback to it at 30 (everything goes up again).
+fn cut_and_rollback_step(m: &mut Membrane, k: usize, out: &mut crate::sim::ModelOutput) {
+    use crate::sim::TissueModel;
+    match k {
+        20 => {
+            let at = m.position(m.node(1, 24, 34));
+            assert!(m.cut_plane(at, 0.001) > 0);
+        }
+        25 => m.checkpoint(),
+        30 => m.restore(),
+        _ => {}
+    }
+    session_step(m, k, out);
+}
+
 /// A device, the sleepy tube, and two copies of it: one on the CPU, one on the device.
 fn on_both() -> (Gpu, Membrane, Membrane, Membrane) {
     let gpu = device();
@@ -166,25 +182,12 @@ fn awake_tiles(m: &Membrane) -> Vec<usize> {
 
 #[test]
 fn the_active_set_steps_on_the_gpu_as_on_the_cpu() {
-    use crate::sim::TissueModel;
     let (_gpu, start, mut cpu, mut dev) = on_both();
     let mut out = crate::sim::ModelOutput::default();
     let mut most = 0;
     for k in 0..60 {
         for m in [&mut cpu, &mut dev] {
-            // A cut through the pulled tissue (new springs go up), a checkpoint, and a
-            // rollback to it (everything goes up again).
-            if k == 20 {
-                let at = m.position(m.node(1, 24, 34));
-                assert!(m.cut_plane(at, 0.001) > 0);
-            }
-            if k == 25 {
-                m.checkpoint();
-            }
-            if k == 30 {
-                m.restore();
-            }
-            session_step(m, k, &mut out);
+            cut_and_rollback_step(m, k, &mut out);
             assert!(out.events.is_empty(), "{:?}", out.events);
         }
         assert_eq!(awake_tiles(&dev), awake_tiles(&cpu), "step {k}");
@@ -244,6 +247,33 @@ fn on_one_adapter_the_active_set_on_the_gpu_gives_the_same_bytes() {
     let first = run();
     assert_eq!(first, run());
     assert_ne!(first, sleepy(48, 64).state_hash(), "it moved");
+}
+
+#[test]
+fn tiles_the_device_holds_do_not_go_up_again_and_the_bytes_are_the_same() {
+    // The session of the test above with a cut, a checkpoint and a rollback, once sending
+    // every synced tile's state up each step and once only what the device lacks (the halo
+    // placed at its anchors, tiles that woke, everything after the rollback).
+    let gpu = device();
+    let run = |resend: bool| {
+        let mut m = sleepy(48, 64);
+        m.use_gpu(&gpu).expect("uploads");
+        m.gpu_resend_every_step(resend);
+        let mut out = crate::sim::ModelOutput::default();
+        for k in 0..60 {
+            cut_and_rollback_step(&mut m, k, &mut out);
+        }
+        assert!(m.gpu_adapter().is_some());
+        (m.state_hash(), m.gpu_tiles_sent().expect("on the device"))
+    };
+    let (all, sent_all) = run(true);
+    let (lacking, sent_lacking) = run(false);
+    assert_eq!(all, lacking, "the same bytes either way");
+    assert_ne!(all, sleepy(48, 64).state_hash(), "it moved");
+    assert!(
+        sent_lacking < sent_all,
+        "{sent_lacking} tiles went up against {sent_all}"
+    );
 }
 
 #[test]

@@ -202,6 +202,8 @@ impl TissueModel for Membrane {
         };
         let ([r0, _], [c0, _]) = self.tile_span(t);
         let b = self.rows + r0;
+        // Written here, not on a device: it goes up whole.
+        self.device.stale();
         match self.state.data.get_mut((b * 6 + 3) * self.cols + c0) {
             Some(v) => {
                 *v = f32::NAN;

@@ -158,6 +158,18 @@ pub struct ParticlesGpu {
     sweeps: Sweeps,
     /// The levels of the scheduled sets and contacts (0 where dispatched by colour).
     levels: [usize; 2],
+    /// Where each submission's results are copied to be read (mappable, kept): the
+    /// positions, step starts and velocities, the instruments' totals, the timestamps, the
+    /// clusters' state and frames ([`Readback`]).
+    readback: wgpu::Buffer,
+    /// Whether the readback buffer holds the device's newest results (the last submission
+    /// copied them and nothing was written up since).
+    copied: std::cell::Cell<bool>,
+    /// The last submission's time on the GPU's clock, once read with its results.
+    read_kernel_s: std::cell::Cell<Option<f64>>,
+    /// What the device's external forces are all zero (none need go up while the CPU's are
+    /// too).
+    ext_zero: bool,
     /// What a scheduled sweep binds beside its schedule (the contacts' too: one kernel takes
     /// both): the multipliers, the chains, their segments, bending springs and rows.
     set_buffers: Vec<(u32, wgpu::Buffer)>,
@@ -179,16 +191,6 @@ fn vec4s(v: &[Vec3]) -> Vec<[f32; 4]> {
     v.iter().map(|p| [p.x, p.y, p.z, 0.0]).collect()
 }
 
-fn floats(raw: &[u8]) -> Vec<[f32; 4]> {
-    raw.chunks_exact(16)
-        .map(|c| {
-            std::array::from_fn(|k| {
-                f32::from_le_bytes([c[4 * k], c[4 * k + 1], c[4 * k + 2], c[4 * k + 3]])
-            })
-        })
-        .collect()
-}
-
 /// Workgroups for `n` invocations: x at most [`MAX_GROUPS`], and all of it when there is a y.
 fn groups(n: u32) -> (u32, u32) {
     let total = n.div_ceil(GROUP).max(1);
@@ -197,6 +199,49 @@ fn groups(n: u32) -> (u32, u32) {
     } else {
         (MAX_GROUPS, total.div_ceil(MAX_GROUPS))
     }
+}
+
+/// Whether every bit of `v` is zero (a negative zero is not).
+fn bits_zero(v: Vec3) -> bool {
+    v.to_array().iter().all(|c| c.to_bits() == 0)
+}
+
+/// Where each part of a readback lies in the readback buffer, bytes: the positions, step
+/// starts and velocities (`vec4` a particle each), the instruments' totals (32), the
+/// timestamps (16), then the clusters' state (32 a cluster) and goal frames (64).
+#[derive(Debug, Clone, Copy)]
+struct Readback {
+    per_particle: u64,
+    totals: u64,
+    timestamps: u64,
+    state: u64,
+    frames: u64,
+    total: u64,
+}
+
+impl Readback {
+    fn of(particles: u64, clusters: u64) -> Readback {
+        let per_particle = 16 * particles;
+        let totals = 3 * per_particle;
+        let timestamps = totals + 32;
+        let state = timestamps + 16;
+        let frames = state + 32 * clusters;
+        Readback {
+            per_particle,
+            totals,
+            timestamps,
+            state,
+            frames,
+            total: frames + 64 * clusters,
+        }
+    }
+}
+
+/// The `k`th `vec4` from `at` in `raw` (zeros past its end).
+fn vec4_at(raw: &[u8], at: u64, k: usize) -> [f32; 4] {
+    let from = at as usize + 16 * k;
+    raw.get(from..from + 16)
+        .map_or([0.0; 4], bytemuck::pod_read_unaligned::<[f32; 4]>)
 }
 
 impl ParticlesGpu {
@@ -317,6 +362,15 @@ impl ParticlesGpu {
             sweeps,
             levels: [0; 2],
             set_buffers: Vec::new(),
+            readback: gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("particle readback"),
+                size: Readback::of(p.len() as u64, arrays.info.len() as u64).total,
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                mapped_at_creation: false,
+            }),
+            copied: std::cell::Cell::new(false),
+            read_kernel_s: std::cell::Cell::new(None),
+            ext_zero: p.ext.iter().all(|e| bits_zero(*e)),
         };
         out.set_constraints(c)?;
         gpu.check()?;
@@ -432,6 +486,7 @@ impl ParticlesGpu {
         let q = &self.gpu.queue;
         q.write_buffer(&self.x, 0, bytes(&positions(&p.x, &p.w)));
         q.write_buffer(&self.v, 0, bytes(&vec4s(&p.v)));
+        self.copied.set(false);
     }
 
     /// Advances `steps` steps as `how` says in one submission, under `p`'s external forces
@@ -458,7 +513,12 @@ impl ParticlesGpu {
             )));
         }
         let q = &self.gpu.queue;
-        q.write_buffer(&self.ext, 0, bytes(&vec4s(&p.ext)));
+        // The forces go up unless they and the device's are all zero.
+        let zero = p.ext.iter().all(|e| bits_zero(*e));
+        if !(zero && self.ext_zero) {
+            q.write_buffer(&self.ext, 0, bytes(&vec4s(&p.ext)));
+            self.ext_zero = zero;
+        }
         p.ext.iter_mut().for_each(|e| *e = Vec3::ZERO);
         if self.coef_dt != dt {
             self.coef_dt = dt;
@@ -551,8 +611,32 @@ impl ParticlesGpu {
         if let Some(t) = &self.timer {
             t.resolve(&mut encoder);
         }
+        // The results into the readback buffer in the same submission, for a download.
+        self.encode_copies(&mut encoder);
+        self.read_kernel_s.set(None);
         self.gpu.queue.submit([encoder.finish()]);
         self.gpu.check()
+    }
+
+    /// Copies of everything a download reads into the readback buffer.
+    fn encode_copies(&self, encoder: &mut wgpu::CommandEncoder) {
+        let at = Readback::of(u64::from(self.particles), u64::from(self.clusters));
+        let n = at.per_particle;
+        for (k, b) in [&self.x, &self.x0, &self.v].into_iter().enumerate() {
+            encoder.copy_buffer_to_buffer(b, 0, &self.readback, k as u64 * n, n);
+        }
+        if let Some(t) = self.tools.as_ref().filter(|t| t.active()) {
+            encoder.copy_buffer_to_buffer(&t.totals, 0, &self.readback, at.totals, 32);
+        }
+        if let Some(t) = &self.timer {
+            t.copy_into(encoder, &self.readback, at.timestamps);
+        }
+        let k = u64::from(self.clusters);
+        if k > 0 {
+            encoder.copy_buffer_to_buffer(&self.cluster_state, 0, &self.readback, at.state, 32 * k);
+            encoder.copy_buffer_to_buffer(&self.frames, 0, &self.readback, at.frames, 64 * k);
+        }
+        self.copied.set(true);
     }
 
     /// Waits for the device and copies its positions, step starts and velocities into `p`,
@@ -579,36 +663,48 @@ impl ParticlesGpu {
         p: &mut Particles,
         s: Option<&mut ShapeMatching>,
     ) -> Result<[[f32; 4]; 2], RenderError> {
-        let n = u64::from(self.particles) * 16;
-        let k = if s.is_some() {
-            u64::from(self.clusters)
-        } else {
-            0
-        };
-        let raw = compute::read_all(
-            &self.gpu,
-            &[
-                (&self.x, n),
-                (&self.x0, n),
-                (&self.v, n),
-                (&self.cluster_state, 32 * k),
-                (&self.frames, 64 * k),
-                match self.tools.as_ref().filter(|t| t.active()) {
-                    Some(t) => (&t.totals, 32),
-                    None => (&self.x, 0),
-                },
-            ],
-        )?;
-        let [x, x0, v, state, frames] = [0, 1, 2, 3, 4].map(|j| floats(&raw[j]));
-        for (k, ((x, x0), v)) in x.iter().zip(&x0).zip(&v).enumerate() {
-            p.x[k] = Vec3::new(x[0], x[1], x[2]);
-            p.x0[k] = Vec3::new(x0[0], x0[1], x0[2]);
-            p.v[k] = Vec3::new(v[0], v[1], v[2]);
+        let at = Readback::of(u64::from(self.particles), u64::from(self.clusters));
+        if !self.copied.get() {
+            // Something went up since the last submission's copies: copy again.
+            let mut encoder =
+                self.gpu
+                    .device
+                    .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                        label: Some("particle readback"),
+                    });
+            self.encode_copies(&mut encoder);
+            self.gpu.queue.submit([encoder.finish()]);
         }
+        let bytes = if s.is_some() { at.total } else { at.state };
+        let mut cluster_rows = (Vec::new(), Vec::new());
+        let (totals, seconds) = compute::with_mapped(&self.gpu, &self.readback, bytes, |raw| {
+            let n = p.len().min(self.particles as usize);
+            let xyz = |v: [f32; 4]| Vec3::new(v[0], v[1], v[2]);
+            for k in 0..n {
+                p.x[k] = xyz(vec4_at(raw, 0, k));
+                p.x0[k] = xyz(vec4_at(raw, at.per_particle, k));
+                p.v[k] = xyz(vec4_at(raw, 2 * at.per_particle, k));
+            }
+            if s.is_some() {
+                let k = self.clusters as usize;
+                cluster_rows.0 = (0..2 * k).map(|j| vec4_at(raw, at.state, j)).collect();
+                cluster_rows.1 = (0..4 * k).map(|j| vec4_at(raw, at.frames, j)).collect();
+            }
+            let tools = self.tools.as_ref().filter(|t| t.active()).is_some();
+            let totals = if tools {
+                totals_from(&raw[at.totals as usize..at.timestamps as usize])
+            } else {
+                [[0.0; 4]; 2]
+            };
+            let ts = &raw[at.timestamps as usize..at.state as usize];
+            (totals, self.timer.as_ref().map(|t| t.seconds_of(ts)))
+        })?;
+        self.gpu.check()?;
+        self.read_kernel_s.set(seconds);
         if let Some(s) = s {
-            s.take_device_state(&state, &frames, &[]);
+            s.take_device_state(&cluster_rows.0, &cluster_rows.1, &[]);
         }
-        Ok(totals_from(&raw[5]))
+        Ok(totals)
     }
 
     /// Sends the clusters' centres, rotations and warm starts of `s` up (after the CPU
@@ -619,12 +715,16 @@ impl ParticlesGpu {
             self.gpu
                 .queue
                 .write_buffer(&self.cluster_state, 0, bytes(&state));
+            self.copied.set(false);
         }
     }
 
     /// The last submission's time on the GPU's clock, seconds (waits for it); none where the
     /// device has no timestamp queries.
     pub fn kernel_seconds(&self) -> Result<Option<f64>, RenderError> {
+        if let Some(s) = self.read_kernel_s.take() {
+            return Ok(Some(s));
+        }
         self.timer
             .as_ref()
             .map(|t| t.seconds(&self.gpu))
