@@ -3,7 +3,9 @@
 # runs `vesalius verify --compute gpu`, the GPU lines of `vesalius bench` for the procedures
 # that have a compute path (the kernel alone, then the procedure with its models on the
 # device over the demo's first 2 s) and every procedure's stereo frame, and prints one JSON
-# summary last. Nothing is compiled here.
+# summary of every line, then the issue's targets against them (`scripts/gpu-targets.py`;
+# GPU_PEAK_GBS gives the card's bandwidth where its name is not in the script's table).
+# Nothing is compiled here.
 #
 #   scripts/gpu-check.sh [BINARY]     (default: target/release/vesalius)
 #
@@ -68,4 +70,6 @@ done
     done
     printf '\n]\n'
 } | tee "$out/summary.json"
+# The issue's targets against what was measured (scripts/gpu-targets.py), last.
+python3 "$(dirname "$0")/gpu-targets.py" "$out" | tee "$out/targets.json" || status=1
 exit $status
