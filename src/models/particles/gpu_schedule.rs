@@ -312,6 +312,49 @@ mod tests {
     }
 
     #[test]
+    fn a_level_too_wide_for_one_workgroup_is_left_to_the_colour_dispatches() {
+        // Disjoint springs all land in level 0: one too many for one workgroup.
+        let build = |n: u32| {
+            let mut s = Scheduler::new(2 * n as usize);
+            for k in 0..n {
+                s.push(item(Kind::Stretch, 0.0, k, 0, [0; 4]), [2 * k, 2 * k + 1]);
+            }
+            s.finish()
+        };
+        let fits = build(MOST_PER_LEVEL as u32);
+        assert_eq!((fits.levels(), fits.widest()), (1, MOST_PER_LEVEL));
+        assert!(fits.fits_one_workgroup());
+        assert!(!build(MOST_PER_LEVEL as u32 + 1).fits_one_workgroup());
+    }
+
+    #[test]
+    fn the_kinds_and_the_workgroup_are_the_shaders() {
+        let shader = crate::models::particles::gpu::SHADER;
+        for (name, kind) in [
+            ("KIND_STRETCH", Kind::Stretch),
+            ("KIND_BEND", Kind::Bend),
+            ("KIND_CHAIN", Kind::Chain),
+        ] {
+            let decl = format!("const {name}: u32 = {}u;", kind as u32);
+            assert!(shader.contains(&decl), "the shader lacks `{decl}`");
+        }
+        let group = format!("const SCHEDULE_GROUP: u32 = {SCHEDULE_GROUP}u;");
+        assert!(shader.contains(&group), "the shader lacks `{group}`");
+        let size = format!("@workgroup_size({SCHEDULE_GROUP})\nfn project_scheduled(");
+        assert!(shader.contains(&size), "the shader lacks `{size}`");
+        // The rows the shader reads: a head, the starts four a row, two rows an item.
+        let mut s = Scheduler::new(4);
+        s.push(item(Kind::Contact, 0.5, 0, 0, [1, 2, 0, 0]), [1, 2]);
+        s.push(item(Kind::Contact, 0.5, 0, 0, [2, 3, 0, 0]), [2, 3]);
+        let rows = s.finish().rows();
+        assert_eq!(rows[0], [2, 2, 0, 0]);
+        assert_eq!(rows[1], [0, 1, 2, 0]);
+        assert_eq!(rows[2], [3, 0.5f32.to_bits(), 0, 0]);
+        assert_eq!(rows[3], [1, 2, 0, 0]);
+        assert_eq!(rows.len(), 6);
+    }
+
+    #[test]
     fn an_empty_schedule_has_no_level_and_one_start() {
         let s = Scheduler::new(5).finish();
         assert_eq!(s.levels(), 0);
