@@ -167,7 +167,7 @@ pub struct ParticlesGpu {
     copied: std::cell::Cell<bool>,
     /// The last submission's time on the GPU's clock, once read with its results.
     read_kernel_s: std::cell::Cell<Option<f64>>,
-    /// What the device's external forces are all zero (none need go up while the CPU's are
+    /// Whether the device's external forces are all zero (none need go up while the CPU's are
     /// too).
     ext_zero: bool,
     /// What a scheduled sweep binds beside its schedule (the contacts' too: one kernel takes
