@@ -70,8 +70,6 @@ impl ParticlesGpu {
         }
         let lambdas = bend_lambdas + chain_bends.len();
         let storage = |label: &str, data: &[u8]| compute::storage(gpu, label, data);
-        let stretch_buf = storage("stretch constraints", bytes(&stretches))?;
-        let bend_buf = storage("bending constraints", bytes(&bends))?;
         let lambda = storage("constraint multipliers", &vec![0u8; 4 * lambdas])?;
         let info_buf = storage("chains", bytes(&info))?;
         let segs_buf = storage("chain segments", bytes(&segs))?;
@@ -82,36 +80,6 @@ impl ParticlesGpu {
             .then(|| gpu_schedule::sets(c, self.particles as usize))
             .filter(|s| s.fits_one_workgroup());
         self.levels[0] = scheduled.as_ref().map_or(0, |s| s.levels());
-        let mut add = |entry: usize, first: usize, base: usize, colours: &[u32], comp: f32| {
-            for (_, a, b) in colour::ranges(colours) {
-                let range = Range {
-                    first: (first + a) as u32,
-                    end: (first + b) as u32,
-                    lambda_base: (base + a) as u32,
-                    compliance: comp,
-                };
-                let uniform = compute::uniform(gpu, "constraint colour", bytes(&[range]));
-                let mut buffers = vec![(0, &self.params), (1, &self.x), (14, &uniform)];
-                match entry {
-                    STRETCHES => buffers.push((15, &stretch_buf)),
-                    BENDS => buffers.push((16, &bend_buf)),
-                    _ => buffers.extend([
-                        (18, &info_buf),
-                        (19, &segs_buf),
-                        (20, &chain_bends_buf),
-                        (21, &rows),
-                    ]),
-                }
-                buffers.push((17, &lambda));
-                passes.push(ColourPass {
-                    entry,
-                    bind: bind(gpu, &self.pipelines[entry], ENTRIES[entry], &buffers),
-                    groups: groups((b - a) as u32),
-                });
-            }
-        };
-        let chain_colours =
-            |set: &ChainSet| set.chains.iter().map(|k| k.colour).collect::<Vec<_>>();
         self.set_buffers = vec![
             (17, lambda.clone()),
             (18, info_buf.clone()),
@@ -123,6 +91,42 @@ impl ParticlesGpu {
             Some(sch) if !sch.items.is_empty() => passes.push(self.scheduled_pass(sch)?),
             Some(_) => {}
             None => {
+                // The stretches and bends buffers serve the colour passes alone (the
+                // scheduled sweep carries its constraints in its items).
+                let stretch_buf = storage("stretch constraints", bytes(&stretches))?;
+                let bend_buf = storage("bending constraints", bytes(&bends))?;
+                let mut add =
+                    |entry: usize, first: usize, base: usize, colours: &[u32], comp: f32| {
+                        for (_, a, b) in colour::ranges(colours) {
+                            let range = Range {
+                                first: (first + a) as u32,
+                                end: (first + b) as u32,
+                                lambda_base: (base + a) as u32,
+                                compliance: comp,
+                            };
+                            let uniform =
+                                compute::uniform(gpu, "constraint colour", bytes(&[range]));
+                            let mut buffers = vec![(0, &self.params), (1, &self.x), (14, &uniform)];
+                            match entry {
+                                STRETCHES => buffers.push((15, &stretch_buf)),
+                                BENDS => buffers.push((16, &bend_buf)),
+                                _ => buffers.extend([
+                                    (18, &info_buf),
+                                    (19, &segs_buf),
+                                    (20, &chain_bends_buf),
+                                    (21, &rows),
+                                ]),
+                            }
+                            buffers.push((17, &lambda));
+                            passes.push(ColourPass {
+                                entry,
+                                bind: bind(gpu, &self.pipelines[entry], ENTRIES[entry], &buffers),
+                                groups: groups((b - a) as u32),
+                            });
+                        }
+                    };
+                let chain_colours =
+                    |set: &ChainSet| set.chains.iter().map(|k| k.colour).collect::<Vec<_>>();
                 let ties = c.ties.items.len();
                 add(CHAINS, chain_first[0], 0, &chain_colours(&c.vessels), 0.0);
                 add(STRETCHES, 0, 0, c.ties.colours, c.ties.compliance);
