@@ -173,7 +173,7 @@ pub fn bench(
                 } else if let Some(adapter) = &c.adapter {
                     let or_dash = |v: Option<f64>, f: fn(f64) -> String| v.map_or("-".into(), f);
                     say!(
-                        "{:<14} on {adapter}: {} substeps/s by the wall, {} by the GPU's clock, {} GB/s ({} bytes a substep), step latency p99 {} ms, off the CPU by {}, {} dispatches a substep",
+                        "{:<14} on {adapter}: {} substeps/s by the wall, {} by the GPU's clock, {} GB/s ({} bytes a substep), step latency p99 {} ms, off the CPU by {}, {} dispatches a substep, {} submissions a step",
                         "",
                         or_dash(c.substeps_per_s, |v| format!("{v:.0}")),
                         or_dash(c.kernel_substeps_per_s, |v| format!("{v:.0}")),
@@ -183,6 +183,7 @@ pub fn bench(
                         or_dash(c.check_rel_err, |v| format!("{v:.1e}")),
                         c.dispatches_per_substep
                             .map_or("-".into(), |d| d.to_string()),
+                        or_dash(c.submissions_per_step, |v| format!("{v:.2}")),
                     );
                 }
             }

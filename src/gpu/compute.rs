@@ -249,6 +249,16 @@ impl PassTimer {
         }
     }
 
+    /// The timestamp writes of one of a run of passes timed as one: its start where
+    /// `timed.0`, its end where `timed.1` (none where neither).
+    pub fn writes_part(&self, timed: (bool, bool)) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
+        (timed.0 || timed.1).then_some(wgpu::ComputePassTimestampWrites {
+            query_set: &self.queries,
+            beginning_of_pass_write_index: timed.0.then_some(0),
+            end_of_pass_write_index: timed.1.then_some(1),
+        })
+    }
+
     /// After the pass, in the same encoder: the timestamps into the readable buffer.
     pub fn resolve(&self, encoder: &mut wgpu::CommandEncoder) {
         encoder.resolve_query_set(&self.queries, 0..2, &self.resolved, 0);

@@ -69,6 +69,10 @@ pub struct ComputeFigures {
     /// Compute dispatches a substep (each waits for the one before it).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub dispatches_per_substep: Option<usize>,
+    /// Device submissions a step, each waited for (fewer than the substeps where a step's
+    /// substeps share one).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub submissions_per_step: Option<f64>,
 }
 
 /// A one-off computation's seconds, size and rate, beside the machine's peak (each left out

@@ -559,6 +559,8 @@ pub fn bench_line(
         latency_p99_ms: Some(1e3 * t.latency_p99_s),
         check_rel_err: Some(check),
         dispatches_per_substep: Some(1),
+        // Each step's substeps go in one submission (`substeps`).
+        submissions_per_step: Some(1.0),
     };
     Ok(line)
 }

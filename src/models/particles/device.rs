@@ -24,7 +24,7 @@
 //! dropped and the failure is reported once: the session goes on.
 
 use super::contacts::PUSH_LIST_MARGIN_M;
-use super::gpu::{Constraints, ParticlesGpu, Set, Stepping, Sweeps};
+use super::gpu::{Constraints, Later, ParticlesGpu, Set, Stepping, Sweeps};
 use super::gpu_tools::DeviceTool;
 use super::solver::{HandTool, ParticleSolver, StepOutcome};
 use crate::gpu::{Gpu, RenderError};
@@ -45,6 +45,15 @@ pub(super) struct Slot {
     note: Option<String>,
     /// The device's own time for the substeps so far, seconds (where it has timestamps).
     kernel_s: f64,
+    /// Run each substep in a submission of its own, never two ahead (for comparisons).
+    one_by_one: bool,
+    /// Steps whose second substep ran ahead in the first's submission: kept, and run again
+    /// because something fell between the two.
+    ahead: [u64; 2],
+    /// The second substep of a split submission while the first is checked.
+    later: Later,
+    /// Submissions so far.
+    submissions: u64,
 }
 
 impl Clone for Slot {
@@ -118,6 +127,10 @@ impl ParticleSolver {
             searched: self.contacts.searches,
             note: None,
             kernel_s: 0.0,
+            one_by_one: false,
+            ahead: [0; 2],
+            later: Later::default(),
+            submissions: 0,
         };
         Ok(())
     }
@@ -162,6 +175,24 @@ impl ParticleSolver {
     pub fn gpu_bytes_per_substep(&self) -> Option<u64> {
         let sweeps = self.params.iterations;
         self.device.on.as_ref().map(|d| d.bytes_per_substep(sweeps))
+    }
+
+    /// Whether each device step with strands or contacts runs its first two substeps in one
+    /// submission (the default: `device.rs`), or each substep in its own (`false`).
+    pub fn gpu_step_ahead(&mut self, on: bool) {
+        self.device.one_by_one = !on;
+    }
+
+    /// Of the device steps whose second substep ran ahead in the first's submission: how
+    /// many kept it, and how many ran it again because a search, a weakened or torn strand
+    /// fell between the two.
+    pub fn gpu_ahead_counts(&self) -> [u64; 2] {
+        self.device.ahead
+    }
+
+    /// The device submissions the solver made so far (each waits for its results).
+    pub fn gpu_submissions(&self) -> u64 {
+        self.device.submissions
     }
 
     /// Why the device was given up, once (the owner reports it as an event).
@@ -228,10 +259,18 @@ fn signature(s: &ParticleSolver) -> Signature {
 
 /// The substeps of a step of `dt_s` on the device, the strands' weakening and tearing after
 /// each (on the CPU, from the particles read back, as the CPU's substep does it; a solver
-/// without strands runs all its substeps in one submission), under the step's external forces
-/// `ext` (through every substep). Returns how many substeps ran: all of them, or fewer where
-/// the device failed (noted, the device dropped): the CPU then runs the rest from the last
-/// substep read back. Before a CPU step, call [`before_cpu_step`].
+/// without strands or contacts runs all its substeps in one submission), under the step's
+/// external forces `ext` (through every substep). Returns how many substeps ran: all of them,
+/// or fewer where the device failed (noted, the device dropped): the CPU then runs the rest
+/// from the last substep read back. Before a CPU step, call [`before_cpu_step`].
+///
+/// With strands or contacts, the first two substeps still go in one submission, split after
+/// the first ([`ParticlesGpu::advance_split`]): both come back in one round trip, and the CPU
+/// does with the first's particles what it does between substeps (the strands' update, the
+/// next search's test). Where that changed nothing the device holds, the second substep is
+/// the one the device would have run next, and it is kept; otherwise the first's state goes
+/// up again and the second runs anew. Either way the bytes are those of a submission a
+/// substep (tested).
 pub(super) fn step(
     s: &mut ParticleSolver,
     dt_s: f32,
@@ -249,76 +288,64 @@ pub(super) fn step(
     // The grasps the CPU's first substep would take, from the particles as they are.
     s.take_grasps(tools);
     let sub_dt = dt_s / n as f32;
-    let inv_dt2 = 1.0 / (sub_dt * sub_dt);
     let pushing = [tools[0].is_some(), tools[1].is_some()];
     if let Err(e) = d.set_tools(&device_tools(s, tools), sub_dt, s.params.grasp_most) {
         s.device.note = Some(e.to_string());
         return 0;
     }
     let how = Stepping {
-        dt_s: dt_s / n as f32 * chunk as f32,
+        dt_s: sub_dt * chunk as f32,
         substeps: chunk,
         iterations: s.params.iterations.max(1),
         gravity_m_per_s2: s.params.gravity_m_per_s2,
         damping_per_s: s.params.damping_per_s,
         floor_y_m: Some(s.params.floor_y_m),
     };
+    let pair = Stepping {
+        dt_s: sub_dt * 2.0,
+        substeps: 2,
+        ..how
+    };
+    let split = chunk == 1 && !s.device.one_by_one;
     if s.device.stale {
         d.upload(&s.particles);
         d.upload_shape(&s.shape);
     }
     let mut done = 0;
+    // Whether the next substep's forces and search are in place already.
+    let mut ready = false;
     while done < n {
-        if let Some(e) = ext {
-            s.particles.ext.copy_from_slice(e);
+        if !ready {
+            before_substep(s, ext, sub_dt, contacts);
         }
-        if contacts {
-            // The CPU's substep searches for pairs from the predicted positions: formed here
-            // as the prediction forms them.
-            let predicted = predict(&s.particles, how.dt_s / chunk as f32, how.gravity_m_per_s2);
-            s.contacts.refresh_at(&predicted, &s.particles.body);
-        }
-        let mut run = || -> Result<[[f32; 4]; 2], RenderError> {
-            let now = signature(s);
-            if now != s.device.uploaded {
-                d.set_constraints(&s.constraints())?;
-                s.device.uploaded = now;
-                s.device.searched = s.contacts.searches;
-            } else if s.contacts.searches != s.device.searched {
-                let (pairs, colours) = s.contacts.pairs_by_colour();
-                d.set_pairs(&pairs, colours, s.contacts.contact_distance_m())?;
-                s.device.searched = s.contacts.searches;
-            }
-            d.advance(&mut s.particles, &how, 1)?;
-            let totals = d.download_all(&mut s.particles, &mut s.shape)?;
-            s.device.kernel_s += d.kernel_seconds()?.unwrap_or(0.0);
-            Ok(totals)
-        };
-        let totals = match run() {
+        ready = false;
+        let ahead = split && n - done >= 2;
+        let totals = match run(s, &mut d, if ahead { &pair } else { &how }, ahead) {
             Ok(t) => t,
             Err(e) => {
                 s.device.note = Some(e.to_string());
                 return done;
             }
         };
-        // The tissue's force on each instrument: minus what it did to the particles, as the
-        // CPU's `ToolPush::reaction_n` and `Grasp::reaction_n` make it, averaged over the
-        // step's substeps.
-        for h in 0..2 {
-            if !pushing[h] {
-                continue;
-            }
-            let [x, y, z, count] = totals[h];
-            out.reactions[h] -= glam::Vec3::new(x, y, z) * inv_dt2 / n as f32;
-            out.pushed[h] = out.pushed[h].max(count as usize);
-        }
+        add_reactions(out, totals, pushing, sub_dt, n);
         done += chunk;
-        if contacts {
-            s.contacts.count_touching(&s.particles);
-        }
-        if strands {
-            out.breaks.extend(s.adhesion.update(&s.particles));
-            out.bond_breaks.extend(s.bonds.update(&s.particles));
+        after_substep(s, out, contacts, strands);
+        if ahead {
+            before_substep(s, ext, sub_dt, contacts);
+            if signature(s) == s.device.uploaded && s.contacts.searches == s.device.searched {
+                let totals = s.device.later.apply(&mut s.particles, &mut s.shape);
+                // The device's submission took the forces, as `advance` takes them.
+                s.particles.ext.fill(glam::Vec3::ZERO);
+                add_reactions(out, totals, pushing, sub_dt, n);
+                done += 1;
+                after_substep(s, out, contacts, strands);
+                s.device.ahead[0] += 1;
+            } else {
+                d.upload(&s.particles);
+                d.upload_shape(&s.shape);
+                ready = true;
+                s.device.ahead[1] += 1;
+            }
         }
     }
     for h in 0..2 {
@@ -327,6 +354,83 @@ pub(super) fn step(
     s.device.on = Some(d);
     s.device.stale = false;
     n
+}
+
+/// What the CPU does before each device substep: the step's external forces in place, and
+/// the contacts' search where the particles moved far enough (the CPU's substep searches
+/// from the predicted positions: formed here as the prediction forms them).
+fn before_substep(s: &mut ParticleSolver, ext: Option<&[glam::Vec3]>, dt: f32, contacts: bool) {
+    if let Some(e) = ext {
+        s.particles.ext.copy_from_slice(e);
+    }
+    if contacts {
+        let predicted = predict(&s.particles, dt, s.params.gravity_m_per_s2);
+        s.contacts.refresh_at(&predicted, &s.particles.body);
+    }
+}
+
+/// What the CPU does after each device substep, from the particles read back: the contacts
+/// touching counted, the strands weakened and torn.
+fn after_substep(s: &mut ParticleSolver, out: &mut StepOutcome, contacts: bool, strands: bool) {
+    if contacts {
+        s.contacts.count_touching(&s.particles);
+    }
+    if strands {
+        out.breaks.extend(s.adhesion.update(&s.particles));
+        out.bond_breaks.extend(s.bonds.update(&s.particles));
+    }
+}
+
+/// The constraints or the pairs up where they changed, then one submission as `how` says
+/// (split after its first substep where `ahead`) and its results read back: the first
+/// substep's (or the submission's) instruments' totals.
+fn run(
+    s: &mut ParticleSolver,
+    d: &mut ParticlesGpu,
+    how: &Stepping,
+    ahead: bool,
+) -> Result<[[f32; 4]; 2], RenderError> {
+    let now = signature(s);
+    if now != s.device.uploaded {
+        d.set_constraints(&s.constraints())?;
+        s.device.uploaded = now;
+        s.device.searched = s.contacts.searches;
+    } else if s.contacts.searches != s.device.searched {
+        let (pairs, colours) = s.contacts.pairs_by_colour();
+        d.set_pairs(&pairs, colours, s.contacts.contact_distance_m())?;
+        s.device.searched = s.contacts.searches;
+    }
+    s.device.submissions += 1;
+    let totals = if ahead {
+        d.advance_split(&mut s.particles, how)?;
+        d.download_split(&mut s.particles, &mut s.shape, &mut s.device.later)?
+    } else {
+        d.advance(&mut s.particles, how, 1)?;
+        d.download_all(&mut s.particles, &mut s.shape)?
+    };
+    s.device.kernel_s += d.kernel_seconds()?.unwrap_or(0.0);
+    Ok(totals)
+}
+
+/// The tissue's force on each instrument from a submission's totals: minus what it did to
+/// the particles, as the CPU's `ToolPush::reaction_n` and `Grasp::reaction_n` make it,
+/// averaged over the step's `n` substeps of `sub_dt`.
+fn add_reactions(
+    out: &mut StepOutcome,
+    totals: [[f32; 4]; 2],
+    pushing: [bool; 2],
+    sub_dt: f32,
+    n: u32,
+) {
+    let inv_dt2 = 1.0 / (sub_dt * sub_dt);
+    for h in 0..2 {
+        if !pushing[h] {
+            continue;
+        }
+        let [x, y, z, count] = totals[h];
+        out.reactions[h] -= glam::Vec3::new(x, y, z) * inv_dt2 / n as f32;
+        out.pushed[h] = out.pushed[h].max(count as usize);
+    }
 }
 
 /// Where [`super::Particles::predict`] will put the particles in a substep of `dt` (the same

@@ -11,7 +11,7 @@
 
 use super::Particles;
 pub use super::gpu_sets::{ChainSegment, ChainSet, Constraints, DeviceChain, Set};
-use super::gpu_tools::{DeviceTool, Entries, ToolKernels, totals_from};
+use super::gpu_tools::{DeviceTool, Entries, ToolKernels};
 use super::shape::{ShapeMatching, coefficients};
 use crate::gpu::compute::{self, PassTimer, bind};
 use crate::gpu::{Gpu, RenderError};
@@ -160,11 +160,14 @@ pub struct ParticlesGpu {
     levels: [usize; 2],
     /// Where each submission's results are copied to be read (mappable, kept): the
     /// positions, step starts and velocities, the instruments' totals, the timestamps, the
-    /// clusters' state and frames ([`Readback`]).
+    /// clusters' state and frames (`gpu_readback.rs`), in two regions: a submission's end, and
+    /// its first substep's state where it was split.
     readback: wgpu::Buffer,
     /// Whether the readback buffer holds the device's newest results (the last submission
     /// copied them and nothing was written up since).
     copied: std::cell::Cell<bool>,
+    /// Whether the last submission was split after its first substep (its state copied).
+    split: std::cell::Cell<bool>,
     /// The last submission's time on the GPU's clock, once read with its results.
     read_kernel_s: std::cell::Cell<Option<f64>>,
     /// Whether the device's external forces are all zero (none need go up while the CPU's are
@@ -177,6 +180,10 @@ pub struct ParticlesGpu {
 
 #[path = "gpu_constraints.rs"]
 mod constraints;
+#[path = "gpu_readback.rs"]
+mod readback;
+pub use readback::Later;
+use readback::Readback;
 
 fn bytes<T: bytemuck::Pod>(v: &[T]) -> &[u8] {
     bytemuck::cast_slice(v)
@@ -204,44 +211,6 @@ fn groups(n: u32) -> (u32, u32) {
 /// Whether every bit of `v` is zero (a negative zero is not).
 fn bits_zero(v: Vec3) -> bool {
     v.to_array().iter().all(|c| c.to_bits() == 0)
-}
-
-/// Where each part of a readback lies in the readback buffer, bytes: the positions, step
-/// starts and velocities (`vec4` a particle each), the instruments' totals (32), the
-/// timestamps (16), then the clusters' state (32 a cluster) and goal frames (64).
-#[derive(Debug, Clone, Copy)]
-struct Readback {
-    per_particle: u64,
-    totals: u64,
-    timestamps: u64,
-    state: u64,
-    frames: u64,
-    total: u64,
-}
-
-impl Readback {
-    fn of(particles: u64, clusters: u64) -> Readback {
-        let per_particle = 16 * particles;
-        let totals = 3 * per_particle;
-        let timestamps = totals + 32;
-        let state = timestamps + 16;
-        let frames = state + 32 * clusters;
-        Readback {
-            per_particle,
-            totals,
-            timestamps,
-            state,
-            frames,
-            total: frames + 64 * clusters,
-        }
-    }
-}
-
-/// The `k`th `vec4` from `at` in `raw` (zeros past its end).
-fn vec4_at(raw: &[u8], at: u64, k: usize) -> [f32; 4] {
-    let from = at as usize + 16 * k;
-    raw.get(from..from + 16)
-        .map_or([0.0; 4], bytemuck::pod_read_unaligned::<[f32; 4]>)
 }
 
 impl ParticlesGpu {
@@ -364,11 +333,12 @@ impl ParticlesGpu {
             set_buffers: Vec::new(),
             readback: gpu.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("particle readback"),
-                size: Readback::of(p.len() as u64, arrays.info.len() as u64).total,
+                size: Readback::buffer_bytes(p.len() as u64, arrays.info.len() as u64),
                 usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
                 mapped_at_creation: false,
             }),
             copied: std::cell::Cell::new(false),
+            split: std::cell::Cell::new(false),
             read_kernel_s: std::cell::Cell::new(None),
             ext_zero: p.ext.iter().all(|e| bits_zero(*e)),
         };
@@ -498,6 +468,29 @@ impl ParticlesGpu {
         how: &Stepping,
         steps: usize,
     ) -> Result<(), RenderError> {
+        self.submit(p, how, steps, false)
+    }
+
+    /// [`ParticlesGpu::advance`] of one step of at least two substeps, split after the first:
+    /// the first substep's state is copied out, the instruments' totals start again at zero,
+    /// and the rest run in the same submission. Read both with
+    /// [`ParticlesGpu::download_split`]. The bytes are those of a submission a substep.
+    pub fn advance_split(&mut self, p: &mut Particles, how: &Stepping) -> Result<(), RenderError> {
+        if how.substeps < 2 {
+            return Err(RenderError::Device(
+                "a submission split after its first substep needs two substeps or more".into(),
+            ));
+        }
+        self.submit(p, how, 1, true)
+    }
+
+    fn submit(
+        &mut self,
+        p: &mut Particles,
+        how: &Stepping,
+        steps: usize,
+        split: bool,
+    ) -> Result<(), RenderError> {
         if p.len() != self.particles as usize {
             return Err(RenderError::Device(format!(
                 "the particle world has {} particles; the device holds {}",
@@ -552,159 +545,94 @@ impl ParticlesGpu {
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("particle steps"),
             });
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("particle substeps"),
-                timestamp_writes: self.timer.as_ref().map(PassTimer::writes),
-            });
-            let per_particle = groups(self.particles);
-            let per_cluster = groups(self.clusters);
-            let per_lambda = groups(self.lambdas);
-            let fixed = |pass: &mut wgpu::ComputePass, k: usize, (gx, gy): (u32, u32)| {
-                if let Some(b) = &self.binds[k] {
-                    pass.set_pipeline(&self.pipelines[k]);
-                    pass.set_bind_group(0, b, &[]);
-                    pass.dispatch_workgroups(gx, gy, 1);
-                }
-            };
-            for _ in 0..steps * substeps as usize {
-                fixed(&mut pass, PREDICT, per_particle);
-                if self.lambdas > 0 {
-                    fixed(&mut pass, CLEAR, per_lambda);
-                }
-                for sweep in 0..how.iterations.max(1) {
-                    if self.clusters > 0 {
-                        fixed(&mut pass, MATCH, per_cluster);
-                    }
-                    fixed(&mut pass, SHAPE, per_particle);
-                    // The constraint sets, the instruments, then the contacts between bodies.
-                    let mut ordered: Vec<(usize, &wgpu::BindGroup, (u32, u32))> = self
-                        .passes
-                        .iter()
-                        .map(|c| (c.entry, &c.bind, c.groups))
-                        .collect();
-                    let tool_passes =
-                        tools.map_or_else(Vec::new, |t| t.sweep(TOOLS, sweep == 0, groups));
-                    ordered.extend(tool_passes.iter().map(|d| (d.entry, d.bind, d.groups)));
-                    ordered.extend(
-                        self.contact_passes
-                            .iter()
-                            .map(|c| (c.entry, &c.bind, c.groups)),
-                    );
-                    for (entry, bind, (gx, gy)) in ordered {
-                        pass.set_pipeline(&self.pipelines[entry]);
-                        pass.set_bind_group(0, bind, &[]);
-                        pass.dispatch_workgroups(gx, gy, 1);
-                    }
-                    if how.floor_y_m.is_some() {
-                        fixed(&mut pass, FLOOR, per_particle);
-                    }
-                }
-                fixed(&mut pass, FINISH, per_particle);
-                for d in tools.map_or_else(Vec::new, |t| t.sums(TOOLS)) {
-                    pass.set_pipeline(&self.pipelines[d.entry]);
-                    pass.set_bind_group(0, d.bind, &[]);
-                    pass.dispatch_workgroups(d.groups.0, d.groups.1, 1);
-                }
+        let all = steps * substeps as usize;
+        if split {
+            // The first substep, its state into the readback's second region, the totals
+            // at zero again (as a submission of its own starts them), then the rest.
+            self.encode_substeps(&mut encoder, how, 1, (true, false));
+            self.encode_copies(&mut encoder, 1, false);
+            if let Some(t) = tools {
+                encoder.clear_buffer(&t.totals, 0, None);
             }
+            self.encode_substeps(&mut encoder, how, all - 1, (false, true));
+        } else {
+            self.encode_substeps(&mut encoder, how, all, (true, true));
         }
         if let Some(t) = &self.timer {
             t.resolve(&mut encoder);
         }
         // The results into the readback buffer in the same submission, for a download.
-        self.encode_copies(&mut encoder);
+        self.encode_copies(&mut encoder, 0, true);
+        self.split.set(split);
         self.read_kernel_s.set(None);
         self.gpu.queue.submit([encoder.finish()]);
         self.gpu.check()
     }
 
-    /// Copies of everything a download reads into the readback buffer.
-    fn encode_copies(&self, encoder: &mut wgpu::CommandEncoder) {
-        let at = Readback::of(u64::from(self.particles), u64::from(self.clusters));
-        let n = at.per_particle;
-        for (k, b) in [&self.x, &self.x0, &self.v].into_iter().enumerate() {
-            encoder.copy_buffer_to_buffer(b, 0, &self.readback, k as u64 * n, n);
-        }
-        if let Some(t) = self.tools.as_ref().filter(|t| t.active()) {
-            encoder.copy_buffer_to_buffer(&t.totals, 0, &self.readback, at.totals, 32);
-        }
-        if let Some(t) = &self.timer {
-            t.copy_into(encoder, &self.readback, at.timestamps);
-        }
-        let k = u64::from(self.clusters);
-        if k > 0 {
-            encoder.copy_buffer_to_buffer(&self.cluster_state, 0, &self.readback, at.state, 32 * k);
-            encoder.copy_buffer_to_buffer(&self.frames, 0, &self.readback, at.frames, 64 * k);
-        }
-        self.copied.set(true);
-    }
-
-    /// Waits for the device and copies its positions, step starts and velocities into `p`,
-    /// all read in one round trip (`p` is written only once all of it came back).
-    pub fn download(&self, p: &mut Particles) -> Result<(), RenderError> {
-        self.read(p, None).map(|_| ())
-    }
-
-    /// [`ParticlesGpu::download`], and the clusters' centres, rotations and goal frames into
-    /// `s` (in the same round trip), so the CPU can go on from here. The springs'
-    /// multipliers stay on the device: every substep starts them at zero. Returns the
-    /// instruments' totals over the last submission (`gpu_tools::totals_from`; zeros without
-    /// instruments).
-    pub fn download_all(
+    /// `count` substeps as `how` says in one compute pass, timed from its start and to its
+    /// end as `timed` says.
+    fn encode_substeps(
         &self,
-        p: &mut Particles,
-        s: &mut ShapeMatching,
-    ) -> Result<[[f32; 4]; 2], RenderError> {
-        self.read(p, Some(s))
-    }
-
-    fn read(
-        &self,
-        p: &mut Particles,
-        s: Option<&mut ShapeMatching>,
-    ) -> Result<[[f32; 4]; 2], RenderError> {
-        let at = Readback::of(u64::from(self.particles), u64::from(self.clusters));
-        if !self.copied.get() {
-            // Something went up since the last submission's copies: copy again.
-            let mut encoder =
-                self.gpu
-                    .device
-                    .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                        label: Some("particle readback"),
-                    });
-            self.encode_copies(&mut encoder);
-            self.gpu.queue.submit([encoder.finish()]);
-        }
-        let bytes = if s.is_some() { at.total } else { at.state };
-        let mut cluster_rows = (Vec::new(), Vec::new());
-        let (totals, seconds) = compute::with_mapped(&self.gpu, &self.readback, bytes, |raw| {
-            let n = p.len().min(self.particles as usize);
-            let xyz = |v: [f32; 4]| Vec3::new(v[0], v[1], v[2]);
-            for k in 0..n {
-                p.x[k] = xyz(vec4_at(raw, 0, k));
-                p.x0[k] = xyz(vec4_at(raw, at.per_particle, k));
-                p.v[k] = xyz(vec4_at(raw, 2 * at.per_particle, k));
+        encoder: &mut wgpu::CommandEncoder,
+        how: &Stepping,
+        count: usize,
+        timed: (bool, bool),
+    ) {
+        let tools = self.tools.as_ref().filter(|t| t.active());
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("particle substeps"),
+            timestamp_writes: self.timer.as_ref().and_then(|t| t.writes_part(timed)),
+        });
+        let per_particle = groups(self.particles);
+        let per_cluster = groups(self.clusters);
+        let per_lambda = groups(self.lambdas);
+        let fixed = |pass: &mut wgpu::ComputePass, k: usize, (gx, gy): (u32, u32)| {
+            if let Some(b) = &self.binds[k] {
+                pass.set_pipeline(&self.pipelines[k]);
+                pass.set_bind_group(0, b, &[]);
+                pass.dispatch_workgroups(gx, gy, 1);
             }
-            if s.is_some() {
-                let k = self.clusters as usize;
-                cluster_rows.0 = (0..2 * k).map(|j| vec4_at(raw, at.state, j)).collect();
-                cluster_rows.1 = (0..4 * k).map(|j| vec4_at(raw, at.frames, j)).collect();
+        };
+        for _ in 0..count {
+            fixed(&mut pass, PREDICT, per_particle);
+            if self.lambdas > 0 {
+                fixed(&mut pass, CLEAR, per_lambda);
             }
-            let tools = self.tools.as_ref().filter(|t| t.active()).is_some();
-            let totals = if tools {
-                totals_from(&raw[at.totals as usize..at.timestamps as usize])
-            } else {
-                [[0.0; 4]; 2]
-            };
-            let ts = &raw[at.timestamps as usize..at.state as usize];
-            (totals, self.timer.as_ref().map(|t| t.seconds_of(ts)))
-        })?;
-        self.gpu.check()?;
-        self.read_kernel_s.set(seconds);
-        if let Some(s) = s {
-            s.take_device_state(&cluster_rows.0, &cluster_rows.1, &[]);
+            for sweep in 0..how.iterations.max(1) {
+                if self.clusters > 0 {
+                    fixed(&mut pass, MATCH, per_cluster);
+                }
+                fixed(&mut pass, SHAPE, per_particle);
+                // The constraint sets, the instruments, then the contacts between bodies.
+                let mut ordered: Vec<(usize, &wgpu::BindGroup, (u32, u32))> = self
+                    .passes
+                    .iter()
+                    .map(|c| (c.entry, &c.bind, c.groups))
+                    .collect();
+                let tool_passes =
+                    tools.map_or_else(Vec::new, |t| t.sweep(TOOLS, sweep == 0, groups));
+                ordered.extend(tool_passes.iter().map(|d| (d.entry, d.bind, d.groups)));
+                ordered.extend(
+                    self.contact_passes
+                        .iter()
+                        .map(|c| (c.entry, &c.bind, c.groups)),
+                );
+                for (entry, bind, (gx, gy)) in ordered {
+                    pass.set_pipeline(&self.pipelines[entry]);
+                    pass.set_bind_group(0, bind, &[]);
+                    pass.dispatch_workgroups(gx, gy, 1);
+                }
+                if how.floor_y_m.is_some() {
+                    fixed(&mut pass, FLOOR, per_particle);
+                }
+            }
+            fixed(&mut pass, FINISH, per_particle);
+            for d in tools.map_or_else(Vec::new, |t| t.sums(TOOLS)) {
+                pass.set_pipeline(&self.pipelines[d.entry]);
+                pass.set_bind_group(0, d.bind, &[]);
+                pass.dispatch_workgroups(d.groups.0, d.groups.1, 1);
+            }
         }
-        Ok(totals)
     }
 
     /// Sends the clusters' centres, rotations and warm starts of `s` up (after the CPU

@@ -19,18 +19,22 @@ const CHECK_STEPS: usize = 20;
 /// rate by the wall clock and the GPU's, the bytes a substep moves at the least and the
 /// bandwidth that makes, the step's latency (p99), and the velocities' relative difference
 /// from the CPU's after [`CHECK_STEPS`] steps from the same start, and the dispatches a
-/// substep. `sweeps` says how the sweeps are dispatched (the line named
-/// `particles_without_instruments`, or `..._by_colour` for a dispatch per colour).
+/// substep and submissions a step. `sweeps` says how the sweeps are dispatched and `ahead`
+/// whether a step's two substeps share a submission (the line named
+/// `particles_without_instruments`; `..._by_colour` for a dispatch per colour,
+/// `..._unsplit` for a submission a substep).
 pub fn bench_line(
     gpu: &Gpu,
     s: &ParticleSolver,
     dt_s: f32,
     budget_s: f64,
     sweeps: Sweeps,
+    ahead: bool,
 ) -> Result<BenchLine, RenderError> {
     let mut cpu = s.copy_without_instruments();
     let mut dev = s.copy_without_instruments();
     dev.use_gpu_with(gpu, sweeps)?;
+    dev.gpu_step_ahead(ahead);
     let mut out = ModelOutput::default();
     let lost = |dev: &mut ParticleSolver| match dev.take_device_note() {
         Some(note) => Err(RenderError::Device(note)),
@@ -48,6 +52,7 @@ pub fn bench_line(
     }
     let check = (diff / norm.max(f64::MIN_POSITIVE)).sqrt();
     let kernel0 = dev.gpu_kernel_seconds();
+    let submissions0 = dev.gpu_submissions();
     let mut latencies = Vec::new();
     let t0 = Instant::now();
     let mut steps = 0u64;
@@ -71,10 +76,12 @@ pub fn bench_line(
     let bytes = dev.gpu_bytes_per_substep().unwrap_or(0);
     let moved = bytes as f64 * substeps as f64;
     let sizes = dev.sizes();
-    let name = match sweeps {
-        Sweeps::Scheduled => "particles_without_instruments",
-        Sweeps::ByColour => "particles_without_instruments_by_colour",
+    let name = match (sweeps, ahead) {
+        (Sweeps::ByColour, _) => "particles_without_instruments_by_colour",
+        (Sweeps::Scheduled, true) => "particles_without_instruments",
+        (Sweeps::Scheduled, false) => "particles_without_instruments_unsplit",
     };
+    let submissions = dev.gpu_submissions() - submissions0;
     let mut line = BenchLine::repeated(name, steps, wall_s);
     line.dt_s = dt_s;
     line.realtime_factor = line.steps_per_s * f64::from(dt_s);
@@ -94,6 +101,7 @@ pub fn bench_line(
         latency_p99_ms: Some(1e3 * p99),
         check_rel_err: Some(check),
         dispatches_per_substep: dev.gpu_dispatches_per_substep(),
+        submissions_per_step: Some(submissions as f64 / steps.max(1) as f64),
     };
     Ok(line)
 }

@@ -60,11 +60,7 @@ fn a_scheduled_sweep_gives_the_bytes_of_the_colour_by_colour_one() {
         assert!(levels[0] + levels[1] > 0, "{name}: nothing was scheduled");
         // The scene moved (a still scene would agree trivially).
         let start = make().particles.x;
-        let moved = scheduled
-            .iter()
-            .zip(&start)
-            .map(|(b, p)| Vec3::from_array(b.map(f32::from_bits)).distance(*p))
-            .fold(0.0f32, f32::max);
+        let moved = largest_move(&scheduled, &start);
         assert!(moved > 1e-3, "{name}: moved {moved} m");
     }
 }

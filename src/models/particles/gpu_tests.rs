@@ -81,6 +81,15 @@ fn largest_gap(a: &[Vec3], b: &[Vec3]) -> f32 {
         .fold(0.0, f32::max)
 }
 
+/// The farthest a particle whose bits are in `bits` lies from its place in `start`, m.
+fn largest_move(bits: &[[u32; 3]], start: &[Vec3]) -> f32 {
+    let x: Vec<Vec3> = bits
+        .iter()
+        .map(|b| Vec3::from_array(b.map(f32::from_bits)))
+        .collect();
+    largest_gap(&x, start)
+}
+
 #[test]
 fn a_sagging_block_on_the_gpu_follows_the_cpu() {
     let gpu = gpu();
@@ -728,9 +737,15 @@ mod solver {
     fn the_bench_line_states_the_device_and_checks_it_against_the_cpu() {
         let gpu = gpu();
         let s = strands_scene();
-        let line =
-            crate::models::particles::gpu_bench::bench_line(&gpu, &s, 1e-3, 0.2, Sweeps::Scheduled)
-                .expect("a line on the adapter there is");
+        let line = crate::models::particles::gpu_bench::bench_line(
+            &gpu,
+            &s,
+            1e-3,
+            0.2,
+            Sweeps::Scheduled,
+            true,
+        )
+        .expect("a line on the adapter there is");
         let c = &line.compute;
         assert_eq!(c.backend, Some("gpu"));
         assert_eq!(c.adapter.as_deref(), Some(gpu.describe().as_str()));
@@ -739,6 +754,12 @@ mod solver {
         assert_eq!(line.vertices, s.particles.len());
         let check = c.check_rel_err.expect("checked");
         assert!(check.is_finite() && check < 0.01, "{check}");
+        // A step's two substeps share a submission unless something fell between them.
+        let per_step = c.submissions_per_step.expect("submissions");
+        assert!(
+            (1.0..2.0).contains(&per_step),
+            "{per_step} submissions a step"
+        );
         // A sweep moves at least each membership's entry and each particle's position.
         let bytes = c.bytes_per_substep.expect("bytes");
         assert!(
@@ -753,3 +774,6 @@ mod tools;
 
 #[path = "gpu_schedule_tests.rs"]
 mod schedule;
+
+#[path = "gpu_ahead_tests.rs"]
+mod ahead;

@@ -49,7 +49,7 @@ fn run(on_gpu: bool, n: usize, at: impl Fn(usize) -> [Option<HandTool>; 2]) -> R
 /// An L-hook pointing up (+Y) under a column of particles, its hook along +Z under the next,
 /// its tip rising from 3.5 mm below the block (the bottom layer at y = -24.5 mm) to 4 mm into
 /// it over 150 steps, then held.
-fn hook(k: usize) -> [Option<HandTool>; 2] {
+pub(super) fn hook(k: usize) -> [Option<HandTool>; 2] {
     let rise = (k.min(150) as f32 / 150.0) * 0.0075;
     let tip = Vec3::new(0.007, -0.028 + rise, 0.007);
     let q = Quat::from_rotation_x(std::f32::consts::FRAC_PI_2);

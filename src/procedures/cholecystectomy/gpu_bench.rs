@@ -13,19 +13,26 @@ use crate::sim::{BenchError, BenchLine};
 /// Wall seconds the kernels are timed for.
 const BUDGET_S: f64 = 3.0;
 
-/// The solver's GPU lines at the default scenario's size: its sweeps scheduled, and by
-/// colour.
+/// The solver's GPU lines at the default scenario's size: its sweeps scheduled and a step's
+/// two substeps in one submission (as sessions run), then by colour, then a submission a
+/// substep.
 pub fn lines(gpu: &Gpu) -> Result<Vec<BenchLine>, BenchError> {
     let file = "builtin cholecystectomy scenario";
     let s = Scenario::parse(file, super::INFO.scenario)?;
     let dt = s.dt_s;
     let p = build_procedure(file, s)?;
-    // Scheduled sweeps (as sessions run), then a dispatch per colour (the same bytes) beside.
-    [Sweeps::Scheduled, Sweeps::ByColour]
-        .into_iter()
-        .map(|w| {
-            let line = particles::gpu_bench::bench_line(gpu, p.scene.solver(), dt, BUDGET_S, w)?;
-            Ok(line)
-        })
-        .collect()
+    // As sessions run, then each change undone alone beside it (the same bytes each way).
+    [
+        (Sweeps::Scheduled, true),
+        (Sweeps::ByColour, true),
+        (Sweeps::Scheduled, false),
+    ]
+    .into_iter()
+    .map(|(w, ahead)| {
+        let s = p.scene.solver();
+        Ok(particles::gpu_bench::bench_line(
+            gpu, s, dt, BUDGET_S, w, ahead,
+        )?)
+    })
+    .collect()
 }
