@@ -18,7 +18,10 @@ use tracing::{Subscriber, field::Field};
 use tracing_subscriber::layer::{Context, Layer, SubscriberExt};
 use tracing_subscriber::registry::LookupSpan;
 use tracing_subscriber::util::SubscriberInitExt;
-use tracing_subscriber::{EnvFilter, filter::LevelFilter};
+use tracing_subscriber::{
+    EnvFilter,
+    filter::{LevelFilter, Targets},
+};
 
 /// Why diagnostics could not be set up.
 #[derive(Debug, thiserror::Error)]
@@ -72,17 +75,29 @@ pub fn init(level: Option<&str>, trace: Option<&Path>) -> Result<TraceGuard, Dia
     let chrome = sink.clone().map(|sink| ChromeLayer { sink });
     // Without a trace file nothing wants the spans below the log's level: they are then
     // never created (an absent layer would otherwise take every one, and the registry would
-    // allocate each model step's span for nobody).
+    // allocate each model step's span for nobody). With one, the trace takes all of ours and
+    // only the warnings of the crates below us: wgpu logs every dispatch at its trace level,
+    // which would slow a GPU session several times over and fill the trace with it.
     let spans = if chrome.is_some() {
-        LevelFilter::TRACE
+        trace_targets()
     } else {
-        LevelFilter::OFF
+        Targets::new().with_default(LevelFilter::OFF)
     };
     let _ = tracing_subscriber::registry()
         .with(log)
         .with(chrome.with_filter(spans))
         .try_init();
     Ok(TraceGuard { sink })
+}
+
+/// What a Chrome trace takes: every span and event of our crates, warnings from the rest.
+fn trace_targets() -> Targets {
+    ["vesalius", "xr_bindings", "vesalius_sim_runtime"]
+        .into_iter()
+        .fold(Targets::new(), |t, name| {
+            t.with_target(name, LevelFilter::TRACE)
+        })
+        .with_default(LevelFilter::WARN)
 }
 
 /// Where trace events go: one JSON object a line inside `{"traceEvents":[ ... ]}`.
@@ -259,5 +274,29 @@ where
             "tid": thread_number(),
             "args": args,
         }));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::trace_targets;
+    use tracing::Level;
+
+    #[test]
+    fn a_trace_takes_our_spans_at_every_level_and_only_the_warnings_of_the_crates_below() {
+        let t = trace_targets();
+        for ours in ["vesalius::sim::world", "vesalius", "xr_bindings::session"] {
+            assert!(t.would_enable(ours, &Level::TRACE), "{ours}");
+        }
+        // wgpu logs each dispatch at trace level.
+        for theirs in [
+            "wgpu_core::command::compute",
+            "naga::front",
+            "wgpu_hal::vulkan",
+        ] {
+            assert!(!t.would_enable(theirs, &Level::TRACE), "{theirs}");
+            assert!(!t.would_enable(theirs, &Level::INFO), "{theirs}");
+            assert!(t.would_enable(theirs, &Level::WARN), "{theirs}");
+        }
     }
 }
