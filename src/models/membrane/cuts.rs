@@ -50,6 +50,21 @@ impl Membrane {
         }
         for &t in cut.iter() {
             let t = t as usize;
+            // The tiles whose springs the cut and the releases below change (the node's,
+            // and those of the nodes before it in its row and its column) go up again.
+            let (i, j) = (t / cols, t % cols);
+            let before_j = if j > 0 {
+                Some(j - 1)
+            } else {
+                self.periodic.then_some(cols - 1)
+            };
+            let mut touched = vec![(i, j)];
+            touched.extend(before_j.map(|jp| (i, jp)));
+            touched.extend(i.checked_sub(1).map(|ip| (ip, j)));
+            for (i, j) in touched {
+                let tile = self.tile_of(i, j);
+                self.device.tile_changed(tile);
+            }
             *self.spring_mut(field::K[LINK], plane * per + t) = 0.0;
             for l in [plane, plane + 1] {
                 self.release(l * per + t);

@@ -3,10 +3,10 @@
 //! substeps of the awake tiles (`substep_tiles` in `shaders/membrane.wgsl`).
 //!
 //! Each step: the awake tiles and the sleeping tiles beside them (the halo) go up packed:
-//! layer 0's targets, the springs when a cut changed them, and the state (into both of the
-//! device's state buffers) of those whose state the device lacks: the halo, which the CPU
-//! has just placed at its anchors, and tiles that woke since; an awake tile's state came back
-//! from the device last step and is not sent again (the bytes are the same: tested). The
+//! layer 0's targets, and the state (into both of the device's state buffers) and springs of
+//! those the device lacks: the halo, which the CPU has just placed at its anchors, tiles that
+//! woke since, and tiles whose springs a cut changed; an awake tile's state came back from
+//! the device last step and is not sent again (the bytes are the same: tested). The
 //! substeps run; the awake tiles come back packed (`shaders/membrane_sync.wgsl`). All of it
 //! is one submission and one readback into a buffer kept for it. A tile outside that set is
 //! read by no awake node, so what the device holds for it may lag the CPU until it joins the
@@ -58,7 +58,9 @@ impl std::fmt::Debug for Slot {
 }
 
 impl Slot {
-    /// A cut changed springs of the awake tiles (and the halo): they go up with the next step.
+    /// A cut changed springs: with the whole membrane on the device, all of them go up with
+    /// the next step; with the active set, those of the tiles the cut marked
+    /// ([`Slot::tile_changed`]).
     pub fn springs_changed(&mut self) {
         if let Some(d) = &mut self.on {
             d.springs_changed = true;
@@ -72,8 +74,8 @@ impl Slot {
         }
     }
 
-    /// The CPU wrote tile `t`'s state (placed it at its anchors): it goes up when it next
-    /// joins the active set.
+    /// The CPU wrote tile `t`'s state (placed it at its anchors) or its springs (a cut): both
+    /// go up when it next joins the active set.
     pub fn tile_changed(&mut self, t: usize) {
         if let Some(d) = &mut self.on {
             if let Some(h) = d.held.get_mut(t) {
@@ -329,14 +331,13 @@ impl OnDevice {
     }
 
     /// Tiles `sync` packed from the CPU and unpacked on the device: the state of the first
-    /// `state_tiles`, layer 0's attachments of all, and their springs when `springs`;
+    /// `state_tiles` and their springs, layer 0's attachments of all;
     /// encoded into `encoder`.
     fn encode_up(
         &mut self,
         m: &Membrane,
         a: &Activity,
         (sync, state_tiles): (&[u32], usize),
-        springs: bool,
         encoder: &mut wgpu::CommandEncoder,
     ) {
         let (rows, cols) = (m.rows, m.cols);
@@ -346,8 +347,9 @@ impl OnDevice {
         self.up_attach.clear();
         self.up_attach.resize(sync.len() * ATTACH_PER_TILE, 0.0);
         self.up_springs.clear();
+        let springs = state_tiles > 0;
         if springs {
-            self.up_springs.resize(sync.len() * SPRINGS_PER_TILE, 0.0);
+            self.up_springs.resize(state_tiles * SPRINGS_PER_TILE, 0.0);
         }
         for (r, n, i, j) in Self::nodes(m, a, sync) {
             for l in 0..LAYERS {
@@ -357,8 +359,6 @@ impl OnDevice {
                     for c in 0..6 {
                         self.up_state[at * 6 + c] = m.state.data[(b * 6 + c) * cols + j];
                     }
-                }
-                if springs {
                     for f in 0..field::COUNT {
                         self.up_springs[at * field::COUNT + f] =
                             m.rows_data[(b * field::COUNT + f) * cols + j];
@@ -442,8 +442,13 @@ impl OnDevice {
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("membrane active step"),
             });
-        let springs = std::mem::take(&mut self.springs_changed);
-        self.encode_up(m, a, (&sync, state_tiles), springs, &mut encoder);
+        // The tiles a cut changed were marked (`Slot::tile_changed`): their springs go up
+        // with their state, and no other tile's.
+        self.springs_changed = false;
+        {
+            let _up = tracing::debug_span!("membrane_gpu_pack_up", tiles = sync.len()).entered();
+            self.encode_up(m, a, (&sync, state_tiles), &mut encoder);
+        }
         // From here the device holds every synced tile as the CPU does (the awake ones come
         // back below), and not necessarily anything else.
         for &t in &sync {
@@ -499,18 +504,8 @@ impl OnDevice {
             compute::map_read(&gpu, &self.readback, bytes)?
         };
         gpu.check()?;
-        let packed: &[f32] = bytemuck::cast_slice(&raw);
-        let (rows, cols) = (m.rows, m.cols);
-        let places: Vec<_> = Self::nodes(m, a, awake).collect();
-        for (r, n, i, j) in places {
-            for l in 0..LAYERS {
-                let from = ((r * LAYERS + l) * TILE + n) * 6;
-                let b = l * rows + i;
-                for (c, &v) in packed[from..from + 6].iter().enumerate() {
-                    m.state.data[(b * 6 + c) * cols + j] = v;
-                }
-            }
-        }
+        let _unpack = tracing::debug_span!("membrane_gpu_unpack", tiles = awake.len()).entered();
+        unpack(m, a, bytemuck::cast_slice(&raw));
         Ok(())
     }
 
@@ -582,6 +577,47 @@ impl Membrane {
     /// Why the device was given up, once (the model reports it as an event).
     pub fn take_device_note(&mut self) -> Option<String> {
         self.device.note.take()
+    }
+}
+
+/// The awake tiles' state read back (`packed`: each awake tile of `a.list` in turn, by layer,
+/// node and value) into `m`'s rows: row by row of the grid, each on its own (in parallel
+/// where the tiles are many; every value is written once, so the bytes are the same).
+fn unpack(m: &mut Membrane, a: &Activity, packed: &[f32]) {
+    use rayon::prelude::*;
+    let (rows, cols) = (m.rows, m.cols);
+    // The awake tiles of each row of tiles: their place in the list and their column.
+    let mut by_row: Vec<Vec<(usize, usize)>> = vec![Vec::new(); a.tiles_r];
+    for (r, &t) in a.list.iter().enumerate() {
+        if let Some(row) = by_row.get_mut(t as usize / a.tiles_c) {
+            row.push((r, t as usize % a.tiles_c));
+        }
+    }
+    let one = |(b, x): (usize, &mut [f32])| {
+        let (l, i) = (b / rows, b % rows);
+        let Some(tiles) = by_row.get(i / TILE_ROWS) else {
+            return;
+        };
+        let di = i % TILE_ROWS;
+        for &(r, tj) in tiles {
+            let j0 = tj * TILE_COLS;
+            for j in j0..(j0 + TILE_COLS).min(cols) {
+                let from = ((r * LAYERS + l) * TILE + di * TILE_COLS + (j - j0)) * 6;
+                let Some(v) = packed.get(from..from + 6) else {
+                    return;
+                };
+                for (c, &v) in v.iter().enumerate() {
+                    x[c * cols + j] = v;
+                }
+            }
+        }
+    };
+    let nodes = a.list.len() * LAYERS * TILE;
+    let data = &mut m.state.data;
+    if super::active::worth_threads(nodes) {
+        data.par_chunks_mut(6 * cols).enumerate().for_each(one);
+    } else {
+        data.chunks_mut(6 * cols).enumerate().for_each(one);
     }
 }
 

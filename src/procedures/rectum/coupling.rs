@@ -159,11 +159,15 @@ impl Joints {
         }
         membrane.wake_near(&boxes);
         let needed = membrane.tiles_needing_targets(false);
-        self.place_targets(rod, membrane, &needed);
+        {
+            let _span = tracing::debug_span!("rectum_targets", tiles = needed.len()).entered();
+            self.place_targets(rod, membrane, &needed);
+        }
         self.touched_now = 0;
         self.on_wall = false;
         self.near_vulnerable = None;
         if let Some(h) = &hook {
+            let _span = tracing::debug_span!("rectum_press").entered();
             let f = self.press_membrane(membrane, h);
             self.out.hook_n += f;
             self.out.hook_contacts = self.contacts.len();
@@ -253,6 +257,7 @@ impl Joints {
     /// couple ([`SkinnedRod::add_surface_force`]), in the next rod step. Sleeping tiles lie
     /// on their anchors at rest and load it with nothing. Returns the sum, N.
     pub(super) fn load_rod(&mut self, rod: &mut SkinnedRod, membrane: &mut Membrane) -> Vec3 {
+        let _span = tracing::debug_span!("rectum_load_rod").entered();
         let cols = membrane.cols();
         let (tr, tc) = membrane.tiles();
         let awake: Vec<usize> = (0..tr * tc).filter(|&t| membrane.tile_awake(t)).collect();
