@@ -12,12 +12,12 @@ struct Sync {
     rows: u32,
     cols: u32,
     tiles_c: u32,
-    // Unpack: also the springs (of the first `state_tiles`). Pack: read state buffer b
-    // rather than a.
+    // Pack: read state buffer b rather than a.
     flag: u32,
-    // Unpack: the list's first tiles whose state goes up (the device holds the others').
+    // Unpack: the list's first tiles whose state goes up (the device holds the others'),
+    // and the first (as many or fewer) whose springs go up.
     state_tiles: u32,
-    pad0: u32,
+    springs_tiles: u32,
     pad1: u32,
     pad2: u32,
 }
@@ -51,8 +51,8 @@ fn node_of(wg: vec3<u32>, li: u32) -> vec3<u32> {
 }
 
 // The CPU's tiles into both state buffers (a sleeping neighbour must read the same in
-// either: the first `state_tiles` of the list) with, where `flag`, their springs; layer 0's
-// attachments of all.
+// either: the first `state_tiles` of the list), the springs of the first `springs_tiles`, and
+// layer 0's attachments of all.
 @compute @workgroup_size(128, 1, 1)
 fn unpack(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let k = node_of(wg, li);
@@ -69,7 +69,7 @@ fn unpack(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index)
             state_b[(b * 6u + c) * s.cols + j] = v;
         }
     }
-    if (s.flag != 0u && wg.x < s.state_tiles) {
+    if (wg.x < s.springs_tiles) {
         for (var f = 0u; f < FIELDS; f++) {
             springs[(b * FIELDS + f) * s.cols + j] = packed_springs[n * FIELDS + f];
         }

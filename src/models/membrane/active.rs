@@ -460,9 +460,7 @@ pub(super) fn step(m: &mut Membrane, dt: f32, substeps: usize) {
     let halo: Vec<usize> = (0..a.awake.len()).filter(|&t| beside[t]).collect();
     {
         let _span = tracing::debug_span!("membrane_halo", tiles = halo.len()).entered();
-        for &t in &halo {
-            place_asleep(m, &a, t);
-        }
+        place_all_asleep(m, &a, &halo);
     }
     a.list.clear();
     a.list
@@ -548,7 +546,18 @@ const TASK_NODES: usize = 8_192;
 /// waking a second thread (and its spinning beside this one on a shared core) costs more
 /// than it saves.
 pub(super) fn worth_threads(nodes: usize) -> bool {
+    #[cfg(test)]
+    if ALWAYS_THREADS.with(std::cell::Cell::get) {
+        return true;
+    }
     nodes >= PARALLEL_NODES && rayon::current_num_threads() > 1
+}
+
+#[cfg(test)]
+thread_local! {
+    /// Every pass that can go to the pool goes there, however few its nodes (set on the
+    /// thread that steps the model: the tests' small grids then take the parallel paths).
+    pub(crate) static ALWAYS_THREADS: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
 }
 
 /// One explicit substep of the awake runs, each in its block, then copied back in order.
@@ -577,140 +586,6 @@ fn substep(m: &mut Membrane, a: &Activity, blocks: &mut [Block], h: f32) {
     for b in blocks.iter() {
         b.scatter(m);
     }
-}
-
-/// What a tile's sleep and wake checks measure: its fastest node relative to its anchor
-/// (m/s), how far its edge nodes moved from where they were when it woke (m), and the box
-/// round its nodes.
-#[derive(Debug, Clone, Copy)]
-struct Watch {
-    fastest: f32,
-    edge: f32,
-    lo: Vec3,
-    hi: Vec3,
-}
-
-impl Watch {
-    const NONE: Watch = Watch {
-        fastest: 0.0,
-        edge: 0.0,
-        lo: Vec3::splat(f32::MAX),
-        hi: Vec3::splat(f32::MIN),
-    };
-
-    /// Both measures together (maxima and minima: the same in any order).
-    fn and(self, o: Watch) -> Watch {
-        Watch {
-            fastest: self.fastest.max(o.fastest),
-            edge: self.edge.max(o.edge),
-            lo: self.lo.min(o.lo),
-            hi: self.hi.max(o.hi),
-        }
-    }
-}
-
-/// Row `i` of layer `l` in tile `t` measured ([`Watch`]) after a step of `dt`; its nodes'
-/// offsets from their anchors now go into `last` (this row block's three component rows of
-/// `Activity::last`), and `now` is scratch.
-fn watch_row(
-    m: &Membrane,
-    a: &Activity,
-    (t, l, i): (usize, usize, usize),
-    dt: f32,
-    last: &mut [f32],
-    now: &mut Vec<f32>,
-) -> Watch {
-    let (rows, cols) = (m.rows, m.cols);
-    let ([r0, r1], [c0, c1]) = a.span(t, rows, cols);
-    let b = l * rows + i;
-    let w = c1 - c0;
-    now.resize(3 * w, 0.0);
-    // Each node's offset from its anchor now, by component.
-    for c in 0..3 {
-        let out = &mut now[c * w..(c + 1) * w];
-        anchors_into(m, a, l, i, [c0, c1], c, out);
-        let x = &m.state.data[(b * 6 + c) * cols + c0..(b * 6 + c) * cols + c1];
-        for (o, x) in out.iter_mut().zip(x) {
-            *o = x - *o;
-        }
-    }
-    let mut watch = Watch::NONE;
-    let border_row = i == r0 || i + 1 == r1;
-    let in_block = |c: usize| c * cols + c0..c * cols + c1;
-    let (n0, rest) = now.split_at(w);
-    let (n1, n2) = rest.split_at(w);
-    let (l0, l1, l2) = (&last[in_block(0)], &last[in_block(1)], &last[in_block(2)]);
-    for j in 0..w {
-        let d = Vec3::new(n0[j] - l0[j], n1[j] - l1[j], n2[j] - l2[j]);
-        watch.fastest = watch.fastest.max(d.length() / dt);
-    }
-    let row3 = |c: usize| (b * 3 + c) * cols + c0..(b * 3 + c) * cols + c1;
-    let (o0, o1, o2) = (&a.offset[row3(0)], &a.offset[row3(1)], &a.offset[row3(2)]);
-    let moved = |j: usize| Vec3::new(n0[j] - o0[j], n1[j] - o1[j], n2[j] - o2[j]).length();
-    if border_row {
-        for j in 0..w {
-            watch.edge = watch.edge.max(moved(j));
-        }
-    } else {
-        watch.edge = watch.edge.max(moved(0)).max(moved(w - 1));
-    }
-    let x = |c: usize| &m.state.data[(b * 6 + c) * cols + c0..(b * 6 + c) * cols + c1];
-    let (x0, x1, x2) = (x(0), x(1), x(2));
-    for j in 0..w {
-        let p = Vec3::new(x0[j], x1[j], x2[j]);
-        watch.lo = watch.lo.min(p);
-        watch.hi = watch.hi.max(p);
-    }
-    for c in 0..3 {
-        last[in_block(c)].copy_from_slice(&now[c * w..(c + 1) * w]);
-    }
-    watch
-}
-
-/// Every awake tile measured ([`Watch`], in the order of `a.list`) after a step of `dt`,
-/// row block by row block (in parallel where the tiles are many: each block's rows are its
-/// own, and the measures are maxima and minima, so the bytes are the same).
-fn watch_all(m: &Membrane, a: &mut Activity, dt: f32) -> Vec<Watch> {
-    use rayon::prelude::*;
-    let (rows, cols) = (m.rows, m.cols);
-    let tr = a.params.tile_rows;
-    // The awake tiles of each row of tiles, and each one's place in the list.
-    let mut by_row: Vec<Vec<(usize, usize)>> = vec![Vec::new(); a.tiles_r];
-    for (k, &t) in a.list.iter().enumerate() {
-        if let Some(row) = by_row.get_mut(t as usize / a.tiles_c) {
-            row.push((k, t as usize));
-        }
-    }
-    let mut last = std::mem::take(&mut a.last);
-    let a_ref = &*a;
-    let one = |now: &mut Vec<f32>, (b, block): (usize, &mut [f32])| -> Vec<(usize, Watch)> {
-        let (l, i) = (b / rows, b % rows);
-        let tiles = by_row.get(i / tr).map_or(&[][..], Vec::as_slice);
-        tiles
-            .iter()
-            .map(|&(k, t)| (k, watch_row(m, a_ref, (t, l, i), dt, block, now)))
-            .collect()
-    };
-    let nodes = a.list.len() * LAYERS * tr * a.params.tile_cols;
-    let blocks: Vec<Vec<(usize, Watch)>> = if worth_threads(nodes) {
-        last.par_chunks_mut(3 * cols)
-            .enumerate()
-            .map_init(Vec::new, one)
-            .collect()
-    } else {
-        let mut now = Vec::new();
-        last.chunks_mut(3 * cols)
-            .enumerate()
-            .map(|bb| one(&mut now, bb))
-            .collect()
-    };
-    a.last = last;
-    // Each tile's rows in order of layer and row, as one pass over the tile takes them.
-    let mut watch = vec![Watch::NONE; a.list.len()];
-    for (k, w) in blocks.into_iter().flatten() {
-        watch[k] = watch[k].and(w);
-    }
-    watch
 }
 
 /// After a step: each awake tile's fastest node relative to its anchor; still tiles with no
@@ -764,3 +639,7 @@ fn settle(m: &mut Membrane, a: &mut Activity, dt: f32) {
         }
     }
 }
+
+#[path = "active_rows.rs"]
+mod rows;
+use rows::{Watch, place_all_asleep, watch_all};

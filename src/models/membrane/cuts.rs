@@ -63,7 +63,7 @@ impl Membrane {
             touched.extend(i.checked_sub(1).map(|ip| (ip, j)));
             for (i, j) in touched {
                 let tile = self.tile_of(i, j);
-                self.device.tile_changed(tile);
+                self.device.tile_springs_changed(tile);
             }
             *self.spring_mut(field::K[LINK], plane * per + t) = 0.0;
             for l in [plane, plane + 1] {

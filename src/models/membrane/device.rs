@@ -74,14 +74,23 @@ impl Slot {
         }
     }
 
-    /// The CPU wrote tile `t`'s state (placed it at its anchors) or its springs (a cut): both
-    /// go up when it next joins the active set.
+    /// The CPU wrote tile `t`'s state (placed it at its anchors): it goes up when the tile
+    /// next joins the active set.
     pub fn tile_changed(&mut self, t: usize) {
         if let Some(d) = &mut self.on {
             if let Some(h) = d.held.get_mut(t) {
                 *h = false;
             }
             d.all_held = false;
+        }
+    }
+
+    /// A cut changed springs of tile `t`: they go up, with its state, when the tile next joins
+    /// the active set.
+    pub fn tile_springs_changed(&mut self, t: usize) {
+        self.tile_changed(t);
+        if let Some(h) = self.on.as_mut().and_then(|d| d.springs_held.get_mut(t)) {
+            *h = false;
         }
     }
 
@@ -124,6 +133,9 @@ struct OnDevice {
     /// from the device, or went up, and the CPU has not written it since); such a tile's
     /// state does not go up again.
     held: Vec<bool>,
+    /// Per tile: the device holds the CPU's springs for it (a tile a cut changed does not;
+    /// such a tile is not `held` either, so its springs go up with its state).
+    springs_held: Vec<bool>,
     /// The device holds the CPU's whole state (after a whole step's download).
     all_held: bool,
     /// Send every synced tile's state up each step, held or not (to compare; tests).
@@ -144,10 +156,12 @@ struct SyncParams {
     cols: u32,
     tiles_c: u32,
     flag: u32,
-    /// The unpack's first tiles whose state goes up (the rest take their attachments and
-    /// springs alone).
+    /// The unpack's first tiles whose state goes up (the rest take their attachments
+    /// alone).
     state_tiles: u32,
-    pad: [u32; 3],
+    /// The unpack's first tiles whose springs go up (as many as the state's or fewer).
+    springs_tiles: u32,
+    pad: [u32; 2],
 }
 
 /// One pass of a sync kernel (`pipeline` bound to `bind`) over the first `tiles` tiles of its
@@ -262,6 +276,7 @@ impl OnDevice {
             springs_changed: false,
             whole_stale: true,
             held: vec![false; m.activity.as_ref().map_or(0, |a| a.awake.len())],
+            springs_held: vec![false; m.activity.as_ref().map_or(0, |a| a.awake.len())],
             all_held: false,
             resend: false,
             tiles_sent: 0,
@@ -310,34 +325,18 @@ impl OnDevice {
         self.whole_stale = false;
         self.springs_changed = false;
         self.held.iter_mut().for_each(|h| *h = true);
+        self.springs_held.iter_mut().for_each(|h| *h = true);
         self.all_held = true;
     }
 
-    /// Each node of the tiles `list` that lies in the grid, as (its tile's place in the
-    /// list, its place in the tile, its row, its column).
-    fn nodes<'a>(
-        m: &'a Membrane,
-        a: &'a Activity,
-        list: &'a [u32],
-    ) -> impl Iterator<Item = (usize, usize, usize, usize)> + 'a {
-        list.iter().enumerate().flat_map(move |(r, &t)| {
-            let (ti, tj) = (t as usize / a.tiles_c, t as usize % a.tiles_c);
-            (0..TILE).filter_map(move |n| {
-                let i = ti * TILE_ROWS + n / TILE_COLS;
-                let j = tj * TILE_COLS + n % TILE_COLS;
-                (i < m.rows && j < m.cols).then_some((r, n, i, j))
-            })
-        })
-    }
-
     /// Tiles `sync` packed from the CPU and unpacked on the device: the state of the first
-    /// `state_tiles` and their springs, layer 0's attachments of all;
+    /// `state_tiles`, the springs of the first `springs_tiles`, layer 0's attachments of all;
     /// encoded into `encoder`.
     fn encode_up(
         &mut self,
         m: &Membrane,
         a: &Activity,
-        (sync, state_tiles): (&[u32], usize),
+        (sync, state_tiles, springs_tiles): (&[u32], usize, usize),
         encoder: &mut wgpu::CommandEncoder,
     ) {
         let (rows, cols) = (m.rows, m.cols);
@@ -347,28 +346,21 @@ impl OnDevice {
         self.up_attach.clear();
         self.up_attach.resize(sync.len() * ATTACH_PER_TILE, 0.0);
         self.up_springs.clear();
-        let springs = state_tiles > 0;
+        let springs = springs_tiles > 0;
         if springs {
-            self.up_springs.resize(state_tiles * SPRINGS_PER_TILE, 0.0);
+            self.up_springs
+                .resize(springs_tiles * SPRINGS_PER_TILE, 0.0);
         }
-        for (r, n, i, j) in Self::nodes(m, a, sync) {
-            for l in 0..LAYERS {
-                let b = l * rows + i;
-                let at = (r * LAYERS + l) * TILE + n;
-                if r < state_tiles {
-                    for c in 0..6 {
-                        self.up_state[at * 6 + c] = m.state.data[(b * 6 + c) * cols + j];
-                    }
-                    for f in 0..field::COUNT {
-                        self.up_springs[at * field::COUNT + f] =
-                            m.rows_data[(b * field::COUNT + f) * cols + j];
-                    }
-                }
-            }
-            for c in 0..4 {
-                self.up_attach[(r * TILE + n) * 4 + c] = m.attach[(i * 4 + c) * cols + j];
-            }
-        }
+        pack(
+            m,
+            a,
+            (sync, state_tiles, springs_tiles),
+            (
+                &mut self.up_state,
+                &mut self.up_attach,
+                &mut self.up_springs,
+            ),
+        );
         let q = &self.k.gpu().queue;
         q.write_buffer(&self.sync_list, 0, bytemuck::cast_slice(sync));
         if state_tiles > 0 {
@@ -390,9 +382,10 @@ impl OnDevice {
             rows: rows as u32,
             cols: cols as u32,
             tiles_c: self.tiles_c,
-            flag: u32::from(springs),
+            flag: 0,
             state_tiles: state_tiles as u32,
-            pad: [0; 3],
+            springs_tiles: springs_tiles as u32,
+            pad: [0; 2],
         };
         q.write_buffer(&self.sync_params, 0, bytemuck::bytes_of(&params));
         sync_pass(
@@ -426,13 +419,17 @@ impl OnDevice {
             substeps
         )
         .entered();
-        // The tiles whose state the device lacks first: only theirs goes up.
+        // The tiles whose springs the device lacks first, then the rest of those whose state
+        // it lacks (a tile whose springs changed is among those): only theirs go up.
         let all = || awake.iter().copied().chain(halo.iter().map(|&t| t as u32));
-        let (resend, held) = (self.resend, &self.held);
-        let fresh = |t: &u32| resend || !held.get(*t as usize).copied().unwrap_or(false);
-        let mut sync: Vec<u32> = all().filter(fresh).collect();
+        let resend = self.resend;
+        let lacks = |of: &[bool], t: u32| resend || !of.get(t as usize).copied().unwrap_or(false);
+        let (held, springs_held) = (&self.held, &self.springs_held);
+        let mut sync: Vec<u32> = all().filter(|&t| lacks(springs_held, t)).collect();
+        let springs_tiles = sync.len();
+        sync.extend(all().filter(|&t| lacks(held, t) && !lacks(springs_held, t)));
         let state_tiles = sync.len();
-        sync.extend(all().filter(|t| !fresh(t)));
+        sync.extend(all().filter(|&t| !lacks(held, t) && !lacks(springs_held, t)));
         self.tiles_sent += state_tiles as u64;
         let gpu = self.k.gpu().clone();
         // One submission: the tiles up, the substeps, the awake tiles packed and copied to
@@ -442,17 +439,20 @@ impl OnDevice {
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("membrane active step"),
             });
-        // The tiles a cut changed were marked (`Slot::tile_changed`): their springs go up
-        // with their state, and no other tile's.
+        // The tiles a cut changed were marked (`Slot::tile_springs_changed`): their springs
+        // go up with their state, and no other tile's.
         self.springs_changed = false;
         {
             let _up = tracing::debug_span!("membrane_gpu_pack_up", tiles = sync.len()).entered();
-            self.encode_up(m, a, (&sync, state_tiles), &mut encoder);
+            self.encode_up(m, a, (&sync, state_tiles, springs_tiles), &mut encoder);
         }
         // From here the device holds every synced tile as the CPU does (the awake ones come
         // back below), and not necessarily anything else.
         for &t in &sync {
             if let Some(h) = self.held.get_mut(t as usize) {
+                *h = true;
+            }
+            if let Some(h) = self.springs_held.get_mut(t as usize) {
                 *h = true;
             }
         }
@@ -517,7 +517,9 @@ impl OnDevice {
         dt: f32,
         substeps: usize,
     ) -> Result<(), RenderError> {
-        if self.whole_stale || self.springs_changed {
+        // Springs a cut changed in a tile the active set has not sent since go up too.
+        let springs_lag = self.springs_held.iter().any(|h| !h);
+        if self.whole_stale || self.springs_changed || springs_lag {
             self.upload_whole(m);
         } else {
             if self.resend || !self.all_held {
@@ -577,6 +579,86 @@ impl Membrane {
     /// Why the device was given up, once (the model reports it as an event).
     pub fn take_device_note(&mut self) -> Option<String> {
         self.device.note.take()
+    }
+}
+
+/// A tile to pack, and its records: its attachments, and its state and springs where they go
+/// up.
+type PackJob<'a> = (
+    usize,
+    &'a mut [f32],
+    Option<&'a mut [f32]>,
+    Option<&'a mut [f32]>,
+);
+
+/// The tiles `sync` packed for the device, each into its own records (in parallel where
+/// the tiles are many; each value is written once, so the bytes are the same): the state of
+/// the first `state_tiles` into `state`, the springs of the first `springs_tiles` into
+/// `springs`, layer 0's attachments of all into `attach` (each sized for them).
+fn pack(
+    m: &Membrane,
+    a: &Activity,
+    (sync, state_tiles, springs_tiles): (&[u32], usize, usize),
+    (state, attach, springs): (&mut [f32], &mut [f32], &mut [f32]),
+) {
+    use rayon::prelude::*;
+    let (rows, cols) = (m.rows, m.cols);
+    let mut state = state.chunks_mut(STATE_PER_TILE);
+    let mut springs = springs.chunks_mut(SPRINGS_PER_TILE);
+    let jobs: Vec<_> = sync
+        .iter()
+        .zip(attach.chunks_mut(ATTACH_PER_TILE))
+        .enumerate()
+        .map(|(r, (&t, at))| {
+            let st = if r < state_tiles { state.next() } else { None };
+            let sp = if r < springs_tiles {
+                springs.next()
+            } else {
+                None
+            };
+            (t as usize, at, st, sp)
+        })
+        .collect();
+    let one = |(t, at, mut st, mut sp): PackJob| {
+        let (ti, tj) = (t / a.tiles_c, t % a.tiles_c);
+        for di in 0..TILE_ROWS {
+            let i = ti * TILE_ROWS + di;
+            if i >= rows {
+                break;
+            }
+            let j0 = tj * TILE_COLS;
+            let w = TILE_COLS.min(cols.saturating_sub(j0));
+            for dj in 0..w {
+                let (j, n) = (j0 + dj, di * TILE_COLS + dj);
+                for c in 0..4 {
+                    at[n * 4 + c] = m.attach[(i * 4 + c) * cols + j];
+                }
+            }
+            for l in 0..LAYERS {
+                let b = l * rows + i;
+                if let Some(st) = st.as_deref_mut() {
+                    for c in 0..6 {
+                        let row = &m.state.data[(b * 6 + c) * cols + j0..][..w];
+                        for (dj, &v) in row.iter().enumerate() {
+                            st[((l * TILE) + di * TILE_COLS + dj) * 6 + c] = v;
+                        }
+                    }
+                }
+                if let Some(sp) = sp.as_deref_mut() {
+                    for f in 0..field::COUNT {
+                        let row = &m.rows_data[(b * field::COUNT + f) * cols + j0..][..w];
+                        for (dj, &v) in row.iter().enumerate() {
+                            sp[((l * TILE) + di * TILE_COLS + dj) * field::COUNT + f] = v;
+                        }
+                    }
+                }
+            }
+        }
+    };
+    if super::active::worth_threads(sync.len() * LAYERS * TILE) {
+        jobs.into_par_iter().for_each(one);
+    } else {
+        jobs.into_iter().for_each(one);
     }
 }
 

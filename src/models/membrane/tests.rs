@@ -344,14 +344,19 @@ fn the_active_set_matches_the_whole_membrane_near_the_tool() {
 
 #[test]
 fn the_active_set_gives_the_same_bytes_on_one_and_two_threads() {
-    let run = |threads| {
+    // With a cut; on two threads every pass that can go to the pool does (the sleep checks,
+    // the halo, the loads), however few the awake nodes.
+    let run = |threads, pool: bool| {
         crate::sim::on_threads(threads, || {
+            super::active::ALWAYS_THREADS.with(|a| a.set(pool));
             let mut m = sleepy_tube();
-            poke(&mut m, 2e-4, 40, 20);
+            poke(&mut m, 2e-4, 40, 0);
+            assert!(m.cut_plane(m.position(m.node(1, 64, 64)), 0.001) > 0);
+            poke(&mut m, 2e-4, 0, 20);
             m.state_hash()
         })
     };
-    assert_eq!(run(1), run(2));
+    assert_eq!(run(1, false), run(2, true));
 }
 
 #[test]
