@@ -171,6 +171,21 @@ impl Activity {
             + self.still_s.capacity() * f
     }
 
+    /// The tiles `tiles` by row of tiles, for the passes that go row block by row block of the
+    /// grid ([`TileRows::of`]).
+    pub fn by_tile_row(&self, tiles: impl Iterator<Item = usize>) -> TileRows {
+        let mut rows: Vec<Vec<(usize, usize)>> = vec![Vec::new(); self.tiles_r];
+        for (k, t) in tiles.enumerate() {
+            if let Some(row) = rows.get_mut(t / self.tiles_c) {
+                row.push((k, t));
+            }
+        }
+        TileRows {
+            rows,
+            tile_rows: self.params.tile_rows,
+        }
+    }
+
     /// Rows and columns of tile `t`.
     pub fn span(&self, t: usize, rows: usize, cols: usize) -> ([usize; 2], [usize; 2]) {
         let (ti, tj) = (t / self.tiles_c, t % self.tiles_c);
@@ -535,6 +550,22 @@ pub(super) fn step(m: &mut Membrane, dt: f32, substeps: usize) {
         settle(m, &mut a, dt);
     }
     m.activity = Some(a);
+}
+
+/// Tiles grouped by the row of tiles they lie in ([`Activity::by_tile_row`]).
+pub(super) struct TileRows {
+    rows: Vec<Vec<(usize, usize)>>,
+    tile_rows: usize,
+}
+
+impl TileRows {
+    /// The tiles that grid row `i` crosses: each one's place in the tiles grouped, and the
+    /// tile, in their order there.
+    pub fn of(&self, i: usize) -> &[(usize, usize)] {
+        self.rows
+            .get(i / self.tile_rows)
+            .map_or(&[][..], Vec::as_slice)
+    }
 }
 
 /// Awake nodes (all layers) below which a substep's runs step on one thread.

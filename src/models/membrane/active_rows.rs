@@ -101,19 +101,13 @@ pub(super) fn watch_all(m: &Membrane, a: &mut Activity, dt: f32) -> Vec<Watch> {
     use rayon::prelude::*;
     let (rows, cols) = (m.rows, m.cols);
     let tr = a.params.tile_rows;
-    // The awake tiles of each row of tiles, and each one's place in the list.
-    let mut by_row: Vec<Vec<(usize, usize)>> = vec![Vec::new(); a.tiles_r];
-    for (k, &t) in a.list.iter().enumerate() {
-        if let Some(row) = by_row.get_mut(t as usize / a.tiles_c) {
-            row.push((k, t as usize));
-        }
-    }
+    let by_row = a.by_tile_row(a.list.iter().map(|&t| t as usize));
     let mut last = std::mem::take(&mut a.last);
     let a_ref = &*a;
     let one = |now: &mut Vec<f32>, (b, block): (usize, &mut [f32])| -> Vec<(usize, Watch)> {
         let (l, i) = (b / rows, b % rows);
-        let tiles = by_row.get(i / tr).map_or(&[][..], Vec::as_slice);
-        tiles
+        by_row
+            .of(i)
             .iter()
             .map(|&(k, t)| (k, watch_row(m, a_ref, (t, l, i), dt, block, now)))
             .collect()
@@ -149,19 +143,14 @@ pub(super) fn place_all_asleep(m: &mut Membrane, a: &Activity, tiles: &[usize]) 
     }
     let (rows, cols) = (m.rows, m.cols);
     let tr = a.params.tile_rows;
-    let mut by_row: Vec<Vec<usize>> = vec![Vec::new(); a.tiles_r];
-    for &t in tiles {
-        if let Some(row) = by_row.get_mut(t / a.tiles_c) {
-            row.push(t);
-        }
-    }
+    let by_row = a.by_tile_row(tiles.iter().copied());
     // The anchors read the targets and the rest shape, never the state: the state is taken
     // out while the rows are written.
     let mut data = std::mem::take(&mut m.state.data);
     let whole = &*m;
     let one = |anchor: &mut Vec<f32>, (b, x): (usize, &mut [f32])| {
         let (l, i) = (b / rows, b % rows);
-        for &t in by_row.get(i / tr).map_or(&[][..], Vec::as_slice) {
+        for &(_, t) in by_row.of(i) {
             let (_, [c0, c1]) = a.span(t, rows, cols);
             anchor.resize(c1 - c0, 0.0);
             for c in 0..3 {

@@ -60,7 +60,7 @@ impl std::fmt::Debug for Slot {
 impl Slot {
     /// A cut changed springs: with the whole membrane on the device, all of them go up with
     /// the next step; with the active set, those of the tiles the cut marked
-    /// ([`Slot::tile_changed`]).
+    /// ([`Slot::tile_springs_changed`]).
     pub fn springs_changed(&mut self) {
         if let Some(d) = &mut self.on {
             d.springs_changed = true;
@@ -668,21 +668,13 @@ fn pack(
 fn unpack(m: &mut Membrane, a: &Activity, packed: &[f32]) {
     use rayon::prelude::*;
     let (rows, cols) = (m.rows, m.cols);
-    // The awake tiles of each row of tiles: their place in the list and their column.
-    let mut by_row: Vec<Vec<(usize, usize)>> = vec![Vec::new(); a.tiles_r];
-    for (r, &t) in a.list.iter().enumerate() {
-        if let Some(row) = by_row.get_mut(t as usize / a.tiles_c) {
-            row.push((r, t as usize % a.tiles_c));
-        }
-    }
+    // The device takes only tiles of TILE_ROWS x TILE_COLS (`OnDevice::new`).
+    let by_row = a.by_tile_row(a.list.iter().map(|&t| t as usize));
     let one = |(b, x): (usize, &mut [f32])| {
         let (l, i) = (b / rows, b % rows);
-        let Some(tiles) = by_row.get(i / TILE_ROWS) else {
-            return;
-        };
         let di = i % TILE_ROWS;
-        for &(r, tj) in tiles {
-            let j0 = tj * TILE_COLS;
+        for &(r, t) in by_row.of(i) {
+            let j0 = (t % a.tiles_c) * TILE_COLS;
             for j in j0..(j0 + TILE_COLS).min(cols) {
                 let from = ((r * LAYERS + l) * TILE + di * TILE_COLS + (j - j0)) * 6;
                 let Some(v) = packed.get(from..from + 6) else {
