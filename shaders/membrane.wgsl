@@ -218,6 +218,21 @@ fn advance(j: u32, b: u32) {
     let i = b % p.rows;
     let x = pos(b, j);
     let v = vel(b, j);
+    var f = gathered(b, i, j, x, v);
+    if (l == 0u) {
+        f += attachment(0u, i, j, x);
+    }
+    if (l + 1u == LAYERS) {
+        f += attachment(1u, i, j, x);
+    }
+    f += external_force(b * p.cols + j);
+    integrate(b, j, x, v, f);
+}
+
+// The forces of the node's springs, links and tethers (block `b`, row `i`, column `j`, at `x`
+// moving at `v`): all but its attachment and the external forces.
+fn gathered(b: u32, i: u32, j: u32, x: vec3<f32>, v: vec3<f32>) -> vec3<f32> {
+    let l = b / p.rows;
     var f = in_layer(b, i, j, x, v);
     // Links: from the layer below, to the layer above.
     if (l > 0u) {
@@ -243,12 +258,89 @@ fn advance(j: u32, b: u32) {
             }
         }
     }
-    if (l == 0u) {
-        f += attachment(0u, i, j, x);
+    return f;
+}
+
+// Layer 0's loads summed by group (`src/models/membrane/anchor_sums.rs`): for each awake
+// layer-0 node of a group, the force of its springs, links, tethers and external forces
+// (not its attachment, not its own damping), with its weight `u`, its moment about the
+// group's point taken where its attachment holds it, and its anchor stiffness. One workgroup
+// a group: each invocation sums every 128th member in order, then the invocations' sums are
+// added in a fixed tree, so the bytes depend only on the adapter.
+
+// Per group, its first member, and one past the last group's last; then per tile of the
+// grid, 1 where it is awake this step (written each step).
+@group(0) @binding(8) var<storage, read> group_index: array<u32>;
+// Per group its point (x, y, z as f32 bits), then the members, group by group: layer 0's node
+// `row * cols + column`, its weight `u` and its anchor stiffness (f32 bits), its group.
+@group(0) @binding(9) var<storage, read> items: array<vec4<u32>>;
+// Per group: force, weighted force, moment (3 each), stiffness, weighted stiffness, unused.
+@group(0) @binding(12) var<storage, read_write> sums: array<f32>;
+
+const SUM_THREADS: u32 = 128u;
+const SUM_TERMS: u32 = 12u;
+var<workgroup> partial: array<array<f32, 12>, 128>;
+
+fn finite3(v: vec3<f32>) -> bool {
+    let e = bitcast<vec3<u32>>(v) & vec3<u32>(0x7f800000u);
+    return all(e != vec3<u32>(0x7f800000u));
+}
+
+@compute @workgroup_size(128, 1, 1)
+fn anchor_sums(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(local_invocation_index) li: u32,
+) {
+    let g = wg.x;
+    let o = bitcast<vec3<f32>>(items[g].xyz);
+    // The awake tiles' flags follow the groups' starts; the members, the groups' points.
+    let awake_at = groups.x + 1u;
+    var acc: array<f32, 12>;
+    for (var k = group_index[g] + li; k < group_index[g + 1u]; k += SUM_THREADS) {
+        let item = items[groups.x + k];
+        let cell = item.x;
+        let u = bitcast<f32>(item.y);
+        let stiffness = bitcast<f32>(item.z);
+        let i = cell / p.cols;
+        let j = cell % p.cols;
+        if (group_index[awake_at + (i / TILE_ROWS) * p.tiles_c + j / TILE_COLS] == 0u) {
+            continue;
+        }
+        // Layer 0's row `i` is block `i`.
+        let f = gathered(i, i, j, pos(i, j), vel(i, j)) + external_force(cell);
+        if (!finite3(f)) {
+            continue;
+        }
+        let at = i * 4u * p.cols + j;
+        let goal = vec3<f32>(attach[at + p.cols], attach[at + 2u * p.cols], attach[at + 3u * p.cols]);
+        let r = cross(goal - o, f);
+        let uf = u * f;
+        acc[0] += f.x;
+        acc[1] += f.y;
+        acc[2] += f.z;
+        acc[3] += uf.x;
+        acc[4] += uf.y;
+        acc[5] += uf.z;
+        acc[6] += r.x;
+        acc[7] += r.y;
+        acc[8] += r.z;
+        acc[9] += stiffness;
+        acc[10] += u * stiffness;
     }
-    if (l + 1u == LAYERS) {
-        f += attachment(1u, i, j, x);
+    partial[li] = acc;
+    workgroupBarrier();
+    for (var s = SUM_THREADS / 2u; s > 0u; s = s / 2u) {
+        if (li < s) {
+            for (var c = 0u; c < SUM_TERMS; c++) {
+                partial[li][c] += partial[li + s][c];
+            }
+        }
+        workgroupBarrier();
     }
-    f += external_force(b * p.cols + j);
-    integrate(b, j, x, v, f);
+    if (li == 0u) {
+        for (var c = 0u; c < SUM_TERMS; c++) {
+            sums[g * SUM_TERMS + c] = partial[0][c];
+        }
+    }
 }

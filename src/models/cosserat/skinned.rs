@@ -497,6 +497,24 @@ impl SkinnedRod {
         }
     }
 
+    /// Adds, for the next step, the loads of many surface points on element `e` at once
+    /// (their sum over [`SkinnedRod::add_surface_force`]): `ends` the forces on its two
+    /// nodes, `couple` the couple on the element, `k` the stiffness on each node (N, N m,
+    /// N/m). A missing element or a non-finite value is ignored.
+    pub fn add_element_load(&mut self, e: usize, ends: [DVec3; 2], couple: DVec3, k: [f64; 2]) {
+        let finite = ends.iter().all(|f| f.is_finite())
+            && couple.is_finite()
+            && k.iter().all(|k| k.is_finite());
+        if e >= self.couples.len() || !finite {
+            return;
+        }
+        self.load[e] += ends[0];
+        self.load[e + 1] += ends[1];
+        self.couples[e] += couple;
+        self.load_k[e] += k[0].max(0.0);
+        self.load_k[e + 1] += k[1].max(0.0);
+    }
+
     /// Adds, for the next step, a force `f` (N) acting on the rod's surface at `lever` (m)
     /// from the centreline point at parameter `t` of element `e`: `(1 - t) f` and `t f` on
     /// the element's nodes and the couple `lever x f` on the element, statically the same as

@@ -519,7 +519,10 @@ pub(super) fn step(m: &mut Membrane, dt: f32, substeps: usize) {
         }
     }
     // On the membrane's GPU where it has one, else (or should it fail) here.
+    // Layer 0's loads by group are summed where the step runs, from the state it starts
+    // from.
     if !super::device::active_substeps(m, &a, &halo, dt, substeps) {
+        super::anchor_sums::on_cpu(m, &a.runs);
         let h = dt / substeps as f32;
         let mut buffers = std::mem::take(&mut a.buffers);
         buffers.resize_with(a.groups.len(), Default::default);

@@ -73,11 +73,8 @@ impl Membrane {
     /// holds layer 0, and unlike the attachment's stretch it does not ring with the node's
     /// own fast motion on its anchor, so a model holding layer 0 can take it as a given force.
     pub fn anchor_loads(&mut self, tiles: &[usize], out: &mut Vec<(u32, u32, Vec3)>) {
-        use rayon::prelude::*;
-        out.clear();
         sort_external(&mut self.external);
         let m = &*self;
-        let (rows, cols) = (m.rows, m.cols);
         // Tiles side by side in a row of tiles go as one run of the row kernel.
         let (_, tc) = m.tiles();
         let mut runs: Vec<([usize; 2], [usize; 2])> = Vec::new();
@@ -94,6 +91,20 @@ impl Membrane {
             }
             last = Some(t);
         }
+        self.loads_over_runs(&runs, out);
+    }
+
+    /// [`Membrane::anchor_loads`] over `runs` of layer-0 nodes (rows, columns), each a
+    /// rectangle of the grid, in order (the external forces sorted by node).
+    pub(super) fn loads_over_runs(
+        &self,
+        runs: &[([usize; 2], [usize; 2])],
+        out: &mut Vec<(u32, u32, Vec3)>,
+    ) {
+        use rayon::prelude::*;
+        out.clear();
+        let m = self;
+        let (rows, cols) = (m.rows, m.cols);
         let whole = Whole {
             data: &m.state.data,
             rows,

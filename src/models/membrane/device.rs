@@ -24,6 +24,9 @@ use crate::gpu::compute::{self, bind};
 use crate::gpu::{Gpu, RenderError};
 use bytemuck::Zeroable;
 
+#[path = "device_sums.rs"]
+mod sums;
+
 const SYNC_SHADER: &str = include_str!("../../../shaders/membrane_sync.wgsl");
 /// Nodes of a tile in one layer (the kernels' workgroup).
 const TILE: usize = TILE_ROWS * TILE_COLS;
@@ -64,6 +67,15 @@ impl Slot {
     pub fn springs_changed(&mut self) {
         if let Some(d) = &mut self.on {
             d.springs_changed = true;
+        }
+    }
+
+    /// The groups whose loads are summed changed: their buffers are made anew at the next
+    /// step.
+    pub fn groups_changed(&mut self) {
+        if let Some(d) = &mut self.on {
+            d.sums = None;
+            d.sums_tried = false;
         }
     }
 
@@ -117,8 +129,14 @@ struct OnDevice {
     /// The unpack's and the pack's parameters (one submission holds both passes).
     sync_params: wgpu::Buffer,
     pack_params: wgpu::Buffer,
-    /// Where the packed awake tiles are copied to be read (mappable, reused every step).
+    /// Where the packed awake tiles are copied to be read (mappable, reused every step),
+    /// after the anchor sums where there are any.
     readback: wgpu::Buffer,
+    /// Layer 0's loads summed by group (`device_sums.rs`), once tried; the bytes they take
+    /// at the start of the readback.
+    sums: Option<sums::Sums>,
+    sums_tried: bool,
+    sums_bytes: u64,
     awake_list: wgpu::Buffer,
     sync_list: wgpu::Buffer,
     packed_state: wgpu::Buffer,
@@ -266,6 +284,9 @@ impl OnDevice {
             sync_params,
             pack_params,
             readback,
+            sums: None,
+            sums_tried: false,
+            sums_bytes: 0,
             awake_list,
             sync_list,
             packed_state,
@@ -411,6 +432,7 @@ impl OnDevice {
         if self.whole_stale {
             self.upload_whole(m);
         }
+        self.make_sums(m, a)?;
         let awake: &[u32] = &a.list;
         let _span = tracing::debug_span!(
             "membrane_on_gpu",
@@ -458,6 +480,7 @@ impl OnDevice {
         }
         self.all_held = false;
         if awake.is_empty() {
+            super::anchor_sums::none_awake(m);
             m.external.clear();
             gpu.queue.submit([encoder.finish()]);
             return gpu.check();
@@ -469,6 +492,14 @@ impl OnDevice {
         if grown {
             self.tiles_bind =
                 Self::tiles_bind(&gpu, &self.tiles_pipeline, &self.k, &self.awake_list);
+            if let Some(s) = &mut self.sums {
+                s.rebind(&gpu, &self.k);
+            }
+        }
+        // Layer 0's loads by group, from the state the substeps start from.
+        if let Some(s) = &mut self.sums {
+            s.encode(&gpu, &mut encoder, self.k.current, awake);
+            s.copy(&mut encoder, &self.readback);
         }
         let tiles = super::gpu::TileDispatch {
             pipeline: &self.tiles_pipeline,
@@ -497,15 +528,39 @@ impl OnDevice {
             awake.len(),
         );
         let bytes = (awake.len() * STATE_PER_TILE * 4) as u64;
-        encoder.copy_buffer_to_buffer(&self.packed_state, 0, &self.readback, 0, bytes);
+        let at = self.sums_bytes;
+        encoder.copy_buffer_to_buffer(&self.packed_state, 0, &self.readback, at, bytes);
         gpu.queue.submit([encoder.finish()]);
         let raw = {
             let _wait = tracing::debug_span!("membrane_gpu_readback", bytes).entered();
-            compute::map_read(&gpu, &self.readback, bytes)?
+            compute::map_read(&gpu, &self.readback, at + bytes)?
         };
         gpu.check()?;
+        let (sums, state) = raw.split_at(at as usize);
+        if let Some(s) = &self.sums {
+            m.anchor_sums = s.read(sums);
+        }
         let _unpack = tracing::debug_span!("membrane_gpu_unpack", tiles = awake.len()).entered();
-        unpack(m, a, bytemuck::cast_slice(&raw));
+        unpack(m, a, bytemuck::cast_slice(state));
+        Ok(())
+    }
+
+    /// The anchor sums' kernel, the first time the membrane has groups (and the readback
+    /// grown to hold their sums before the tiles).
+    fn make_sums(&mut self, m: &Membrane, a: &Activity) -> Result<(), RenderError> {
+        let Some(g) = m.anchor_groups.as_deref().filter(|_| !self.sums_tried) else {
+            return Ok(());
+        };
+        self.sums_tried = true;
+        let gpu = self.k.gpu().clone();
+        self.sums = sums::Sums::new(&gpu, &self.k, g, a.awake.len())?;
+        self.sums_bytes = self.sums.as_ref().map_or(0, sums::Sums::bytes);
+        self.readback = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("membrane readback"),
+            size: self.sums_bytes + (a.awake.len().max(1) * STATE_PER_TILE * 4) as u64,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
         Ok(())
     }
 

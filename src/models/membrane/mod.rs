@@ -26,6 +26,7 @@
 //! bytes on any number of threads.
 
 mod active;
+mod anchor_sums;
 mod anchors;
 mod block;
 #[cfg(test)]
@@ -39,6 +40,8 @@ mod gpu_tests;
 mod integrate;
 mod model;
 #[cfg(test)]
+mod sums_tests;
+#[cfg(test)]
 mod tests;
 #[cfg(test)]
 mod tile_tests;
@@ -46,6 +49,7 @@ mod tile_tests;
 use glam::Vec3;
 
 pub use active::{ActivityParams, TILE_COLS, TILE_ROWS};
+pub use anchor_sums::AnchorSum;
 
 /// Layers in the membrane.
 pub const LAYERS: usize = 4;
@@ -157,6 +161,8 @@ pub enum MembraneError {
     Coincident { layer: usize, node: usize },
     #[error("{what} must be finite and > 0, got {value}")]
     BadParameter { what: &'static str, value: f32 },
+    #[error("anchor group member {member}: {why}")]
+    BadGroup { member: usize, why: String },
 }
 
 /// The state in row blocks: for layer `l` and row `i` (block `b = l * rows + i`), the row's
@@ -227,6 +233,11 @@ pub struct Membrane {
     springs_cut: bool,
     /// The GPU the substeps run on, if any (`device.rs`).
     device: device::Slot,
+    /// Layer 0's nodes in groups whose loads are summed each step, and the last sums
+    /// (`anchor_sums.rs`); scratch for the loads.
+    anchor_groups: Option<Box<anchor_sums::AnchorGroups>>,
+    anchor_sums: Vec<AnchorSum>,
+    load_scratch: Vec<(u32, u32, Vec3)>,
 }
 
 impl Membrane {
@@ -296,6 +307,9 @@ impl Membrane {
             saved: None,
             device: device::Slot::default(),
             springs_cut: true,
+            anchor_groups: None,
+            anchor_sums: Vec::new(),
+            load_scratch: Vec::new(),
         };
         // Each node's share of its layer's area: a quarter of each cell around it, the cell
         // spanned by its neighbours along and around (half a spring each way).
@@ -606,6 +620,11 @@ impl Membrane {
         let n = self.substeps_for(dt, safety);
         let all = self.activity.as_ref().is_none_or(|a| a.all_awake);
         if all {
+            if self.anchor_groups.is_some() {
+                forces::sort_external(&mut self.external);
+                let whole = [([0, self.rows], [0, self.cols])];
+                anchor_sums::on_cpu(self, &whole);
+            }
             let on_device = self.params.integrator == Integrator::Symplectic
                 && device::whole_substeps(self, dt, n);
             for _ in 0..if on_device { 0 } else { n } {
@@ -659,6 +678,7 @@ impl Membrane {
             + self.mass.capacity() * f
             + self.released.capacity()
             + a
+            + self.anchor_groups.as_ref().map_or(0, |g| g.heap_bytes())
     }
 
     /// Kinetic energy, J.

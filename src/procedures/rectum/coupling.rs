@@ -5,8 +5,9 @@
 //! the hook presses the rod's bounding spheres. Before the membrane steps: the tiles near
 //! each instrument wake, the skin places layer 0's targets from the rod's new pose where the
 //! membrane's step needs them, the hook presses the awake nodes and, with its current on,
-//! cuts the dissection plane, the alarms are raised, and the membrane's load on layer 0 is
-//! handed to the rod for its next step (what the rod's present pose asks of the membrane).
+//! cuts the dissection plane and the alarms are raised. The membrane sums its load on layer
+//! 0 by the rod's element each node is bound to, at the start of its step (what the rod's
+//! present pose asks of it); before the next rod step the sums load the rod.
 
 use super::anatomy::Anatomy;
 use super::regions::{self, RegionId, RegionKind};
@@ -16,7 +17,7 @@ use super::scene::{
 use crate::collision::{Instrument, PointCloud, ToolContact, VertexAreas, penalty_forces};
 use crate::models::cosserat::skin::{Selection, Skin};
 use crate::models::cosserat::skinned::SkinnedRod;
-use crate::models::membrane::{LAYERS, Membrane};
+use crate::models::membrane::{LAYERS, Membrane, MembraneError};
 use crate::sim::{Couplings, EventKind, Models, Phase};
 use glam::Vec3;
 
@@ -52,20 +53,21 @@ pub(super) struct Joints {
     pub(super) contacts: Vec<ToolContact>,
     forces: Vec<(u32, Vec3)>,
     targets: Vec<Vec3>,
-    loads: Vec<(u32, u32, Vec3)>,
-    /// Layer 0's anchor stiffness per node (row-major), N/m: cuts never change it (they take
-    /// links 1-2 only).
-    anchor_k: Vec<f32>,
+    /// Each rod element's point, about which the membrane takes the moments of its loads
+    /// (the element's middle at rest), m.
+    about: Vec<Vec3>,
     tiles: Vec<usize>,
 }
 
 impl Joints {
+    /// The couplings of `rod` and `membrane`: the skin bound, and the membrane's layer-0
+    /// nodes grouped by the rod element they are bound to, for the loads.
     pub(super) fn new(
         anatomy: &Anatomy,
         rod: &SkinnedRod,
-        membrane: &Membrane,
+        membrane: &mut Membrane,
         params: SceneParams,
-    ) -> Joints {
+    ) -> Result<Joints, MembraneError> {
         let skin = Skin::bind(rod, &anatomy.membrane.positions[0]);
         let (rows, cols) = (anatomy.membrane.rows, anatomy.membrane.cols);
         let regions =
@@ -80,10 +82,23 @@ impl Joints {
                 membrane.mass(n) / (m.density_kg_per_m3 * m.thickness_m)
             })
             .collect();
-        let anchor_k = (0..rows * cols)
-            .map(|n| membrane.anchor_stiffness(n / cols, n % cols))
+        let x = rod.rod().positions();
+        let about: Vec<Vec3> = (0..x.len().saturating_sub(1))
+            .map(|e| ((x[e] + x[e + 1]) * 0.5).as_vec3())
             .collect();
-        Joints {
+        let members: Vec<(usize, usize, usize, f32)> = (0..rows * cols)
+            .filter_map(|n| {
+                let (e, u, _) = skin.binding(n)?;
+                let u = if u.is_finite() {
+                    u.clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                (e < about.len()).then_some((n / cols, n % cols, e, u))
+            })
+            .collect();
+        membrane.group_anchor_loads(&members, &about)?;
+        Ok(Joints {
             params,
             skin,
             area,
@@ -110,10 +125,9 @@ impl Joints {
             contacts: Vec::new(),
             forces: Vec::new(),
             targets: Vec::new(),
-            loads: Vec::new(),
-            anchor_k,
+            about,
             tiles: Vec::new(),
-        }
+        })
     }
 
     /// A new step with `tools`.
@@ -254,35 +268,34 @@ impl Joints {
     /// The membrane loads the rod: what the rest of the membrane does to each awake layer-0
     /// node ([`Membrane::anchor_loads`]: at rest, what its attachment hands on) acts on the
     /// rod's surface where the skin binds the node, split onto the element's nodes with its
-    /// couple ([`SkinnedRod::add_surface_force`]), in the next rod step. Sleeping tiles lie
-    /// on their anchors at rest and load it with nothing. Returns the sum, N.
-    pub(super) fn load_rod(&mut self, rod: &mut SkinnedRod, membrane: &mut Membrane) -> Vec3 {
+    /// couple about the element's axis, in the rod's step that follows. The membrane sums the
+    /// loads by element at the start of its step ([`Membrane::anchor_sums`]); the couple of
+    /// the loads about the axis point `a + (b - a) u` of each node is their moment about the
+    /// element's point `p`, plus `(p - a) x` their sum, minus `(b - a) x` their sum weighted by
+    /// `u`. Sleeping tiles lie on their anchors at rest and load it with nothing. Returns the
+    /// sum, N.
+    pub(super) fn load_rod(&mut self, rod: &mut SkinnedRod, membrane: &Membrane) -> Vec3 {
         let _span = tracing::debug_span!("rectum_load_rod").entered();
-        let cols = membrane.cols();
-        let (tr, tc) = membrane.tiles();
-        let awake: Vec<usize> = (0..tr * tc).filter(|&t| membrane.tile_awake(t)).collect();
-        let mut loads = std::mem::take(&mut self.loads);
-        membrane.anchor_loads(&awake, &mut loads);
-        let x = rod.rod().positions().to_vec();
+        let x = rod.rod().positions();
         let mut total = glam::DVec3::ZERO;
-        for &(i, j, f) in &loads {
-            let (i, j) = (i as usize, j as usize);
-            let (Some((target, _)), Some((e, u, _))) =
-                (membrane.anchor_pull(i, j), self.skin.binding(i * cols + j))
-            else {
+        let mut loads = Vec::with_capacity(self.about.len());
+        for (e, s) in membrane.anchor_sums().iter().enumerate() {
+            let (Some(&a), Some(&b), Some(p)) = (x.get(e), x.get(e + 1), self.about.get(e)) else {
                 continue;
             };
-            let (Some(a), Some(b)) = (x.get(e), x.get(e + 1)) else {
+            if !s.is_finite() {
                 continue;
-            };
-            let u = f64::from(u);
-            let axis = *a + (*b - *a) * u;
-            let f = f.as_dvec3();
-            let k = f64::from(self.anchor_k[i * cols + j]);
-            rod.add_surface_force(e, u, target.as_dvec3() - axis, f, k);
-            total += f;
+            }
+            let couple =
+                s.moment + (p.as_dvec3() - a).cross(s.force) - (b - a).cross(s.weighted_force);
+            let ends = [s.force - s.weighted_force, s.weighted_force];
+            let k = [s.stiffness - s.weighted_stiffness, s.weighted_stiffness];
+            loads.push((e, ends, couple, k));
+            total += s.force;
         }
-        self.loads = loads;
+        for (e, ends, couple, k) in loads {
+            rod.add_element_load(e, ends, couple, k);
+        }
         total.as_vec3()
     }
 
@@ -385,20 +398,19 @@ impl Couplings<RectumModel> for Joints {
                 if let Some(RectumModel::Rod(rod)) = models.get_mut(ROD) {
                     self.on_rod(rod);
                 }
+                // The membrane's load on the rod, summed at the start of the membrane's last
+                // step. A quarantined membrane loads it with nothing.
+                if let (Some(RectumModel::Rod(rod)), Some(RectumModel::Membrane(m))) =
+                    models.pair_mut(ROD, MEMBRANE)
+                {
+                    self.out.membrane_on_rod_n = self.load_rod(rod, m);
+                }
             }
             1 => {
                 if let (Some(RectumModel::Membrane(m)), Some(RectumModel::Rod(rod))) =
                     models.write_read(MEMBRANE, ROD)
                 {
                     self.on_membrane(rod, m);
-                }
-                // The membrane's load on the rod, for the rod's next step (before the
-                // membrane moves: it is what the rod's present pose asks of it). A
-                // quarantined membrane loads it with nothing.
-                if let (Some(RectumModel::Rod(rod)), Some(RectumModel::Membrane(m))) =
-                    models.pair_mut(ROD, MEMBRANE)
-                {
-                    self.out.membrane_on_rod_n = self.load_rod(rod, m);
                 }
             }
             _ => {}

@@ -152,7 +152,8 @@ pub struct StepOutcome {
     pub hook_contacts: usize,
     /// Explicit membrane substeps taken.
     pub substeps: usize,
-    /// The membrane's load on the rod through layer 0 (awake tiles), for the next step, N.
+    /// The membrane's load on the rod through layer 0 (awake tiles) in this step: what the
+    /// membrane summed at the start of its last step, N.
     pub membrane_on_rod_n: Vec3,
     /// Vulnerable regions the hook touches now: bit `id` for region id `id`
     /// ([`regions::REGIONS`]).
@@ -196,7 +197,7 @@ impl RectumScene {
         let mut membrane = Membrane::new(anatomy.membrane.clone(), params.membrane)?;
         membrane.use_active_set(params.activity);
         membrane.set_substep_safety(params.substep_safety);
-        let joints = Joints::new(anatomy, &rod, &membrane, params);
+        let joints = Joints::new(anatomy, &rod, &mut membrane, params)?;
         let mut world = World::new();
         let rod_id = world.add_to(0, RectumModel::Rod(rod));
         let membrane_id = world.add_to(1, RectumModel::Membrane(membrane));
