@@ -81,13 +81,16 @@ pub(super) struct Activity {
     /// Each tile's box (all layers) when last refreshed, m.
     boxes: Vec<(Vec3, Vec3)>,
     /// Positions at rest, in the state's row blocks but positions only: `[b][3][cols]`.
-    rest: Vec<f32>,
+    pub(super) rest: Vec<f32>,
     /// Each node's rest fraction from layer 0 (0) to layer 3 (1): `[b][cols]`.
-    weight: Vec<f32>,
+    pub(super) weight: Vec<f32>,
     /// Offsets of nodes from their anchors when their tile fell asleep: `[b][3][cols]`.
-    offset: Vec<f32>,
-    /// Offsets of awake tiles' nodes at the last check (their speed is measured from it).
-    last: Vec<f32>,
+    pub(super) offset: Vec<f32>,
+    /// Offsets of awake tiles' nodes at the last check (their speed is measured from it;
+    /// where a device measures them, only the device's are current).
+    pub(super) last: Vec<f32>,
+    /// The last check's offsets were lost with a device: the next check starts afresh.
+    last_stale: bool,
     /// Per run of awake tiles, its block (kept from step to step: nothing is allocated per
     /// substep).
     buffers: Vec<super::block::Block>,
@@ -145,6 +148,7 @@ impl Activity {
             weight,
             offset: vec![0.0; LAYERS * rows * 3 * cols],
             last: vec![0.0; LAYERS * rows * 3 * cols],
+            last_stale: false,
             buffers: Vec::new(),
             list: Vec::new(),
             runs: Vec::new(),
@@ -401,7 +405,8 @@ impl Membrane {
 }
 
 /// Starts the speed measure of tile `t`, waking: its nodes are at their offsets.
-fn start_watch(m: &Membrane, a: &mut Activity, t: usize) {
+fn start_watch(m: &mut Membrane, a: &mut Activity, t: usize) {
+    m.device.offsets_changed(t);
     let ([r0, r1], [c0, c1]) = a.span(t, m.rows, m.cols);
     let (rows, cols) = (m.rows, m.cols);
     for b in (0..LAYERS).flat_map(|l| (r0..r1).map(move |i| l * rows + i)) {
@@ -473,7 +478,10 @@ pub(super) fn step(m: &mut Membrane, dt: f32, substeps: usize) {
         }
     }
     let halo: Vec<usize> = (0..a.awake.len()).filter(|&t| beside[t]).collect();
-    {
+    // A device that places the halo itself leaves the CPU's copy of it be (see
+    // `device_watch.rs`), unless it fails below.
+    let device_places = m.device.places_halo();
+    if !device_places {
         let _span = tracing::debug_span!("membrane_halo", tiles = halo.len()).entered();
         place_all_asleep(m, &a, &halo);
     }
@@ -520,8 +528,18 @@ pub(super) fn step(m: &mut Membrane, dt: f32, substeps: usize) {
     }
     // On the membrane's GPU where it has one, else (or should it fail) here.
     // Layer 0's loads by group are summed where the step runs, from the state it starts
-    // from.
-    if !super::device::active_substeps(m, &a, &halo, dt, substeps) {
+    // from; the device measures the awake tiles for the checks below where it can.
+    let was_on = m.device.is_on();
+    let measured = super::device::active_substeps(m, &a, &halo, dt, substeps);
+    if was_on && !m.device.is_on() {
+        // The device's last measures are lost with it.
+        a.last_stale = true;
+    }
+    if measured.is_none() {
+        if device_places {
+            let _span = tracing::debug_span!("membrane_halo", tiles = halo.len()).entered();
+            place_all_asleep(m, &a, &halo);
+        }
         super::anchor_sums::on_cpu(m, &a.runs);
         let h = dt / substeps as f32;
         let mut buffers = std::mem::take(&mut a.buffers);
@@ -550,7 +568,7 @@ pub(super) fn step(m: &mut Membrane, dt: f32, substeps: usize) {
     a.steps += 1;
     if !a.all_awake {
         let _span = tracing::debug_span!("membrane_settle", tiles = a.list.len()).entered();
-        settle(m, &mut a, dt);
+        settle(m, &mut a, dt, measured.flatten());
     }
     m.activity = Some(a);
 }
@@ -622,14 +640,20 @@ fn substep(m: &mut Membrane, a: &Activity, blocks: &mut [Block], h: f32) {
     }
 }
 
-/// After a step: each awake tile's fastest node relative to its anchor; still tiles with no
-/// tool near fall asleep, and fast border nodes wake the sleeping tiles beside them.
-fn settle(m: &mut Membrane, a: &mut Activity, dt: f32) {
+/// After a step: each awake tile's fastest node relative to its anchor (`measured` where a
+/// device took the measures, else here); still tiles with no tool near fall asleep, and fast
+/// border nodes wake the sleeping tiles beside them. Where the last measures were lost with
+/// a device, this step's only start the watch again: no tile counts as still.
+fn settle(m: &mut Membrane, a: &mut Activity, dt: f32, measured: Option<Vec<Watch>>) {
     let (rows, cols) = (m.rows, m.cols);
     let p = a.params;
     let mut to_wake = Vec::new();
     let list = a.list.clone();
-    let watch = watch_all(m, a, dt);
+    let on_device = measured.is_some();
+    let mut watch = measured.unwrap_or_else(|| watch_all(m, a, dt));
+    if std::mem::take(&mut a.last_stale) {
+        watch.iter_mut().for_each(|w| w.fastest = f32::INFINITY);
+    }
     for (&t, w) in list.iter().zip(watch) {
         let t = t as usize;
         let Watch {
@@ -648,17 +672,23 @@ fn settle(m: &mut Membrane, a: &mut Activity, dt: f32) {
         }
         a.boxes[t] = (lo, hi);
         if a.still_s[t] >= p.sleep_after_s {
-            // Asleep where it is: its offsets now hold it there.
-            let ([r0, r1], [c0, c1]) = a.span(t, rows, cols);
-            for b in (0..LAYERS).flat_map(|l| (r0..r1).map(move |i| l * rows + i)) {
-                for c in 0..3 {
-                    let r = (b * 3 + c) * cols + c0..(b * 3 + c) * cols + c1;
-                    let (off, last) = (&mut a.offset[r.clone()], &a.last[r]);
-                    off.copy_from_slice(last);
+            // Asleep where it is: its offsets now hold it there (the last measure's, which
+            // only the device holds where it took them).
+            if on_device {
+                offsets_now(m, a, t);
+            } else {
+                let ([r0, r1], [c0, c1]) = a.span(t, rows, cols);
+                for b in (0..LAYERS).flat_map(|l| (r0..r1).map(move |i| l * rows + i)) {
+                    for c in 0..3 {
+                        let r = (b * 3 + c) * cols + c0..(b * 3 + c) * cols + c1;
+                        let (off, last) = (&mut a.offset[r.clone()], &a.last[r]);
+                        off.copy_from_slice(last);
+                    }
                 }
             }
             a.awake[t] = false;
             a.still_s[t] = 0.0;
+            m.device.offsets_changed(t);
         }
     }
     to_wake.sort_unstable();
@@ -676,4 +706,5 @@ fn settle(m: &mut Membrane, a: &mut Activity, dt: f32) {
 
 #[path = "active_rows.rs"]
 mod rows;
-use rows::{Watch, place_all_asleep, watch_all};
+pub(super) use rows::Watch;
+use rows::{offsets_now, place_all_asleep, watch_all};

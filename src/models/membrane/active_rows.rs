@@ -10,7 +10,7 @@ use glam::Vec3;
 /// (m/s), how far its edge nodes moved from where they were when it woke (m), and the box
 /// round its nodes.
 #[derive(Debug, Clone, Copy)]
-pub(super) struct Watch {
+pub(in crate::models::membrane) struct Watch {
     pub fastest: f32,
     pub edge: f32,
     pub lo: Vec3,
@@ -175,4 +175,26 @@ pub(super) fn place_all_asleep(m: &mut Membrane, a: &Activity, tiles: &[usize]) 
             .for_each(|bx| one(&mut anchor, bx));
     }
     m.state.data = data;
+}
+
+/// Tile `t`'s nodes' offsets from their anchors now into `Activity::offset` (a tile falling
+/// asleep where its last measure was taken on a device: the same values its watch's `now`
+/// holds there, up to the device's rounding).
+pub(super) fn offsets_now(m: &Membrane, a: &mut Activity, t: usize) {
+    let (rows, cols) = (m.rows, m.cols);
+    let ([r0, r1], [c0, c1]) = a.span(t, rows, cols);
+    let mut now = vec![0.0; c1 - c0];
+    for l in 0..LAYERS {
+        for i in r0..r1 {
+            let b = l * rows + i;
+            for c in 0..3 {
+                anchors_into(m, a, l, i, [c0, c1], c, &mut now);
+                let x = &m.state.data[(b * 6 + c) * cols + c0..(b * 6 + c) * cols + c1];
+                let off = &mut a.offset[(b * 3 + c) * cols + c0..(b * 3 + c) * cols + c1];
+                for ((o, x), p) in off.iter_mut().zip(x).zip(&now) {
+                    *o = x - p;
+                }
+            }
+        }
+    }
 }

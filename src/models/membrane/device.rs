@@ -17,15 +17,21 @@
 //! CPU from the state the CPU holds, which the failed step has not touched, the device is
 //! dropped and the failure is reported once as an event: the session goes on.
 
-use super::active::{Activity, TILE_COLS, TILE_ROWS};
+use super::active::{Activity, TILE_COLS, TILE_ROWS, Watch};
 use super::gpu::MembraneGpu;
 use super::{LAYERS, Membrane, field};
 use crate::gpu::compute::{self, bind};
 use crate::gpu::{Gpu, RenderError};
 use bytemuck::Zeroable;
 
+#[path = "device_pack.rs"]
+mod pack;
 #[path = "device_sums.rs"]
 mod sums;
+#[path = "device_watch.rs"]
+mod watch;
+
+use pack::{pack, unpack};
 
 const SYNC_SHADER: &str = include_str!("../../../shaders/membrane_sync.wgsl");
 /// Nodes of a tile in one layer (the kernels' workgroup).
@@ -77,6 +83,27 @@ impl Slot {
             d.sums = None;
             d.sums_tried = false;
         }
+    }
+
+    /// Tile `t`'s offsets or last offsets changed on the CPU (it woke, or fell asleep):
+    /// they go up when the device next needs them.
+    pub fn offsets_changed(&mut self, t: usize) {
+        if let Some(w) = self.on.as_mut().and_then(|d| d.watcher.as_mut()) {
+            w.changed(t);
+        }
+    }
+
+    /// Whether the model runs on a device.
+    pub fn is_on(&self) -> bool {
+        self.on.is_some()
+    }
+
+    /// Whether the device places the halo itself (the CPU then leaves it be unless the
+    /// device fails).
+    pub fn places_halo(&self) -> bool {
+        self.on
+            .as_ref()
+            .is_some_and(|d| d.watcher.is_some() && !d.cpu_places_halo)
     }
 
     /// The CPU rewrote the model: everything goes up with the next step.
@@ -137,6 +164,8 @@ struct OnDevice {
     sums: Option<sums::Sums>,
     sums_tried: bool,
     sums_bytes: u64,
+    /// The active set's sleep and wake checks (`device_watch.rs`), with an active set.
+    watcher: Option<watch::Watcher>,
     awake_list: wgpu::Buffer,
     sync_list: wgpu::Buffer,
     packed_state: wgpu::Buffer,
@@ -158,6 +187,8 @@ struct OnDevice {
     all_held: bool,
     /// Send every synced tile's state up each step, held or not (to compare; tests).
     resend: bool,
+    /// Leave the halo to the CPU, as before the device placed it (to compare; tests).
+    cpu_places_halo: bool,
     /// Tiles whose state went up, over the device's life (a test's count).
     tiles_sent: u64,
     /// CPU-side packing buffers, reused.
@@ -182,14 +213,25 @@ struct SyncParams {
     pad: [u32; 2],
 }
 
-/// One pass of a sync kernel (`pipeline` bound to `bind`) over the first `tiles` tiles of its
-/// list, every layer.
-fn sync_pass(
+/// The mappable buffer the step's results are read from: `sums` bytes of anchor sums, then
+/// up to `tiles` tiles' measures, then up to `tiles` tiles' packed state.
+fn readback_buffer(gpu: &Gpu, sums: u64, tiles: usize) -> wgpu::Buffer {
+    let tiles = tiles.max(1);
+    gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("membrane readback"),
+        size: sums + watch::Watcher::bytes(tiles) + (tiles * STATE_PER_TILE * 4) as u64,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    })
+}
+
+/// One pass of `pipeline` bound to `bind` over `groups` workgroups (a sync kernel's: the
+/// first tiles of its list by every layer).
+fn one_pass(
     encoder: &mut wgpu::CommandEncoder,
     label: &str,
-    pipeline: &wgpu::ComputePipeline,
-    bind: &wgpu::BindGroup,
-    tiles: usize,
+    (pipeline, bind): (&wgpu::ComputePipeline, &wgpu::BindGroup),
+    groups: [u32; 3],
 ) {
     let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
         label: Some(label),
@@ -197,7 +239,7 @@ fn sync_pass(
     });
     pass.set_pipeline(pipeline);
     pass.set_bind_group(0, bind, &[]);
-    pass.dispatch_workgroups(tiles as u32, LAYERS as u32, 1);
+    pass.dispatch_workgroups(groups[0], groups[1], groups[2]);
 }
 
 impl OnDevice {
@@ -237,12 +279,11 @@ impl OnDevice {
         let sync_params =
             compute::uniform(gpu, "membrane unpack params", bytemuck::bytes_of(&zero));
         let pack_params = compute::uniform(gpu, "membrane pack params", bytemuck::bytes_of(&zero));
-        let readback = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("membrane readback"),
-            size: (tiles * STATE_PER_TILE * 4) as u64,
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
+        let readback = readback_buffer(gpu, 0, tiles);
+        let watcher = match &m.activity {
+            Some(a) => Some(watch::Watcher::new(gpu, a, &k.state, &k.attach)?),
+            None => None,
+        };
         let [a, b] = &k.state;
         let tiles_bind = Self::tiles_bind(gpu, &tiles_pipeline, &k, &awake_list);
         let unpack_bind = bind(
@@ -287,6 +328,7 @@ impl OnDevice {
             sums: None,
             sums_tried: false,
             sums_bytes: 0,
+            watcher,
             awake_list,
             sync_list,
             packed_state,
@@ -300,6 +342,7 @@ impl OnDevice {
             springs_held: vec![false; m.activity.as_ref().map_or(0, |a| a.awake.len())],
             all_held: false,
             resend: false,
+            cpu_places_halo: false,
             tiles_sent: 0,
             up_state: Vec::new(),
             up_springs: Vec::new(),
@@ -409,13 +452,9 @@ impl OnDevice {
             pad: [0; 2],
         };
         q.write_buffer(&self.sync_params, 0, bytemuck::bytes_of(&params));
-        sync_pass(
-            encoder,
-            "membrane unpack",
-            &self.unpack,
-            &self.unpack_bind,
-            sync.len(),
-        );
+        let groups = [sync.len() as u32, LAYERS as u32, 1];
+        let unpack = (&self.unpack, &self.unpack_bind);
+        one_pass(encoder, "membrane unpack", unpack, groups);
     }
 
     /// The active set's substeps on the device: the awake tiles of `a` (and the halo
@@ -428,7 +467,7 @@ impl OnDevice {
         halo: &[usize],
         dt: f32,
         substeps: usize,
-    ) -> Result<(), RenderError> {
+    ) -> Result<Measured, RenderError> {
         if self.whole_stale {
             self.upload_whole(m);
         }
@@ -442,16 +481,31 @@ impl OnDevice {
         )
         .entered();
         // The tiles whose springs the device lacks first, then the rest of those whose state
-        // it lacks (a tile whose springs changed is among those): only theirs go up.
-        let all = || awake.iter().copied().chain(halo.iter().map(|&t| t as u32));
+        // it lacks (a tile whose springs changed is among those): only theirs go up. Where
+        // the device places the halo, no halo tile's state goes up for its own sake.
+        let placed = self.watcher.is_some() && !self.cpu_places_halo;
+        let all = || {
+            let awake = awake.iter().map(|&t| (t, false));
+            awake.chain(halo.iter().map(|&t| (t as u32, true)))
+        };
         let resend = self.resend;
         let lacks = |of: &[bool], t: u32| resend || !of.get(t as usize).copied().unwrap_or(false);
         let (held, springs_held) = (&self.held, &self.springs_held);
-        let mut sync: Vec<u32> = all().filter(|&t| lacks(springs_held, t)).collect();
+        let class = |(t, in_halo): (u32, bool)| {
+            if lacks(springs_held, t) {
+                0
+            } else if lacks(held, t) && !(in_halo && placed) {
+                1
+            } else {
+                2
+            }
+        };
+        let of = |c: u8| all().filter(move |&k| class(k) == c).map(|(t, _)| t);
+        let mut sync: Vec<u32> = of(0).collect();
         let springs_tiles = sync.len();
-        sync.extend(all().filter(|&t| lacks(held, t) && !lacks(springs_held, t)));
+        sync.extend(of(1));
         let state_tiles = sync.len();
-        sync.extend(all().filter(|&t| !lacks(held, t) && !lacks(springs_held, t)));
+        sync.extend(of(2));
         self.tiles_sent += state_tiles as u64;
         let gpu = self.k.gpu().clone();
         // One submission: the tiles up, the substeps, the awake tiles packed and copied to
@@ -479,11 +533,16 @@ impl OnDevice {
             }
         }
         self.all_held = false;
+        // The offsets the device lacks up, the halo placed at its anchors.
+        if let Some(w) = &mut self.watcher {
+            let halo = if placed { halo } else { &[] };
+            w.encode_before(&gpu, &mut encoder, (m, a), (awake, halo));
+        }
         if awake.is_empty() {
             super::anchor_sums::none_awake(m);
             m.external.clear();
             gpu.queue.submit([encoder.finish()]);
-            return gpu.check();
+            return gpu.check().map(|()| Some(Vec::new()));
         }
         gpu.queue
             .write_buffer(&self.awake_list, 0, bytemuck::cast_slice(awake));
@@ -520,15 +579,24 @@ impl OnDevice {
         };
         gpu.queue
             .write_buffer(&self.pack_params, 0, bytemuck::bytes_of(&params));
-        sync_pass(
+        let groups = [awake.len() as u32, LAYERS as u32, 1];
+        one_pass(
             &mut encoder,
             "membrane pack",
-            &self.pack,
-            &self.pack_bind,
-            awake.len(),
+            (&self.pack, &self.pack_bind),
+            groups,
         );
+        // The sleep and wake checks' measures of the awake tiles, on the newest state.
+        let measured = match &mut self.watcher {
+            Some(w) => {
+                w.encode_watch(&gpu, &mut encoder, m, (awake, self.k.current, dt));
+                w.copy(&mut encoder, &self.readback, self.sums_bytes, awake.len());
+                Some(watch::Watcher::bytes(awake.len()))
+            }
+            None => None,
+        };
         let bytes = (awake.len() * STATE_PER_TILE * 4) as u64;
-        let at = self.sums_bytes;
+        let at = self.sums_bytes + measured.unwrap_or(0);
         encoder.copy_buffer_to_buffer(&self.packed_state, 0, &self.readback, at, bytes);
         gpu.queue.submit([encoder.finish()]);
         let raw = {
@@ -536,13 +604,14 @@ impl OnDevice {
             compute::map_read(&gpu, &self.readback, at + bytes)?
         };
         gpu.check()?;
-        let (sums, state) = raw.split_at(at as usize);
+        let (sums, rest) = raw.split_at(self.sums_bytes as usize);
+        let (measures, state) = rest.split_at(measured.unwrap_or(0) as usize);
         if let Some(s) = &self.sums {
             m.anchor_sums = s.read(sums);
         }
         let _unpack = tracing::debug_span!("membrane_gpu_unpack", tiles = awake.len()).entered();
         unpack(m, a, bytemuck::cast_slice(state));
-        Ok(())
+        Ok(measured.map(|_| watch::Watcher::read(measures)))
     }
 
     /// The anchor sums' kernel, the first time the membrane has groups (and the readback
@@ -555,12 +624,7 @@ impl OnDevice {
         let gpu = self.k.gpu().clone();
         self.sums = sums::Sums::new(&gpu, &self.k, g, a.awake.len())?;
         self.sums_bytes = self.sums.as_ref().map_or(0, sums::Sums::bytes);
-        self.readback = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("membrane readback"),
-            size: self.sums_bytes + (a.awake.len().max(1) * STATE_PER_TILE * 4) as u64,
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
+        self.readback = readback_buffer(&gpu, self.sums_bytes, a.awake.len());
         Ok(())
     }
 
@@ -625,6 +689,14 @@ impl Membrane {
         }
     }
 
+    /// Leaves the halo's placing to the CPU, as before the device placed it.
+    #[cfg(test)]
+    pub(crate) fn gpu_place_halo_on_cpu(&mut self, on: bool) {
+        if let Some(d) = &mut self.device.on {
+            d.cpu_places_halo = on;
+        }
+    }
+
     /// Tiles whose state went up to the device so far (none on the CPU).
     #[cfg(test)]
     pub(crate) fn gpu_tiles_sent(&self) -> Option<u64> {
@@ -637,156 +709,46 @@ impl Membrane {
     }
 }
 
-/// A tile to pack, and its records: its attachments, and its state and springs where they go
-/// up.
-type PackJob<'a> = (
-    usize,
-    &'a mut [f32],
-    Option<&'a mut [f32]>,
-    Option<&'a mut [f32]>,
-);
-
-/// The tiles `sync` packed for the device, each into its own records (in parallel where
-/// the tiles are many; each value is written once, so the bytes are the same): the state of
-/// the first `state_tiles` into `state`, the springs of the first `springs_tiles` into
-/// `springs`, layer 0's attachments of all into `attach` (each sized for them).
-fn pack(
-    m: &Membrane,
-    a: &Activity,
-    (sync, state_tiles, springs_tiles): (&[u32], usize, usize),
-    (state, attach, springs): (&mut [f32], &mut [f32], &mut [f32]),
-) {
-    use rayon::prelude::*;
-    let (rows, cols) = (m.rows, m.cols);
-    let mut state = state.chunks_mut(STATE_PER_TILE);
-    let mut springs = springs.chunks_mut(SPRINGS_PER_TILE);
-    let jobs: Vec<_> = sync
-        .iter()
-        .zip(attach.chunks_mut(ATTACH_PER_TILE))
-        .enumerate()
-        .map(|(r, (&t, at))| {
-            let st = if r < state_tiles { state.next() } else { None };
-            let sp = if r < springs_tiles {
-                springs.next()
-            } else {
-                None
-            };
-            (t as usize, at, st, sp)
-        })
-        .collect();
-    let one = |(t, at, mut st, mut sp): PackJob| {
-        let (ti, tj) = (t / a.tiles_c, t % a.tiles_c);
-        for di in 0..TILE_ROWS {
-            let i = ti * TILE_ROWS + di;
-            if i >= rows {
-                break;
-            }
-            let j0 = tj * TILE_COLS;
-            let w = TILE_COLS.min(cols.saturating_sub(j0));
-            for dj in 0..w {
-                let (j, n) = (j0 + dj, di * TILE_COLS + dj);
-                for c in 0..4 {
-                    at[n * 4 + c] = m.attach[(i * 4 + c) * cols + j];
-                }
-            }
-            for l in 0..LAYERS {
-                let b = l * rows + i;
-                if let Some(st) = st.as_deref_mut() {
-                    for c in 0..6 {
-                        let row = &m.state.data[(b * 6 + c) * cols + j0..][..w];
-                        for (dj, &v) in row.iter().enumerate() {
-                            st[((l * TILE) + di * TILE_COLS + dj) * 6 + c] = v;
-                        }
-                    }
-                }
-                if let Some(sp) = sp.as_deref_mut() {
-                    for f in 0..field::COUNT {
-                        let row = &m.rows_data[(b * field::COUNT + f) * cols + j0..][..w];
-                        for (dj, &v) in row.iter().enumerate() {
-                            sp[((l * TILE) + di * TILE_COLS + dj) * field::COUNT + f] = v;
-                        }
-                    }
-                }
-            }
-        }
-    };
-    if super::active::worth_threads(sync.len() * LAYERS * TILE) {
-        jobs.into_par_iter().for_each(one);
-    } else {
-        jobs.into_iter().for_each(one);
-    }
-}
-
-/// The awake tiles' state read back (`packed`: each awake tile of `a.list` in turn, by layer,
-/// node and value) into `m`'s rows: row by row of the grid, each on its own (in parallel
-/// where the tiles are many; every value is written once, so the bytes are the same).
-fn unpack(m: &mut Membrane, a: &Activity, packed: &[f32]) {
-    use rayon::prelude::*;
-    let (rows, cols) = (m.rows, m.cols);
-    // The device takes only tiles of TILE_ROWS x TILE_COLS (`OnDevice::new`).
-    let by_row = a.by_tile_row(a.list.iter().map(|&t| t as usize));
-    let one = |(b, x): (usize, &mut [f32])| {
-        let (l, i) = (b / rows, b % rows);
-        let di = i % TILE_ROWS;
-        for &(r, t) in by_row.of(i) {
-            let j0 = (t % a.tiles_c) * TILE_COLS;
-            for j in j0..(j0 + TILE_COLS).min(cols) {
-                let from = ((r * LAYERS + l) * TILE + di * TILE_COLS + (j - j0)) * 6;
-                let Some(v) = packed.get(from..from + 6) else {
-                    return;
-                };
-                for (c, &v) in v.iter().enumerate() {
-                    x[c * cols + j] = v;
-                }
-            }
-        }
-    };
-    let nodes = a.list.len() * LAYERS * TILE;
-    let data = &mut m.state.data;
-    if super::active::worth_threads(nodes) {
-        data.par_chunks_mut(6 * cols).enumerate().for_each(one);
-    } else {
-        data.chunks_mut(6 * cols).enumerate().for_each(one);
-    }
-}
-
-/// `step` on the membrane's device; false where it has none, or where `step` failed: the
+/// `step` on the membrane's device; none where it has none, or where `step` failed: the
 /// failure is noted, the device dropped and the external forces put back for the CPU (the
 /// CPU's state is written only by a step that succeeded).
-fn on_device(
+fn on_device<R>(
     m: &mut Membrane,
-    step: impl FnOnce(&mut OnDevice, &mut Membrane) -> Result<(), RenderError>,
-) -> bool {
-    let Some(mut d) = m.device.on.take() else {
-        return false;
-    };
+    step: impl FnOnce(&mut OnDevice, &mut Membrane) -> Result<R, RenderError>,
+) -> Option<R> {
+    let mut d = m.device.on.take()?;
     let external = m.external.clone();
     match step(&mut d, m) {
-        Ok(()) => {
+        Ok(r) => {
             m.device.on = Some(d);
-            true
+            Some(r)
         }
         Err(e) => {
             m.external = external;
             m.device.give_up(&e);
-            false
+            None
         }
     }
 }
 
-/// The active set's substeps of this step on the membrane's device; false where it has none
-/// or it failed (see [`on_device`]): the CPU runs them.
+/// The active set's substeps of this step on the membrane's device, with the awake tiles'
+/// sleep measures where the device took them; none where it has no device or it failed (see
+/// [`on_device`]): the CPU runs them.
 pub(super) fn active_substeps(
     m: &mut Membrane,
     a: &Activity,
     halo: &[usize],
     dt: f32,
     substeps: usize,
-) -> bool {
+) -> Option<Measured> {
     on_device(m, |d, m| d.active_step(m, a, halo, dt, substeps))
 }
 
 /// Every node's substeps on the membrane's device; false where it has none or it failed.
 pub(super) fn whole_substeps(m: &mut Membrane, dt: f32, substeps: usize) -> bool {
-    on_device(m, |d, m| d.whole_step(m, dt, substeps))
+    on_device(m, |d, m| d.whole_step(m, dt, substeps)).is_some()
 }
+
+/// The awake tiles' sleep measures a device step took, in the order of the awake list (none
+/// where the device has no watcher: the CPU measures them).
+pub(super) type Measured = Option<Vec<Watch>>;

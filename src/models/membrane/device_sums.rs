@@ -133,13 +133,13 @@ impl Sums {
         let at = (4 * (self.groups + 1)) as u64;
         gpu.queue
             .write_buffer(&self.index, at, bytemuck::cast_slice(&self.mask));
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("membrane anchor sums"),
-            timestamp_writes: None,
-        });
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &self.bind[current.min(1)], &[]);
-        pass.dispatch_workgroups(self.groups as u32, 1, 1);
+        let kernel = (&self.pipeline, &self.bind[current.min(1)]);
+        super::one_pass(
+            encoder,
+            "membrane anchor sums",
+            kernel,
+            [self.groups as u32, 1, 1],
+        );
     }
 
     /// The sums copied to the start of `to`.

@@ -298,3 +298,81 @@ fn the_device_refuses_tiles_its_kernels_do_not_step_with_a_clear_error() {
     m.advance(1e-3, 0.9);
     assert!(crate::sim::TissueModel::state_is_finite(&m));
 }
+
+#[test]
+fn the_device_measures_tiles_falling_asleep_and_waking_as_the_cpu_does() {
+    // The pulled tissue settles after the tool lets go: tiles fall asleep on the speeds the
+    // device measured (their offsets then taken on the CPU) and the boxes the broad phase
+    // reads come from its measures too. Step by step, the same tiles sleep as on the CPU.
+    let (_gpu, _start, mut cpu, mut dev) = on_both();
+    let mut out = crate::sim::ModelOutput::default();
+    let (mut most, mut fell) = (0usize, 0usize);
+    for k in 0..260 {
+        for m in [&mut cpu, &mut dev] {
+            session_step(m, k, &mut out);
+            assert!(out.events.is_empty(), "{:?}", out.events);
+        }
+        let (c, d) = (awake_tiles(&cpu), awake_tiles(&dev));
+        assert_eq!(d, c, "step {k}");
+        fell = fell.max(most.saturating_sub(d.len()));
+        most = most.max(d.len());
+        let p = dev.position(dev.node(1, 24, 32));
+        let (mut near_cpu, mut near_dev) = (Vec::new(), Vec::new());
+        cpu.awake_tiles_near(p, p, 2e-3, &mut near_cpu);
+        dev.awake_tiles_near(p, p, 2e-3, &mut near_dev);
+        assert_eq!(near_dev, near_cpu, "step {k}: the boxes");
+    }
+    assert!(dev.gpu_adapter().is_some(), "it stayed on the device");
+    assert!(fell >= 2, "{fell} of {most} tiles fell asleep");
+}
+
+#[test]
+fn the_device_places_the_halo_so_only_tiles_that_woke_go_up() {
+    // The same session on two devices, one placing the halo (the sleeping tiles beside the
+    // awake ones, which change as tiles wake and sleep) itself, one taking it from the CPU
+    // as before. Placed on the device, a tile's state goes up only when it woke (at most
+    // once a wake, after the first step sends everything); the same tiles sleep and wake
+    // as on the CPU, the positions within float rounding.
+    let (gpu, start, mut cpu, mut dev) = on_both();
+    let mut up = start.clone();
+    up.use_gpu(&gpu).expect("uploads");
+    up.gpu_place_halo_on_cpu(true);
+    let mut out = crate::sim::ModelOutput::default();
+    let (mut woke, mut most) = (0usize, 0.0f32);
+    let mut before = Vec::new();
+    for k in 0..200 {
+        for m in [&mut cpu, &mut dev, &mut up] {
+            session_step(m, k, &mut out);
+            assert!(out.events.is_empty(), "{:?}", out.events);
+        }
+        let now = awake_tiles(&dev);
+        assert_eq!(now, awake_tiles(&cpu), "step {k}");
+        assert_eq!(now, awake_tiles(&up), "step {k}");
+        woke += now.iter().filter(|t| !before.contains(*t)).count();
+        before = now;
+        most = (0..cpu.len())
+            .map(|n| (cpu.position(n) - start.position(n)).length())
+            .fold(most, f32::max);
+    }
+    let (placed, sent) = (dev.gpu_tiles_sent(), up.gpu_tiles_sent());
+    let (placed, sent) = (placed.expect("on the device"), sent.expect("on the device"));
+    assert!(woke >= 4, "{woke} tiles woke");
+    assert!(
+        placed as usize <= woke,
+        "{placed} tiles went up for {woke} wakes"
+    );
+    assert!(
+        placed < sent,
+        "{placed} tiles went up against {sent} with the CPU's halo"
+    );
+    // Against the largest displacement of the session (the tissue has settled back since).
+    for m in [&dev, &up] {
+        let diff = (0..m.len())
+            .map(|n| (m.position(n) - cpu.position(n)).length())
+            .fold(0.0f32, f32::max);
+        assert!(
+            diff < 1e-3 * most,
+            "positions differ by {diff:e} m, the most moved {most:e} m"
+        );
+    }
+}
