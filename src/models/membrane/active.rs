@@ -89,8 +89,10 @@ pub(super) struct Activity {
     /// Offsets of awake tiles' nodes at the last check (their speed is measured from it;
     /// where a device measures them, only the device's are current).
     pub(super) last: Vec<f32>,
-    /// The last check's offsets were lost with a device: the next check starts afresh.
-    last_stale: bool,
+    /// The last check was a device's: the CPU's last offsets are not current (the device
+    /// was lost, or this is a copy on the CPU of a model on a device), so a check on the CPU
+    /// starts afresh.
+    last_on_device: bool,
     /// Per run of awake tiles, its block (kept from step to step: nothing is allocated per
     /// substep).
     buffers: Vec<super::block::Block>,
@@ -148,7 +150,7 @@ impl Activity {
             weight,
             offset: vec![0.0; LAYERS * rows * 3 * cols],
             last: vec![0.0; LAYERS * rows * 3 * cols],
-            last_stale: false,
+            last_on_device: false,
             buffers: Vec::new(),
             list: Vec::new(),
             runs: Vec::new(),
@@ -288,6 +290,28 @@ impl Membrane {
             .map_or_else(ActivityParams::default, |a| a.params);
         let tc = self.cols.div_ceil(p.tile_cols);
         (i / p.tile_rows) * tc + j / p.tile_cols
+    }
+
+    /// Where node `node` is drawn: its position, or for a node of a sleeping tile where its
+    /// anchor (on the targets last set for its column) and its offset carry it, which its
+    /// state may not show yet (a device places the halo on its own copy; see
+    /// `device_watch.rs`). Reads nothing a step writes, so drawing changes no bytes.
+    pub fn carried_position(&self, node: usize) -> Vec3 {
+        let Some(a) = self.activity.as_ref().filter(|a| !a.all_awake) else {
+            return self.position(node);
+        };
+        let (l, i, j) = self.coords(node);
+        if a.awake.get(self.tile_of(i, j)).is_none_or(|&w| w) {
+            return self.position(node);
+        }
+        let (cols, b) = (self.cols, l * self.rows + i);
+        let keep = 1.0 - a.weight[b * cols + j];
+        Vec3::from_array(std::array::from_fn(|c| {
+            let rest = a.rest[(b * 3 + c) * cols + j];
+            let rest0 = a.rest[(i * 3 + c) * cols + j];
+            let target = self.attach[(i * 4 + 1 + c) * cols + j];
+            rest + (target - rest0) * keep + a.offset[(b * 3 + c) * cols + j]
+        }))
     }
 
     /// Wakes every tile whose box comes within the wake margin of a box `(min, max)`.
@@ -529,12 +553,7 @@ pub(super) fn step(m: &mut Membrane, dt: f32, substeps: usize) {
     // On the membrane's GPU where it has one, else (or should it fail) here.
     // Layer 0's loads by group are summed where the step runs, from the state it starts
     // from; the device measures the awake tiles for the checks below where it can.
-    let was_on = m.device.is_on();
     let measured = super::device::active_substeps(m, &a, &halo, dt, substeps);
-    if was_on && !m.device.is_on() {
-        // The device's last measures are lost with it.
-        a.last_stale = true;
-    }
     if measured.is_none() {
         if device_places {
             let _span = tracing::debug_span!("membrane_halo", tiles = halo.len()).entered();
@@ -642,8 +661,9 @@ fn substep(m: &mut Membrane, a: &Activity, blocks: &mut [Block], h: f32) {
 
 /// After a step: each awake tile's fastest node relative to its anchor (`measured` where a
 /// device took the measures, else here); still tiles with no tool near fall asleep, and fast
-/// border nodes wake the sleeping tiles beside them. Where the last measures were lost with
-/// a device, this step's only start the watch again: no tile counts as still.
+/// border nodes wake the sleeping tiles beside them. Measured here after a device measured
+/// the last check (the device was lost, or this is a copy on the CPU), this check only
+/// starts the watch again: no tile counts as still.
 fn settle(m: &mut Membrane, a: &mut Activity, dt: f32, measured: Option<Vec<Watch>>) {
     let (rows, cols) = (m.rows, m.cols);
     let p = a.params;
@@ -651,9 +671,10 @@ fn settle(m: &mut Membrane, a: &mut Activity, dt: f32, measured: Option<Vec<Watc
     let list = a.list.clone();
     let on_device = measured.is_some();
     let mut watch = measured.unwrap_or_else(|| watch_all(m, a, dt));
-    if std::mem::take(&mut a.last_stale) {
+    if !on_device && std::mem::replace(&mut a.last_on_device, false) {
         watch.iter_mut().for_each(|w| w.fastest = f32::INFINITY);
     }
+    a.last_on_device |= on_device;
     for (&t, w) in list.iter().zip(watch) {
         let t = t as usize;
         let Watch {

@@ -93,11 +93,6 @@ impl Slot {
         }
     }
 
-    /// Whether the model runs on a device.
-    pub fn is_on(&self) -> bool {
-        self.on.is_some()
-    }
-
     /// Whether the device places the halo itself (the CPU then leaves it be unless the
     /// device fails).
     pub fn places_halo(&self) -> bool {

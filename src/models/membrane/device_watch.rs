@@ -8,7 +8,7 @@
 //! or fell asleep) and the device next needs them. Before the substeps the device also
 //! places the halo (the sleeping tiles beside awake ones) at its anchors, so the halo's state
 //! neither is placed on the CPU nor goes up: the CPU's copy of a sleeping tile lags until the
-//! tile wakes or a frame places every sleeping tile.
+//! tile wakes (the frames draw it where its anchors carry it: `Membrane::carried_position`).
 
 use super::super::active::{Activity, TILE_COLS, TILE_ROWS, Watch};
 use super::super::{LAYERS, Membrane};

@@ -376,3 +376,56 @@ fn the_device_places_the_halo_so_only_tiles_that_woke_go_up() {
         );
     }
 }
+
+#[test]
+fn sleeping_tiles_are_drawn_where_their_anchors_carry_them_though_the_device_placed_them() {
+    // Tiles wake round the pulled node; then every layer-0 target moves 0.1 mm (half the
+    // wake distance) and both step once. The CPU places the halo on its own copy; the device on its, and the copy the CPU
+    // holds of a model on a device lags by the move. Drawn (`carried_position`), the halo is
+    // where the CPU put it.
+    let (_gpu, _start, mut cpu, mut dev) = on_both();
+    let mut out = crate::sim::ModelOutput::default();
+    for k in 0..40 {
+        session_step(&mut cpu, k, &mut out);
+        session_step(&mut dev, k, &mut out);
+    }
+    let shift = Vec3::new(0.0, 1e-4, 0.0);
+    for m in [&mut cpu, &mut dev] {
+        for i in 0..m.rows() {
+            for j in 0..m.cols() {
+                let (target, _) = m.anchor_pull(i, j).expect("in the grid");
+                m.set_target(i, j, target + shift);
+            }
+        }
+        session_step(m, 40, &mut out);
+    }
+    let awake = awake_tiles(&cpu);
+    assert_eq!(awake, awake_tiles(&dev));
+    let (tr, tc) = cpu.tiles();
+    let halo: Vec<usize> = (0..tr * tc)
+        .filter(|t| !awake.contains(t))
+        .filter(|&t| {
+            awake
+                .iter()
+                .any(|&a| (a / tc).abs_diff(t / tc) <= 1 && (a % tc).abs_diff(t % tc) <= 1)
+        })
+        .collect();
+    assert!(!halo.is_empty(), "awake {awake:?} of {tr} x {tc}");
+    let (mut drawn, mut lag) = (0.0f32, 0.0f32);
+    for &t in &halo {
+        let ([r0, r1], [c0, c1]) = cpu.tile_span(t);
+        for (i, j) in (r0..r1).flat_map(|i| (c0..c1).map(move |j| (i, j))) {
+            let n = cpu.node(0, i, j);
+            drawn = drawn.max((dev.carried_position(n) - cpu.position(n)).length());
+            lag = lag.max((dev.position(n) - cpu.position(n)).length());
+        }
+    }
+    assert!(
+        lag > 0.9e-4,
+        "the device's halo is not on the CPU's copy: {lag:e} m"
+    );
+    assert!(
+        drawn < 1e-7,
+        "drawn {drawn:e} m from where the CPU placed it"
+    );
+}

@@ -51,7 +51,7 @@ impl Membrane {
     /// The membrane's sheets as triangles over each layer's grid (the procedure draws the
     /// membrane in its own way; this is what a generic view of the world shows).
     fn sheets(&self) -> ModelSnapshot {
-        let positions: Vec<Vec3> = (0..self.len()).map(|n| self.position(n)).collect();
+        let positions: Vec<Vec3> = (0..self.len()).map(|n| self.carried_position(n)).collect();
         let (rows, cols) = (self.rows, self.cols);
         let wrap = if self.periodic { cols } else { cols - 1 };
         let mut indices = Vec::with_capacity(LAYERS * (rows - 1) * wrap * 6);

@@ -676,7 +676,7 @@ fn grid_mesh(
         let base = out.positions.len() as u32;
         for &i in &ri {
             for &j in &cj {
-                out.positions.push(m.position(m.node(l, i, j)));
+                out.positions.push(m.carried_position(m.node(l, i, j)));
                 let plane = l == 1 || l == 2;
                 out.cut_edge.push(plane && !m.link_alive(1, i, j));
             }
