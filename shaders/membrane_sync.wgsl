@@ -18,8 +18,10 @@ struct Sync {
     // and the first (as many or fewer) whose springs go up.
     state_tiles: u32,
     springs_tiles: u32,
-    pad1: u32,
-    pad2: u32,
+    // Unpack: whether layer 0's attachments went up (not where the device places the
+    // targets itself: `shaders/membrane_chain.wgsl`).
+    attach_sent: u32,
+    pad: u32,
 }
 
 const LAYERS: u32 = 4u;
@@ -52,7 +54,7 @@ fn node_of(wg: vec3<u32>, li: u32) -> vec3<u32> {
 
 // The CPU's tiles into both state buffers (a sleeping neighbour must read the same in
 // either: the first `state_tiles` of the list), the springs of the first `springs_tiles`, and
-// layer 0's attachments of all.
+// layer 0's attachments of all where they went up.
 @compute @workgroup_size(128, 1, 1)
 fn unpack(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let k = node_of(wg, li);
@@ -75,7 +77,7 @@ fn unpack(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index)
         }
     }
     // Layer 0's block is its row.
-    if (wg.y == 0u) {
+    if (wg.y == 0u && s.attach_sent != 0u) {
         for (var c = 0u; c < 4u; c++) {
             attach[(b * 4u + c) * s.cols + j] = packed_attach[(wg.x * TILE + li) * 4u + c];
         }

@@ -224,6 +224,24 @@ impl Skin {
             .map(|b| (b.element as usize, b.t, b.offset))
     }
 
+    /// Point `i`'s whole binding: (element, parameter along it, the pair of frames blended
+    /// and the weight on the second, offset in the blended frame, m). Placing it by
+    /// [`Skin::frames`] of a pose reproduces [`Skin::place`].
+    pub fn frame_binding(&self, i: usize) -> Option<(u32, f32, u32, f32, Vec3)> {
+        self.bound
+            .get(i)
+            .map(|b| (b.element, b.t, b.pair, b.w, b.offset))
+    }
+
+    /// The frames the skin blends for `pose`: the element frames as unit quaternions, each in
+    /// the hemisphere of the one before, at least two (a single frame repeated).
+    pub fn frames(pose: RodPose<'_>) -> Vec<Quat> {
+        chain_quats(pose.frames)
+            .iter()
+            .map(|q| q.as_quat())
+            .collect()
+    }
+
     /// Places the selected points where the rod carries them now; `out[k]` gets the `k`-th
     /// selected point (`out` as long as the selection).
     pub fn place(

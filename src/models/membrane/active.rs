@@ -306,11 +306,11 @@ impl Membrane {
         }
         let (cols, b) = (self.cols, l * self.rows + i);
         let keep = 1.0 - a.weight[b * cols + j];
+        let target = self.target_now(i, j, self.tile_of(i, j));
         Vec3::from_array(std::array::from_fn(|c| {
             let rest = a.rest[(b * 3 + c) * cols + j];
             let rest0 = a.rest[(i * 3 + c) * cols + j];
-            let target = self.attach[(i * 4 + 1 + c) * cols + j];
-            rest + (target - rest0) * keep + a.offset[(b * 3 + c) * cols + j]
+            rest + (target[c] - rest0) * keep + a.offset[(b * 3 + c) * cols + j]
         }))
     }
 
@@ -444,6 +444,7 @@ fn start_watch(m: &mut Membrane, a: &mut Activity, t: usize) {
 
 /// Places tile `t`'s nodes at anchor + offset, at rest relative to it.
 fn place_asleep(m: &mut Membrane, a: &Activity, t: usize) {
+    super::chain::place(m, Some(a), &[t]);
     m.device.tile_changed(t);
     let ([r0, r1], [c0, c1]) = a.span(t, m.rows, m.cols);
     let cols = m.cols;
@@ -559,6 +560,14 @@ pub(super) fn step(m: &mut Membrane, dt: f32, substeps: usize) {
             let _span = tracing::debug_span!("membrane_halo", tiles = halo.len()).entered();
             place_all_asleep(m, &a, &halo);
         }
+        // The targets this step reads, where the CPU's lag the chain's pose.
+        let tiles: Vec<usize> = a
+            .list
+            .iter()
+            .map(|&t| t as usize)
+            .chain(halo.iter().copied())
+            .collect();
+        super::chain::place(m, Some(&a), &tiles);
         super::anchor_sums::on_cpu(m, &a.runs);
         let h = dt / substeps as f32;
         let mut buffers = std::mem::take(&mut a.buffers);
@@ -696,6 +705,7 @@ fn settle(m: &mut Membrane, a: &mut Activity, dt: f32, measured: Option<Vec<Watc
             // Asleep where it is: its offsets now hold it there (the last measure's, which
             // only the device holds where it took them).
             if on_device {
+                super::chain::place(m, Some(a), &[t]);
                 offsets_now(m, a, t);
             } else {
                 let ([r0, r1], [c0, c1]) = a.span(t, rows, cols);

@@ -138,6 +138,7 @@ pub(super) fn watch_all(m: &Membrane, a: &mut Activity, dt: f32) -> Vec<Watch> {
 /// tiles are many: each node is written once, so the bytes are the same).
 pub(super) fn place_all_asleep(m: &mut Membrane, a: &Activity, tiles: &[usize]) {
     use rayon::prelude::*;
+    super::super::chain::place(m, Some(a), tiles);
     for &t in tiles {
         m.device.tile_changed(t);
     }

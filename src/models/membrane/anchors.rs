@@ -15,11 +15,8 @@ impl Membrane {
         if i >= self.rows || j >= self.cols {
             return None;
         }
-        let (block, cols) = (i * 4, self.cols);
-        let k = self.attach[block * cols + j];
-        let target = Vec3::from_array(std::array::from_fn(|c| {
-            self.attach[(block + 1 + c) * cols + j]
-        }));
+        let k = self.attach[i * 4 * self.cols + j];
+        let target = self.target_now(i, j, self.tile_of(i, j));
         let x = self.position(self.node(0, i, j));
         Some((target, (x - target) * k))
     }

@@ -2,11 +2,13 @@
 //! the couplings' reads and writes, checkpoints, the hash) and the device runs the explicit
 //! substeps of the awake tiles (`substep_tiles` in `shaders/membrane.wgsl`).
 //!
-//! Each step: the awake tiles and the sleeping tiles beside them (the halo) go up packed:
-//! layer 0's targets, and the state (into both of the device's state buffers) and springs of
-//! those the device lacks: the halo, which the CPU has just placed at its anchors, tiles that
-//! woke since, and tiles whose springs a cut changed; an awake tile's state came back from
-//! the device last step and is not sent again (the bytes are the same: tested). The
+//! Each step: layer 0's targets of the awake tiles and the sleeping tiles beside them (the
+//! halo) are placed on the device from the chain's pose where the membrane has one
+//! (`device_chain.rs`), else go up packed; the state (into both of the device's state
+//! buffers) and springs of those tiles go up where the device lacks them: tiles that woke
+//! since, and tiles whose springs a cut changed (the device places the halo at its anchors
+//! itself: `device_watch.rs`); an awake tile's state came back from the device last step and
+//! is not sent again (the bytes are the same: tested). The
 //! substeps run; the awake tiles come back packed (`shaders/membrane_sync.wgsl`). All of it
 //! is one submission and one readback into a buffer kept for it. A tile outside that set is
 //! read by no awake node, so what the device holds for it may lag the CPU until it joins the
@@ -24,10 +26,15 @@ use crate::gpu::compute::{self, bind};
 use crate::gpu::{Gpu, RenderError};
 use bytemuck::Zeroable;
 
+#[path = "device_chain.rs"]
+mod carry;
 #[path = "device_pack.rs"]
 mod pack;
 #[path = "device_sums.rs"]
 mod sums;
+#[cfg(test)]
+#[path = "device_switches.rs"]
+mod switches;
 #[path = "device_watch.rs"]
 mod watch;
 
@@ -91,6 +98,20 @@ impl Slot {
         if let Some(w) = self.on.as_mut().and_then(|d| d.watcher.as_mut()) {
             w.changed(t);
         }
+    }
+
+    /// The chain that places layer 0's targets changed: its bindings go up anew.
+    pub fn chain_changed(&mut self) {
+        if let Some(d) = &mut self.on {
+            d.carrier = None;
+            d.carrier_tried = false;
+        }
+    }
+
+    /// Whether the device places layer 0's targets from the chain's pose itself (the CPU
+    /// places them only where it reads them: see `chain.rs`).
+    pub fn places_targets(&self) -> bool {
+        self.on.as_ref().is_some_and(|d| d.carries())
     }
 
     /// Whether the device places the halo itself (the CPU then leaves it be unless the
@@ -184,8 +205,15 @@ struct OnDevice {
     resend: bool,
     /// Leave the halo to the CPU, as before the device placed it (to compare; tests).
     cpu_places_halo: bool,
-    /// Tiles whose state went up, over the device's life (a test's count).
+    /// Layer 0's targets placed from the chain's pose on the device (`device_chain.rs`),
+    /// once tried; or left to the CPU, as before the device placed them (to compare; tests).
+    carrier: Option<carry::Carrier>,
+    carrier_tried: bool,
+    cpu_places_targets: bool,
+    /// Tiles whose state went up, and tiles whose attachments went up, over the device's
+    /// life (tests' counts).
     tiles_sent: u64,
+    attach_sent: u64,
     /// CPU-side packing buffers, reused.
     up_state: Vec<f32>,
     up_springs: Vec<f32>,
@@ -205,7 +233,9 @@ struct SyncParams {
     state_tiles: u32,
     /// The unpack's first tiles whose springs go up (as many as the state's or fewer).
     springs_tiles: u32,
-    pad: [u32; 2],
+    /// Whether layer 0's attachments went up (1), or the device places the targets (0).
+    attach_sent: u32,
+    pad: u32,
 }
 
 /// The mappable buffer the step's results are read from: `sums` bytes of anchor sums, then
@@ -338,7 +368,11 @@ impl OnDevice {
             all_held: false,
             resend: false,
             cpu_places_halo: false,
+            carrier: None,
+            carrier_tried: false,
+            cpu_places_targets: false,
             tiles_sent: 0,
+            attach_sent: 0,
             up_state: Vec::new(),
             up_springs: Vec::new(),
             up_attach: Vec::new(),
@@ -388,22 +422,33 @@ impl OnDevice {
         self.all_held = true;
     }
 
+    /// Whether this device places layer 0's targets from a chain's pose.
+    fn carries(&self) -> bool {
+        self.watcher.is_some() && !self.cpu_places_targets
+    }
+
     /// Tiles `sync` packed from the CPU and unpacked on the device: the state of the first
-    /// `state_tiles`, the springs of the first `springs_tiles`, layer 0's attachments of all;
-    /// encoded into `encoder`.
+    /// `state_tiles`, the springs of the first `springs_tiles`; layer 0's targets of all,
+    /// placed on the device from the chain's pose where it has one, else their attachments
+    /// from the CPU; encoded into `encoder`.
     fn encode_up(
         &mut self,
         m: &Membrane,
         a: &Activity,
         (sync, state_tiles, springs_tiles): (&[u32], usize, usize),
         encoder: &mut wgpu::CommandEncoder,
-    ) {
+    ) -> Result<(), RenderError> {
         let (rows, cols) = (m.rows, m.cols);
+        let chain = m.chain.as_deref().filter(|c| c.pose > 0 && self.carries());
+        let carry = chain.is_some();
         self.up_state.clear();
         self.up_state
             .resize(state_tiles.max(1) * STATE_PER_TILE, 0.0);
         self.up_attach.clear();
-        self.up_attach.resize(sync.len() * ATTACH_PER_TILE, 0.0);
+        if !carry {
+            self.up_attach.resize(sync.len() * ATTACH_PER_TILE, 0.0);
+            self.attach_sent += sync.len() as u64;
+        }
         self.up_springs.clear();
         let springs = springs_tiles > 0;
         if springs {
@@ -416,7 +461,7 @@ impl OnDevice {
             (sync, state_tiles, springs_tiles),
             (
                 &mut self.up_state,
-                &mut self.up_attach,
+                (!carry).then_some(&mut self.up_attach[..]),
                 &mut self.up_springs,
             ),
         );
@@ -425,11 +470,13 @@ impl OnDevice {
         if state_tiles > 0 {
             q.write_buffer(&self.packed_state, 0, bytemuck::cast_slice(&self.up_state));
         }
-        q.write_buffer(
-            &self.packed_attach,
-            0,
-            bytemuck::cast_slice(&self.up_attach),
-        );
+        if !carry {
+            q.write_buffer(
+                &self.packed_attach,
+                0,
+                bytemuck::cast_slice(&self.up_attach),
+            );
+        }
         if springs {
             q.write_buffer(
                 &self.packed_springs,
@@ -444,12 +491,28 @@ impl OnDevice {
             flag: 0,
             state_tiles: state_tiles as u32,
             springs_tiles: springs_tiles as u32,
-            pad: [0; 2],
+            attach_sent: u32::from(!carry),
+            pad: 0,
         };
         q.write_buffer(&self.sync_params, 0, bytemuck::bytes_of(&params));
         let groups = [sync.len() as u32, LAYERS as u32, 1];
         let unpack = (&self.unpack, &self.unpack_bind);
         one_pass(encoder, "membrane unpack", unpack, groups);
+        // The targets after the unpack, before anything reads them (the halo's placing, the
+        // sums, the substeps).
+        if let Some(c) = chain {
+            let gpu = self.k.gpu().clone();
+            if !self.carrier_tried {
+                self.carrier_tried = true;
+                let at = (rows, cols, self.tiles_c);
+                let carrier = carry::Carrier::new(&gpu, c, at, (&self.k.attach, &self.sync_list))?;
+                self.carrier = Some(carrier);
+            }
+            if let Some(k) = &mut self.carrier {
+                k.encode(&gpu, encoder, c, sync.len());
+            }
+        }
+        Ok(())
     }
 
     /// The active set's substeps on the device: the awake tiles of `a` (and the halo
@@ -515,7 +578,7 @@ impl OnDevice {
         self.springs_changed = false;
         {
             let _up = tracing::debug_span!("membrane_gpu_pack_up", tiles = sync.len()).entered();
-            self.encode_up(m, a, (&sync, state_tiles, springs_tiles), &mut encoder);
+            self.encode_up(m, a, (&sync, state_tiles, springs_tiles), &mut encoder)?;
         }
         // From here the device holds every synced tile as the CPU does (the awake ones come
         // back below), and not necessarily anything else.
@@ -673,29 +736,6 @@ impl Membrane {
             }
             None => false,
         }
-    }
-
-    /// Sends every synced tile's state up at each step, whether the device holds it or not
-    /// (to compare with the steps that send only what the device lacks).
-    #[cfg(test)]
-    pub(crate) fn gpu_resend_every_step(&mut self, on: bool) {
-        if let Some(d) = &mut self.device.on {
-            d.resend = on;
-        }
-    }
-
-    /// Leaves the halo's placing to the CPU, as before the device placed it.
-    #[cfg(test)]
-    pub(crate) fn gpu_place_halo_on_cpu(&mut self, on: bool) {
-        if let Some(d) = &mut self.device.on {
-            d.cpu_places_halo = on;
-        }
-    }
-
-    /// Tiles whose state went up to the device so far (none on the CPU).
-    #[cfg(test)]
-    pub(crate) fn gpu_tiles_sent(&self) -> Option<u64> {
-        self.device.on.as_ref().map(|d| d.tiles_sent)
     }
 
     /// Why the device was given up, once (the model reports it as an event).

@@ -5,11 +5,10 @@ use super::super::active::{Activity, TILE_COLS, TILE_ROWS};
 use super::super::{LAYERS, Membrane, field};
 use super::{ATTACH_PER_TILE, SPRINGS_PER_TILE, STATE_PER_TILE, TILE};
 
-/// A tile to pack, and its records: its attachments, and its state and springs where they go
-/// up.
+/// A tile to pack, and its records where they go up: its attachments, state and springs.
 type PackJob<'a> = (
     usize,
-    &'a mut [f32],
+    Option<&'a mut [f32]>,
     Option<&'a mut [f32]>,
     Option<&'a mut [f32]>,
 );
@@ -17,22 +16,24 @@ type PackJob<'a> = (
 /// The tiles `sync` packed for the device, each into its own records (in parallel where
 /// the tiles are many; each value is written once, so the bytes are the same): the state of
 /// the first `state_tiles` into `state`, the springs of the first `springs_tiles` into
-/// `springs`, layer 0's attachments of all into `attach` (each sized for them).
+/// `springs`, layer 0's attachments of all into `attach` where they go up (each sized for
+/// them).
 pub(super) fn pack(
     m: &Membrane,
     a: &Activity,
     (sync, state_tiles, springs_tiles): (&[u32], usize, usize),
-    (state, attach, springs): (&mut [f32], &mut [f32], &mut [f32]),
+    (state, attach, springs): (&mut [f32], Option<&mut [f32]>, &mut [f32]),
 ) {
     use rayon::prelude::*;
     let (rows, cols) = (m.rows, m.cols);
     let mut state = state.chunks_mut(STATE_PER_TILE);
     let mut springs = springs.chunks_mut(SPRINGS_PER_TILE);
+    let mut attach = attach.map(|at| at.chunks_mut(ATTACH_PER_TILE));
     let jobs: Vec<_> = sync
         .iter()
-        .zip(attach.chunks_mut(ATTACH_PER_TILE))
         .enumerate()
-        .map(|(r, (&t, at))| {
+        .map(|(r, &t)| {
+            let at = attach.as_mut().and_then(Iterator::next);
             let st = if r < state_tiles { state.next() } else { None };
             let sp = if r < springs_tiles {
                 springs.next()
@@ -41,8 +42,9 @@ pub(super) fn pack(
             };
             (t as usize, at, st, sp)
         })
+        .filter(|(_, at, st, sp)| at.is_some() || st.is_some() || sp.is_some())
         .collect();
-    let one = |(t, at, mut st, mut sp): PackJob| {
+    let one = |(t, mut at, mut st, mut sp): PackJob| {
         let (ti, tj) = (t / a.tiles_c, t % a.tiles_c);
         for di in 0..TILE_ROWS {
             let i = ti * TILE_ROWS + di;
@@ -53,8 +55,10 @@ pub(super) fn pack(
             let w = TILE_COLS.min(cols.saturating_sub(j0));
             for dj in 0..w {
                 let (j, n) = (j0 + dj, di * TILE_COLS + dj);
-                for c in 0..4 {
-                    at[n * 4 + c] = m.attach[(i * 4 + c) * cols + j];
+                if let Some(at) = at.as_deref_mut() {
+                    for c in 0..4 {
+                        at[n * 4 + c] = m.attach[(i * 4 + c) * cols + j];
+                    }
                 }
             }
             for l in 0..LAYERS {

@@ -5,7 +5,7 @@ use super::gpu::{self, MembraneGpu};
 use super::*;
 use crate::gpu::Gpu;
 
-fn device() -> Gpu {
+pub(super) fn device() -> Gpu {
     Gpu::headless(false).expect("a Vulkan adapter (CI installs mesa-vulkan-drivers)")
 }
 
@@ -124,7 +124,7 @@ fn a_cut_uploaded_to_the_gpu_frees_the_tissue_as_on_the_cpu() {
 
 /// The sleepy tube of the active set's tests at a third of its length: the same 0.25 mm
 /// spacing, 6 x 4 tiles.
-fn sleepy(rows: usize, cols: usize) -> Membrane {
+pub(super) fn sleepy(rows: usize, cols: usize) -> Membrane {
     let mut p = super::tests::params(Integrator::Symplectic);
     p.gravity = Vec3::ZERO;
     p.spring_damping_ratio = 0.5;
@@ -139,7 +139,7 @@ fn sleepy(rows: usize, cols: usize) -> Membrane {
 
 /// Step `k` of a session on `m`: a tool near layer 1's node at row 24, column 32 pulls it
 /// along the tube for 40 steps (waking the tiles around it), then lets go.
-fn session_step(m: &mut Membrane, k: usize, out: &mut crate::sim::ModelOutput) {
+pub(super) fn session_step(m: &mut Membrane, k: usize, out: &mut crate::sim::ModelOutput) {
     let node = m.node(1, 24, 32);
     if k < 40 {
         let p = m.position(node);
@@ -175,7 +175,7 @@ fn on_both() -> (Gpu, Membrane, Membrane, Membrane) {
     (gpu, start, cpu, dev)
 }
 
-fn awake_tiles(m: &Membrane) -> Vec<usize> {
+pub(super) fn awake_tiles(m: &Membrane) -> Vec<usize> {
     let (tr, tc) = m.tiles();
     (0..tr * tc).filter(|&t| m.tile_awake(t)).collect()
 }

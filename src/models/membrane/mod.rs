@@ -31,6 +31,9 @@ mod anchors;
 mod block;
 #[cfg(test)]
 mod block_tests;
+mod chain;
+#[cfg(test)]
+mod chain_tests;
 mod cuts;
 mod device;
 mod forces;
@@ -50,6 +53,7 @@ use glam::Vec3;
 
 pub use active::{ActivityParams, TILE_COLS, TILE_ROWS};
 pub use anchor_sums::AnchorSum;
+pub use chain::{ChainBinding, frames as chain_frames};
 
 /// Layers in the membrane.
 pub const LAYERS: usize = 4;
@@ -163,6 +167,10 @@ pub enum MembraneError {
     BadParameter { what: &'static str, value: f32 },
     #[error("anchor group member {member}: {why}")]
     BadGroup { member: usize, why: String },
+    #[error("layer-0 node {node}'s binding to the chain: {why}")]
+    BadBinding { node: usize, why: String },
+    #[error("the chain's pose: {0}")]
+    BadPose(String),
 }
 
 /// The state in row blocks: for layer `l` and row `i` (block `b = l * rows + i`), the row's
@@ -238,6 +246,8 @@ pub struct Membrane {
     anchor_groups: Option<Box<anchor_sums::AnchorGroups>>,
     anchor_sums: Vec<AnchorSum>,
     load_scratch: Vec<(u32, u32, Vec3)>,
+    /// Layer 0's nodes bound to a chain whose pose places their targets (`chain.rs`).
+    chain: Option<Box<chain::Chain>>,
 }
 
 impl Membrane {
@@ -310,6 +320,7 @@ impl Membrane {
             anchor_groups: None,
             anchor_sums: Vec::new(),
             load_scratch: Vec::new(),
+            chain: None,
         };
         // Each node's share of its layer's area: a quarter of each cell around it, the cell
         // spanned by its neighbours along and around (half a spring each way).
@@ -620,6 +631,11 @@ impl Membrane {
         let n = self.substeps_for(dt, safety);
         let all = self.activity.as_ref().is_none_or(|a| a.all_awake);
         if all {
+            // Every tile steps here or goes up from here: its targets on the CPU.
+            let a = self.activity.take();
+            let tiles: Vec<usize> = (0..a.as_ref().map_or(1, |a| a.awake.len())).collect();
+            chain::place(self, a.as_ref(), &tiles);
+            self.activity = a;
             if self.anchor_groups.is_some() {
                 forces::sort_external(&mut self.external);
                 let whole = [([0, self.rows], [0, self.cols])];

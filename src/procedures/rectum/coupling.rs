@@ -3,9 +3,10 @@
 //!
 //! Before the rod steps: the graspers hold (or take, or let go of) the rectum's surface and
 //! the hook presses the rod's bounding spheres. Before the membrane steps: the tiles near
-//! each instrument wake, the skin places layer 0's targets from the rod's new pose where the
-//! membrane's step needs them, the hook presses the awake nodes and, with its current on,
-//! cuts the dissection plane and the alarms are raised. The membrane sums its load on layer
+//! each instrument wake, the rod's new pose goes to the membrane (whose chain, the skin's
+//! bindings, places layer 0's targets from it where its step needs them), the hook presses
+//! the awake nodes and, with its current on, cuts the dissection plane and the alarms are
+//! raised. The membrane sums its load on layer
 //! 0 by the rod's element each node is bound to, at the start of its step (what the rod's
 //! present pose asks of it); before the next rod step the sums load the rod.
 
@@ -15,16 +16,18 @@ use super::scene::{
     ALARM_RECTAL_WALL, MEMBRANE, ROD, RectumModel, SceneParams, StepOutcome, ToolState,
 };
 use crate::collision::{Instrument, PointCloud, ToolContact, VertexAreas, penalty_forces};
-use crate::models::cosserat::skin::{Selection, Skin};
+use crate::models::cosserat::skin::{RodPose, Skin};
 use crate::models::cosserat::skinned::SkinnedRod;
-use crate::models::membrane::{LAYERS, Membrane, MembraneError};
+use crate::models::membrane::{ChainBinding, LAYERS, Membrane, MembraneError};
 use crate::sim::{Couplings, EventKind, Models, Phase};
 use glam::Vec3;
 
 /// The skin, the regions and what the couplings keep between steps.
 pub(super) struct Joints {
     params: SceneParams,
-    /// Layer 0's nodes bound to the rod.
+    /// Layer 0's nodes bound to the rod (the membrane holds their bindings; tests read them
+    /// here).
+    #[cfg(test)]
     pub(super) skin: Skin,
     /// Each node's area, m^2 (mass over density and thickness).
     area: Vec<f32>,
@@ -52,7 +55,6 @@ pub(super) struct Joints {
     areas: Vec<f32>,
     pub(super) contacts: Vec<ToolContact>,
     forces: Vec<(u32, Vec3)>,
-    targets: Vec<Vec3>,
     /// Each rod element's point, about which the membrane takes the moments of its loads
     /// (the element's middle at rest), m.
     about: Vec<Vec3>,
@@ -98,8 +100,26 @@ impl Joints {
             })
             .collect();
         membrane.group_anchor_loads(&members, &about)?;
+        // The skin's bindings place layer 0's targets from the rod's pose, in the membrane
+        // (on its device where it has one).
+        let bound = (0..rows * cols)
+            .map(|n| {
+                let (segment, t, pair, w, offset) =
+                    skin.frame_binding(n)
+                        .unwrap_or((0, 0.0, 0, 0.0, Vec3::ZERO));
+                ChainBinding {
+                    segment,
+                    t,
+                    pair,
+                    w,
+                    offset,
+                }
+            })
+            .collect();
+        membrane.bind_targets(bound, skin.elements())?;
         Ok(Joints {
             params,
+            #[cfg(test)]
             skin,
             area,
             regions,
@@ -124,7 +144,6 @@ impl Joints {
             areas: Vec::new(),
             contacts: Vec::new(),
             forces: Vec::new(),
-            targets: Vec::new(),
             about,
             tiles: Vec::new(),
         })
@@ -172,10 +191,9 @@ impl Joints {
             }
         }
         membrane.wake_near(&boxes);
-        let needed = membrane.tiles_needing_targets(false);
         {
-            let _span = tracing::debug_span!("rectum_targets", tiles = needed.len()).entered();
-            self.place_targets(rod, membrane, &needed);
+            let _span = tracing::debug_span!("rectum_targets").entered();
+            Self::pose_targets(rod, membrane);
         }
         self.touched_now = 0;
         self.on_wall = false;
@@ -217,31 +235,13 @@ impl Joints {
         self.cutting_wall = cutting_wall;
     }
 
-    /// Sets layer 0's targets on tiles `tiles` from the rod's skin.
-    pub(super) fn place_targets(
-        &mut self,
-        rod: &SkinnedRod,
-        membrane: &mut Membrane,
-        tiles: &[usize],
-    ) {
-        let cols = membrane.cols();
-        self.nodes.clear();
-        for &t in tiles {
-            let ([r0, r1], [c0, c1]) = membrane.tile_span(t);
-            for i in r0..r1 {
-                self.nodes.extend((c0..c1).map(|j| (i * cols + j) as u32));
-            }
-        }
-        self.targets.resize(self.nodes.len(), Vec3::ZERO);
-        if self
-            .skin
-            .place(rod, Selection::List(&self.nodes), &mut self.targets)
-            .is_ok()
-        {
-            for (&k, &p) in self.nodes.iter().zip(&self.targets) {
-                let k = k as usize;
-                membrane.set_target(k / cols, k % cols, p);
-            }
+    /// Hands the rod's pose to the membrane, whose chain (the skin's bindings) places layer
+    /// 0's targets from it where its step needs them. A pose that is not finite leaves the
+    /// last one in place (the rod's quarantine deals with it).
+    pub(super) fn pose_targets(rod: &SkinnedRod, membrane: &mut Membrane) {
+        let pose = RodPose::of(rod.rod());
+        if let Err(e) = membrane.pose_targets(pose.positions, &Skin::frames(pose)) {
+            tracing::debug!("the rectum's targets keep their last pose: {e}");
         }
     }
 

@@ -250,13 +250,12 @@ impl RectumScene {
 
     /// Every node where the rod carries it now (before drawing the whole membrane).
     pub fn place_everything(&mut self) {
-        let (tr, tc) = self.membrane().tiles();
-        let all: Vec<usize> = (0..tr * tc).collect();
         let mut models = self.world.coupled();
         if let (Some(RectumModel::Membrane(m)), Some(RectumModel::Rod(r))) =
             models.write_read(MEMBRANE, ROD)
         {
-            self.joints.place_targets(r, m, &all);
+            Joints::pose_targets(r, m);
+            m.place_all_targets();
             m.place_sleeping();
         }
     }

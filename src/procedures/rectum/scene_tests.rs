@@ -311,3 +311,41 @@ fn the_broad_phase_finds_what_testing_every_node_finds() {
         );
     }
 }
+
+#[test]
+fn the_membrane_holds_layer_zero_where_the_skin_places_it_on_the_bent_rod() {
+    // The membrane places layer 0's targets from the rod's pose with the skin's bindings
+    // (`Membrane::pose_targets`): after a lift has bent the rod, every target is where the
+    // skin itself places its node, to the bit.
+    use crate::models::cosserat::skin::Selection;
+    let mut s = scene();
+    let mid = s.membrane().rows() / 2;
+    let top = s.membrane().position(s.membrane().node(0, mid, 0));
+    for k in 0..120 {
+        let lift = 0.004 * (k as f32 / 119.0);
+        let tools = ToolState {
+            hook: None,
+            cutting: false,
+            grasper: Some((top + Vec3::Y * lift, from_above(), true)),
+            grasper_right: None,
+        };
+        s.step(1e-3, &tools, 0, &mut Vec::new());
+    }
+    s.place_everything();
+    let m = s.membrane();
+    let mut placed = vec![Vec3::ZERO; m.rows() * m.cols()];
+    s.joints
+        .skin
+        .place(s.rod(), Selection::All, &mut placed)
+        .expect("the skin places every node");
+    let mut differ = 0;
+    for (k, p) in placed.iter().enumerate() {
+        let (target, _) = m
+            .anchor_pull(k / m.cols(), k % m.cols())
+            .expect("in the grid");
+        differ += usize::from(target != *p);
+    }
+    assert_eq!(differ, 0, "{differ} of {} targets differ", placed.len());
+    let bent = (placed[m.cols() * mid] - top).y;
+    assert!(bent > 0.002, "the rod rose {bent} m under the grasp");
+}
