@@ -4,7 +4,8 @@
 // `substep_tiles` (`shaders/membrane.wgsl`), whose row-block layouts these are.
 //
 // Packed, record `r` (the list's `r`th tile), layer `l`, node `n = li` of the tile:
-// - state: `((r * 4 + l) * 128 + n) * 6 + c`, c = position x, y, z, velocity x, y, z;
+// - state going up: `((r * 4 + l) * 128 + n) * 6 + c`, c = position x, y, z, velocity x, y, z
+//   (coming back, by runs of tiles: see `places`);
 // - springs: `((r * 4 + l) * 128 + n) * 9 + f`, the nine fields of a node;
 // - attach (layer 0 only): `(r * 128 + n) * 4 + c`, c = stiffness, target x, y, z.
 
@@ -39,6 +40,11 @@ const FIELDS: u32 = 9u;
 @group(0) @binding(6) var<storage, read_write> packed_state: array<f32>;
 @group(0) @binding(7) var<storage, read_write> packed_springs: array<f32>;
 @group(0) @binding(8) var<storage, read_write> packed_attach: array<f32>;
+// Pack: each listed tile's place in the run of awake tiles side by side in its row of tiles
+// (`device_pack.rs`): the run's first value, its width in columns, the tile's first column in
+// it. A run packs layer by layer, row by row, value by value, a stretch of its width each, so
+// that the CPU copies each stretch whole into its row.
+@group(0) @binding(9) var<storage, read> places: array<vec4<u32>>;
 
 // Node `li` of layer `wg.y` of the list's tile `wg.x`: its row block, its column and its
 // place in the packed buffers; the block is OUTSIDE where the node lies beyond the grid.
@@ -84,15 +90,19 @@ fn unpack(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index)
     }
 }
 
-// The tiles' state from state buffer a (b with `flag`) into the packed buffer.
+// The listed tiles' state from state buffer a (b with `flag`) into the packed buffer, each at
+// its place in its run (`places`).
 @compute @workgroup_size(128, 1, 1)
 fn pack(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let k = node_of(wg, li);
     if (k.x == OUTSIDE) {
         return;
     }
+    let p = places[wg.x];
+    let row = wg.y * TILE_ROWS + li / TILE_COLS;
+    let col = p.z + li % TILE_COLS;
     for (var c = 0u; c < 6u; c++) {
         let at = (k.x * 6u + c) * s.cols + k.y;
-        packed_state[k.z * 6u + c] = select(state_a[at], state_b[at], s.flag != 0u);
+        packed_state[p.x + (row * 6u + c) * p.y + col] = select(state_a[at], state_b[at], s.flag != 0u);
     }
 }

@@ -169,7 +169,8 @@ pub(crate) fn map_read(
 }
 
 /// Maps a `MAP_READ` buffer once what was submitted before has run, hands its first `bytes`
-/// bytes to `read` (no copy) and unmaps it.
+/// bytes to `read` (no copy) and unmaps it. An error the device reported meanwhile is
+/// returned instead, before anything is read.
 pub(crate) fn with_mapped<R>(
     gpu: &Gpu,
     staging: &wgpu::Buffer,
@@ -188,6 +189,10 @@ pub(crate) fn with_mapped<R>(
     rx.recv()
         .map_err(|e| RenderError::Readback(e.to_string()))?
         .map_err(|e| RenderError::Readback(e.to_string()))?;
+    if let Err(e) = gpu.check() {
+        staging.unmap();
+        return Err(e);
+    }
     let out = {
         let view = staging
             .slice(..bytes)

@@ -38,7 +38,7 @@ mod switches;
 #[path = "device_watch.rs"]
 mod watch;
 
-use pack::{pack, unpack};
+use pack::{Run, run_places, unpack};
 
 const SYNC_SHADER: &str = include_str!("../../../shaders/membrane_sync.wgsl");
 /// Nodes of a tile in one layer (the kernels' workgroup).
@@ -187,6 +187,11 @@ struct OnDevice {
     packed_state: wgpu::Buffer,
     packed_springs: wgpu::Buffer,
     packed_attach: wgpu::Buffer,
+    /// Each awake tile's place in the packed state coming back (`device_pack.rs`), and the
+    /// runs of tiles it packs by (made each step, the buffers reused).
+    pack_places: wgpu::Buffer,
+    places: Vec<[u32; 4]>,
+    runs: Vec<Run>,
     unpack_bind: wgpu::BindGroup,
     pack_bind: wgpu::BindGroup,
     tiles_c: u32,
@@ -300,6 +305,7 @@ impl OnDevice {
             "membrane packed attachments",
             &zeros(tiles * ATTACH_PER_TILE),
         )?;
+        let pack_places = compute::storage(gpu, "membrane packed places", &zeros(tiles * 4))?;
         let zero = SyncParams::zeroed();
         let sync_params =
             compute::uniform(gpu, "membrane unpack params", bytemuck::bytes_of(&zero));
@@ -337,6 +343,7 @@ impl OnDevice {
                 (2, b),
                 (5, &awake_list),
                 (6, &packed_state),
+                (9, &pack_places),
             ],
         );
         gpu.check()?;
@@ -359,6 +366,9 @@ impl OnDevice {
             packed_state,
             packed_springs,
             packed_attach,
+            pack_places,
+            places: Vec::new(),
+            runs: Vec::new(),
             unpack_bind,
             pack_bind,
             springs_changed: false,
@@ -425,94 +435,6 @@ impl OnDevice {
     /// Whether this device places layer 0's targets from a chain's pose.
     fn carries(&self) -> bool {
         self.watcher.is_some() && !self.cpu_places_targets
-    }
-
-    /// Tiles `sync` packed from the CPU and unpacked on the device: the state of the first
-    /// `state_tiles`, the springs of the first `springs_tiles`; layer 0's targets of all,
-    /// placed on the device from the chain's pose where it has one, else their attachments
-    /// from the CPU; encoded into `encoder`.
-    fn encode_up(
-        &mut self,
-        m: &Membrane,
-        a: &Activity,
-        (sync, state_tiles, springs_tiles): (&[u32], usize, usize),
-        encoder: &mut wgpu::CommandEncoder,
-    ) -> Result<(), RenderError> {
-        let (rows, cols) = (m.rows, m.cols);
-        let chain = m.chain.as_deref().filter(|c| c.pose > 0 && self.carries());
-        let carry = chain.is_some();
-        self.up_state.clear();
-        self.up_state
-            .resize(state_tiles.max(1) * STATE_PER_TILE, 0.0);
-        self.up_attach.clear();
-        if !carry {
-            self.up_attach.resize(sync.len() * ATTACH_PER_TILE, 0.0);
-            self.attach_sent += sync.len() as u64;
-        }
-        self.up_springs.clear();
-        let springs = springs_tiles > 0;
-        if springs {
-            self.up_springs
-                .resize(springs_tiles * SPRINGS_PER_TILE, 0.0);
-        }
-        pack(
-            m,
-            a,
-            (sync, state_tiles, springs_tiles),
-            (
-                &mut self.up_state,
-                (!carry).then_some(&mut self.up_attach[..]),
-                &mut self.up_springs,
-            ),
-        );
-        let q = &self.k.gpu().queue;
-        q.write_buffer(&self.sync_list, 0, bytemuck::cast_slice(sync));
-        if state_tiles > 0 {
-            q.write_buffer(&self.packed_state, 0, bytemuck::cast_slice(&self.up_state));
-        }
-        if !carry {
-            q.write_buffer(
-                &self.packed_attach,
-                0,
-                bytemuck::cast_slice(&self.up_attach),
-            );
-        }
-        if springs {
-            q.write_buffer(
-                &self.packed_springs,
-                0,
-                bytemuck::cast_slice(&self.up_springs),
-            );
-        }
-        let params = SyncParams {
-            rows: rows as u32,
-            cols: cols as u32,
-            tiles_c: self.tiles_c,
-            flag: 0,
-            state_tiles: state_tiles as u32,
-            springs_tiles: springs_tiles as u32,
-            attach_sent: u32::from(!carry),
-            pad: 0,
-        };
-        q.write_buffer(&self.sync_params, 0, bytemuck::bytes_of(&params));
-        let groups = [sync.len() as u32, LAYERS as u32, 1];
-        let unpack = (&self.unpack, &self.unpack_bind);
-        one_pass(encoder, "membrane unpack", unpack, groups);
-        // The targets after the unpack, before anything reads them (the halo's placing, the
-        // sums, the substeps).
-        if let Some(c) = chain {
-            let gpu = self.k.gpu().clone();
-            if !self.carrier_tried {
-                self.carrier_tried = true;
-                let at = (rows, cols, self.tiles_c);
-                let carrier = carry::Carrier::new(&gpu, c, at, (&self.k.attach, &self.sync_list))?;
-                self.carrier = Some(carrier);
-            }
-            if let Some(k) = &mut self.carrier {
-                k.encode(&gpu, encoder, c, sync.len());
-            }
-        }
-        Ok(())
     }
 
     /// The active set's substeps on the device: the awake tiles of `a` (and the halo
@@ -637,6 +559,9 @@ impl OnDevice {
         };
         gpu.queue
             .write_buffer(&self.pack_params, 0, bytemuck::bytes_of(&params));
+        let floats = run_places(m, a, &mut self.runs, &mut self.places);
+        gpu.queue
+            .write_buffer(&self.pack_places, 0, bytemuck::cast_slice(&self.places));
         let groups = [awake.len() as u32, LAYERS as u32, 1];
         one_pass(
             &mut encoder,
@@ -653,23 +578,33 @@ impl OnDevice {
             }
             None => None,
         };
-        let bytes = (awake.len() * STATE_PER_TILE * 4) as u64;
+        let bytes = (floats * 4) as u64;
         let at = self.sums_bytes + measured.unwrap_or(0);
         encoder.copy_buffer_to_buffer(&self.packed_state, 0, &self.readback, at, bytes);
         gpu.queue.submit([encoder.finish()]);
-        let raw = {
-            let _wait = tracing::debug_span!("membrane_gpu_readback", bytes).entered();
-            compute::map_read(&gpu, &self.readback, at + bytes)?
-        };
-        gpu.check()?;
-        let (sums, rest) = raw.split_at(self.sums_bytes as usize);
-        let (measures, state) = rest.split_at(measured.unwrap_or(0) as usize);
-        if let Some(s) = &self.sums {
-            m.anchor_sums = s.read(sums);
-        }
-        let _unpack = tracing::debug_span!("membrane_gpu_unpack", tiles = awake.len()).entered();
-        unpack(m, a, bytemuck::cast_slice(state));
-        Ok(measured.map(|_| watch::Watcher::read(measures)))
+        // Read where the device left it (no copy), once the device reported no error.
+        let (sums_bytes, runs) = (self.sums_bytes as usize, &self.runs);
+        let sums = self.sums.as_ref();
+        let wait = tracing::debug_span!("membrane_gpu_readback", bytes).entered();
+        let measures = compute::with_mapped(&gpu, &self.readback, at + bytes, |raw| {
+            drop(wait);
+            let (s, rest) = raw.split_at(sums_bytes);
+            let (measures, state) = rest.split_at(measured.unwrap_or(0) as usize);
+            if let Some(sums_of) = sums {
+                m.anchor_sums = sums_of.read(s);
+            }
+            let _unpack =
+                tracing::debug_span!("membrane_gpu_unpack", tiles = awake.len()).entered();
+            match bytemuck::try_cast_slice::<u8, f32>(state) {
+                Ok(v) => unpack(m, a, runs, v),
+                Err(_) => {
+                    let v: Vec<f32> = bytemuck::pod_collect_to_vec(state);
+                    unpack(m, a, runs, &v);
+                }
+            }
+            measured.map(|_| watch::Watcher::read(measures))
+        })?;
+        Ok(measures)
     }
 
     /// The anchor sums' kernel, the first time the membrane has groups (and the readback

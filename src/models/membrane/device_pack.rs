@@ -1,9 +1,13 @@
 //! The active set's tiles between the CPU's row blocks and the packed records the device
-//! unpacks and packs (`shaders/membrane_sync.wgsl`).
+//! unpacks and packs (`shaders/membrane_sync.wgsl`): the tiles going up tile by tile, the
+//! awake tiles coming back by runs of tiles side by side, and the pass that sends them up.
 
 use super::super::active::{Activity, TILE_COLS, TILE_ROWS};
 use super::super::{LAYERS, Membrane, field};
-use super::{ATTACH_PER_TILE, SPRINGS_PER_TILE, STATE_PER_TILE, TILE};
+use super::{
+    ATTACH_PER_TILE, OnDevice, SPRINGS_PER_TILE, STATE_PER_TILE, SyncParams, TILE, carry, one_pass,
+};
+use crate::gpu::RenderError;
 
 /// A tile to pack, and its records where they go up: its attachments, state and springs.
 type PackJob<'a> = (
@@ -89,27 +93,80 @@ pub(super) fn pack(
     }
 }
 
-/// The awake tiles' state read back (`packed`: each awake tile of `a.list` in turn, by layer,
-/// node and value) into `m`'s rows: row by row of the grid, each on its own (in parallel
-/// where the tiles are many; every value is written once, so the bytes are the same).
-pub(super) fn unpack(m: &mut Membrane, a: &Activity, packed: &[f32]) {
+/// Awake tiles side by side in a row of tiles, packed together coming back: the row of tiles,
+/// the columns `[c0, c1)`, and where its values start in the packed buffer.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Run {
+    tile_row: usize,
+    cols: [usize; 2],
+    base: usize,
+}
+
+/// The runs of the awake tiles `a.list` (ascending), into `runs`, and each tile's place as the
+/// pack kernel reads it (the run's first value, its width, the tile's first column in it),
+/// into `places`. Returns the values the runs take: a run packs layer by layer, row by row
+/// (`TILE_ROWS` a layer, beyond the grid's last row too) and value by value, a stretch of its
+/// width each.
+pub(super) fn run_places(
+    m: &Membrane,
+    a: &Activity,
+    runs: &mut Vec<Run>,
+    places: &mut Vec<[u32; 4]>,
+) -> usize {
+    let (rows, cols) = (m.rows, m.cols);
+    runs.clear();
+    let mut of = Vec::with_capacity(a.list.len());
+    for &t in &a.list {
+        let t = t as usize;
+        let (_, [c0, c1]) = a.span(t, rows, cols);
+        let tile_row = t / a.tiles_c;
+        match runs.last_mut() {
+            Some(r) if r.tile_row == tile_row && r.cols[1] == c0 => r.cols[1] = c1,
+            _ => runs.push(Run {
+                tile_row,
+                cols: [c0, c1],
+                base: 0,
+            }),
+        }
+        of.push((runs.len() - 1, c0));
+    }
+    let mut at = 0;
+    for r in runs.iter_mut() {
+        r.base = at;
+        at += LAYERS * TILE_ROWS * 6 * (r.cols[1] - r.cols[0]);
+    }
+    places.clear();
+    places.extend(of.into_iter().map(|(k, c0)| {
+        let r = &runs[k];
+        [
+            r.base as u32,
+            (r.cols[1] - r.cols[0]) as u32,
+            (c0 - r.cols[0]) as u32,
+            0,
+        ]
+    }));
+    at
+}
+
+/// The awake tiles' state read back by runs (`packed`; see [`run_places`]) into `m`'s rows:
+/// each stretch copied whole into its row, row by row of the grid (in parallel where the
+/// tiles are many; every value is written once, so the bytes are the same).
+pub(super) fn unpack(m: &mut Membrane, a: &Activity, runs: &[Run], packed: &[f32]) {
     use rayon::prelude::*;
     let (rows, cols) = (m.rows, m.cols);
-    // The device takes only tiles of TILE_ROWS x TILE_COLS (`OnDevice::new`).
-    let by_row = a.by_tile_row(a.list.iter().map(|&t| t as usize));
     let one = |(b, x): (usize, &mut [f32])| {
         let (l, i) = (b / rows, b % rows);
-        let di = i % TILE_ROWS;
-        for &(r, t) in by_row.of(i) {
-            let j0 = (t % a.tiles_c) * TILE_COLS;
-            for j in j0..(j0 + TILE_COLS).min(cols) {
-                let from = ((r * LAYERS + l) * TILE + di * TILE_COLS + (j - j0)) * 6;
-                let Some(v) = packed.get(from..from + 6) else {
+        let (ti, di) = (i / TILE_ROWS, i % TILE_ROWS);
+        let first = runs.partition_point(|r| r.tile_row < ti);
+        for r in runs[first..].iter().take_while(|r| r.tile_row == ti) {
+            let [c0, c1] = r.cols;
+            let w = c1 - c0;
+            for c in 0..6 {
+                let from = r.base + ((l * TILE_ROWS + di) * 6 + c) * w;
+                let Some(v) = packed.get(from..from + w) else {
                     return;
                 };
-                for (c, &v) in v.iter().enumerate() {
-                    x[c * cols + j] = v;
-                }
+                x[c * cols + c0..c * cols + c1].copy_from_slice(v);
             }
         }
     };
@@ -119,5 +176,95 @@ pub(super) fn unpack(m: &mut Membrane, a: &Activity, packed: &[f32]) {
         data.par_chunks_mut(6 * cols).enumerate().for_each(one);
     } else {
         data.chunks_mut(6 * cols).enumerate().for_each(one);
+    }
+}
+
+impl OnDevice {
+    /// Tiles `sync` packed from the CPU and unpacked on the device: the state of the first
+    /// `state_tiles`, the springs of the first `springs_tiles`; layer 0's targets of all,
+    /// placed on the device from the chain's pose where it has one, else their attachments
+    /// from the CPU; encoded into `encoder`.
+    pub(super) fn encode_up(
+        &mut self,
+        m: &Membrane,
+        a: &Activity,
+        (sync, state_tiles, springs_tiles): (&[u32], usize, usize),
+        encoder: &mut wgpu::CommandEncoder,
+    ) -> Result<(), RenderError> {
+        let (rows, cols) = (m.rows, m.cols);
+        let chain = m.chain.as_deref().filter(|c| c.pose > 0 && self.carries());
+        let carry = chain.is_some();
+        self.up_state.clear();
+        self.up_state
+            .resize(state_tiles.max(1) * STATE_PER_TILE, 0.0);
+        self.up_attach.clear();
+        if !carry {
+            self.up_attach.resize(sync.len() * ATTACH_PER_TILE, 0.0);
+            self.attach_sent += sync.len() as u64;
+        }
+        self.up_springs.clear();
+        let springs = springs_tiles > 0;
+        if springs {
+            self.up_springs
+                .resize(springs_tiles * SPRINGS_PER_TILE, 0.0);
+        }
+        pack(
+            m,
+            a,
+            (sync, state_tiles, springs_tiles),
+            (
+                &mut self.up_state,
+                (!carry).then_some(&mut self.up_attach[..]),
+                &mut self.up_springs,
+            ),
+        );
+        let q = &self.k.gpu().queue;
+        q.write_buffer(&self.sync_list, 0, bytemuck::cast_slice(sync));
+        if state_tiles > 0 {
+            q.write_buffer(&self.packed_state, 0, bytemuck::cast_slice(&self.up_state));
+        }
+        if !carry {
+            q.write_buffer(
+                &self.packed_attach,
+                0,
+                bytemuck::cast_slice(&self.up_attach),
+            );
+        }
+        if springs {
+            q.write_buffer(
+                &self.packed_springs,
+                0,
+                bytemuck::cast_slice(&self.up_springs),
+            );
+        }
+        let params = SyncParams {
+            rows: rows as u32,
+            cols: cols as u32,
+            tiles_c: self.tiles_c,
+            flag: 0,
+            state_tiles: state_tiles as u32,
+            springs_tiles: springs_tiles as u32,
+            attach_sent: u32::from(!carry),
+            pad: 0,
+        };
+        q.write_buffer(&self.sync_params, 0, bytemuck::bytes_of(&params));
+        let groups = [sync.len() as u32, LAYERS as u32, 1];
+        let unpack = (&self.unpack, &self.unpack_bind);
+        one_pass(encoder, "membrane unpack", unpack, groups);
+        // The targets after the unpack, before anything reads them (the halo's placing, the
+        // sums, the substeps).
+        if let Some(c) = chain {
+            let gpu = self.k.gpu().clone();
+            if !self.carrier_tried {
+                self.carrier_tried = true;
+                let at = (rows, cols, self.tiles_c);
+                let carrier = carry::Carrier::new(&gpu, c, at, (&self.k.attach, &self.sync_list))?;
+                self.carrier = Some(carrier);
+            }
+            if let Some(k) = &mut self.carrier {
+                k.encode(&gpu, encoder, c, sync.len());
+            }
+        }
+        Ok(())
     }
 }

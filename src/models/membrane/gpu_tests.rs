@@ -429,3 +429,42 @@ fn sleeping_tiles_are_drawn_where_their_anchors_carry_them_though_the_device_pla
         "drawn {drawn:e} m from where the CPU placed it"
     );
 }
+
+#[test]
+fn tiles_cut_short_by_the_grid_come_back_by_runs_as_the_cpu_steps_them() {
+    // 45 x 72 nodes: the last row of tiles holds 5 rows, the last column of tiles 8
+    // columns. A tool pulls in that corner and the tiles round it wake; they come back in
+    // runs of tiles side by side, the narrow ones among them, each stretch copied into its
+    // row. The same tiles wake and sleep as on the CPU, the displacements within float
+    // rounding of the largest.
+    let gpu = device();
+    let start = sleepy(45, 72);
+    let (mut cpu, mut dev) = (start.clone(), start.clone());
+    dev.use_gpu(&gpu).expect("uploads");
+    let node = start.node(1, 42, 68);
+    let mut out = crate::sim::ModelOutput::default();
+    let (mut most, mut side_by_side) = (0, false);
+    for k in 0..60 {
+        for m in [&mut cpu, &mut dev] {
+            if k < 40 {
+                let p = m.position(node);
+                m.wake_near(&[(p - Vec3::splat(1e-3), p + Vec3::splat(1e-3))]);
+                m.add_force(node, Vec3::X * 2e-4);
+            }
+            out.clear();
+            crate::sim::TissueModel::step(m, 1e-3, &[], &mut out);
+            assert!(out.events.is_empty(), "{:?}", out.events);
+        }
+        let awake = awake_tiles(&dev);
+        assert_eq!(awake, awake_tiles(&cpu), "step {k}");
+        most = most.max(awake.len());
+        // The corner tile (row of tiles 5, column 4) and the one before it, in one run.
+        side_by_side |= awake.contains(&28) && awake.contains(&29);
+    }
+    assert_eq!(dev.tiles(), (6, 5));
+    assert!(side_by_side, "the corner's tiles never woke side by side");
+    assert!(most >= 4, "{most} tiles woke");
+    let err = displacement_error(&start, &dev, &cpu);
+    assert!(err < 1e-3, "displacements differ by {err:e} of the largest");
+    assert!(dev.gpu_adapter().is_some());
+}
