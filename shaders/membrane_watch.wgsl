@@ -32,7 +32,8 @@ const TILE: u32 = 128u;
 @group(0) @binding(5) var<storage, read_write> offset: array<f32>;
 @group(0) @binding(6) var<storage, read_write> last: array<f32>;
 @group(0) @binding(7) var<storage, read> list: array<u32>;
-// Per tile of the list: fastest (m/s), edge (m), box low x, y, z, box high x, y, z.
+// Per tile of the list: fastest (m/s), edge (m), box low x, y, z, box high x, y, z, and 1
+// where a position is not finite (0 where all are: the quarantine's check).
 @group(0) @binding(8) var<storage, read_write> measures: array<f32>;
 // Both state buffers, to place sleeping tiles in (`place`).
 @group(0) @binding(9) var<storage, read_write> place_a: array<f32>;
@@ -42,6 +43,14 @@ var<workgroup> fastest: array<f32, 128>;
 var<workgroup> edge: array<f32, 128>;
 var<workgroup> lo: array<vec3<f32>, 128>;
 var<workgroup> hi: array<vec3<f32>, 128>;
+var<workgroup> bad: array<u32, 128>;
+
+// Whether `v` holds an infinity or a NaN: an exponent of all ones (read from the bits: a
+// shader may take every float for finite).
+fn not_finite(v: vec3<f32>) -> bool {
+    let e = bitcast<vec3<u32>>(v) & vec3<u32>(0x7f800000u);
+    return any(e == vec3<u32>(0x7f800000u));
+}
 
 // Component `c` of row block `b`, column `j`, in a three-component array.
 fn at3(b: u32, c: u32, j: u32) -> u32 {
@@ -68,6 +77,7 @@ fn watch(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) 
     var moved = 0.0;
     var low = vec3<f32>(3.4028235e38);
     var high = vec3<f32>(-3.4028235e38);
+    var wrong = 0u;
     if (i < r1 && j < c1) {
         // The edge: every node of the tile's first and last rows, the first and last of the
         // others.
@@ -97,12 +107,14 @@ fn watch(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) 
             }
             low = min(low, x);
             high = max(high, x);
+            wrong = max(wrong, select(0u, 1u, not_finite(x)));
         }
     }
     fastest[li] = fast;
     edge[li] = moved;
     lo[li] = low;
     hi[li] = high;
+    bad[li] = wrong;
     workgroupBarrier();
     for (var s = TILE / 2u; s > 0u; s = s / 2u) {
         if (li < s) {
@@ -110,11 +122,12 @@ fn watch(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) 
             edge[li] = max(edge[li], edge[li + s]);
             lo[li] = min(lo[li], lo[li + s]);
             hi[li] = max(hi[li], hi[li + s]);
+            bad[li] = max(bad[li], bad[li + s]);
         }
         workgroupBarrier();
     }
     if (li == 0u) {
-        let o = wg.x * 8u;
+        let o = wg.x * 9u;
         measures[o] = fastest[0];
         measures[o + 1u] = edge[0];
         measures[o + 2u] = lo[0].x;
@@ -123,6 +136,7 @@ fn watch(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) 
         measures[o + 5u] = hi[0].x;
         measures[o + 6u] = hi[0].y;
         measures[o + 7u] = hi[0].z;
+        measures[o + 8u] = f32(bad[0]);
     }
 }
 

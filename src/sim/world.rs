@@ -526,10 +526,13 @@ fn step_slot<M: TissueModel>(
     slot.time_s += t0.elapsed().as_secs_f64();
     slot.awake_sum += f64::from(slot.model.awake_fraction());
     slot.stepped += 1;
-    let quarantined = if last {
-        slot.guard.after_step(&mut slot.model, step)
-    } else {
-        slot.guard.check(&mut slot.model)
+    let quarantined = {
+        let _guard = tracing::debug_span!("model_guard").entered();
+        if last {
+            slot.guard.after_step(&mut slot.model, step)
+        } else {
+            slot.guard.check(&mut slot.model)
+        }
     };
     if let Some(e) = quarantined {
         tracing::warn!(

@@ -93,6 +93,10 @@ pub(super) struct Activity {
     /// was lost, or this is a copy on the CPU of a model on a device), so a check on the CPU
     /// starts afresh.
     last_on_device: bool,
+    /// Whether every awake tile's positions were finite at the last sleep check (none
+    /// where the model changed since, or has not been checked): the quarantine's check reads
+    /// it rather than the positions.
+    pub(super) measured_finite: Option<bool>,
     /// Per run of awake tiles, its block (kept from step to step: nothing is allocated per
     /// substep).
     buffers: Vec<super::block::Block>,
@@ -151,6 +155,7 @@ impl Activity {
             offset: vec![0.0; LAYERS * rows * 3 * cols],
             last: vec![0.0; LAYERS * rows * 3 * cols],
             last_on_device: false,
+            measured_finite: None,
             buffers: Vec::new(),
             list: Vec::new(),
             runs: Vec::new(),
@@ -684,6 +689,7 @@ fn settle(m: &mut Membrane, a: &mut Activity, dt: f32, measured: Option<Vec<Watc
         watch.iter_mut().for_each(|w| w.fastest = f32::INFINITY);
     }
     a.last_on_device |= on_device;
+    a.measured_finite = Some(watch.iter().all(|w| w.finite));
     for (&t, w) in list.iter().zip(watch) {
         let t = t as usize;
         let Watch {
@@ -691,6 +697,7 @@ fn settle(m: &mut Membrane, a: &mut Activity, dt: f32, measured: Option<Vec<Watc
             edge,
             lo,
             hi,
+            ..
         } = w;
         if edge > p.wake_distance_m {
             to_wake.extend(a.neighbours(t, m.periodic).filter(|&n| !a.awake[n]));

@@ -7,14 +7,16 @@ use crate::models::membrane::{LAYERS, Membrane};
 use glam::Vec3;
 
 /// What a tile's sleep and wake checks measure: its fastest node relative to its anchor
-/// (m/s), how far its edge nodes moved from where they were when it woke (m), and the box
-/// round its nodes.
+/// (m/s), how far its edge nodes moved from where they were when it woke (m), the box round
+/// its nodes, and whether all their positions are finite (the quarantine's check, where a
+/// device measured the tile; the CPU's own check reads the positions).
 #[derive(Debug, Clone, Copy)]
 pub(in crate::models::membrane) struct Watch {
     pub fastest: f32,
     pub edge: f32,
     pub lo: Vec3,
     pub hi: Vec3,
+    pub finite: bool,
 }
 
 impl Watch {
@@ -23,6 +25,7 @@ impl Watch {
         edge: 0.0,
         lo: Vec3::splat(f32::MAX),
         hi: Vec3::splat(f32::MIN),
+        finite: true,
     };
 
     /// Both measures together (maxima and minima: the same in any order).
@@ -32,6 +35,7 @@ impl Watch {
             edge: self.edge.max(o.edge),
             lo: self.lo.min(o.lo),
             hi: self.hi.max(o.hi),
+            finite: self.finite && o.finite,
         }
     }
 }
@@ -87,6 +91,7 @@ fn watch_row(
         let p = Vec3::new(x0[j], x1[j], x2[j]);
         watch.lo = watch.lo.min(p);
         watch.hi = watch.hi.max(p);
+        watch.finite &= p.is_finite();
     }
     for c in 0..3 {
         last[in_block(c)].copy_from_slice(&now[c * w..(c + 1) * w]);

@@ -1,7 +1,8 @@
 //! The active set's sleep and wake checks on the device (`shaders/membrane_watch.wgsl`):
 //! after the substeps, in the same submission, each awake tile's measures (its fastest node
-//! relative to its anchor, its edge's departure, its box) are taken on the device and read
-//! back, 32 bytes a tile, so the CPU decides which tiles sleep and wake without a pass over
+//! relative to its anchor, its edge's departure, its box, whether its positions are all
+//! finite) are taken on the device and read back, 36 bytes a tile, so the CPU decides which
+//! tiles sleep and wake, and the quarantine whether the state is finite, without a pass over
 //! the awake nodes. The device keeps each node's offset from its anchor at the last check
 //! (`last`, which only the device writes while it steps the tile) and the offsets its tile
 //! fell asleep with (`offset`); both go up from the CPU when they change there (a tile woke,
@@ -21,7 +22,7 @@ const SHADER: &str = include_str!("../../../shaders/membrane_watch.wgsl");
 /// Nodes of a tile in one layer.
 const TILE: usize = TILE_ROWS * TILE_COLS;
 /// Floats a tile's measures take, and a tile's watch start (offset and last, all layers).
-const MEASURES: usize = 8;
+const MEASURES: usize = 9;
 const START_PER_TILE: usize = LAYERS * TILE * 6;
 
 /// The shader's `Watch` (16 bytes).
@@ -289,6 +290,7 @@ impl Watcher {
                 edge: s[1],
                 lo: Vec3::new(s[2], s[3], s[4]),
                 hi: Vec3::new(s[5], s[6], s[7]),
+                finite: s[8] == 0.0,
             })
             .collect()
     }

@@ -468,3 +468,27 @@ fn tiles_cut_short_by_the_grid_come_back_by_runs_as_the_cpu_steps_them() {
     assert!(err < 1e-3, "displacements differ by {err:e} of the largest");
     assert!(dev.gpu_adapter().is_some());
 }
+
+#[test]
+fn the_sleep_check_tells_the_quarantine_of_a_nan_on_the_device_as_on_the_cpu() {
+    // After a few steps the last check found every awake position finite; a NaN put into an
+    // awake tile's velocity is stepped into its positions, and the next check (the device's
+    // where it steps, the CPU's pass where it does) says so without another pass.
+    use crate::sim::TissueModel;
+    let (_gpu, _start, mut cpu, mut dev) = on_both();
+    let mut out = crate::sim::ModelOutput::default();
+    for m in [&mut cpu, &mut dev] {
+        for k in 0..10 {
+            session_step(m, k, &mut out);
+        }
+        let measured = |m: &Membrane| m.activity.as_ref().and_then(|a| a.measured_finite);
+        assert_eq!(measured(m), Some(true));
+        assert!(m.state_is_finite());
+        assert!(m.inject_nan());
+        assert_eq!(measured(m), None, "the check no longer holds");
+        session_step(m, 10, &mut out);
+        assert_eq!(measured(m), Some(false));
+        assert!(!m.state_is_finite());
+    }
+    assert!(dev.gpu_adapter().is_some(), "it stayed on the device");
+}

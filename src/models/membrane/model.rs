@@ -157,6 +157,9 @@ impl TissueModel for Membrane {
     }
 
     fn restore(&mut self) {
+        if let Some(a) = &mut self.activity {
+            a.measured_finite = None;
+        }
         if let Some(s) = &self.saved {
             self.state.data.clone_from(&s.state);
             self.rows_data.clone_from(&s.rows_data);
@@ -169,12 +172,17 @@ impl TissueModel for Membrane {
     /// The positions of the awake tiles' nodes (a sleeping tile's nodes do not change), all
     /// of them without an active set or with every tile kept awake. Positions alone suffice:
     /// every substep moves each node by its velocity, so a non-finite velocity makes its
-    /// position non-finite in the same step.
+    /// position non-finite in the same step. The last sleep check measured them (on the
+    /// device where it stepped them: no pass over the nodes here) unless the model changed
+    /// since.
     fn state_is_finite(&self) -> bool {
         let Some(a) = self.activity.as_ref().filter(|a| !a.all_awake) else {
             return (0..LAYERS)
                 .all(|l| (0..self.rows).all(|i| self.positions_finite(l, i, [0, self.cols])));
         };
+        if let Some(finite) = a.measured_finite {
+            return finite;
+        }
         (0..a.awake.len()).filter(|&t| a.awake[t]).all(|t| {
             let ([r0, r1], cols) = a.span(t, self.rows, self.cols);
             (0..LAYERS).all(|l| (r0..r1).all(|i| self.positions_finite(l, i, cols)))
@@ -202,8 +210,11 @@ impl TissueModel for Membrane {
         };
         let ([r0, _], [c0, _]) = self.tile_span(t);
         let b = self.rows + r0;
-        // Written here, not on a device: it goes up whole.
+        // Written here, not on a device: it goes up whole; the last check no longer holds.
         self.device.stale();
+        if let Some(a) = &mut self.activity {
+            a.measured_finite = None;
+        }
         match self.state.data.get_mut((b * 6 + 3) * self.cols + c0) {
             Some(v) => {
                 *v = f32::NAN;
