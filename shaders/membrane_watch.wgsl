@@ -57,6 +57,13 @@ fn at3(b: u32, c: u32, j: u32) -> u32 {
     return (b * 3u + c) * w.cols + j;
 }
 
+// Component `c` of the anchor of the node of row block `b` (row `i`), column `j`, whose share
+// of its column's layer-0 displacement is `keep`.
+fn anchor(b: u32, i: u32, j: u32, c: u32, keep: f32) -> f32 {
+    let target_c = attach[(i * 4u + 1u + c) * w.cols + j];
+    return rest[at3(b, c, j)] + (target_c - rest[at3(i, c, j)]) * keep;
+}
+
 // Node `li` of the list's `r`th tile: its row and column (beyond the grid for an edge tile's
 // missing nodes).
 fn node_at(r: u32, li: u32) -> vec2<u32> {
@@ -94,9 +101,7 @@ fn watch(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) 
             var was = vec3<f32>(0.0);
             var off = vec3<f32>(0.0);
             for (var c = 0u; c < 3u; c++) {
-                let target_c = attach[(i * 4u + 1u + c) * w.cols + j];
-                let anchor = rest[at3(b, c, j)] + (target_c - rest[at3(i, c, j)]) * keep;
-                now[c] = x[c] - anchor;
+                now[c] = x[c] - anchor(b, i, j, c, keep);
                 was[c] = last[at3(b, c, j)];
                 off[c] = offset[at3(b, c, j)];
                 last[at3(b, c, j)] = now[c];
@@ -164,7 +169,8 @@ fn start(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) 
 
 // The halo (the sleeping tiles of the list, beside awake ones): each node placed at its anchor
 // plus its offset, at rest, in both state buffers (a neighbour reads the same in either): the
-// CPU's `place_asleep`, on the targets that went up this step.
+// CPU's `place_asleep`, on this step's targets (placed by `carry` in
+// `shaders/membrane_chain.wgsl`, or gone up from the CPU).
 @compute @workgroup_size(128, 1, 1)
 fn place(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let n = node_at(wg.x, li);
@@ -177,9 +183,7 @@ fn place(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) 
         let b = l * w.rows + i;
         let keep = 1.0 - weight[b * w.cols + j];
         for (var c = 0u; c < 3u; c++) {
-            let target_c = attach[(i * 4u + 1u + c) * w.cols + j];
-            let anchor = rest[at3(b, c, j)] + (target_c - rest[at3(i, c, j)]) * keep;
-            let x = anchor + offset[at3(b, c, j)];
+            let x = anchor(b, i, j, c, keep) + offset[at3(b, c, j)];
             let at = (b * 6u + c) * w.cols + j;
             place_a[at] = x;
             place_b[at] = x;
