@@ -197,6 +197,21 @@ impl Activity {
         }
     }
 
+    /// Whether awake tile `t` may fall asleep at the check after a step of `dt` (its still
+    /// time reaches the sleep time with it, as the check adds it).
+    pub fn may_sleep(&self, t: usize, dt: f32) -> bool {
+        !self.all_awake
+            && self
+                .still_s
+                .get(t)
+                .is_some_and(|s| s + dt >= self.params.sleep_after_s)
+    }
+
+    /// Each tile's box (all layers) when last refreshed, m.
+    pub fn tile_box(&self, t: usize) -> Option<(Vec3, Vec3)> {
+        self.boxes.get(t).copied()
+    }
+
     /// Rows and columns of tile `t`.
     pub fn span(&self, t: usize, rows: usize, cols: usize) -> ([usize; 2], [usize; 2]) {
         let (ti, tj) = (t / self.tiles_c, t % self.tiles_c);
@@ -258,6 +273,7 @@ impl Membrane {
 
     /// Keeps every tile stepping from now on (benchmarks).
     pub fn stay_awake(&mut self) {
+        self.catch_up();
         if let Some(a) = &mut self.activity {
             a.all_awake = true;
             a.awake.fill(true);
@@ -345,23 +361,6 @@ impl Membrane {
         for t in woken {
             self.wake(t);
         }
-    }
-
-    /// The awake tiles whose box (all layers, as the last step left them) comes within
-    /// `margin` of the box `(lo, hi)`, ascending, into `out`: a broad phase for an
-    /// instrument, whose cost follows the awake tiles, not their nodes. Without an active set,
-    /// the one tile that is the whole grid.
-    pub fn awake_tiles_near(&self, lo: Vec3, hi: Vec3, margin: f32, out: &mut Vec<usize>) {
-        out.clear();
-        let Some(a) = &self.activity else {
-            out.push(0);
-            return;
-        };
-        let m = Vec3::splat(margin.max(0.0));
-        out.extend((0..a.awake.len()).filter(|&t| {
-            let (blo, bhi) = a.boxes[t];
-            a.awake[t] && (blo - m).cmple(hi).all() && (bhi + m).cmpge(lo).all()
-        }));
     }
 
     /// Every tile's box from its nodes now.
@@ -710,8 +709,10 @@ fn settle(m: &mut Membrane, a: &mut Activity, dt: f32, measured: Option<Vec<Watc
         a.boxes[t] = (lo, hi);
         if a.still_s[t] >= p.sleep_after_s {
             // Asleep where it is: its offsets now hold it there (the last measure's, which
-            // only the device holds where it took them).
+            // only the device holds where it took them: the tile came back with the step,
+            // being likely to fall asleep, else it is brought up to date now).
             if on_device {
+                m.catch_up_tiles(&[t]);
                 super::chain::place(m, Some(a), &[t]);
                 offsets_now(m, a, t);
             } else {
@@ -742,6 +743,8 @@ fn settle(m: &mut Membrane, a: &mut Activity, dt: f32, measured: Option<Vec<Watc
     }
 }
 
+#[path = "active_near.rs"]
+mod near;
 #[path = "active_rows.rs"]
 mod rows;
 pub(super) use rows::Watch;

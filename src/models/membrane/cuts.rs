@@ -22,18 +22,23 @@ impl Membrane {
         let per = self.rows * self.cols;
         let plane = 1;
         cut.clear();
-        // With the active set on, only the awake tiles are searched: a tool that cuts has
-        // woken the tissue around it, and a sleeping tile's nodes do not step.
-        let (rows, cols) = (self.rows, self.cols);
-        let candidates: Vec<usize> = match &self.activity {
-            Some(a) if !a.all_awake => (0..a.awake.len())
-                .filter(|&t| a.awake[t])
+        // With the active set on, only the awake tiles whose boxes come within the radius
+        // of the centre are searched (a link's midpoint lies in its tile's box): a tool that
+        // cuts has woken the tissue around it, and a sleeping tile's nodes do not step.
+        let cols = self.cols;
+        let candidates: Vec<usize> = if self.activity.as_ref().is_some_and(|a| !a.all_awake) {
+            let reach = radius_m.abs() * (1.0 + 1e-4) + 1e-6;
+            let mut tiles = Vec::new();
+            self.awake_tiles_near(center, center, reach, &mut tiles);
+            tiles
+                .into_iter()
                 .flat_map(|t| {
-                    let ([r0, r1], [c0, c1]) = a.span(t, rows, cols);
+                    let ([r0, r1], [c0, c1]) = self.tile_span(t);
                     (r0..r1).flat_map(move |i| (c0..c1).map(move |j| i * cols + j))
                 })
-                .collect(),
-            _ => (0..per).collect(),
+                .collect()
+        } else {
+            (0..per).collect()
         };
         for t in candidates {
             let a = plane * per + t;
@@ -48,23 +53,30 @@ impl Membrane {
         if !cut.is_empty() {
             self.device.springs_changed();
         }
+        // The tiles whose springs the cut and the releases below change (the node's, and
+        // those of the nodes before it in its row and its column) go up again, state and
+        // all: the CPU's copy of them is brought up to date first (`device_lazy.rs`).
+        let touched: Vec<usize> = cut
+            .iter()
+            .flat_map(|&t| {
+                let (i, j) = (t as usize / cols, t as usize % cols);
+                let before_j = if j > 0 {
+                    Some(j - 1)
+                } else {
+                    self.periodic.then_some(cols - 1)
+                };
+                let mut cells = vec![(i, j)];
+                cells.extend(before_j.map(|jp| (i, jp)));
+                cells.extend(i.checked_sub(1).map(|ip| (ip, j)));
+                cells.into_iter().map(|(i, j)| self.tile_of(i, j))
+            })
+            .collect();
+        self.catch_up_tiles(&touched);
+        for &tile in &touched {
+            self.device.tile_springs_changed(tile);
+        }
         for &t in cut.iter() {
             let t = t as usize;
-            // The tiles whose springs the cut and the releases below change (the node's,
-            // and those of the nodes before it in its row and its column) go up again.
-            let (i, j) = (t / cols, t % cols);
-            let before_j = if j > 0 {
-                Some(j - 1)
-            } else {
-                self.periodic.then_some(cols - 1)
-            };
-            let mut touched = vec![(i, j)];
-            touched.extend(before_j.map(|jp| (i, jp)));
-            touched.extend(i.checked_sub(1).map(|ip| (ip, j)));
-            for (i, j) in touched {
-                let tile = self.tile_of(i, j);
-                self.device.tile_springs_changed(tile);
-            }
             *self.spring_mut(field::K[LINK], plane * per + t) = 0.0;
             for l in [plane, plane + 1] {
                 self.release(l * per + t);

@@ -28,6 +28,8 @@ use bytemuck::Zeroable;
 
 #[path = "device_chain.rs"]
 mod carry;
+#[path = "device_lazy.rs"]
+mod lazy;
 #[path = "device_pack.rs"]
 mod pack;
 #[path = "device_sums.rs"]
@@ -50,7 +52,8 @@ const SPRINGS_PER_TILE: usize = LAYERS * TILE * field::COUNT;
 const ATTACH_PER_TILE: usize = TILE * 4;
 
 /// The membrane's place on a device, or none: what a [`Membrane`] holds. A clone runs on
-/// the CPU (two models must not share one device's buffers).
+/// the CPU (two models must not share one device's buffers) from the CPU's copy: bring it
+/// up to date first ([`Membrane::catch_up`]).
 #[derive(Default)]
 pub(super) struct Slot {
     on: Option<Box<OnDevice>>,
@@ -122,10 +125,13 @@ impl Slot {
             .is_some_and(|d| d.watcher.is_some() && !d.cpu_places_halo)
     }
 
-    /// The CPU rewrote the model: everything goes up with the next step.
+    /// The CPU rewrote the model: everything goes up with the next step (the CPU's copy is
+    /// the model: a caller that keeps what the device holds brings it up to date first, see
+    /// [`Membrane::catch_up`]).
     pub fn stale(&mut self) {
         if let Some(d) = &mut self.on {
             d.whole_stale = true;
+            d.books.none_behind();
         }
     }
 
@@ -192,6 +198,8 @@ struct OnDevice {
     pack_places: wgpu::Buffer,
     places: Vec<[u32; 4]>,
     runs: Vec<Run>,
+    /// Which awake tiles the CPU's copy lags, and which it read (`device_lazy.rs`).
+    books: lazy::Books,
     unpack_bind: wgpu::BindGroup,
     pack_bind: wgpu::BindGroup,
     tiles_c: u32,
@@ -369,6 +377,7 @@ impl OnDevice {
             pack_places,
             places: Vec::new(),
             runs: Vec::new(),
+            books: lazy::Books::new(m.activity.as_ref().map_or(1, |a| a.awake.len())),
             unpack_bind,
             pack_bind,
             springs_changed: false,
@@ -513,6 +522,8 @@ impl OnDevice {
             }
         }
         self.all_held = false;
+        // Encoding the rest of the submission, and submitting it.
+        let encoding = tracing::debug_span!("membrane_gpu_encode").entered();
         // The offsets the device lacks up, the halo placed at its anchors.
         if let Some(w) = &mut self.watcher {
             let halo = if placed { halo } else { &[] };
@@ -559,7 +570,16 @@ impl OnDevice {
         };
         gpu.queue
             .write_buffer(&self.pack_params, 0, bytemuck::bytes_of(&params));
-        let floats = run_places(m, a, &mut self.runs, &mut self.places);
+        // Every awake tile packed, those the CPU reads next first: only they come back.
+        self.books.wanted(a, m.periodic, dt, self.resend);
+        let want = std::mem::take(&mut self.books.want);
+        let (_, floats) = run_places(
+            m,
+            a,
+            &want,
+            (&mut self.runs, &mut self.places, &mut self.books.run_of),
+        );
+        self.books.want = want;
         gpu.queue
             .write_buffer(&self.pack_places, 0, bytemuck::cast_slice(&self.places));
         let groups = [awake.len() as u32, LAYERS as u32, 1];
@@ -580,13 +600,19 @@ impl OnDevice {
         };
         let bytes = (floats * 4) as u64;
         let at = self.sums_bytes + measured.unwrap_or(0);
-        encoder.copy_buffer_to_buffer(&self.packed_state, 0, &self.readback, at, bytes);
+        if bytes > 0 {
+            encoder.copy_buffer_to_buffer(&self.packed_state, 0, &self.readback, at, bytes);
+        }
         gpu.queue.submit([encoder.finish()]);
+        drop(encoding);
         // Read where the device left it (no copy), once the device reported no error.
-        let (sums_bytes, runs) = (self.sums_bytes as usize, &self.runs);
+        let sums_bytes = self.sums_bytes as usize;
+        let back: Vec<Run> = self.runs.iter().filter(|r| r.wanted).copied().collect();
         let sums = self.sums.as_ref();
         let wait = tracing::debug_span!("membrane_gpu_readback", bytes).entered();
-        let measures = compute::with_mapped(&gpu, &self.readback, at + bytes, |raw| {
+        let mapped = (at + bytes).max(4);
+        let measures = compute::with_mapped(&gpu, &self.readback, mapped, |raw| {
+            let raw = &raw[..(at + bytes) as usize];
             drop(wait);
             let (s, rest) = raw.split_at(sums_bytes);
             let (measures, state) = rest.split_at(measured.unwrap_or(0) as usize);
@@ -595,15 +621,17 @@ impl OnDevice {
             }
             let _unpack =
                 tracing::debug_span!("membrane_gpu_unpack", tiles = awake.len()).entered();
+            let dims = (m.rows, m.cols);
             match bytemuck::try_cast_slice::<u8, f32>(state) {
-                Ok(v) => unpack(m, a, runs, v),
+                Ok(v) => unpack(dims, &mut m.state.data, &back, v),
                 Err(_) => {
                     let v: Vec<f32> = bytemuck::pod_collect_to_vec(state);
-                    unpack(m, a, runs, &v);
+                    unpack(dims, &mut m.state.data, &back, &v);
                 }
             }
             measured.map(|_| watch::Watcher::read(measures))
         })?;
+        self.books.stepped(awake, &self.runs);
         Ok(measures)
     }
 
@@ -652,6 +680,11 @@ impl Membrane {
     /// `device.rs`). An error names what the device refused; the membrane stays on the CPU.
     pub fn use_gpu(&mut self, gpu: &Gpu) -> Result<(), RenderError> {
         let d = OnDevice::new(gpu, self)?;
+        // A checkpoint to go back to should the device fail while it holds the newest state
+        // of some tiles (`device_lazy.rs`).
+        if self.saved.is_none() {
+            crate::sim::TissueModel::checkpoint(self);
+        }
         self.device.on = Some(Box::new(d));
         Ok(())
     }
@@ -695,7 +728,7 @@ fn on_device<R>(
         }
         Err(e) => {
             m.external = external;
-            m.device.give_up(&e);
+            lazy::lose_device(m, *d, &e);
             None
         }
     }
@@ -711,11 +744,23 @@ pub(super) fn active_substeps(
     dt: f32,
     substeps: usize,
 ) -> Option<Measured> {
+    // A tile the CPU lags is awake (one falling asleep was brought up to date); should one
+    // not be, it is brought up to date before the packed copy is packed anew.
+    let stray: Vec<usize> = match m.device.on.as_deref() {
+        Some(d) if d.books.any_behind() => (0..a.awake.len())
+            .filter(|&t| !a.awake[t] && d.books.is_behind(t))
+            .collect(),
+        _ => Vec::new(),
+    };
+    if !stray.is_empty() {
+        m.catch_up_tiles(&stray);
+    }
     on_device(m, |d, m| d.active_step(m, a, halo, dt, substeps))
 }
 
 /// Every node's substeps on the membrane's device; false where it has none or it failed.
 pub(super) fn whole_substeps(m: &mut Membrane, dt: f32, substeps: usize) -> bool {
+    m.catch_up();
     on_device(m, |d, m| d.whole_step(m, dt, substeps)).is_some()
 }
 

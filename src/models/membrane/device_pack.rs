@@ -94,47 +94,74 @@ pub(super) fn pack(
 }
 
 /// Awake tiles side by side in a row of tiles, packed together coming back: the row of tiles,
-/// the columns `[c0, c1)`, and where its values start in the packed buffer.
+/// the columns `[c0, c1)`, where its values start in the packed buffer, and whether it comes
+/// back with the step (a tile in it is wanted on the CPU next: see `device_lazy.rs`).
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Run {
     tile_row: usize,
     cols: [usize; 2],
-    base: usize,
+    pub base: usize,
+    pub wanted: bool,
 }
 
-/// The runs of the awake tiles `a.list` (ascending), into `runs`, and each tile's place as the
-/// pack kernel reads it (the run's first value, its width, the tile's first column in it),
-/// into `places`. Returns the values the runs take: a run packs layer by layer, row by row
-/// (`TILE_ROWS` a layer, beyond the grid's last row too) and value by value, a stretch of its
-/// width each.
+impl Run {
+    /// The values the run packs: layer by layer, `TILE_ROWS` rows a layer (beyond the grid's
+    /// last row too), six values a node.
+    pub fn floats(&self) -> usize {
+        LAYERS * TILE_ROWS * 6 * (self.cols[1] - self.cols[0])
+    }
+
+    /// The tiles the run covers, with `tiles_c` tiles a row of tiles.
+    pub fn tiles(&self, tiles_c: usize) -> std::ops::Range<usize> {
+        let first = self.tile_row * tiles_c + self.cols[0] / TILE_COLS;
+        first..self.tile_row * tiles_c + self.cols[1].div_ceil(TILE_COLS)
+    }
+}
+
+/// The runs of the awake tiles `a.list` (ascending), into `runs`, each tile's run into
+/// `run_of` (by tile), and each tile's place as the pack kernel reads it (the run's first
+/// value, its width, the tile's first column in it), into `places`. The tiles that `want`
+/// marks (every tile where `want` is empty) make wanted runs, the others other runs (a run
+/// ends where the mark changes); the wanted runs are packed first, in their order, then the
+/// others. Returns the values all the runs take and the values the
+/// wanted ones take (see [`Run::floats`]).
 pub(super) fn run_places(
     m: &Membrane,
     a: &Activity,
-    runs: &mut Vec<Run>,
-    places: &mut Vec<[u32; 4]>,
-) -> usize {
+    want: &[bool],
+    (runs, places, run_of): (&mut Vec<Run>, &mut Vec<[u32; 4]>, &mut Vec<u32>),
+) -> (usize, usize) {
     let (rows, cols) = (m.rows, m.cols);
     runs.clear();
+    run_of.resize(a.awake.len(), u32::MAX);
     let mut of = Vec::with_capacity(a.list.len());
     for &t in &a.list {
         let t = t as usize;
         let (_, [c0, c1]) = a.span(t, rows, cols);
         let tile_row = t / a.tiles_c;
+        let wanted = want.get(t).copied().unwrap_or(want.is_empty());
         match runs.last_mut() {
-            Some(r) if r.tile_row == tile_row && r.cols[1] == c0 => r.cols[1] = c1,
+            Some(r) if r.tile_row == tile_row && r.cols[1] == c0 && r.wanted == wanted => {
+                r.cols[1] = c1;
+            }
             _ => runs.push(Run {
                 tile_row,
                 cols: [c0, c1],
                 base: 0,
+                wanted,
             }),
         }
+        run_of[t] = (runs.len() - 1) as u32;
         of.push((runs.len() - 1, c0));
     }
     let mut at = 0;
-    for r in runs.iter_mut() {
-        r.base = at;
-        at += LAYERS * TILE_ROWS * 6 * (r.cols[1] - r.cols[0]);
+    for first in [true, false] {
+        for r in runs.iter_mut().filter(|r| r.wanted == first) {
+            r.base = at;
+            at += r.floats();
+        }
     }
+    let wanted = runs.iter().filter(|r| r.wanted).map(Run::floats).sum();
     places.clear();
     places.extend(of.into_iter().map(|(k, c0)| {
         let r = &runs[k];
@@ -145,15 +172,15 @@ pub(super) fn run_places(
             0,
         ]
     }));
-    at
+    (at, wanted)
 }
 
-/// The awake tiles' state read back by runs (`packed`; see [`run_places`]) into `m`'s rows:
-/// each stretch copied whole into its row, row by row of the grid (in parallel where the
-/// tiles are many; every value is written once, so the bytes are the same).
-pub(super) fn unpack(m: &mut Membrane, a: &Activity, runs: &[Run], packed: &[f32]) {
+/// The runs `runs` (ascending, each `base` a place in `packed`; see [`run_places`]) read
+/// back into the state `data` of a grid of `rows` x `cols`: each stretch copied whole into
+/// its row, row by row of the grid (in parallel where the runs are large; every value is
+/// written once, so the bytes are the same).
+pub(super) fn unpack((rows, cols): (usize, usize), data: &mut [f32], runs: &[Run], packed: &[f32]) {
     use rayon::prelude::*;
-    let (rows, cols) = (m.rows, m.cols);
     let one = |(b, x): (usize, &mut [f32])| {
         let (l, i) = (b / rows, b % rows);
         let (ti, di) = (i / TILE_ROWS, i % TILE_ROWS);
@@ -170,8 +197,7 @@ pub(super) fn unpack(m: &mut Membrane, a: &Activity, runs: &[Run], packed: &[f32
             }
         }
     };
-    let nodes = a.list.len() * LAYERS * TILE;
-    let data = &mut m.state.data;
+    let nodes = runs.iter().map(Run::floats).sum::<usize>() / 6;
     if super::super::active::worth_threads(nodes) {
         data.par_chunks_mut(6 * cols).enumerate().for_each(one);
     } else {

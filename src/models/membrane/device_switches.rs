@@ -33,6 +33,28 @@ impl Membrane {
         self.device.on.as_ref().map(|d| d.attach_sent)
     }
 
+    /// Reads every awake tile back with each step, as before only the tiles the CPU reads
+    /// next came back (to compare).
+    pub(crate) fn gpu_read_back_everything(&mut self, on: bool) {
+        if let Some(d) = &mut self.device.on {
+            d.books.eager = on;
+        }
+    }
+
+    /// Tiles that came back with a step so far, and the round trips that brought lagging
+    /// tiles up to date (none on the CPU).
+    pub(crate) fn gpu_readback_counts(&self) -> Option<(u64, u64)> {
+        self.device
+            .on
+            .as_ref()
+            .map(|d| (d.books.tiles_back, d.books.catch_ups))
+    }
+
+    /// Awake tiles whose newest state only the device holds (none on the CPU).
+    pub(crate) fn gpu_tiles_behind(&self) -> Option<usize> {
+        self.device.on.as_ref().map(|d| d.books.behind_count())
+    }
+
     /// Tiles whose state went up to the device so far (none on the CPU).
     pub(crate) fn gpu_tiles_sent(&self) -> Option<u64> {
         self.device.on.as_ref().map(|d| d.tiles_sent)

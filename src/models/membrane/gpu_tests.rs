@@ -28,8 +28,10 @@ fn sheet(rows: usize, cols: usize) -> Membrane {
 }
 
 /// The largest displacement difference between two runs from the same start, over the
-/// largest displacement.
-fn displacement_error(start: &Membrane, a: &Membrane, b: &Membrane) -> f32 {
+/// largest displacement (each run's awake tiles brought up to date from its device first).
+fn displacement_error(start: &Membrane, a: &mut Membrane, b: &mut Membrane) -> f32 {
+    a.catch_up();
+    b.catch_up();
     let (mut diff, mut most) = (0.0f32, 0.0f32);
     for node in 0..start.len() {
         let (da, db) = (
@@ -73,7 +75,7 @@ fn the_gpu_substep_follows_the_cpu_within_float_rounding() {
             }
         }
         k.download(&mut dev).expect("reads back");
-        let err = displacement_error(&start, &dev, &cpu);
+        let err = displacement_error(&start, &mut dev, &mut cpu);
         assert!(
             err < 1e-3,
             "{name}: displacements differ by {err:e} of the largest"
@@ -118,7 +120,7 @@ fn a_cut_uploaded_to_the_gpu_frees_the_tissue_as_on_the_cpu() {
     for _ in 0..100 {
         cpu.step(dt);
     }
-    let err = displacement_error(&start, &dev, &cpu);
+    let err = displacement_error(&start, &mut dev, &mut cpu);
     assert!(err < 1e-3, "displacements differ by {err:e} of the largest");
 }
 
@@ -142,6 +144,8 @@ pub(super) fn sleepy(rows: usize, cols: usize) -> Membrane {
 pub(super) fn session_step(m: &mut Membrane, k: usize, out: &mut crate::sim::ModelOutput) {
     let node = m.node(1, 24, 32);
     if k < 40 {
+        // The tool reads the node's tile, as an instrument's query does.
+        m.read_tiles(&[m.tile_of(24, 32)]);
         let p = m.position(node);
         m.wake_near(&[(p - Vec3::splat(1e-3), p + Vec3::splat(1e-3))]);
         m.add_force(node, Vec3::X * 2e-4);
@@ -156,6 +160,7 @@ fn cut_and_rollback_step(m: &mut Membrane, k: usize, out: &mut crate::sim::Model
     use crate::sim::TissueModel;
     match k {
         20 => {
+            m.read_tiles(&[m.tile_of(24, 34)]);
             let at = m.position(m.node(1, 24, 34));
             assert!(m.cut_plane(at, 0.001) > 0);
         }
@@ -195,7 +200,7 @@ fn the_active_set_steps_on_the_gpu_as_on_the_cpu() {
     }
     let (tr, tc) = dev.tiles();
     assert!(most >= 2 && most < tr * tc, "{most} tiles woke");
-    let err = displacement_error(&start, &dev, &cpu);
+    let err = displacement_error(&start, &mut dev, &mut cpu);
     assert!(err < 1e-3, "displacements differ by {err:e} of the largest");
     assert!(dev.gpu_adapter().is_some());
     assert!(cpu.gpu_adapter().is_none());
@@ -203,12 +208,16 @@ fn the_active_set_steps_on_the_gpu_as_on_the_cpu() {
 
 #[test]
 fn a_lost_device_hands_the_membrane_to_the_cpu_with_an_event_and_loses_nothing() {
-    // A device of its own: the test destroys it.
+    // A device of its own: the test destroys it. Every awake tile comes back with each step
+    // here, so the CPU's copy is the newest state when the device goes, and the CPU goes
+    // on from it.
     let (_gpu, start, mut cpu, mut dev) = on_both();
+    dev.gpu_read_back_everything(true);
     let mut out = crate::sim::ModelOutput::default();
     for k in 0..30 {
         session_step(&mut cpu, k, &mut out);
         if k == 10 {
+            assert_eq!(dev.gpu_tiles_behind(), Some(0));
             assert!(dev.inject_device_loss());
         }
         session_step(&mut dev, k, &mut out);
@@ -226,7 +235,51 @@ fn a_lost_device_hands_the_membrane_to_the_cpu_with_an_event_and_loses_nothing()
     }
     assert!(dev.gpu_adapter().is_none(), "on the CPU from the loss on");
     assert_eq!(awake_tiles(&dev), awake_tiles(&cpu));
-    let err = displacement_error(&start, &dev, &cpu);
+    let err = displacement_error(&start, &mut dev, &mut cpu);
+    assert!(err < 1e-3, "displacements differ by {err:e} of the largest");
+    assert!(dev.is_finite());
+}
+
+#[test]
+fn a_device_lost_while_it_holds_the_newest_state_sends_the_membrane_back_to_its_checkpoint() {
+    // A tile woken far from the tool is read by nothing, so its newest state stays on the
+    // device. The device goes at step 10: the membrane goes back to the checkpoint taken at
+    // step 8 (as its world takes them) and goes on on the CPU, saying so. A run on the CPU
+    // that goes back to its own checkpoint at step 10 ends where it does.
+    use crate::sim::TissueModel;
+    let (_gpu, start, mut cpu, mut dev) = on_both();
+    let far = {
+        let p = start.position(start.node(1, 44, 4));
+        (p - Vec3::splat(1e-4), p + Vec3::splat(1e-4))
+    };
+    let mut out = crate::sim::ModelOutput::default();
+    let mut note = String::new();
+    for k in 0..30 {
+        for m in [&mut cpu, &mut dev] {
+            if k == 0 {
+                m.wake_near(&[far]);
+            }
+            if k == 8 {
+                m.checkpoint();
+            }
+        }
+        if k == 10 {
+            assert!(dev.gpu_tiles_behind().is_some_and(|n| n > 0), "none behind");
+            assert!(dev.inject_device_loss());
+            cpu.restore();
+        }
+        session_step(&mut cpu, k, &mut out);
+        session_step(&mut dev, k, &mut out);
+        for e in &out.events {
+            if let crate::sim::EventKind::ComputeFallback { reason, .. } = e {
+                note.clone_from(reason);
+            }
+        }
+    }
+    assert!(dev.gpu_adapter().is_none(), "on the CPU from the loss on");
+    assert!(note.contains("last checkpoint"), "{note}");
+    assert_eq!(awake_tiles(&dev), awake_tiles(&cpu));
+    let err = displacement_error(&start, &mut dev, &mut cpu);
     assert!(err < 1e-3, "displacements differ by {err:e} of the largest");
     assert!(dev.is_finite());
 }
@@ -316,7 +369,7 @@ fn the_device_measures_tiles_falling_asleep_and_waking_as_the_cpu_does() {
         assert_eq!(d, c, "step {k}");
         fell = fell.max(most.saturating_sub(d.len()));
         most = most.max(d.len());
-        let p = dev.position(dev.node(1, 24, 32));
+        let p = cpu.position(cpu.node(1, 24, 32));
         let (mut near_cpu, mut near_dev) = (Vec::new(), Vec::new());
         cpu.awake_tiles_near(p, p, 2e-3, &mut near_cpu);
         dev.awake_tiles_near(p, p, 2e-3, &mut near_dev);
@@ -366,7 +419,8 @@ fn the_device_places_the_halo_so_only_tiles_that_woke_go_up() {
         "{placed} tiles went up against {sent} with the CPU's halo"
     );
     // Against the largest displacement of the session (the tissue has settled back since).
-    for m in [&dev, &up] {
+    for m in [&mut dev, &mut up] {
+        m.catch_up();
         let diff = (0..m.len())
             .map(|n| (m.position(n) - cpu.position(n)).length())
             .fold(0.0f32, f32::max);
@@ -391,6 +445,7 @@ fn sleeping_tiles_are_drawn_where_their_anchors_carry_them_though_the_device_pla
     }
     let shift = Vec3::new(0.0, 1e-4, 0.0);
     for m in [&mut cpu, &mut dev] {
+        m.catch_up();
         for i in 0..m.rows() {
             for j in 0..m.cols() {
                 let (target, _) = m.anchor_pull(i, j).expect("in the grid");
@@ -447,6 +502,7 @@ fn tiles_cut_short_by_the_grid_come_back_by_runs_as_the_cpu_steps_them() {
     for k in 0..60 {
         for m in [&mut cpu, &mut dev] {
             if k < 40 {
+                m.read_tiles(&[m.tile_of(42, 68)]);
                 let p = m.position(node);
                 m.wake_near(&[(p - Vec3::splat(1e-3), p + Vec3::splat(1e-3))]);
                 m.add_force(node, Vec3::X * 2e-4);
@@ -464,7 +520,7 @@ fn tiles_cut_short_by_the_grid_come_back_by_runs_as_the_cpu_steps_them() {
     assert_eq!(dev.tiles(), (6, 5));
     assert!(side_by_side, "the corner's tiles never woke side by side");
     assert!(most >= 4, "{most} tiles woke");
-    let err = displacement_error(&start, &dev, &cpu);
+    let err = displacement_error(&start, &mut dev, &mut cpu);
     assert!(err < 1e-3, "displacements differ by {err:e} of the largest");
     assert!(dev.gpu_adapter().is_some());
 }

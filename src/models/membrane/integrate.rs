@@ -363,7 +363,7 @@ impl Membrane {
     /// damping and gravity; for tests and `vesalius verify`).
     pub fn forces_now(&self) -> Vec<glam::Vec3> {
         let mut f = Vec::new();
-        forces_all(self, &self.state.data, &mut f);
+        forces_all(self, &self.current_state(), &mut f);
         let cols = self.cols;
         (0..self.len())
             .map(|node| {
@@ -376,6 +376,7 @@ impl Membrane {
     /// Moves `node` by `d` (m), its velocity kept (for tests and `vesalius verify`).
     pub fn displace(&mut self, node: usize, d: glam::Vec3) {
         if node < self.len() && d.is_finite() {
+            self.catch_up();
             for c in 0..3 {
                 let at = self.state_at(c, node);
                 self.state.data[at] += d[c];

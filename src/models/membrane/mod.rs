@@ -556,12 +556,20 @@ impl Membrane {
         }
     }
 
+    /// Where node `node` is, m. On a device, an awake tile's nodes are current on the CPU
+    /// once [`Membrane::awake_tiles_near`] (or its kin) returned the tile, or after
+    /// [`Membrane::catch_up`] (see `device_lazy.rs`).
     pub fn position(&self, node: usize) -> Vec3 {
+        #[cfg(test)]
+        self.assert_current(node);
         let d = &self.state.data;
         Vec3::from_array(std::array::from_fn(|c| d[self.state_at(c, node)]))
     }
 
+    /// How fast node `node` moves, m/s (current as [`Membrane::position`] is).
     pub fn velocity(&self, node: usize) -> Vec3 {
+        #[cfg(test)]
+        self.assert_current(node);
         let d = &self.state.data;
         Vec3::from_array(std::array::from_fn(|c| d[self.state_at(3 + c, node)]))
     }
@@ -587,6 +595,7 @@ impl Membrane {
 
     /// Lets layer `l` go free of its attachment (layer 0 from the rod, layer 3 from the wall).
     pub fn detach_layer(&mut self, l: usize) {
+        self.catch_up();
         let slot = match l {
             0 => 0,
             x if x == LAYERS - 1 => 1,
@@ -609,6 +618,7 @@ impl Membrane {
     /// One step of `dt_s` with the configured integrator, every node (the active set, if on,
     /// is not consulted: see [`Membrane::advance`]).
     pub fn step(&mut self, dt_s: f32) {
+        self.catch_up();
         integrate::step(self, dt_s);
         self.external.clear();
     }
@@ -699,8 +709,12 @@ impl Membrane {
 
     /// Kinetic energy, J.
     pub fn kinetic_energy(&self) -> f64 {
+        let s = self.current_state();
         (0..self.len())
-            .map(|n| 0.5 * f64::from(self.mass[n]) * f64::from(self.velocity(n).length_squared()))
+            .map(|n| {
+                let v = Vec3::from_array(std::array::from_fn(|c| s[self.state_at(3 + c, n)]));
+                0.5 * f64::from(self.mass[n]) * f64::from(v.length_squared())
+            })
             .sum()
     }
 
@@ -717,13 +731,13 @@ impl Membrane {
 
     /// Whether every position and velocity is finite.
     pub fn is_finite(&self) -> bool {
-        self.state.data.iter().all(|v| v.is_finite())
+        self.current_state().iter().all(|v| v.is_finite())
     }
 
-    /// A digest of the state's bits.
+    /// A digest of the state's bits (as the device has it, where it steps).
     pub fn state_hash(&self) -> u64 {
         let mut h = crate::sim::Fnv::default();
-        for v in &self.state.data {
+        for v in self.current_state().iter() {
             h.write(v.to_bits());
         }
         h.0

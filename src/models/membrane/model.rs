@@ -131,12 +131,14 @@ impl TissueModel for Membrane {
     }
 
     fn render_mesh(&mut self) -> ModelSnapshot {
+        self.catch_up();
         self.sheets()
     }
 
     /// The nodes every time; the springs and the released marks only when a cut changed them
     /// since the last checkpoint (at full size they are 60 % of the bytes).
     fn checkpoint(&mut self) {
+        self.catch_up();
         match &mut self.saved {
             Some(s) => {
                 s.state.clone_from(&self.state.data);
@@ -210,6 +212,7 @@ impl TissueModel for Membrane {
         };
         let ([r0, _], [c0, _]) = self.tile_span(t);
         let b = self.rows + r0;
+        self.catch_up();
         // Written here, not on a device: it goes up whole; the last check no longer holds.
         self.device.stale();
         if let Some(a) = &mut self.activity {

@@ -34,6 +34,7 @@ fn grouped() -> Membrane {
 fn push(m: &mut Membrane, k: usize) {
     if k < 30 {
         let (a, b) = (m.node(0, 24, 32), m.node(1, 26, 30));
+        m.read_tiles(&[m.tile_of(24, 32)]);
         let p = m.position(a);
         m.wake_near(&[(p - Vec3::splat(1e-3), p + Vec3::splat(1e-3))]);
         m.add_force(a, Vec3::new(3e-4, -2e-4, 1e-4));
@@ -100,6 +101,8 @@ fn compare(m: &mut Membrane) -> [f64; 5] {
     let mut loaded = 0;
     for k in 0..40 {
         push(m, k);
+        // The copy node by node takes every awake tile as the device has it.
+        m.catch_up();
         let (want, couples) = node_by_node(m, groups, a, b);
         out.clear();
         crate::sim::TissueModel::step(m, 1e-3, &[], &mut out);

@@ -126,3 +126,76 @@ fn a_coarser_sheet_with_its_ratio_over_the_spacing_keeps_the_tissues_damping() {
     );
     assert!(b_fine[LINK] > 0.0 && b_fine[AROUND] > 0.0);
 }
+
+#[test]
+fn the_capsule_query_keeps_every_tile_a_cylinder_reaches_and_no_more_than_the_box_does() {
+    // Every tile awake and moved a little; segments of several lengths and slants through
+    // and beside the tube. The tiles kept hold every node within the radius of a segment
+    // (the exact set), and are among those whose boxes meet the box round the capsules (the
+    // query the press used before).
+    let mut m = tube_with_tiles(TILE_ROWS, TILE_COLS);
+    m.stay_awake();
+    for _ in 0..3 {
+        m.add_force(m.node(1, 64, 64), Vec3::X * 2e-4);
+        m.advance(1e-3, 0.9);
+    }
+    let centre = m.position(m.node(1, 64, 0));
+    let cases = [
+        (centre + Vec3::new(0.0, 0.3, 0.0), centre, 0.0025),
+        (
+            centre + Vec3::new(0.2, 0.2, 0.1),
+            centre - Vec3::Y * 0.002,
+            0.0025,
+        ),
+        (
+            centre - Vec3::X * 0.004,
+            centre + Vec3::new(0.004, 0.001, 0.0),
+            0.0005,
+        ),
+        (
+            centre + Vec3::Z * 0.05,
+            centre + Vec3::new(0.0, 0.0, 0.03),
+            0.002,
+        ),
+    ];
+    let (tr, tc) = m.tiles();
+    for (k, &(p0, p1, r)) in cases.iter().enumerate() {
+        let mut kept = Vec::new();
+        m.awake_tiles_near_capsules(&[(p0, p1, r)], &mut kept);
+        let reached: Vec<usize> = (0..tr * tc)
+            .filter(|&t| {
+                let ([r0, r1], [c0, c1]) = m.tile_span(t);
+                (0..LAYERS).any(|l| {
+                    (r0..r1).any(|i| {
+                        (c0..c1).any(|j| {
+                            let x = m.position(m.node(l, i, j));
+                            let s = ((x - p0).dot(p1 - p0) / (p1 - p0).length_squared())
+                                .clamp(0.0, 1.0);
+                            x.distance(p0 + (p1 - p0) * s) < r
+                        })
+                    })
+                })
+            })
+            .collect();
+        let r3 = Vec3::splat(r);
+        let mut boxed = Vec::new();
+        m.awake_tiles_near(p0.min(p1) - r3, p0.max(p1) + r3, 0.0, &mut boxed);
+        assert!(
+            reached.iter().all(|t| kept.contains(t)),
+            "case {k}: {reached:?} in {kept:?}"
+        );
+        assert!(
+            kept.iter().all(|t| boxed.contains(t)),
+            "case {k}: {kept:?} in {boxed:?}"
+        );
+        if k < 2 {
+            assert!(
+                !reached.is_empty(),
+                "case {k}: the segment reaches the tube"
+            );
+        }
+        if k == 1 {
+            assert!(kept.len() < boxed.len(), "case {k}: {kept:?} of {boxed:?}");
+        }
+    }
+}

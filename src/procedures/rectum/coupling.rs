@@ -33,6 +33,9 @@ pub(super) struct Joints {
     area: Vec<f32>,
     /// Each node's region (0: none).
     pub(super) regions: Vec<RegionId>,
+    /// Per tile of the membrane's active set: whether it holds a node of a vulnerable
+    /// region (the only tiles the search for the nearest one reads).
+    vulnerable_tiles: Vec<bool>,
     /// Last step's touching bits and wall-cut state (alarms fire on a change to touching).
     touching: u32,
     cutting_wall: bool,
@@ -117,12 +120,23 @@ impl Joints {
             })
             .collect();
         membrane.bind_targets(bound, skin.elements())?;
+        let (tr, tc) = membrane.tiles();
+        let mut vulnerable_tiles = vec![false; tr * tc];
+        for (n, &id) in regions.iter().enumerate().take(membrane.len()) {
+            if regions::region(id).is_some_and(|r| r.kind == RegionKind::Vulnerable) {
+                let (_, i, j) = membrane.coords(n);
+                if let Some(v) = vulnerable_tiles.get_mut(membrane.tile_of(i, j)) {
+                    *v = true;
+                }
+            }
+        }
         Ok(Joints {
             params,
             #[cfg(test)]
             skin,
             area,
             regions,
+            vulnerable_tiles,
             touching: 0,
             cutting_wall: false,
             touched_now: 0,
@@ -319,24 +333,34 @@ impl Joints {
             .extend(self.nodes.iter().map(|&n| self.area[n as usize]));
     }
 
-    /// The hook against the nodes of the awake tiles whose boxes reach its own (the broad
+    /// The hook against the nodes of the awake tiles its cylinders may reach (the broad
     /// phase: the cost follows the hook's neighbourhood): penalty forces on the nodes, and
     /// the reaction on the hook. The nearest vulnerable node to the hook's end is looked for
     /// in the awake tiles within `near_m` of it (nearer is what the task measures).
     pub(super) fn press_membrane(&mut self, membrane: &mut Membrane, hook: &Instrument) -> Vec3 {
-        let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
-        for c in hook.cylinders() {
-            let r = Vec3::splat(c.max_radius_m());
-            lo = lo.min(c.p0().min(c.p1()) - r);
-            hi = hi.max(c.p0().max(c.p1()) + r);
-        }
+        let capsules: Vec<(Vec3, Vec3, f32)> = hook
+            .cylinders()
+            .iter()
+            .map(|c| (c.p0(), c.p1(), c.max_radius_m()))
+            .collect();
         let mut tiles = std::mem::take(&mut self.tiles);
-        membrane.awake_tiles_near(lo, hi, 0.0, &mut tiles);
-        self.gather(membrane, &tiles);
-        hook.contacts_all(PointCloud::from_points(&self.points), &mut self.contacts);
-        // The nearest vulnerable node to the hook's end, among the awake ones near it.
+        membrane.awake_tiles_near_capsules(&capsules, &mut tiles);
+        {
+            let _span =
+                tracing::debug_span!("rectum_press_contacts", tiles = tiles.len()).entered();
+            self.gather(membrane, &tiles);
+            hook.contacts_all(PointCloud::from_points(&self.points), &mut self.contacts);
+        }
+        // The nearest vulnerable node to the hook's end, among the awake ones near it (in the
+        // tiles that hold one).
         if let Some(end) = hook.cylinders().get(1).map(|c| c.p1()) {
-            membrane.awake_tiles_near(end, end, self.params.near_m, &mut tiles);
+            membrane.awake_tiles_near_among(
+                end,
+                end,
+                self.params.near_m,
+                &self.vulnerable_tiles,
+                &mut tiles,
+            );
             let m = &*membrane;
             for &t in &tiles {
                 let ([r0, r1], [c0, c1]) = m.tile_span(t);

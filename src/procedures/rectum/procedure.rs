@@ -538,6 +538,8 @@ impl Rectum {
 
     pub fn snapshot(&mut self, step: u64) -> Snapshot {
         let rectum = TissueModel::render_mesh(self.scene.rod_mut());
+        // Every awake tile as the membrane's device has it (see `Membrane::catch_up`).
+        self.scene.membrane_mut().catch_up();
         let m = self.scene.membrane();
         let fascia = grid_mesh(
             m,

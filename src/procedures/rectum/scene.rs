@@ -340,5 +340,8 @@ impl RectumScene {
 }
 
 #[cfg(test)]
+#[path = "scene_gpu_tests.rs"]
+mod gpu_tests;
+#[cfg(test)]
 #[path = "scene_tests.rs"]
 mod tests;

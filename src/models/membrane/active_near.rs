@@ -1,0 +1,116 @@
+//! The active set's broad phase for an instrument: the awake tiles near a box or near the
+//! capsules of an instrument's cylinders, by the tiles' boxes (their cost follows the tiles,
+//! not their nodes). The tiles returned are those the caller reads: on a device they are
+//! brought up to date and come back with the next step (`device_lazy.rs`).
+
+use crate::models::membrane::Membrane;
+use glam::Vec3;
+
+/// Slack on a capsule's reach, relative and absolute (m): a tile is kept when rounding might
+/// put one of its nodes just inside.
+const SLACK_REL: f32 = 1e-4;
+const SLACK_M: f32 = 1e-6;
+
+impl Membrane {
+    /// The awake tiles whose box (all layers, as the last step left them) comes within
+    /// `margin` of the box `(lo, hi)`, ascending, into `out`. Without an active set, the one
+    /// tile that is the whole grid. Their nodes are current on the CPU.
+    pub fn awake_tiles_near(&mut self, lo: Vec3, hi: Vec3, margin: f32, out: &mut Vec<usize>) {
+        self.awake_tiles_near_among(lo, hi, margin, &[], out);
+    }
+
+    /// [`Membrane::awake_tiles_near`] among the tiles `among` marks (by tile; every tile
+    /// where it is empty): a caller that reads only some nodes (a region's) leaves the tiles
+    /// without any unread, so on a device they need not come back.
+    pub fn awake_tiles_near_among(
+        &mut self,
+        lo: Vec3,
+        hi: Vec3,
+        margin: f32,
+        among: &[bool],
+        out: &mut Vec<usize>,
+    ) {
+        out.clear();
+        let Some(a) = &self.activity else {
+            out.push(0);
+            return;
+        };
+        let m = Vec3::splat(margin.max(0.0));
+        out.extend((0..a.awake.len()).filter(|&t| {
+            let Some((blo, bhi)) = a.tile_box(t) else {
+                return false;
+            };
+            let kept = among.get(t).copied().unwrap_or(among.is_empty());
+            kept && a.awake[t] && (blo - m).cmple(hi).all() && (bhi + m).cmpge(lo).all()
+        }));
+        self.read_tiles(out);
+    }
+
+    /// The awake tiles that may hold a node within `r` of a segment `(p0, p1, r)` of
+    /// `capsules` (an instrument's cylinders at their widest), ascending, into `out`: every
+    /// tile with such a node is among them. A tile is kept where the segment meets its box
+    /// grown by `r` on every side and comes within `r` plus half the box's diagonal of the
+    /// box's middle (each holds for every such node, so both do). Without an active set, the
+    /// one tile that is the whole grid. Their nodes are current on the CPU.
+    pub fn awake_tiles_near_capsules(
+        &mut self,
+        capsules: &[(Vec3, Vec3, f32)],
+        out: &mut Vec<usize>,
+    ) {
+        out.clear();
+        let Some(a) = &self.activity else {
+            out.push(0);
+            return;
+        };
+        out.extend((0..a.awake.len()).filter(|&t| {
+            let Some((lo, hi)) = a.tile_box(t).filter(|_| a.awake[t]) else {
+                return false;
+            };
+            if !(lo.is_finite() && hi.is_finite()) {
+                return false;
+            }
+            let (mid, half) = ((lo + hi) * 0.5, (hi - lo).length() * 0.5);
+            capsules.iter().any(|&(p0, p1, r)| {
+                let grow = Vec3::splat(r * (1.0 + SLACK_REL) + SLACK_M);
+                let reach = (r + half) * (1.0 + SLACK_REL) + SLACK_M;
+                segment_meets_box(p0, p1, lo - grow, hi + grow)
+                    && distance_to_segment(mid, p0, p1) <= reach
+            })
+        }));
+        self.read_tiles(out);
+    }
+}
+
+/// Whether the segment `a`-`b` meets the box `lo`-`hi` (the part of the segment within each
+/// axis's slab, intersected over the axes).
+fn segment_meets_box(a: Vec3, b: Vec3, lo: Vec3, hi: Vec3) -> bool {
+    let d = b - a;
+    let (mut s0, mut s1) = (0.0f32, 1.0f32);
+    for k in 0..3 {
+        if d[k] == 0.0 {
+            if a[k] < lo[k] || a[k] > hi[k] {
+                return false;
+            }
+            continue;
+        }
+        let (u, v) = ((lo[k] - a[k]) / d[k], (hi[k] - a[k]) / d[k]);
+        s0 = s0.max(u.min(v));
+        s1 = s1.min(u.max(v));
+        if s0 > s1 {
+            return false;
+        }
+    }
+    true
+}
+
+/// The distance from `p` to the segment `a`-`b`, m.
+fn distance_to_segment(p: Vec3, a: Vec3, b: Vec3) -> f32 {
+    let ab = b - a;
+    let len2 = ab.length_squared();
+    let s = if len2 > 0.0 {
+        ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    p.distance(a + ab * s)
+}

@@ -1,0 +1,305 @@
+//! What of the device's step comes back to the CPU, and when. The device packs every awake
+//! tile each step (`shaders/membrane_sync.wgsl`), but only the runs of tiles the CPU is
+//! expected to read next come back with the step: the tiles an instrument's queries returned
+//! this step ([`Membrane::awake_tiles_near`], the cut's search) and the tiles beside them, and
+//! the tiles that may fall asleep at this step's check (their offsets are taken from their
+//! positions). The other awake tiles are *behind* on the CPU: the device holds their newest
+//! state, and its packed copy of it stays on the device until the next step packs anew.
+//!
+//! A behind tile is brought up to date (its run copied from the packed copy, read back and
+//! unpacked: one more round trip) before the CPU reads or writes it: when a query returns it,
+//! when it falls asleep, and for everything at once before a checkpoint, a frame, a hash, or
+//! anything that rewrites the model ([`Membrane::catch_up`]). Every awake tile is in the
+//! packed copy, so the bytes are those of reading everything back each step (tested).
+//!
+//! Should a read fail (the device lost), the CPU's copy of the behind tiles is older than
+//! the rest: the membrane goes back to its last checkpoint (taken when it went on the
+//! device, then every checkpoint of its world), the device is dropped and the failure is
+//! reported as an event.
+
+use super::pack::{Run, unpack};
+use super::{Membrane, OnDevice};
+use crate::gpu::RenderError;
+use crate::gpu::compute;
+use crate::models::membrane::active::Activity;
+use std::borrow::Cow;
+
+/// The per-tile books of what the CPU lags and what it read (kept in [`OnDevice`]).
+#[derive(Debug, Default)]
+pub(super) struct Books {
+    /// Per tile: the CPU's copy lags the device's (an awake tile whose run did not come
+    /// back).
+    behind: Vec<bool>,
+    behind_count: usize,
+    /// Per tile: the run it was packed in at the last step.
+    pub run_of: Vec<u32>,
+    /// Tiles the CPU read since the last step (marks by tile, and the list to clear them).
+    marks: Vec<bool>,
+    marked: Vec<usize>,
+    /// The tiles wanted back with this step (scratch; empty: every one).
+    pub want: Vec<bool>,
+    /// Read every awake tile back with each step (to compare; tests).
+    pub eager: bool,
+    /// Tiles that came back with a step, and round trips that brought behind runs up to date,
+    /// over the device's life (tests' counts).
+    pub tiles_back: u64,
+    pub catch_ups: u64,
+}
+
+impl Books {
+    pub fn new(tiles: usize) -> Books {
+        Books {
+            behind: vec![false; tiles],
+            run_of: vec![u32::MAX; tiles],
+            marks: vec![false; tiles],
+            want: vec![false; tiles],
+            ..Books::default()
+        }
+    }
+
+    /// Whether the CPU's copy of tile `t` lags the device's.
+    pub fn is_behind(&self, t: usize) -> bool {
+        self.behind.get(t).copied().unwrap_or(false)
+    }
+
+    /// Tiles the CPU's copy lags.
+    #[cfg(test)]
+    pub fn behind_count(&self) -> usize {
+        self.behind_count
+    }
+
+    pub fn any_behind(&self) -> bool {
+        self.behind_count > 0
+    }
+
+    /// Nothing lags: the CPU's copy is the model (it was rewritten, or everything came back).
+    pub fn none_behind(&mut self) {
+        if self.behind_count > 0 {
+            self.behind.fill(false);
+            self.behind_count = 0;
+        }
+    }
+
+    /// The CPU read tiles `tiles` this step: they and the tiles beside them come back with
+    /// it.
+    pub fn mark(&mut self, tiles: &[usize]) {
+        for &t in tiles {
+            if let Some(m) = self.marks.get_mut(t)
+                && !*m
+            {
+                *m = true;
+                self.marked.push(t);
+            }
+        }
+    }
+
+    /// The tiles wanted back with a step of `dt` over `a`'s awake tiles, into `want`: those
+    /// marked and the tiles beside them, and those whose still time reaches the sleep time
+    /// with this step (they may fall asleep at its check); every one where eager (`want`
+    /// empty). The marks are cleared.
+    pub fn wanted(&mut self, a: &Activity, periodic: bool, dt: f32, eager: bool) {
+        self.want.clear();
+        if !(eager || self.eager) {
+            self.want.resize(a.awake.len(), false);
+            for &t in &self.marked {
+                self.want[t] = true;
+                for n in a.neighbours(t, periodic) {
+                    self.want[n] = true;
+                }
+            }
+            for &t in &a.list {
+                let t = t as usize;
+                self.want[t] |= a.may_sleep(t, dt);
+            }
+        }
+        for &t in &self.marked {
+            self.marks[t] = false;
+        }
+        self.marked.clear();
+    }
+
+    /// After a step over the awake tiles `list` packed in `runs`: the tiles of the runs that
+    /// came back are current, the others behind.
+    pub fn stepped(&mut self, list: &[u32], runs: &[Run]) {
+        self.none_behind();
+        for &t in list {
+            let t = t as usize;
+            let back = runs[self.run_of[t] as usize].wanted;
+            self.behind[t] = !back;
+            self.behind_count += usize::from(!back);
+            self.tiles_back += u64::from(back);
+        }
+    }
+
+    /// The runs (indices, ascending) holding a behind tile of `tiles` (of any tile where
+    /// none).
+    fn behind_runs(&self, tiles: Option<&[usize]>) -> Vec<usize> {
+        if self.behind_count == 0 {
+            return Vec::new();
+        }
+        let mut runs: Vec<usize> = match tiles {
+            Some(ts) => ts
+                .iter()
+                .filter(|&&t| self.is_behind(t))
+                .map(|&t| self.run_of[t] as usize)
+                .collect(),
+            None => (0..self.behind.len())
+                .filter(|&t| self.behind[t])
+                .map(|t| self.run_of[t] as usize)
+                .collect(),
+        };
+        runs.sort_unstable();
+        runs.dedup();
+        runs
+    }
+}
+
+impl OnDevice {
+    /// Runs `which` (indices into the last step's runs) copied from the device's packed copy
+    /// and read back, handed to `read` with their places in what was read (the runs in order,
+    /// side by side).
+    fn fetch<R>(
+        &self,
+        which: &[usize],
+        read: impl FnOnce(&[Run], &[f32]) -> R,
+    ) -> Result<R, RenderError> {
+        let gpu = self.k.gpu();
+        let mut encoder = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("membrane catch-up"),
+            });
+        let mut got = Vec::with_capacity(which.len());
+        let mut at = 0usize;
+        for &k in which {
+            let Some(&r) = self.runs.get(k) else {
+                continue;
+            };
+            let n = r.floats();
+            let (from, to, bytes) = ((r.base * 4) as u64, (at * 4) as u64, (n * 4) as u64);
+            encoder.copy_buffer_to_buffer(&self.packed_state, from, &self.readback, to, bytes);
+            let mut r = r;
+            r.base = at;
+            got.push(r);
+            at += n;
+        }
+        gpu.queue.submit([encoder.finish()]);
+        compute::with_mapped(gpu, &self.readback, (at * 4).max(4) as u64, |raw| {
+            let raw = &raw[..at * 4];
+            match bytemuck::try_cast_slice::<u8, f32>(raw) {
+                Ok(v) => read(&got, v),
+                Err(_) => read(&got, &bytemuck::pod_collect_to_vec::<u8, f32>(raw)),
+            }
+        })
+    }
+}
+
+impl Membrane {
+    /// Brings the CPU's copy of every awake tile up to date where the membrane steps on a
+    /// device (see `device_lazy.rs`): call before reading nodes other than those
+    /// [`Membrane::awake_tiles_near`] returned. Nothing to do on the CPU.
+    pub fn catch_up(&mut self) {
+        catch_up_with(self, None);
+    }
+
+    /// Brings the CPU's copy of tiles `tiles` up to date (those behind the device).
+    pub(in crate::models::membrane) fn catch_up_tiles(&mut self, tiles: &[usize]) {
+        catch_up_with(self, Some(tiles));
+    }
+
+    /// The CPU reads tiles `tiles` now and (likely) next step: they are brought up to date and
+    /// come back with the next step.
+    pub(in crate::models::membrane) fn read_tiles(&mut self, tiles: &[usize]) {
+        if let Some(d) = self.device.on.as_deref_mut() {
+            d.books.mark(tiles);
+            catch_up_with(self, Some(tiles));
+        }
+    }
+
+    /// The whole state as the device has it, where the CPU's copy of some tiles lags it (a
+    /// copy with those tiles read back); the CPU's own otherwise. A read that fails gives the
+    /// CPU's copy, with a warning.
+    pub(in crate::models::membrane) fn current_state(&self) -> Cow<'_, [f32]> {
+        let Some(d) = self.device.on.as_deref().filter(|d| d.books.any_behind()) else {
+            return Cow::Borrowed(&self.state.data);
+        };
+        let which = d.books.behind_runs(None);
+        let mut data = self.state.data.clone();
+        let dims = (self.rows, self.cols);
+        match d.fetch(&which, |runs, v| unpack(dims, &mut data, runs, v)) {
+            Ok(()) => Cow::Owned(data),
+            Err(e) => {
+                tracing::warn!("the membrane's newest state could not be read back: {e}");
+                Cow::Borrowed(&self.state.data)
+            }
+        }
+    }
+
+    /// Tests: panics where node `node`'s tile lags the device (a read the code must not make
+    /// before [`Membrane::catch_up`]).
+    #[cfg(test)]
+    pub(in crate::models::membrane) fn assert_current(&self, node: usize) {
+        if let Some(d) = self.device.on.as_deref() {
+            let (_, i, j) = self.coords(node);
+            let t = self.tile_of(i, j);
+            assert!(
+                !d.books.is_behind(t),
+                "node {node} read on the CPU while its tile {t} lags the device"
+            );
+        }
+    }
+}
+
+/// Brings the behind tiles among `tiles` (all where none) up to date; should the read fail,
+/// the device is given up (see [`lose_device`]).
+fn catch_up_with(m: &mut Membrane, tiles: Option<&[usize]>) {
+    let Some(d) = m.device.on.as_deref_mut() else {
+        return;
+    };
+    let which = d.books.behind_runs(tiles);
+    if which.is_empty() {
+        return;
+    }
+    let _span = tracing::debug_span!("membrane_gpu_catch_up", runs = which.len()).entered();
+    let dims = (m.rows, m.cols);
+    let data = &mut m.state.data;
+    match d.fetch(&which, |runs, v| unpack(dims, data, runs, v)) {
+        Ok(()) => {
+            let tiles_c = d.tiles_c as usize;
+            d.books.catch_ups += 1;
+            for &k in &which {
+                for t in d.runs[k].tiles(tiles_c) {
+                    if d.books.behind.get(t).copied().unwrap_or(false) {
+                        d.books.behind[t] = false;
+                        d.books.behind_count -= 1;
+                    }
+                }
+            }
+        }
+        Err(e) => {
+            if let Some(d) = m.device.on.take() {
+                lose_device(m, *d, &e);
+            }
+        }
+    }
+}
+
+/// The device `d` (taken from `m`) failed with `e`: it is dropped and the failure noted; where
+/// the CPU's copy lagged it, the membrane goes back to its last checkpoint (the external
+/// forces of the step kept).
+pub(super) fn lose_device(m: &mut Membrane, d: OnDevice, e: &RenderError) {
+    let lagged = d.books.any_behind();
+    drop(d);
+    m.device.give_up(e);
+    if lagged {
+        let external = std::mem::take(&mut m.external);
+        crate::sim::TissueModel::restore(m);
+        m.external = external;
+        if let Some(n) = &mut m.device.note {
+            n.push_str(
+                "; the device held the newest state of tiles away from the instruments, so \
+                 the membrane went on from its last checkpoint",
+            );
+        }
+    }
+}
