@@ -619,8 +619,7 @@ impl OnDevice {
             if let Some(sums_of) = sums {
                 m.anchor_sums = sums_of.read(s);
             }
-            let _unpack =
-                tracing::debug_span!("membrane_gpu_unpack", tiles = awake.len()).entered();
+            let _unpack = tracing::debug_span!("membrane_gpu_unpack", runs = back.len()).entered();
             let dims = (m.rows, m.cols);
             match bytemuck::try_cast_slice::<u8, f32>(state) {
                 Ok(v) => unpack(dims, &mut m.state.data, &back, v),
