@@ -40,7 +40,7 @@ mod switches;
 #[path = "device_watch.rs"]
 mod watch;
 
-use pack::{Run, run_places, unpack};
+use pack::{Run, as_floats, run_places, unpack};
 
 const SYNC_SHADER: &str = include_str!("../../../shaders/membrane_sync.wgsl");
 /// Nodes of a tile in one layer (the kernels' workgroup).
@@ -621,13 +621,7 @@ impl OnDevice {
             }
             let _unpack = tracing::debug_span!("membrane_gpu_unpack", runs = back.len()).entered();
             let dims = (m.rows, m.cols);
-            match bytemuck::try_cast_slice::<u8, f32>(state) {
-                Ok(v) => unpack(dims, &mut m.state.data, &back, v),
-                Err(_) => {
-                    let v: Vec<f32> = bytemuck::pod_collect_to_vec(state);
-                    unpack(dims, &mut m.state.data, &back, &v);
-                }
-            }
+            as_floats(state, |v| unpack(dims, &mut m.state.data, &back, v));
             measured.map(|_| watch::Watcher::read(measures))
         })?;
         self.books.stepped(awake, &self.runs);

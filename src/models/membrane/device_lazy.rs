@@ -17,7 +17,7 @@
 //! device, then every checkpoint of its world), the device is dropped and the failure is
 //! reported as an event.
 
-use super::pack::{Run, unpack};
+use super::pack::{Run, as_floats, unpack};
 use super::{Membrane, OnDevice};
 use crate::gpu::RenderError;
 use crate::gpu::compute;
@@ -186,10 +186,7 @@ impl OnDevice {
         gpu.queue.submit([encoder.finish()]);
         compute::with_mapped(gpu, &self.readback, (at * 4).max(4) as u64, |raw| {
             let raw = &raw[..at * 4];
-            match bytemuck::try_cast_slice::<u8, f32>(raw) {
-                Ok(v) => read(&got, v),
-                Err(_) => read(&got, &bytemuck::pod_collect_to_vec::<u8, f32>(raw)),
-            }
+            as_floats(raw, |v| read(&got, v))
         })
     }
 }

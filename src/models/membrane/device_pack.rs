@@ -175,6 +175,14 @@ pub(super) fn run_places(
     (at, wanted)
 }
 
+/// `read` handed the floats of `raw` (read in place where they are aligned, else copied).
+pub(super) fn as_floats<R>(raw: &[u8], read: impl FnOnce(&[f32]) -> R) -> R {
+    match bytemuck::try_cast_slice::<u8, f32>(raw) {
+        Ok(v) => read(v),
+        Err(_) => read(&bytemuck::pod_collect_to_vec::<u8, f32>(raw)),
+    }
+}
+
 /// The runs `runs` (ascending, each `base` a place in `packed`; see [`run_places`]) read
 /// back into the state `data` of a grid of `rows` x `cols`: each stretch copied whole into
 /// its row, row by row of the grid (in parallel where the runs are large; every value is
