@@ -517,9 +517,62 @@ pub(super) fn step(m: &mut Membrane, dt: f32, substeps: usize) {
     a.list.clear();
     a.list
         .extend((0..a.awake.len() as u32).filter(|&t| a.awake[t as usize]));
-    // Awake tiles side by side make one run; runs in successive rows of tiles whose columns
-    // overlap step as one block, a rectangle round them (the sleeping nodes inside it are
-    // stepped too but never written back): fewer, larger blocks, whose loops run long.
+    // On the membrane's GPU where it has one, else (or should it fail) here.
+    // Layer 0's loads by group are summed where the step runs, from the state it starts
+    // from; the device measures the awake tiles for the checks below where it can.
+    let measured = super::device::active_substeps(m, &a, &halo, dt, substeps);
+    if measured.is_none() {
+        if device_places {
+            let _span = tracing::debug_span!("membrane_halo", tiles = halo.len()).entered();
+            place_all_asleep(m, &a, &halo);
+        }
+        // The targets this step reads, where the CPU's lag the chain's pose.
+        let tiles: Vec<usize> = a
+            .list
+            .iter()
+            .map(|&t| t as usize)
+            .chain(halo.iter().copied())
+            .collect();
+        super::chain::place(m, Some(&a), &tiles);
+        group_runs(m, &mut a);
+        super::anchor_sums::on_cpu(m, &a.runs);
+        let h = dt / substeps as f32;
+        let mut buffers = std::mem::take(&mut a.buffers);
+        buffers.resize_with(a.groups.len(), Default::default);
+        let mut members = Vec::new();
+        for (b, g) in buffers.iter_mut().zip(&a.groups) {
+            members.clear();
+            members.extend(g.members.iter().map(|&r| a.runs[r]));
+            b.prepare(m, g.span, &members);
+        }
+        for _ in 0..substeps {
+            substep(m, &a, &mut buffers, h);
+        }
+        a.buffers = buffers;
+    }
+    // Sleep and wake checks, once per step.
+    let nodes_awake: usize = a
+        .list
+        .iter()
+        .map(|&t| {
+            let ([r0, r1], [c0, c1]) = a.span(t as usize, m.rows, m.cols);
+            LAYERS * (r1 - r0) * (c1 - c0)
+        })
+        .sum();
+    a.awake_share += nodes_awake as f64 / m.len().max(1) as f64;
+    a.steps += 1;
+    if !a.all_awake {
+        let _span = tracing::debug_span!("membrane_settle", tiles = a.list.len()).entered();
+        settle(m, &mut a, dt, measured.flatten());
+    }
+    m.activity = Some(a);
+}
+
+/// The CPU's blocks of the awake tiles: tiles side by side make one run; runs in successive
+/// rows of tiles whose columns overlap step as one block, a rectangle round them (the
+/// sleeping nodes inside it are stepped too but never written back): fewer, larger blocks,
+/// whose loops run long. A device steps by tile and needs none of this.
+fn group_runs(m: &Membrane, a: &mut Activity) {
     a.runs.clear();
     a.groups.clear();
     for ti in 0..a.tiles_r {
@@ -555,54 +608,6 @@ pub(super) fn step(m: &mut Membrane, dt: f32, substeps: usize) {
             }
         }
     }
-    // On the membrane's GPU where it has one, else (or should it fail) here.
-    // Layer 0's loads by group are summed where the step runs, from the state it starts
-    // from; the device measures the awake tiles for the checks below where it can.
-    let measured = super::device::active_substeps(m, &a, &halo, dt, substeps);
-    if measured.is_none() {
-        if device_places {
-            let _span = tracing::debug_span!("membrane_halo", tiles = halo.len()).entered();
-            place_all_asleep(m, &a, &halo);
-        }
-        // The targets this step reads, where the CPU's lag the chain's pose.
-        let tiles: Vec<usize> = a
-            .list
-            .iter()
-            .map(|&t| t as usize)
-            .chain(halo.iter().copied())
-            .collect();
-        super::chain::place(m, Some(&a), &tiles);
-        super::anchor_sums::on_cpu(m, &a.runs);
-        let h = dt / substeps as f32;
-        let mut buffers = std::mem::take(&mut a.buffers);
-        buffers.resize_with(a.groups.len(), Default::default);
-        let mut members = Vec::new();
-        for (b, g) in buffers.iter_mut().zip(&a.groups) {
-            members.clear();
-            members.extend(g.members.iter().map(|&r| a.runs[r]));
-            b.prepare(m, g.span, &members);
-        }
-        for _ in 0..substeps {
-            substep(m, &a, &mut buffers, h);
-        }
-        a.buffers = buffers;
-    }
-    // Sleep and wake checks, once per step.
-    let nodes_awake: usize = a
-        .list
-        .iter()
-        .map(|&t| {
-            let ([r0, r1], [c0, c1]) = a.span(t as usize, m.rows, m.cols);
-            LAYERS * (r1 - r0) * (c1 - c0)
-        })
-        .sum();
-    a.awake_share += nodes_awake as f64 / m.len().max(1) as f64;
-    a.steps += 1;
-    if !a.all_awake {
-        let _span = tracing::debug_span!("membrane_settle", tiles = a.list.len()).entered();
-        settle(m, &mut a, dt, measured.flatten());
-    }
-    m.activity = Some(a);
 }
 
 /// Tiles grouped by the row of tiles they lie in ([`Activity::by_tile_row`]).

@@ -12,6 +12,23 @@ const SLACK_REL: f32 = 1e-4;
 const SLACK_M: f32 = 1e-6;
 
 impl Membrane {
+    /// The positions of nodes `c0..c1` of row `i` of layer `l`, one slice per coordinate
+    /// (the state holds a row's x, its y and its z each in one stretch), m; empty slices
+    /// where the row or the columns lie outside the grid. The caller reads a tile it was
+    /// given by a query here (on a device, the tiles that are current on the CPU).
+    pub fn row_positions(&self, l: usize, i: usize, [c0, c1]: [usize; 2]) -> [&[f32]; 3] {
+        let inside = l < super::LAYERS && i < self.rows && c0 <= c1 && c1 <= self.cols;
+        #[cfg(test)]
+        if inside && c0 < c1 {
+            self.assert_current(self.node(l, i, c0));
+        }
+        let d = &self.state.data;
+        std::array::from_fn(|c| {
+            let s = self.state_at(c, self.node(l, i, 0));
+            d.get(s + c0..s + c1).filter(|_| inside).unwrap_or(&[])
+        })
+    }
+
     /// The awake tiles whose box (all layers, as the last step left them) comes within
     /// `margin` of the box `(lo, hi)`, ascending, into `out`. Without an active set, the one
     /// tile that is the whole grid. Their nodes are current on the CPU.

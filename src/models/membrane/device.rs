@@ -557,8 +557,11 @@ impl OnDevice {
             groups,
             tiles_c: self.tiles_c,
         };
-        self.k
-            .encode_substeps(&mut encoder, m, dt, substeps, count, Some(tiles));
+        {
+            let _s = tracing::debug_span!("membrane_gpu_substeps").entered();
+            self.k
+                .encode_substeps(&mut encoder, m, dt, substeps, count, Some(tiles));
+        }
         // The awake tiles back: packed from the newest state buffer (its own parameters:
         // the unpack's are in the same submission).
         let params = SyncParams {
@@ -603,7 +606,10 @@ impl OnDevice {
         if bytes > 0 {
             encoder.copy_buffer_to_buffer(&self.packed_state, 0, &self.readback, at, bytes);
         }
-        gpu.queue.submit([encoder.finish()]);
+        {
+            let _s = tracing::debug_span!("membrane_gpu_submit").entered();
+            gpu.queue.submit([encoder.finish()]);
+        }
         drop(encoding);
         // Read where the device left it (no copy), once the device reported no error.
         let sums_bytes = self.sums_bytes as usize;

@@ -15,7 +15,9 @@ use super::regions::{self, RegionId, RegionKind};
 use super::scene::{
     ALARM_RECTAL_WALL, MEMBRANE, ROD, RectumModel, SceneParams, StepOutcome, ToolState,
 };
-use crate::collision::{Instrument, PointCloud, ToolContact, VertexAreas, penalty_forces};
+use crate::collision::{
+    Instrument, PointBlocks, PointCloud, ToolContact, VertexAreas, penalty_forces,
+};
 use crate::models::cosserat::skin::{RodPose, Skin};
 use crate::models::cosserat::skinned::SkinnedRod;
 use crate::models::membrane::{ChainBinding, LAYERS, Membrane, MembraneError};
@@ -54,7 +56,10 @@ pub(super) struct Joints {
     pub(super) out: StepOutcome,
     // Scratch, reused every step.
     pub(super) nodes: Vec<u32>,
-    points: Vec<Vec3>,
+    /// The gathered nodes' coordinates, one vector per axis (the membrane's layout), and the
+    /// broad phase's boxes over them.
+    xyz: [Vec<f32>; 3],
+    blocks: PointBlocks,
     areas: Vec<f32>,
     pub(super) contacts: Vec<ToolContact>,
     forces: Vec<(u32, Vec3)>,
@@ -154,7 +159,8 @@ impl Joints {
             hook: None,
             out: StepOutcome::default(),
             nodes: Vec::new(),
-            points: Vec::new(),
+            xyz: Default::default(),
+            blocks: PointBlocks::default(),
             areas: Vec::new(),
             contacts: Vec::new(),
             forces: Vec::new(),
@@ -314,23 +320,30 @@ impl Joints {
     }
 
     /// The nodes of tiles `tiles` (all layers) with their positions and areas, into
-    /// `nodes`, `points` and `areas`.
+    /// `nodes`, `xyz` and `areas`: a tile's row at a time, each coordinate's stretch copied
+    /// as it lies in the membrane's state.
     fn gather(&mut self, m: &Membrane, tiles: &[usize]) {
         self.nodes.clear();
+        self.xyz.iter_mut().for_each(Vec::clear);
+        self.areas.clear();
         for &t in tiles {
-            let ([r0, r1], [c0, c1]) = m.tile_span(t);
+            let ([r0, r1], cols) = m.tile_span(t);
+            let [c0, c1] = cols;
             for l in 0..LAYERS {
                 for i in r0..r1 {
-                    self.nodes.extend((c0..c1).map(|j| m.node(l, i, j) as u32));
+                    let first = m.node(l, i, c0);
+                    self.nodes
+                        .extend((first..first + (c1 - c0)).map(|n| n as u32));
+                    for (to, from) in self.xyz.iter_mut().zip(m.row_positions(l, i, cols)) {
+                        to.extend_from_slice(from);
+                    }
+                    match self.area.get(first..first + (c1 - c0)) {
+                        Some(a) => self.areas.extend_from_slice(a),
+                        None => self.areas.resize(self.nodes.len(), 0.0),
+                    }
                 }
             }
         }
-        self.points.clear();
-        self.points
-            .extend(self.nodes.iter().map(|&n| m.position(n as usize)));
-        self.areas.clear();
-        self.areas
-            .extend(self.nodes.iter().map(|&n| self.area[n as usize]));
     }
 
     /// The hook against the nodes of the awake tiles its cylinders may reach (the broad
@@ -349,7 +362,20 @@ impl Joints {
             let _span =
                 tracing::debug_span!("rectum_press_contacts", tiles = tiles.len()).entered();
             self.gather(membrane, &tiles);
-            hook.contacts_all(PointCloud::from_points(&self.points), &mut self.contacts);
+            let [x, y, z] = &self.xyz;
+            match PointCloud::from_components(x, y, z) {
+                // The nodes of blocks of a few rows a cylinder may reach, against that one.
+                Ok(cloud) => {
+                    self.blocks.refresh(cloud);
+                    if hook
+                        .contacts(cloud, &self.blocks, &mut self.contacts)
+                        .is_err()
+                    {
+                        hook.contacts_all(cloud, &mut self.contacts);
+                    }
+                }
+                Err(_) => self.contacts.clear(),
+            }
         }
         // The nearest vulnerable node to the hook's end, among the awake ones near it (in the
         // tiles that hold one).
