@@ -269,6 +269,7 @@ impl Membrane {
     /// Turns on the active set: every tile asleep at its anchors until a tool comes near.
     pub fn use_active_set(&mut self, params: ActivityParams) {
         self.activity = Some(Activity::new(self, params));
+        self.all_changed();
     }
 
     /// Keeps every tile stepping from now on (benchmarks).
@@ -450,6 +451,7 @@ fn start_watch(m: &mut Membrane, a: &mut Activity, t: usize) {
 fn place_asleep(m: &mut Membrane, a: &Activity, t: usize) {
     super::chain::place(m, Some(a), &[t]);
     m.device.tile_changed(t);
+    m.nodes_changed(t);
     let ([r0, r1], [c0, c1]) = a.span(t, m.rows, m.cols);
     let cols = m.cols;
     let mut anchor = vec![0.0; c1 - c0];
@@ -517,6 +519,10 @@ pub(super) fn step(m: &mut Membrane, dt: f32, substeps: usize) {
     a.list.clear();
     a.list
         .extend((0..a.awake.len() as u32).filter(|&t| a.awake[t as usize]));
+    // The awake tiles step (here or on a device): the checkpoint takes them.
+    for &t in &a.list {
+        m.nodes_changed(t as usize);
+    }
     // On the membrane's GPU where it has one, else (or should it fail) here.
     // Layer 0's loads by group are summed where the step runs, from the state it starts
     // from; the device measures the awake tiles for the checks below where it can.

@@ -146,6 +146,7 @@ pub(super) fn place_all_asleep(m: &mut Membrane, a: &Activity, tiles: &[usize]) 
     super::super::chain::place(m, Some(a), tiles);
     for &t in tiles {
         m.device.tile_changed(t);
+        m.nodes_changed(t);
     }
     let (rows, cols) = (m.rows, m.cols);
     let tr = a.params.tile_rows;

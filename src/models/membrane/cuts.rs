@@ -18,7 +18,6 @@ impl Membrane {
     /// [`Membrane::cut_plane`], also putting the grid cell `i * cols + j` of every link cut
     /// into `cut` (cleared first, ascending).
     pub fn cut_plane_into(&mut self, center: Vec3, radius_m: f32, cut: &mut Vec<u32>) -> u32 {
-        self.springs_cut = true;
         let per = self.rows * self.cols;
         let plane = 1;
         cut.clear();
@@ -74,6 +73,7 @@ impl Membrane {
         self.catch_up_tiles(&touched);
         for &tile in &touched {
             self.device.tile_springs_changed(tile);
+            self.springs_changed_in(tile);
         }
         for &t in cut.iter() {
             let t = t as usize;

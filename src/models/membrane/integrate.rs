@@ -382,6 +382,7 @@ impl Membrane {
                 self.state.data[at] += d[c];
             }
             self.device.stale();
+            self.all_changed();
         }
     }
 }

@@ -34,6 +34,7 @@ mod block_tests;
 mod chain;
 #[cfg(test)]
 mod chain_tests;
+mod checkpoint;
 mod cuts;
 mod device;
 mod forces;
@@ -235,10 +236,9 @@ pub struct Membrane {
     substep_safety: f32,
     last_substeps: usize,
     last_share: f32,
-    saved: Option<Box<model::Saved>>,
-    /// A cut changed the springs since the last checkpoint (only then does a checkpoint copy
-    /// them).
-    springs_cut: bool,
+    saved: Option<Box<checkpoint::Saved>>,
+    /// The tiles that changed since the last checkpoint (`checkpoint.rs`).
+    changed: checkpoint::Changed,
     /// The GPU the substeps run on, if any (`device.rs`).
     device: device::Slot,
     /// Layer 0's nodes in groups whose loads are summed each step, and the last sums
@@ -316,7 +316,7 @@ impl Membrane {
             last_share: 1.0,
             saved: None,
             device: device::Slot::default(),
-            springs_cut: true,
+            changed: checkpoint::Changed::everything(),
             anchor_groups: None,
             anchor_sums: Vec::new(),
             load_scratch: Vec::new(),
@@ -606,6 +606,7 @@ impl Membrane {
             self.attach[row * self.cols..(row + 1) * self.cols].fill(0.0);
         }
         self.device.stale();
+        self.all_changed();
     }
 
     /// Adds a force on `node` for the next step, N.
@@ -619,6 +620,7 @@ impl Membrane {
     /// is not consulted: see [`Membrane::advance`]).
     pub fn step(&mut self, dt_s: f32) {
         self.catch_up();
+        self.all_changed();
         integrate::step(self, dt_s);
         self.external.clear();
     }
@@ -641,6 +643,7 @@ impl Membrane {
         let n = self.substeps_for(dt, safety);
         let all = self.activity.as_ref().is_none_or(|a| a.all_awake);
         if all {
+            self.all_changed();
             // Every tile steps here or goes up from here: its targets on the CPU.
             let a = self.activity.take();
             let tiles: Vec<usize> = (0..a.as_ref().map_or(1, |a| a.awake.len())).collect();

@@ -12,14 +12,6 @@ use glam::Vec3;
 /// The share of the explicit stability limit a substep takes unless set.
 pub(super) const SUBSTEP_SAFETY: f32 = 0.9;
 
-/// What a rollback returns to.
-#[derive(Debug, Clone)]
-pub(super) struct Saved {
-    state: Vec<f32>,
-    rows_data: Vec<f32>,
-    released: Vec<bool>,
-}
-
 impl Membrane {
     /// The share of the explicit limit each substep of a world's step takes, in (0, 1].
     pub fn set_substep_safety(&mut self, safety: f32) {
@@ -135,38 +127,18 @@ impl TissueModel for Membrane {
         self.sheets()
     }
 
-    /// The nodes every time; the springs and the released marks only when a cut changed them
-    /// since the last checkpoint (at full size they are 60 % of the bytes).
+    /// The tiles that changed since the last checkpoint (`checkpoint.rs`), brought up to date
+    /// from the device first.
     fn checkpoint(&mut self) {
         self.catch_up();
-        match &mut self.saved {
-            Some(s) => {
-                s.state.clone_from(&self.state.data);
-                if self.springs_cut {
-                    s.rows_data.clone_from(&self.rows_data);
-                    s.released.clone_from(&self.released);
-                }
-            }
-            None => {
-                self.saved = Some(Box::new(Saved {
-                    state: self.state.data.clone(),
-                    rows_data: self.rows_data.clone(),
-                    released: self.released.clone(),
-                }));
-            }
-        }
-        self.springs_cut = false;
+        self.save();
     }
 
     fn restore(&mut self) {
         if let Some(a) = &mut self.activity {
             a.measured_finite = None;
         }
-        if let Some(s) = &self.saved {
-            self.state.data.clone_from(&s.state);
-            self.rows_data.clone_from(&s.rows_data);
-            self.released.clone_from(&s.released);
-        }
+        self.load();
         self.external.clear();
         self.device.stale();
     }
@@ -215,6 +187,7 @@ impl TissueModel for Membrane {
         self.catch_up();
         // Written here, not on a device: it goes up whole; the last check no longer holds.
         self.device.stale();
+        self.all_changed();
         if let Some(a) = &mut self.activity {
             a.measured_finite = None;
         }
