@@ -87,6 +87,9 @@ pub trait TissueModel: Send {
     fn render_mesh(&mut self) -> crate::sim::ModelSnapshot;
     /// Saves the current state as the last good one.
     fn checkpoint(&mut self);
+    /// The whole state is read after the next step (its checkpoint): a model whose state
+    /// lags on a device brings all of it back with that step, not in a round trip of its own.
+    fn read_whole_after_step(&mut self) {}
     /// Returns to the last checkpoint.
     fn restore(&mut self);
     /// Whether every state value changed since the last check is finite.
@@ -158,6 +161,9 @@ impl TissueModel for Box<dyn TissueModel> {
     }
     fn checkpoint(&mut self) {
         (**self).checkpoint();
+    }
+    fn read_whole_after_step(&mut self) {
+        (**self).read_whole_after_step();
     }
     fn restore(&mut self) {
         (**self).restore();
@@ -240,6 +246,9 @@ macro_rules! tissue_models {
             }
             fn checkpoint(&mut self) {
                 match self { $(Self::$variant(m) => <$ty as $crate::sim::TissueModel>::checkpoint(m)),+ }
+            }
+            fn read_whole_after_step(&mut self) {
+                match self { $(Self::$variant(m) => <$ty as $crate::sim::TissueModel>::read_whole_after_step(m)),+ }
             }
             fn restore(&mut self) {
                 match self { $(Self::$variant(m) => <$ty as $crate::sim::TissueModel>::restore(m)),+ }

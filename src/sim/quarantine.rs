@@ -22,6 +22,11 @@ impl Quarantine {
         self.frozen
     }
 
+    /// Whether a checkpoint is taken after step `step` (if its state is finite).
+    pub fn checkpoint_due(&self, step: u64) -> bool {
+        !self.frozen && step.is_multiple_of(self.interval)
+    }
+
     /// Call after the model stepped. Returns an event when the model was quarantined.
     pub fn after_step(&mut self, model: &mut dyn TissueModel, step: u64) -> Option<EventKind> {
         if self.frozen {

@@ -522,6 +522,9 @@ fn step_slot<M: TissueModel>(
     let t0 = std::time::Instant::now();
     let reactions_before = slot.output.reactions.len();
     slot.model.apply_point_forces(forces);
+    if last && slot.guard.checkpoint_due(step) {
+        slot.model.read_whole_after_step();
+    }
     slot.model.step(h, &slot.contacts, &mut slot.output);
     slot.time_s += t0.elapsed().as_secs_f64();
     slot.awake_sum += f64::from(slot.model.awake_fraction());

@@ -40,6 +40,8 @@ pub(super) struct Books {
     pub want: Vec<bool>,
     /// Read every awake tile back with each step (to compare; tests).
     pub eager: bool,
+    /// Read every awake tile back with the next step only (a checkpoint follows it).
+    pub once: bool,
     /// Tiles that came back with a step, and round trips that brought behind runs up to date,
     /// over the device's life (tests' counts).
     pub tiles_back: u64,
@@ -99,7 +101,8 @@ impl Books {
     /// empty). The marks are cleared.
     pub fn wanted(&mut self, a: &Activity, periodic: bool, dt: f32, eager: bool) {
         self.want.clear();
-        if !(eager || self.eager) {
+        let every = eager || self.eager || std::mem::take(&mut self.once);
+        if !every {
             self.want.resize(a.awake.len(), false);
             for &t in &self.marked {
                 self.want[t] = true;
@@ -151,6 +154,15 @@ impl Books {
         runs.sort_unstable();
         runs.dedup();
         runs
+    }
+}
+
+impl super::Slot {
+    /// Every awake tile comes back with the next step (something reads them all after it).
+    pub fn read_whole_next(&mut self) {
+        if let Some(d) = self.on.as_deref_mut() {
+            d.books.once = true;
+        }
     }
 }
 

@@ -134,6 +134,12 @@ impl TissueModel for Membrane {
         self.save();
     }
 
+    /// A checkpoint follows the next step: every awake tile comes back with it, so the
+    /// checkpoint finds nothing lagging.
+    fn read_whole_after_step(&mut self) {
+        self.device.read_whole_next();
+    }
+
     fn restore(&mut self) {
         if let Some(a) = &mut self.activity {
             a.measured_finite = None;
