@@ -242,6 +242,14 @@ impl Live {
         self.info
     }
 
+    /// A snapshot follows the next step: a model whose state lags on a device brings all of
+    /// it back with that step, not in a round trip of the snapshot's own.
+    pub fn snapshot_follows(&mut self) {
+        if let Some(m) = self.proc_.models_mut() {
+            m.read_whole_after_step();
+        }
+    }
+
     /// Simulated time, seconds.
     pub fn time_s(&self) -> f64 {
         self.clock.time_s()

@@ -276,8 +276,12 @@ pub fn run_with(
                     r.frames[step as usize]
                 }
             };
+            let captured_now = capture_at.binary_search(&step).is_ok();
+            if captured_now || (opts.bus.is_some() && step.is_multiple_of(publish_every)) {
+                live.snapshot_follows();
+            }
             live.step(frame)?;
-            if capture_at.binary_search(&step).is_ok() {
+            if captured_now {
                 captured.push(live.snapshot());
             }
             if let Some(bus) = opts.bus

@@ -566,6 +566,9 @@ pub trait ModelSet: Send {
     /// Puts a NaN into model `index` (in the order of [`ModelSet::model_reports`]); false
     /// when there is no such model, or it holds no state the next step would meet now.
     fn inject_nan(&mut self, index: usize) -> bool;
+    /// The whole state is read after the next step (a frame's snapshot): see
+    /// [`TissueModel::read_whole_after_step`].
+    fn read_whole_after_step(&mut self);
 }
 
 impl<M: TissueModel> ModelSet for World<M> {
@@ -591,6 +594,11 @@ impl<M: TissueModel> ModelSet for World<M> {
         match self.slots.get_mut(index) {
             Some(slot) => slot.model.inject_nan(),
             None => false,
+        }
+    }
+    fn read_whole_after_step(&mut self) {
+        for slot in &mut self.slots {
+            slot.model.read_whole_after_step();
         }
     }
 }

@@ -220,6 +220,9 @@ fn play(
                 input.frame()
             }
         };
+        if (live.step_count() + 1).is_multiple_of(publish_every) {
+            live.snapshot_follows();
+        }
         live.step(frame)?;
         if live.step_count().is_multiple_of(publish_every) {
             bus.publish(live.snapshot());

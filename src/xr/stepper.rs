@@ -238,6 +238,10 @@ fn serve(
                             super::between(&from[1], &hands[1], s),
                         ],
                     };
+                    // The frame's snapshot follows the last of its steps.
+                    if live.time_s() + dt * 1.5 > target_s {
+                        live.snapshot_follows();
+                    }
                     for e in live.step(frame)? {
                         feel.note(&e.kind, &tools);
                     }

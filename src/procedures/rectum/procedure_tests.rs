@@ -487,3 +487,51 @@ fn on_the_gpu_a_nan_is_quarantined_and_a_lost_device_hands_over_to_the_cpu() {
     let last = (*hook.last().expect("steps") - *cpu_hook.last().expect("steps")).length();
     assert!(last <= 1e-3 * most.max(1e-6), "{last} N off");
 }
+
+#[test]
+fn a_frame_announced_before_its_step_takes_no_round_trip_on_the_gpu() {
+    use crate::procedures::Procedure;
+    // The demo's first second on lavapipe with a snapshot every 10 steps, the step before
+    // each told (as the session tells it) or not.
+    let run = |told: bool| {
+        let key = "procedure = \"rectum\"\ncompute = \"gpu\"";
+        let mut r = rectum(coarse(|t| t.replacen("procedure = \"rectum\"", key, 1)));
+        let trace = crate::trace::KeyTrace::parse("demo", INFO.demo_trace).expect("demo trace");
+        let mut clock =
+            crate::sim::Clock::new(r.scenario.dt_s, crate::sim::Pacing::AsFastAsPossible);
+        let (mut events, mut frames, mut trips) = (Vec::new(), Vec::new(), 0);
+        let catch_ups = |r: &Rectum| r.scene.membrane().gpu_readback_counts().map(|c| c.1);
+        while clock.time_s() < 1.0 {
+            let step = clock.step();
+            let frame_after = step % 10 == 9;
+            if told && frame_after {
+                r.models_mut().expect("a world").read_whole_after_step();
+            }
+            r.step(&trace.sample(clock.time_s()), step, &mut events);
+            if frame_after {
+                let before = catch_ups(&r).expect("on the device");
+                let s = r.snapshot(step);
+                trips += catch_ups(&r).expect("on the device") - before;
+                frames.push(
+                    s.models
+                        .iter()
+                        .map(|m| m.positions.clone())
+                        .collect::<Vec<_>>(),
+                );
+            }
+            clock.tick();
+        }
+        (frames, trips)
+    };
+    let (told, told_trips) = run(true);
+    let (untold, untold_trips) = run(false);
+    // Untold, a frame catches up the tiles away from the instruments in round trips of its
+    // own; told, they came back with the step before it. The frames are the same.
+    eprintln!("round trips at the frames: {untold_trips} untold, {told_trips} told");
+    assert!(untold_trips > 0, "no tile lagged at a frame");
+    assert_eq!(told_trips, 0);
+    assert_eq!(told.len(), untold.len());
+    for (k, (a, b)) in told.iter().zip(&untold).enumerate() {
+        assert!(a == b, "frame {k}");
+    }
+}
