@@ -87,8 +87,9 @@ pub trait TissueModel: Send {
     fn render_mesh(&mut self) -> crate::sim::ModelSnapshot;
     /// Saves the current state as the last good one.
     fn checkpoint(&mut self);
-    /// The whole state is read after the next step (its checkpoint): a model whose state
-    /// lags on a device brings all of it back with that step, not in a round trip of its own.
+    /// The whole state is read after the next step (its checkpoint, a frame's snapshot): a
+    /// model whose state lags on a device brings all of it back with that step, not in a
+    /// round trip of its own.
     fn read_whole_after_step(&mut self) {}
     /// Returns to the last checkpoint.
     fn restore(&mut self);
