@@ -40,7 +40,8 @@ pub(super) struct Books {
     pub want: Vec<bool>,
     /// Read every awake tile back with each step (to compare; tests).
     pub eager: bool,
-    /// Read every awake tile back with the next step only (a checkpoint follows it).
+    /// Read every awake tile back with the next step only (a checkpoint or a frame follows
+    /// it: [`super::Slot::read_whole_next`]).
     pub once: bool,
     /// Tiles that came back with a step, and round trips that brought behind runs up to date,
     /// over the device's life (tests' counts).
