@@ -79,6 +79,18 @@ fn bench_and_profile_run_the_sandbox() {
     }
     assert_eq!(lines[2]["all_awake"], true);
     assert_eq!(lines[0]["all_awake"], false);
+    // The procedure's lines build a snapshot every 1 / 90 s of the sandbox's 2 ms steps, as
+    // the window does; a model's line builds none.
+    for l in &lines {
+        let steps = l["steps"].as_u64().expect("steps");
+        if l["model"] == "procedure" {
+            assert_eq!(l["frames"].as_u64(), Some(steps / 6), "{l}");
+            let share = l["frame_share"].as_f64().expect("a share");
+            assert!(share > 0.0 && share < 1.0, "{l}");
+        } else {
+            assert!(l["frames"].is_null(), "{l}");
+        }
+    }
     let p = ok(&bin()
         .args(["profile", "sandbox", "--json", "--eye-size", "64x64"])
         .output()

@@ -6,7 +6,7 @@
 
 use std::time::Instant;
 use vesalius::registry::CATALOG;
-use vesalius::sim::{BenchError, BenchLine, Clock, Once, Pacing, ProcedureInfo};
+use vesalius::sim::{BenchError, BenchLine, Clock, FrameFigures, Once, Pacing, ProcedureInfo};
 use vesalius::trace::KeyTrace;
 
 /// Runs the procedure's demo trace once on `scenario` (its default, or a preset laid over
@@ -71,7 +71,9 @@ pub fn run_coupled(
     )
 }
 
-/// One timed run of `seconds` of the trace; `all_awake` keeps every point stepping.
+/// One timed run of `seconds` of the trace, building a snapshot for renderers at the
+/// scenario's `publish_hz` as a live session does (the procedure's line counts them);
+/// `all_awake` keeps every point stepping.
 fn pass(
     info: &ProcedureInfo,
     file: &str,
@@ -89,14 +91,29 @@ fn pass(
     let mut clock = Clock::new(dt, Pacing::AsFastAsPossible);
     let steps = (seconds / dt as f64).ceil() as u64;
     let mut events = Vec::new();
+    let every = plan.publish_every();
+    let mut frame_s = Vec::with_capacity((steps / every) as usize);
     let t0 = Instant::now();
-    // On a worker of the pool, as a session steps (see `vesalius::session::on_pool`).
+    // On a worker of the pool, as a session steps (see `vesalius::session::on_pool`), with
+    // the window's cadence of snapshots (`ui::runner`).
     vesalius::session::on_pool(|| {
         while clock.step() < steps {
             let f = trace.sample(clock.time_s());
+            if (clock.step() + 1).is_multiple_of(every)
+                && let Some(m) = p.models_mut()
+            {
+                m.read_whole_after_step();
+            }
             p.step(&f, clock.step(), &mut events);
             events.clear();
             clock.tick();
+            if clock.step().is_multiple_of(every) {
+                let t = Instant::now();
+                let snapshot = p.snapshot(clock.step());
+                frame_s.push(t.elapsed().as_secs_f64());
+                // Dropped on the render thread in a session: not timed here.
+                drop(std::hint::black_box(snapshot));
+            }
         }
     });
     let wall = t0.elapsed().as_secs_f64();
@@ -118,6 +135,7 @@ fn pass(
             mass_spring: Default::default(),
             once: Once::default(),
             compute: Default::default(),
+            frames: Default::default(),
         }
     };
     let models = p.model_reports();
@@ -152,6 +170,7 @@ fn pass(
     let share = awake_points / (total[0].max(1) as f64);
     out.push(BenchLine {
         compute: on_gpu(models.iter().find_map(|m| m.gpu.clone())),
+        frames: FrameFigures::of(&frame_s, wall),
         ..line("procedure".to_string(), wall, total, share)
     });
     Ok(out)

@@ -166,6 +166,16 @@ pub fn bench(
                     l.constraints,
                     l.threads
                 );
+                let fr = &l.frames;
+                if let (Some(n), Some(mean), Some(max), Some(share)) =
+                    (fr.frames, fr.frame_ms, fr.frame_ms_max, fr.frame_share)
+                {
+                    say!(
+                        "{:<14} with {n} snapshots for renderers: {mean:.3} ms each (at most {max:.3}), {:.1}% of the time",
+                        "",
+                        100.0 * share
+                    );
+                }
                 let c = &l.compute;
                 if let (Some(adapter), None) = (&c.adapter, c.substeps_per_s) {
                     // A model of the procedure stepping on the GPU.

@@ -257,9 +257,7 @@ impl Live {
 
     /// Steps between two snapshots published for renderers (the scenario's `publish_hz`).
     pub fn publish_every(&self) -> u64 {
-        ((1.0 / self.plan.publish_hz) / self.plan.dt_s)
-            .round()
-            .max(1.0) as u64
+        self.plan.publish_every()
     }
 
     /// Steps that cover `duration_s` of simulated time.

@@ -30,6 +30,44 @@ pub struct BenchLine {
     /// Where it ran and what the hardware did, for a line of a GPU compute path.
     #[serde(flatten)]
     pub compute: ComputeFigures,
+    /// The snapshots a procedure's line built for renderers, as a live session does.
+    #[serde(flatten)]
+    pub frames: FrameFigures,
+}
+
+/// The snapshots built for renderers during a procedure's timed pass, one every
+/// [`super::Plan::publish_every`] steps, each announced before its step
+/// ([`super::ModelSet::read_whole_after_step`]), as the window and the headset build them on
+/// the simulation thread; the line's rate counts their time (each left out of the JSON when
+/// absent).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct FrameFigures {
+    /// Snapshots built.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub frames: Option<u64>,
+    /// Their mean build time, milliseconds.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub frame_ms: Option<f64>,
+    /// The slowest one's, milliseconds.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub frame_ms_max: Option<f64>,
+    /// The share of the pass's wall time spent building them.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub frame_share: Option<f64>,
+}
+
+impl FrameFigures {
+    /// The figures of snapshots that took `seconds` each, over a pass of `wall_s`.
+    pub fn of(seconds: &[f64], wall_s: f64) -> Self {
+        let sum: f64 = seconds.iter().sum();
+        let n = seconds.len();
+        Self {
+            frames: Some(n as u64),
+            frame_ms: (n > 0).then(|| 1e3 * sum / n as f64),
+            frame_ms_max: seconds.iter().copied().reduce(f64::max).map(|s| 1e3 * s),
+            frame_share: Some(sum / wall_s.max(1e-12)),
+        }
+    }
 }
 
 /// A GPU compute line's particulars (each left out of the JSON when absent): the backend and
@@ -116,6 +154,7 @@ impl BenchLine {
             mass_spring: Default::default(),
             once: Once::default(),
             compute: ComputeFigures::default(),
+            frames: FrameFigures::default(),
         }
     }
 }

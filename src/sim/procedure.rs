@@ -102,6 +102,13 @@ pub struct Plan {
     pub nodes: u64,
 }
 
+impl Plan {
+    /// Steps between two snapshots published for renderers (`publish_hz`), at least one.
+    pub fn publish_every(&self) -> u64 {
+        ((1.0 / self.publish_hz) / self.dt_s).round().max(1.0) as u64
+    }
+}
+
 /// Why a procedure could not be built.
 #[derive(Debug, thiserror::Error)]
 pub enum BuildError {

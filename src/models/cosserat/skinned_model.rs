@@ -86,6 +86,22 @@ impl SkinnedRod {
         }
         (positions, normals)
     }
+
+    /// The surface as the rod carries it now, for the renderer.
+    pub fn mesh(&self) -> ModelSnapshot {
+        let (positions, normals) = self.surface_now();
+        let cut_edge = vec![false; positions.len()];
+        ModelSnapshot {
+            seared: Vec::new(),
+            name: self.name.clone(),
+            positions,
+            normals,
+            indices: self.surface.triangles.iter().flatten().copied().collect(),
+            regions: vec![0; self.surface.triangles.len()],
+            roles: vec![SurfaceRole::Tissue],
+            cut_edge,
+        }
+    }
 }
 
 impl TissueModel for SkinnedRod {
@@ -129,18 +145,7 @@ impl TissueModel for SkinnedRod {
     }
 
     fn render_mesh(&mut self) -> ModelSnapshot {
-        let (positions, normals) = self.surface_now();
-        let cut_edge = vec![false; positions.len()];
-        ModelSnapshot {
-            seared: Vec::new(),
-            name: self.name.clone(),
-            positions,
-            normals,
-            indices: self.surface.triangles.iter().flatten().copied().collect(),
-            regions: vec![0; self.surface.triangles.len()],
-            roles: vec![SurfaceRole::Tissue],
-            cut_edge,
-        }
+        self.mesh()
     }
 
     fn checkpoint(&mut self) {

@@ -323,17 +323,11 @@ impl Membrane {
             return self.position(node);
         };
         let (l, i, j) = self.coords(node);
-        if a.awake.get(self.tile_of(i, j)).is_none_or(|&w| w) {
+        let tile = self.tile_of(i, j);
+        if a.awake.get(tile).is_none_or(|&w| w) {
             return self.position(node);
         }
-        let (cols, b) = (self.cols, l * self.rows + i);
-        let keep = 1.0 - a.weight[b * cols + j];
-        let target = self.target_now(i, j, self.tile_of(i, j));
-        Vec3::from_array(std::array::from_fn(|c| {
-            let rest = a.rest[(b * 3 + c) * cols + j];
-            let rest0 = a.rest[(i * 3 + c) * cols + j];
-            rest + (target[c] - rest0) * keep + a.offset[(b * 3 + c) * cols + j]
-        }))
+        self.carried_asleep(a, [l, i, j], self.target_now(i, j, tile))
     }
 
     /// Wakes every tile whose box comes within the wake margin of a box `(min, max)`.
@@ -754,6 +748,8 @@ fn settle(m: &mut Membrane, a: &mut Activity, dt: f32, measured: Option<Vec<Watc
     }
 }
 
+#[path = "active_drawn.rs"]
+mod drawn;
 #[path = "active_near.rs"]
 mod near;
 #[path = "active_rows.rs"]

@@ -207,6 +207,49 @@ fn a_sleeping_tile_is_drawn_where_the_chain_carries_it_before_its_targets_are_pl
 }
 
 #[test]
+fn a_drawn_grid_holds_where_each_of_its_nodes_is_drawn() {
+    // A twisting session's first 60 steps, then a pose no step has met: an awake tile's node
+    // is drawn where it is, a sleeping one's where the chain now carries it.
+    let (rows, len) = (48, length(48));
+    let mut m = sleepy(rows, 64);
+    bind_along(&mut m, len);
+    let mut out = crate::sim::ModelOutput::default();
+    for k in 0..60 {
+        let p = pose(len, k);
+        m.pose_targets(&p.0, &p.1).expect("a pose");
+        session_step(&mut m, k, &mut out);
+    }
+    let awake = awake_tiles(&m).len();
+    let p = pose(len, 90);
+    m.pose_targets(&p.0, &p.1).expect("a pose");
+    // Every third row and every other column, and one row past the grid's last.
+    let rs: Vec<usize> = (0..m.rows()).step_by(3).chain([m.rows()]).collect();
+    let cs: Vec<usize> = (0..m.cols()).step_by(2).collect();
+    let layers = [0, 1, 2, 3];
+    let grid = m.carried_grid(&layers, &rs, &cs);
+    assert_eq!(grid.len(), layers.len() * rs.len() * cs.len());
+    let (mut k, mut carried, mut outside) = (0, 0, 0);
+    for l in layers {
+        for &i in &rs {
+            for &j in &cs {
+                if i >= m.rows() {
+                    assert_eq!(grid[k], Vec3::ZERO, "({l}, {i}, {j})");
+                    outside += 1;
+                } else {
+                    let n = m.node(l, i, j);
+                    assert_eq!(grid[k], m.carried_position(n), "({l}, {i}, {j})");
+                    carried += usize::from(grid[k] != m.position(n));
+                }
+                k += 1;
+            }
+        }
+    }
+    assert!(awake > 0, "no tile awake");
+    assert!(carried > 0, "no node drawn off its state");
+    assert_eq!(outside, layers.len() * cs.len());
+}
+
+#[test]
 fn the_device_places_the_targets_from_the_pose_and_none_go_up() {
     // The twisting session on the CPU, on a device placing the targets itself, and on a
     // device taking them from the CPU as before: the same tiles sleep and wake at every

@@ -34,11 +34,12 @@ pub struct CutLook {
 /// ends `open` accepts are looked at (a boundary edge's reverse has the same ends, so a
 /// boundary among them is found whole).
 pub fn holes(m: &ModelSnapshot, open: impl Fn(u32) -> bool) -> Vec<Vec<u32>> {
+    let open = &open;
     let edges_of = |t: &[u32]| {
+        let t = [t[0], t[1], t[2]];
         (0..3)
             .map(move |k| (t[k], t[(k + 1) % 3]))
-            .filter(|&(a, b)| open(a) && open(b))
-            .collect::<Vec<_>>()
+            .filter(move |&(a, b)| open(a) && open(b))
     };
     let edges: HashSet<(u32, u32)> = m.indices.chunks_exact(3).flat_map(edges_of).collect();
     // Boundary edges, in the order the triangles come.
@@ -116,14 +117,20 @@ pub fn close_cuts(m: &mut ModelSnapshot, seared: bool) -> Vec<CutLook> {
         return look;
     }
     let loops = holes(m, |v| look[v as usize].raw);
-    // Each boundary vertex's region: that of a triangle it belongs to.
-    let mut region_of: HashMap<u32, u8> = HashMap::new();
+    // Each outline's region: that of the first triangle with a corner at the outline's first
+    // vertex.
+    let mut region_of: Vec<Option<u8>> = vec![None; m.positions.len()];
+    let mut first = vec![false; m.positions.len()];
+    for ring in &loops {
+        first[ring[0] as usize] = true;
+    }
     if !loops.is_empty() {
         for (t, tri) in m.indices.chunks_exact(3).enumerate() {
             for &v in tri {
-                region_of
-                    .entry(v)
-                    .or_insert(m.regions.get(t).copied().unwrap_or(0));
+                let v = v as usize;
+                if first[v] && region_of[v].is_none() {
+                    region_of[v] = Some(m.regions.get(t).copied().unwrap_or(0));
+                }
             }
         }
     }
@@ -173,7 +180,7 @@ pub fn close_cuts(m: &mut ModelSnapshot, seared: bool) -> Vec<CutLook> {
         if depth <= 0.0 || normal == Vec3::ZERO {
             continue;
         }
-        let region = region_of.get(&ring[0]).copied().unwrap_or(0);
+        let region = region_of[ring[0] as usize].unwrap_or(0);
         let base = m.positions.len() as u32;
         // Middle ring, bottom ring, then the floor's middle.
         for (band, (down, inset)) in [(0.5, 0.5 * WALL_INSET), (1.0, WALL_INSET)]

@@ -3,6 +3,9 @@
 use super::*;
 use crate::sim::Fnv;
 
+/// Points or drawn vertices a task of the snapshot takes at the least.
+const DRAWN_PER_TASK: usize = 4096;
+
 impl SoftBody {
     /// Heap bytes held by each part of the body (capacity, not length), for the profiler.
     pub fn memory(&self) -> Vec<(&'static str, usize)> {
@@ -346,11 +349,21 @@ impl TissueModel for SoftBody {
         })
     }
 
+    /// The surface now, its points' normals and the drawn vertices found in parallel (each
+    /// value written once: the threads change no bit).
     fn render_mesh(&mut self) -> ModelSnapshot {
-        let mut normals = vec![Vec3::ZERO; self.x.len()];
-        self.mesh.vertex_normals(&self.x, &self.alive, &mut normals);
-        let positions: Vec<Vec3> = (0..self.mesh.render.len())
-            .map(|r| self.mesh.render_position(r, &self.x, &normals))
+        use rayon::prelude::*;
+        let (mesh, x, alive) = (&self.mesh, &self.x, &self.alive);
+        let mut normals = vec![Vec3::ZERO; x.len()];
+        normals
+            .par_iter_mut()
+            .with_min_len(DRAWN_PER_TASK)
+            .enumerate()
+            .for_each(|(i, n)| *n = mesh.normal_area(x, alive, i).0);
+        let positions: Vec<Vec3> = (0..mesh.render.len())
+            .into_par_iter()
+            .with_min_len(DRAWN_PER_TASK)
+            .map(|r| mesh.render_position(r, x, &normals))
             .collect();
         let mut indices = Vec::with_capacity(self.mesh.faces.len() * 3);
         let mut regions = Vec::with_capacity(self.mesh.faces.len());
@@ -369,8 +382,10 @@ impl TissueModel for SoftBody {
                 rn[i as usize] += n;
             }
         }
-        let cut_edge = (0..self.mesh.render.len())
-            .map(|r| self.mesh.is_split(r))
+        let cut_edge = (0..mesh.render.len())
+            .into_par_iter()
+            .with_min_len(DRAWN_PER_TASK)
+            .map(|r| mesh.is_split(r))
             .collect();
         let mut out = ModelSnapshot {
             name: self.name.clone(),

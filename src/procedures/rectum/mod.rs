@@ -6,6 +6,7 @@
 pub mod anatomy;
 mod cases;
 mod coupling;
+mod drawn;
 mod field;
 mod gpu_bench;
 mod plugin;

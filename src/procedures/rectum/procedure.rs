@@ -5,16 +5,17 @@
 //! layer, and what the renderer draws (the rectum, the fasciae with the dissection showing,
 //! the pelvic side with its vulnerable structures, the smoke where the hook cut).
 
+use super::drawn::Drawn;
 use super::regions::{self, RegionKind};
 use super::scenario::Scenario;
 use super::scene::{ALARM_RECTAL_WALL, RectumScene, StepOutcome, ToolState};
-use crate::models::membrane::{LAYERS, Membrane};
+use crate::models::membrane::LAYERS;
 use crate::procedures::scope::Scope;
 use crate::sim::Fnv;
 use crate::sim::TaskStatus;
 use crate::sim::{
     EmissionKind, EmissionLog, EventKind, Hand, HandInput, InputFrame, InstrumentShape,
-    ModelSnapshot, ProcedureEvent, SimEvent, Snapshot, SurfaceRole, TissueModel, ToolSnapshot,
+    ProcedureEvent, SimEvent, Snapshot, TissueModel, ToolSnapshot,
 };
 use glam::Vec3;
 use serde::Serialize;
@@ -41,8 +42,6 @@ pub const STEPS: [crate::procedures::TaskStep; 4] = [
 
 /// A cut that starts this far from where the last one ended is a jump, m.
 pub const JUMP_M: f32 = 0.005;
-/// Most vertices a drawn membrane layer has (the grid is decimated to stay under it).
-const DRAWN_LAYER_VERTICES: usize = 20_000;
 
 /// Running metrics of one session (Table 1's leaves that the physics measures).
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
@@ -150,6 +149,8 @@ pub struct Rectum {
     right: RightTool,
     right_button: bool,
     pub metrics: Metrics,
+    /// The membrane's drawn grids.
+    drawn: Drawn,
 }
 
 impl Rectum {
@@ -167,6 +168,7 @@ impl Rectum {
             }
         }
         Ok(Rectum {
+            drawn: Drawn::new(&scene),
             scenario,
             scene,
             tools: [ToolSnapshot::default(); 2],
@@ -537,40 +539,10 @@ impl Rectum {
     }
 
     pub fn snapshot(&mut self, step: u64) -> Snapshot {
-        let rectum = TissueModel::render_mesh(self.scene.rod_mut());
         // Every awake tile as the membrane's device has it (see `Membrane::catch_up`).
         self.scene.membrane_mut().catch_up();
-        let m = self.scene.membrane();
-        let fascia = grid_mesh(
-            m,
-            &[1, 2],
-            "fascia",
-            |scene_region| match scene_region {
-                regions::TARGET => 1,
-                _ => 0,
-            },
-            &self.scene,
-            0.0,
-        );
-        // The pelvic side is drawn open over the front: the laparoscope looks down into the
-        // pelvis from its inlet, onto the mesorectum, not through a wall.
-        let pelvis = grid_mesh(
-            m,
-            &[LAYERS - 1],
-            "pelvis",
-            |r| {
-                regions::region(r).map_or(0, |x| match x.kind {
-                    RegionKind::Vulnerable => 1,
-                    RegionKind::Target => 0,
-                })
-            },
-            &self.scene,
-            PELVIS_OPEN_FRONT_DEG,
-        );
-        let mut fascia = fascia;
-        fascia.roles = vec![SurfaceRole::Membrane, SurfaceRole::Target];
-        let mut pelvis = pelvis;
-        pelvis.roles = vec![SurfaceRole::Fat, SurfaceRole::Duct];
+        let (rod, membrane, drawn) = (self.scene.rod(), self.scene.membrane(), &self.drawn);
+        let (rectum, [fascia, pelvis]) = rayon::join(|| rod.mesh(), || drawn.meshes(membrane));
         let time_s = Self::time_s(step, self.scenario.dt_s);
         Snapshot {
             step,
@@ -603,10 +575,6 @@ impl Rectum {
         h.0
     }
 }
-
-/// The pelvic side (layer 3) is not drawn this far round either side of the front, degrees:
-/// over the target's arc (40 degrees), short of the ureters (45-75).
-const PELVIS_OPEN_FRONT_DEG: f32 = 44.0;
 
 /// An `instrument_change` event's fields.
 #[derive(Serialize)]
@@ -645,74 +613,6 @@ fn plane_geometry(scene: &RectumScene, end: Vec3, axis: Vec3, cells: &[u32]) -> 
     let angle =
         (normal != Vec3::ZERO && a.is_finite()).then_some(if a > 90.0 { 180.0 - a } else { a });
     (depth, angle)
-}
-
-/// Layers `layers` of the membrane as triangle grids, decimated to at most
-/// [`DRAWN_LAYER_VERTICES`] vertices each (closed around the ring), with each triangle's
-/// region from `region` of the scene's region id at its first corner; vertices on a cut
-/// plane link are marked cut.
-fn grid_mesh(
-    m: &Membrane,
-    layers: &[usize],
-    name: &str,
-    region: impl Fn(regions::RegionId) -> u8,
-    scene: &RectumScene,
-    open_front_deg: f32,
-) -> ModelSnapshot {
-    let (rows, cols) = (m.rows(), m.cols());
-    let d = ((rows * cols) as f64 / DRAWN_LAYER_VERTICES as f64)
-        .sqrt()
-        .ceil()
-        .max(1.0) as usize;
-    let ri: Vec<usize> = (0..rows)
-        .step_by(d)
-        .chain((!(rows - 1).is_multiple_of(d)).then_some(rows - 1))
-        .collect();
-    let cj: Vec<usize> = (0..cols).step_by(d).collect();
-    let (nr, nc) = (ri.len(), cj.len());
-    let mut out = ModelSnapshot {
-        name: name.to_string(),
-        ..ModelSnapshot::default()
-    };
-    for &l in layers {
-        let base = out.positions.len() as u32;
-        for &i in &ri {
-            for &j in &cj {
-                out.positions.push(m.carried_position(m.node(l, i, j)));
-                let plane = l == 1 || l == 2;
-                out.cut_edge.push(plane && !m.link_alive(1, i, j));
-            }
-        }
-        let wrap = m.periodic();
-        let last_c = if wrap { nc } else { nc - 1 };
-        // Column j lies `360 j / cols` degrees round from the front (column 0).
-        let from_front = |j: usize| {
-            let deg = 360.0 * j as f32 / cols as f32;
-            deg.min(360.0 - deg)
-        };
-        for a in 0..nr - 1 {
-            for b in 0..last_c {
-                let b1 = (b + 1) % nc;
-                if from_front(cj[b]) < open_front_deg && from_front(cj[b1]) < open_front_deg {
-                    continue;
-                }
-                let v = |r: usize, c: usize| base + (r * nc + c) as u32;
-                out.indices.extend([
-                    v(a, b),
-                    v(a + 1, b),
-                    v(a, b1),
-                    v(a, b1),
-                    v(a + 1, b),
-                    v(a + 1, b1),
-                ]);
-                let id = scene.region_of(m.node(l, ri[a], cj[b]));
-                let r = region(id);
-                out.regions.extend([r, r]);
-            }
-        }
-    }
-    out.normals = crate::mesh::vertex_normals(&out.positions, &out.indices);
-    out
 }
 
 #[cfg(test)]
