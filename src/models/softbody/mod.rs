@@ -54,6 +54,7 @@ mod cg;
 mod constraints;
 mod contacts;
 pub mod crater;
+mod drawn;
 mod implicit;
 mod model;
 mod params;
@@ -249,6 +250,8 @@ pub struct SoftBody {
     held_slots: Vec<(u32, u32)>,
     /// Scratch: the normals and areas being refreshed.
     normal_scratch: Vec<(Vec3, f32)>,
+    /// The normals the last snapshot drew, kept for the next.
+    drawn: drawn::DrawnNormals,
     /// Points whose shear links a cut changed (refreshed with the topology).
     relink: Vec<u32>,
     /// Per region: the running sum of volume terms.
@@ -362,6 +365,7 @@ impl SoftBody {
             held_slots: Vec::new(),
             relink: Vec::new(),
             normal_scratch: Vec::new(),
+            drawn: Default::default(),
             volume: Vec::new(),
             steps_since_resum: 0,
             contacting: [false; 2],

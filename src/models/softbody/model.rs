@@ -59,8 +59,8 @@ impl SoftBody {
                 b(&self.constraints_now) + b(&self.fringe) + b(&self.held_slots),
             ),
             (
-                "normals+relink scratch",
-                b(&self.normal_scratch) + b(&self.relink),
+                "normals+relink scratch, drawn normals",
+                b(&self.normal_scratch) + b(&self.relink) + self.drawn.heap_bytes(),
             ),
             ("lambda", b(&self.lambda)),
             (
@@ -349,21 +349,17 @@ impl TissueModel for SoftBody {
         })
     }
 
-    /// The surface now, its points' normals and the drawn vertices found in parallel (each
-    /// value written once: the threads change no bit).
+    /// The surface now, its points' normals (found again only where points moved since the
+    /// last snapshot: `drawn.rs`) and the drawn vertices found in parallel (each value
+    /// written once: the threads change no bit).
     fn render_mesh(&mut self) -> ModelSnapshot {
         use rayon::prelude::*;
         let (mesh, x, alive) = (&self.mesh, &self.x, &self.alive);
-        let mut normals = vec![Vec3::ZERO; x.len()];
-        normals
-            .par_iter_mut()
-            .with_min_len(DRAWN_PER_TASK)
-            .enumerate()
-            .for_each(|(i, n)| *n = mesh.normal_area(x, alive, i).0);
+        let normals = self.drawn.update(mesh, x, alive);
         let positions: Vec<Vec3> = (0..mesh.render.len())
             .into_par_iter()
             .with_min_len(DRAWN_PER_TASK)
-            .map(|r| mesh.render_position(r, x, &normals))
+            .map(|r| mesh.render_position(r, x, normals))
             .collect();
         let mut indices = Vec::with_capacity(self.mesh.faces.len() * 3);
         let mut regions = Vec::with_capacity(self.mesh.faces.len());
