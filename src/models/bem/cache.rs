@@ -50,7 +50,9 @@ pub enum CacheError {
 /// Named arrays.
 pub type Arrays = Vec<(String, Vec<f64>)>;
 
-/// Writes `arrays` under `key` to `path` (through a temporary file renamed over it).
+/// Writes `arrays` under `key` to `path` (through a temporary file renamed over it: its own
+/// for each call, so that two threads or processes writing the same cache at once each
+/// leave a whole file, the last one's).
 pub fn write(path: &Path, key: u64, arrays: &Arrays) -> Result<(), CacheError> {
     let io = |source| CacheError::Io {
         path: path.to_path_buf(),
@@ -76,7 +78,9 @@ pub fn write(path: &Path, key: u64, arrays: &Arrays) -> Result<(), CacheError> {
         std::fs::create_dir_all(dir).map_err(io)?;
     }
     let mut tmp = path.as_os_str().to_owned();
-    tmp.push(format!(".{}.tmp", std::process::id()));
+    static WRITES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let n = WRITES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    tmp.push(format!(".{}-{n}.tmp", std::process::id()));
     let tmp = PathBuf::from(tmp);
     let result = (|| {
         let mut f = std::fs::File::create(&tmp)?;

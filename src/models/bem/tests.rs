@@ -142,7 +142,7 @@ fn a_response_column_is_the_solution_with_that_traction_added() {
 
 #[test]
 fn the_cache_reads_back_what_was_written_and_rebuilds_a_corrupt_or_stale_file() {
-    let dir = std::env::temp_dir().join(format!("vesalius-bem-{}", std::process::id()));
+    let dir = crate::testing::Scratch::new("bem", "cache");
     let path = dir.join("small.bem");
     let _ = std::fs::remove_file(&path);
     let problem = small_problem();
@@ -193,7 +193,32 @@ fn the_cache_reads_back_what_was_written_and_rebuilds_a_corrupt_or_stale_file() 
         matches!(why, Some(cache::CacheError::Stale { .. })),
         "{why:?}"
     );
-    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Threads writing one cache at once each go through a temporary file of their own: every
+/// write succeeds, and the file left reads back whole (one of theirs).
+#[test]
+fn threads_writing_one_cache_at_once_leave_a_whole_file() {
+    let dir = crate::testing::Scratch::new("bem", "racing");
+    let path = dir.join("shared.bem");
+    let arrays = |k: usize| -> cache::Arrays { vec![("y0".into(), vec![k as f64; 50_000])] };
+    let written: Vec<bool> = std::thread::scope(|s| {
+        let writers: Vec<_> = (0..4)
+            .map(|k| {
+                let path = &path;
+                s.spawn(move || (0..5).all(|_| cache::write(path, 7, &arrays(k)).is_ok()))
+            })
+            .collect();
+        writers
+            .into_iter()
+            .map(|w| w.join().unwrap_or(false))
+            .collect()
+    });
+    assert_eq!(written, vec![true; 4]);
+    let back = cache::read(&path, 7).expect("a whole file");
+    assert!((0..4).any(|k| back == arrays(k)), "{:?}", &back[0].1[..2]);
+    let left: Vec<_> = std::fs::read_dir(&*dir).expect("dir").flatten().collect();
+    assert_eq!(left.len(), 1, "no temporary file is left");
 }
 
 #[test]
