@@ -1,6 +1,8 @@
 //! Every kind of bad scenario and trace gets a clear error naming the file, the key and what
 //! is expected; nothing panics.
 
+mod common;
+use common::tmp;
 use std::process::Command;
 use vesalius::procedures::nephrectomy::Scenario;
 use vesalius::registry::builtin;
@@ -167,8 +169,7 @@ fn a_truncated_recording_reads_up_to_it_and_a_corrupt_one_is_rejected() {
             how: "end_of_input".into(),
         },
     };
-    let dir = std::env::temp_dir().join(format!("vesalius-bad-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("dir");
+    let dir = tmp("bad", "recording");
     let path = dir.join("r.vtrace");
     rec.write(&path).expect("write");
     assert_eq!(Recording::read(&path).expect("reads back"), rec);
@@ -192,8 +193,7 @@ fn a_truncated_recording_reads_up_to_it_and_a_corrupt_one_is_rejected() {
 
 #[test]
 fn the_cli_reports_bad_files_and_exits_non_zero() {
-    let dir = std::env::temp_dir().join(format!("vesalius-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("dir");
+    let dir = tmp("bad", "cli");
     let bad = dir.join("bad.toml");
     std::fs::write(
         &bad,

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 mod common;
-use common::{bin, text};
+use common::{bin, text, tmp};
 use std::process::Output;
 
 fn root() -> &'static Path {
@@ -54,7 +54,8 @@ fn check_accepts_every_kind_of_file_we_ship() {
             files.push(e.path());
         }
     }
-    let settings = std::env::temp_dir().join(format!("vesalius-cli-{}.toml", std::process::id()));
+    let scratch = tmp("cli", "check");
+    let settings = scratch.join("settings.toml");
     std::fs::write(
         &settings,
         "frames_every = 5\n[inject]\nsession_loss_s = 1.0\n",
@@ -74,7 +75,7 @@ fn check_accepts_every_kind_of_file_we_ship() {
         assert!(out.contains(kind), "{kind}: {out}");
     }
     // A broken profile is named with its key.
-    let bad = std::env::temp_dir().join(format!("vesalius-cli-{}-bad.toml", std::process::id()));
+    let bad = scratch.join("bad.toml");
     let vive =
         std::fs::read_to_string(root().join("xr-bindings/profiles/htc_vive.toml")).expect("vive");
     std::fs::write(
@@ -103,8 +104,8 @@ fn into_closed_pipe(args: &[&str]) -> Output {
 fn no_command_panics_when_its_output_is_a_closed_pipe() {
     let vive = root().join("xr-bindings/profiles/htc_vive.toml");
     let scenario = root().join("assets/scenarios/nephrectomy.toml");
-    let manifest =
-        std::env::temp_dir().join(format!("vesalius-cli-{}-manifest.json", std::process::id()));
+    let scratch = tmp("cli", "closed-pipe");
+    let manifest = scratch.join("manifest.json");
     let (v, s, m) = (
         vive.display().to_string(),
         scenario.display().to_string(),

@@ -2,8 +2,8 @@
 //! and 1 and 2 worker threads agree.
 
 mod common;
-use common::without_id;
-use std::path::{Path, PathBuf};
+use common::{Scratch, without_id};
+use std::path::Path;
 use std::process::Command;
 use vesalius::registry::builtin;
 use vesalius::session::{self, Input};
@@ -26,10 +26,8 @@ fn coarse() -> String {
         .replace("vessel_rings = 64", "vessel_rings = 12")
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("vesalius-test-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    d
+fn tmp(name: &str) -> Scratch {
+    common::tmp("test", name)
 }
 
 fn bin() -> Command {
@@ -279,7 +277,6 @@ fn a_live_tissue_tuning_is_recorded_and_replayed_at_its_step() {
     assert_ne!(tuned.state_hash, plain.state_hash);
     // Through the file and back, then replayed.
     let dir = tmp("tuning");
-    std::fs::create_dir_all(&dir).expect("dir");
     let path = dir.join("input.vtrace");
     tuned_rec.write(&path).expect("write");
     let rec = vesalius::trace::Recording::read(&path).expect("read");
@@ -321,7 +318,6 @@ fn a_live_tissue_tuning_is_recorded_and_replayed_at_its_step() {
         .expect_err("no such model")
         .to_string();
     assert!(e.contains("liver"), "{e}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Every tunable value is live: the laser's pressure (the tools table) changes the session;

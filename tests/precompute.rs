@@ -3,7 +3,7 @@
 //! (corrupt, stale and cut-short files are rebuilt: `models::bem` tests, at a small size).
 
 mod common;
-use common::{bin, text};
+use common::{bin, text, tmp};
 
 fn json(out: &std::process::Output) -> serde_json::Value {
     serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}: {}", text(out)))
@@ -11,8 +11,7 @@ fn json(out: &std::process::Output) -> serde_json::Value {
 
 #[test]
 fn the_esophagus_is_precomputed_once_at_full_size_and_read_back() {
-    let dir = std::env::temp_dir().join(format!("vesalius-precompute-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    let dir = tmp("precompute", "full");
     let cache = dir.join("myotomy.bem");
     let cache_arg = cache.to_string_lossy().to_string();
     let built = bin()
@@ -47,6 +46,4 @@ fn the_esophagus_is_precomputed_once_at_full_size_and_read_back() {
     assert_eq!(r["from_cache"], true);
     assert!(r["rebuilt_because"].is_null());
     assert_eq!(r["bytes"], b["bytes"]);
-
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -216,8 +216,7 @@ fn saved_frames_read_back_as_the_rendered_pixels() {
         &scene(ball(0.03, None)),
         &field_eyes(&vesalius::procedures::nephrectomy::INFO.view, DEFAULT_IPD_M),
     );
-    let dir = std::env::temp_dir().join(format!("vesalius-png-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = common::tmp("png", "saved");
     let path = dir.join("left_0000.png");
     write_png(&path, SIZE, &shot.eyes[0]).expect("written");
     let (size, pixels) = read_png(&path).expect("read");
@@ -543,7 +542,7 @@ fn frames_show_the_field_from_a_laparoscope_the_trainee_moved() {
         }),
         ..still.clone()
     };
-    let dir = std::env::temp_dir().join(format!("vesalius-scope-{}", std::process::id()));
+    let dir = common::tmp("scope", "frames");
     render_snapshots(
         &gpu,
         &vesalius::render::frames::Look::bare(view),
@@ -551,7 +550,7 @@ fn frames_show_the_field_from_a_laparoscope_the_trainee_moved() {
         1,
         SIZE,
         0.0,
-        Some(&dir),
+        Some(&*dir),
     )
     .expect("frames");
     let left = |k: usize| {
@@ -571,5 +570,4 @@ fn frames_show_the_field_from_a_laparoscope_the_trainee_moved() {
         xc < xa - 10.0,
         "organ at x {xa} from home, {xc} from the moved scope"
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -3,6 +3,8 @@
 //! the end. The screenshot must show the kidney in the 3D view and text in the side panels,
 //! and the session's report must be the headless one.
 
+mod common;
+use common::Scratch;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -62,10 +64,8 @@ fn light(p: &[u8]) -> bool {
 
 /// `procedure`'s demo trace played in a window under Xvfb, a screenshot at its end: the
 /// scratch folder (`shot.png`, `out/`), the trace and how the run went.
-fn demo_in_window(procedure: &str, name: &str) -> (PathBuf, PathBuf, std::process::Output) {
-    let dir = std::env::temp_dir().join(format!("vesalius-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
+fn demo_in_window(procedure: &str, name: &str) -> (Scratch, PathBuf, std::process::Output) {
+    let dir = common::tmp("window", name);
     let trace = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("assets/traces")
         .join(format!("{procedure}-demo.toml"));
@@ -124,7 +124,6 @@ fn the_demo_plays_in_a_window_and_the_screenshot_shows_the_kidney_and_the_panels
         let red = share(&img, x, (0.05, 0.27), kidney);
         assert!(red < 0.01, "{name} panel: {:.2}% kidney red", red * 100.0);
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Desktop mode, driven like a trainee would (begun at once with --start): xdotool moves the
@@ -135,9 +134,7 @@ fn the_demo_plays_in_a_window_and_the_screenshot_shows_the_kidney_and_the_panels
 /// found nothing.
 #[test]
 fn desktop_mode_the_mouse_points_the_laser_and_the_button_cuts() {
-    let dir = std::env::temp_dir().join(format!("vesalius-desktop-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = common::tmp("window", "desktop");
     // The window opens at the top left of the virtual screen: its 3D view spans about 270 to
     // 1300 pixels across, the kidney in its middle and the tumour at about (824, 374).
     let script = r#"
@@ -159,7 +156,7 @@ wait $app
     let o = Command::new("xvfb-run")
         .args(["-a", "-s", "-screen 0 1920x1080x24", "sh", "-c", script])
         .arg(env!("CARGO_BIN_EXE_vesalius"))
-        .arg(&dir)
+        .arg(&*dir)
         .output()
         .expect("xvfb-run (apt-get install xvfb xauth xdotool)");
     succeeded(&o);
@@ -200,16 +197,13 @@ wait $app
         "{:.2}% light pixels in the key map",
         keys * 100.0
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Under XR the window mirrors the headset: the left eye of each frame the headset got is
 /// copied on the GPU into the window, which draws no scene of its own.
 #[test]
 fn the_xr_mirror_shows_the_headsets_eye_without_drawing_the_scene_again() {
-    let dir = std::env::temp_dir().join(format!("vesalius-mirror-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = common::tmp("window", "mirror");
     // Two seconds of controllers held still beside the field, pointing away from it.
     let trace = dir.join("still.toml");
     std::fs::write(
@@ -272,16 +266,13 @@ fn the_xr_mirror_shows_the_headsets_eye_without_drawing_the_scene_again() {
         "kidney in {:.2}% of the dumped eye's middle",
         in_eye * 100.0
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Where the headset shows a monitor (the myotomy), the mirror shows the monitor's picture,
 /// the scope's round image that the trainee operates by, not the dim room around it.
 #[test]
 fn the_xr_mirror_shows_the_monitors_picture_where_the_headset_shows_a_monitor() {
-    let dir = std::env::temp_dir().join(format!("vesalius-mirror-mon-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = common::tmp("window", "mirror-mon");
     let trace = dir.join("demo.toml");
     std::fs::write(&trace, vesalius::procedures::myotomy::INFO.demo_trace).expect("trace");
     let shot = dir.join("shot.png");
@@ -319,7 +310,6 @@ fn the_xr_mirror_shows_the_monitors_picture_where_the_headset_shows_a_monitor() 
         "red tissue in {:.2}% of the middle",
         organ * 100.0
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A force-feedback session in the window: the simulated stylus presses the sandbox's block
@@ -327,9 +317,7 @@ fn the_xr_mirror_shows_the_monitors_picture_where_the_headset_shows_a_monitor() 
 /// its recording replays to the same state, and the servo loop's line is printed.
 #[test]
 fn a_stylus_drives_the_probe_in_the_window_and_the_session_replays() {
-    let dir = std::env::temp_dir().join(format!("vesalius-window-stylus-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = common::tmp("window", "stylus");
     let o = Command::new("xvfb-run")
         .args(["-a", "-s", "-screen 0 1920x1080x24"])
         .arg(env!("CARGO_BIN_EXE_vesalius"))
@@ -388,7 +376,6 @@ fn a_stylus_drives_the_probe_in_the_window_and_the_session_replays() {
             .any(|l| l.starts_with(id) && l.contains("res-03")),
         "{list}"
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// The catheterisation's demo in the window shows the fluoroscope, not the 3D view: the
@@ -417,5 +404,4 @@ fn the_catheterisation_plays_under_fluoroscopy_in_the_window() {
         dark * 100.0,
         light * 100.0
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }

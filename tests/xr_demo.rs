@@ -3,6 +3,7 @@
 //! vibration recorded and stereo frames dumped; a second run gives the same report (drawn
 //! smaller: what the trainee sees does not change what the simulation does).
 
+mod common;
 use std::path::Path;
 use std::process::Command;
 use vesalius::procedures::nephrectomy;
@@ -52,7 +53,7 @@ fn difference(a: &Path, b: &Path) -> f64 {
 
 #[test]
 fn the_demo_trace_under_the_simulated_runtime_completes_with_vibration_and_stereo_frames() {
-    let base = std::env::temp_dir().join(format!("vesalius-xr-demo-{}", std::process::id()));
+    let base = common::tmp("xr-demo", "demo");
     // A quarter of the Vive's panel per side: the same path, less software rasterising.
     let first = run(&base.join("a"), "270x300");
     assert_eq!(first["completed"], true, "{first}");
@@ -140,5 +141,4 @@ fn the_demo_trace_under_the_simulated_runtime_completes_with_vibration_and_stere
     assert_ne!(first["session_id"], second["session_id"]);
     second["session_id"] = first["session_id"].clone();
     assert_eq!(first, second);
-    let _ = std::fs::remove_dir_all(&base);
 }

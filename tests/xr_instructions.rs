@@ -3,8 +3,9 @@
 //! words before the trainee's eyes in the frames the runtime receives, and not before then.
 
 mod common;
+use common::Scratch;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 const WORDS: &str = "Keep both instruments in view";
 
@@ -34,14 +35,13 @@ fn frame(dir: &Path, k: u32) -> ((u32, u32), Vec<u8>) {
         .expect("frame dumped")
 }
 
-fn scratch() -> PathBuf {
-    std::env::temp_dir().join(format!("vesalius-xr-words-{}", std::process::id()))
+fn scratch() -> Scratch {
+    common::tmp("xr-words", "instruction")
 }
 
 #[test]
 fn an_instruction_shows_in_the_headset_while_it_is_current() {
     let base = scratch();
-    std::fs::create_dir_all(&base).expect("scratch");
     // The sandbox's own tree, with one rule more: over 1 s simulated, say WORDS.
     let own = vesalius::procedures::sandbox::INFO.assessment;
     let tree = base.join("tree.toml");
@@ -89,5 +89,4 @@ fn an_instruction_shows_in_the_headset_while_it_is_current() {
     assert!((cx - 135.0).abs() < 50.0, "panel centred at x {cx:.0}");
     assert!(cy > 150.0, "panel below the middle: y {cy:.0}");
     assert!(bright > 20, "{bright} light text pixels");
-    let _ = std::fs::remove_dir_all(&base);
 }

@@ -6,9 +6,11 @@
 //! These run `vesalius run nephrectomy --xr` itself with `XR_RUNTIME_JSON` and the simulated
 //! runtime's settings in the environment, the way a user points the loader at SteamVR.
 
+mod common;
+use common::Scratch;
 use glam::Vec3;
 use serde_json::Value;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 use vesalius::procedures::Nephrectomy;
 use vesalius::procedures::nephrectomy::{REGION_PARENCHYMA, Scenario};
@@ -31,11 +33,8 @@ struct Run {
     recording: Recording,
 }
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("vesalius-xr-loop-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
+fn temp_dir(name: &str) -> Scratch {
+    common::tmp("xr-loop", name)
 }
 
 fn jsonl(path: &Path) -> Vec<Value> {
@@ -338,7 +337,6 @@ fn the_grasper_vibrates_exactly_while_it_presses_the_kidney_and_harder_when_deep
         "{} grasper pulses from {first:.3} s (contact at {touch:.3} s); mean amplitude by depth third {thirds:?}",
         pulses.len()
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -363,7 +361,6 @@ fn paced_frames_record_the_same_session_as_lockstep_and_still_vibrate() {
         .filter(|l| l["hand"] == "left" && l.get("amplitude").is_some())
         .count();
     assert!(pulses >= 10, "{pulses} grasper pulses");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// The grasper swept through free space (no tissue within 3 cm) from `A` to `B` over 3 s,
@@ -441,7 +438,6 @@ fn a_controller_out_of_tracking_freezes_its_instrument_and_raises_an_event() {
             swept(t)
         );
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -498,5 +494,4 @@ fn a_lost_session_stops_keeps_its_record_and_restarts_when_the_headset_returns()
         .pose
         .position;
     assert!(left.distance(swept(2.0)) < 1e-3, "{left} vs {}", swept(2.0));
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -5,17 +5,19 @@
 //! catheterisation's monitor shows the fluoroscope's grey picture instead of a scene.
 
 mod common;
+use common::Scratch;
 
 use glam::Vec3;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use vesalius::render::monitor::ROOM;
 use vesalius::xr::room::{MONITOR_IN_STAGE_M, MONITOR_WIDTH_M};
 use xr_bindings::stage::{DEFAULT_HEAD, stage_to_field};
 
 const EYE: (u32, u32) = (270, 300);
 
-fn scratch() -> PathBuf {
-    std::env::temp_dir().join(format!("vesalius-xr-monitor-{}", std::process::id()))
+/// One test's scratch folder (each its own: the tests run at once and each removes its own).
+fn scratch(name: &str) -> Scratch {
+    common::tmp("xr-monitor", name)
 }
 
 /// The myotomy's demo with the head turned to the monitor; its left eye at 0.33 s.
@@ -90,8 +92,7 @@ fn srgb(c: f64) -> u8 {
 
 #[test]
 fn a_monitor_scenario_shows_the_scopes_round_picture_on_a_screen_in_a_dim_room() {
-    let base = scratch();
-    std::fs::create_dir_all(&base).expect("scratch");
+    let base = scratch("monitor");
     let own = vesalius::procedures::myotomy::INFO.scenario;
     assert!(
         own.contains("view = \"monitor\""),
@@ -172,8 +173,7 @@ fn head_offset() -> Vec3 {
 /// dark catheter in a light field; no coloured scene.
 #[test]
 fn the_catheterisations_monitor_shows_the_fluoroscopes_grey_picture() {
-    let base = scratch().join("catheter");
-    std::fs::create_dir_all(&base).expect("scratch");
+    let base = scratch("catheter");
     let info = vesalius::procedures::catheter::INFO;
     assert!(info.scenario.contains("view = \"monitor\""));
     // 0.67 s: the pedal has been down since 0.3 s (the demo's first run).

@@ -1,12 +1,12 @@
 //! `vesalius xr-sim manifest` writes a runtime manifest the real Khronos loader accepts: its
 //! `openxr_runtime_list` (libopenxr-utils) loads the simulated runtime through it.
 
+mod common;
 use std::process::Command;
 
 #[test]
 fn the_manifest_command_points_the_khronos_loader_at_the_simulated_runtime() {
-    let dir = std::env::temp_dir().join(format!("vesalius-xr-sim-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = common::tmp("xr-sim", "manifest");
     let path = dir.join("runtime.json");
     let o = Command::new(env!("CARGO_BIN_EXE_vesalius"))
         .args(["xr-sim", "manifest", "--out"])
@@ -44,9 +44,7 @@ fn the_manifest_command_points_the_khronos_loader_at_the_simulated_runtime() {
 /// frame instead of every 30th).
 #[test]
 fn xr_sim_honours_the_duration_and_the_users_settings() {
-    let dir = std::env::temp_dir().join(format!("vesalius-xr-sim-dur-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = common::tmp("xr-sim", "duration");
     let settings = dir.join("mine.toml");
     std::fs::write(&settings, "frames_every = 5\n").expect("settings");
     let trace = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))

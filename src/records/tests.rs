@@ -4,13 +4,11 @@
 
 use super::*;
 use crate::assess::Tree;
+use crate::testing::Scratch;
 use std::os::unix::fs::PermissionsExt;
 
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("vesalius-records-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).expect("scratch");
-    d
+fn scratch(name: &str) -> Scratch {
+    Scratch::new("records", name)
 }
 
 /// A session's output folder: a report scored by the sandbox's own tree at completion time

@@ -138,14 +138,14 @@ impl LearningCentre {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::testing::Scratch;
     use egui_kittest::Harness;
     use egui_kittest::kittest::Queryable;
 
-    /// Two trainees' sessions in a records file: one stored twice (improving), one once.
-    fn centre() -> LearningCentre {
-        let d = std::env::temp_dir().join(format!("vesalius-learning-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        std::fs::create_dir_all(&d).expect("dir");
+    /// Two trainees' sessions in a records file: one stored twice (improving), one once; and
+    /// the file's scratch folder (removed when the test passes).
+    fn centre() -> (LearningCentre, Scratch) {
+        let d = Scratch::new("learning", "centre");
         let mut r = Db::open(&d.join("records.sqlite")).expect("records");
         r.put_trainee("res-01", "A. Resident", "residents")
             .expect("trainee");
@@ -173,12 +173,13 @@ mod tests {
             std::fs::write(s.join("input.vtrace"), b"rec").expect("rec");
             r.store_dir(&s, who).expect("stored");
         }
-        LearningCentre::read("records.sqlite", &mut r).expect("read")
+        let c = LearningCentre::read("records.sqlite", &mut r).expect("read");
+        (c, d)
     }
 
     #[test]
     fn the_panel_lists_trainees_their_progress_and_the_levels() {
-        let mut c = centre();
+        let (mut c, _dir) = centre();
         assert_eq!(c.trainees.len(), 2);
         // Latest sessions: res-01 at 100 (expert), res-02 at 100 (expert); res-01's first
         // session (34 s: 76 points) was proficient.

@@ -345,8 +345,7 @@ fn one_or_two_threads_play_the_same_bytes() {
 
 #[test]
 fn an_organ_read_from_an_obj_file_replaces_its_ellipsoid() {
-    let dir = std::env::temp_dir().join(format!("vesalius-chole-obj-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = crate::testing::Scratch::new("chole-obj", "surface");
     // A round gallbladder 14 mm in radius where the generated one lies.
     let (centre, radius) = (Vec3::new(0.0, -0.001, 0.0), 0.014);
     let sphere = crate::mesh::icosphere(3);
@@ -394,7 +393,6 @@ fn an_organ_read_from_an_obj_file_replaces_its_ellipsoid() {
     let e = build_procedure(&file, s).err().expect("refused");
     assert_eq!(e.key, "surfaces.gallbladder");
     assert!(e.message.contains("nowhere.obj"), "{e}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Pixels of `with` (the snapshot drawn with its blood) that differ from `without` (the same

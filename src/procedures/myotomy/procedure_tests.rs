@@ -2,6 +2,7 @@ use super::*;
 use crate::models::bem::{Face, Surface};
 use crate::procedures::myotomy::{INFO, build_procedure};
 use crate::sim::{Buttons, HandInput, Pose};
+use crate::testing::SharedScratch;
 
 /// The default scenario at a coarse level (16 around, 12 along: 832 triangles, N = 2,496)
 /// with a wider field and instruments as large as its elements, precomputed into a cache
@@ -17,12 +18,20 @@ fn coarse_scenario() -> Scenario {
     Scenario::parse("coarse", &text).expect("coarse scenario")
 }
 
-fn cache_dir() -> std::path::PathBuf {
-    std::env::temp_dir().join(format!("vesalius-myotomy-tests-{}", std::process::id()))
+/// The cache folder these tests share: each holds it to its end, and the last one out removes
+/// it (kept if one failed).
+fn cache_dir() -> SharedScratch {
+    SharedScratch::new("myotomy-tests")
 }
 
-fn coarse() -> Myotomy {
-    build_procedure(coarse_scenario(), &cache_dir()).expect("builds")
+fn coarse(cache: &std::path::Path) -> Myotomy {
+    // One build at a time: tests starting together would each precompute the same cache;
+    // one after the other, the later ones read what the first wrote.
+    static ONE_BUILD: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _one = ONE_BUILD
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    build_procedure(coarse_scenario(), cache).expect("builds")
 }
 
 /// Both instruments pointing down into the field; the left parked well above unless given.
@@ -46,14 +55,18 @@ struct Run {
     m: Myotomy,
     step: u64,
     events: Vec<SimEvent>,
+    /// The shared cache folder, held to the test's end.
+    _cache: SharedScratch,
 }
 
 impl Run {
     fn new() -> Run {
+        let cache = cache_dir();
         Run {
-            m: coarse(),
+            m: coarse(&cache),
             step: 0,
             events: Vec::new(),
+            _cache: cache,
         }
     }
 
@@ -259,13 +272,15 @@ fn one_and_two_threads_give_the_same_bytes() {
             .build()
             .expect("pool");
         pool.install(|| {
-            let dir = cache_dir().join(format!("threads-{threads}"));
+            let cache = cache_dir();
+            let dir = cache.join(format!("threads-{threads}"));
             let m = build_procedure(coarse_scenario(), &dir).expect("builds");
             let _ = std::fs::remove_dir_all(&dir);
             let mut r = Run {
                 m,
                 step: 0,
                 events: Vec::new(),
+                _cache: cache,
             };
             let rh = r.m.scenario.tools.hook_radius_m as f32;
             let y = r.wall_top(0.03) + rh - 0.002;

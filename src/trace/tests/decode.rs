@@ -35,7 +35,8 @@ fn a_recording_reads_back_as_written() {
 fn tunings_out_of_order_are_not_written() {
     let mut rec = recording("0.01", 20);
     rec.tunings.swap(0, 1);
-    let path = dir("out-of-order").join("input.vtrace");
+    let dir = dir("out-of-order");
+    let path = dir.join("input.vtrace");
     let e = rec.write(&path).expect_err("out of order");
     assert_eq!(e.kind(), io::ErrorKind::InvalidInput);
     assert!(!path.exists() && !path.with_extension("vtrace.partial").exists());
@@ -44,7 +45,7 @@ fn tunings_out_of_order_are_not_written() {
 #[test]
 fn a_file_cut_anywhere_after_its_header_reads_as_a_prefix() {
     let rec = recording("0.01", 250);
-    let bytes = bytes_of(&rec, "truncate");
+    let (bytes, _dir) = bytes_of(&rec, "truncate");
     let spans = block_spans(&bytes);
     // Header, tuning 0, frames 0..99, frames 100..124, two tunings at 125, frames 125..224,
     // frames 225..249, tuning 250, end.
@@ -82,7 +83,7 @@ fn a_file_cut_anywhere_after_its_header_reads_as_a_prefix() {
 fn every_flipped_byte_is_an_error_naming_its_block() {
     let mut rec = recording("0.01", 12);
     rec.scenario = "dt_s = 0.01".into();
-    let bytes = bytes_of(&rec, "flip");
+    let (bytes, _dir) = bytes_of(&rec, "flip");
     let spans = block_spans(&bytes);
     assert!(bytes.len() < 2000, "{}", bytes.len());
     for at in 0..bytes.len() {
@@ -104,7 +105,7 @@ fn every_flipped_byte_is_an_error_naming_its_block() {
 #[test]
 fn a_corrupted_frames_block_says_which_frames() {
     let rec = recording("0.002", 1203);
-    let mut bytes = bytes_of(&rec, "which-frames");
+    let (mut bytes, _dir) = bytes_of(&rec, "which-frames");
     let spans = block_spans(&bytes);
     // Header, tuning 0, frames 0..499, frames 500..600 (pushed out by the tunings at 601).
     bytes[spans[3].0 + 100] ^= 4;
@@ -151,7 +152,8 @@ fn a_dt_unlike_the_scenarios_is_rejected() {
     let e = Recording::decode("r.vtrace", &bad).expect_err("not TOML");
     assert_eq!(e.key, "scenario", "{e}");
     // The writer refuses such a header before touching the file.
-    let path = dir("dt").join("input.vtrace");
+    let dir = dir("dt");
+    let path = dir.join("input.vtrace");
     let text = scenario("0.001");
     let h = RecordingHeader {
         session_id: "",

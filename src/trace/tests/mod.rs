@@ -12,9 +12,10 @@ use super::{
 };
 use crate::models::Tuning;
 use crate::sim::{Buttons, HandInput, InputFrame, Pose};
+use crate::testing::Scratch;
 use glam::{Quat, Vec3};
 use std::io::{self, Write};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Duration;
 
 /// The procedure the samples are of (recordings name one; which are registered is the
@@ -90,10 +91,9 @@ fn recording(dt_s: &str, frames: usize) -> Recording {
     }
 }
 
-fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("vesalius-trace-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&d).expect("temp dir");
-    d
+/// The test's own scratch folder, removed when it passes (keep it to the test's end).
+fn dir(name: &str) -> Scratch {
+    Scratch::new("trace", name)
 }
 
 fn header<'a>(r: &'a Recording) -> RecordingHeader<'a> {
@@ -105,11 +105,12 @@ fn header<'a>(r: &'a Recording) -> RecordingHeader<'a> {
     }
 }
 
-/// The file's bytes of `r` as `Recording::write` makes them.
-fn bytes_of(r: &Recording, name: &str) -> Vec<u8> {
-    let path = dir(name).join("input.vtrace");
+/// The file's bytes of `r` as `Recording::write` makes them, and the folder it is in.
+fn bytes_of(r: &Recording, name: &str) -> (Vec<u8>, Scratch) {
+    let dir = dir(name);
+    let path = dir.join("input.vtrace");
     r.write(&path).expect("write");
-    std::fs::read(&path).expect("read")
+    (std::fs::read(&path).expect("read"), dir)
 }
 
 /// (start, end) of each block of a sound version 3 file.

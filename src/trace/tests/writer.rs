@@ -5,7 +5,8 @@ use super::*;
 #[test]
 fn a_session_killed_mid_way_keeps_all_but_its_last_second() {
     let rec = recording("0.002", 0);
-    let path = dir("killed").join("input.vtrace");
+    let dir = dir("killed");
+    let path = dir.join("input.vtrace");
     let mut w = RecordingWriter::create(&path, &header(&rec)).expect("create");
     let pushed: Vec<InputFrame> = (0..1150).map(frame).collect(); // 2.3 s
     for f in &pushed {
@@ -157,7 +158,8 @@ fn a_failed_sync_is_reported_by_finish() {
 #[test]
 fn a_frame_waits_at_most_the_wall_interval() {
     let rec = recording("0.002", 0);
-    let path = dir("wall").join("input.vtrace");
+    let dir = dir("wall");
+    let path = dir.join("input.vtrace");
     let mut w = RecordingWriter::create(&path, &header(&rec))
         .expect("create")
         .with_wall_interval(Duration::from_millis(1));
@@ -181,7 +183,8 @@ fn a_frame_waits_at_most_the_wall_interval() {
 #[test]
 fn a_non_finite_frame_or_bad_tuning_is_refused_and_the_writer_goes_on() {
     let rec = recording("0.01", 0);
-    let path = dir("refuse").join("input.vtrace");
+    let dir = dir("refuse");
+    let path = dir.join("input.vtrace");
     let mut w = RecordingWriter::create(&path, &header(&rec)).expect("create");
     w.push_frame(&frame(0)).expect("push");
     let mut nan = frame(1);

@@ -9,21 +9,21 @@ mod common;
 use std::path::PathBuf;
 use vesalius_sim_runtime::{CORE_FUNCTIONS, EYE_SIZE, RUNTIME_NAME, SYSTEM_NAME, manifest};
 
-fn write_manifest(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("vesalius-xr-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+/// The manifest in a scratch folder of its own, and the folder (removed when the test passes).
+fn write_manifest(name: &str) -> (common::Scratch, PathBuf) {
+    let dir = common::temp_dir(name);
     let path = dir.join("vesalius_sim_runtime.json");
     std::fs::write(
         &path,
         manifest(&common::runtime_library().display().to_string()),
     )
     .expect("manifest");
-    path
+    (dir, path)
 }
 
 #[test]
 fn the_khronos_loader_lists_the_runtime() {
-    let m = write_manifest("list");
+    let (_dir, m) = write_manifest("list");
     let out = std::process::Command::new("openxr_runtime_list")
         .env("XR_RUNTIME_JSON", &m)
         .output()
@@ -40,7 +40,7 @@ fn the_khronos_loader_lists_the_runtime() {
 
 #[test]
 fn an_app_creates_an_instance_and_finds_a_stereo_hmd_through_the_loader() {
-    let m = write_manifest("instance");
+    let (_dir, m) = write_manifest("instance");
     // SAFETY: this is the only test in this binary that touches the environment, and it sets
     // the variable before any loader call reads it.
     unsafe { std::env::set_var("XR_RUNTIME_JSON", &m) };

@@ -10,7 +10,8 @@ use xr_bindings::{Command, SessionMachine};
 
 #[test]
 fn a_vulkan_session_walks_the_whole_life_cycle() {
-    common::use_runtime(&common::temp_dir("session"), None);
+    let dir = common::temp_dir("session");
+    common::use_runtime(&dir, None);
     let rig = common::Rig::open();
     let instance = &rig.instance;
     let (session, mut waiter, mut stream) = rig.session().expect("session");

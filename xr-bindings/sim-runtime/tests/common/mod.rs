@@ -22,12 +22,30 @@ pub fn runtime_library() -> PathBuf {
         .unwrap_or_else(|| panic!("{name} was not built (looked in {})", deps.display()))
 }
 
-/// A fresh folder for one test.
-pub fn temp_dir(tag: &str) -> PathBuf {
+/// A scratch folder, removed when the test passes (kept when it fails, to look at).
+pub struct Scratch(PathBuf);
+
+impl std::ops::Deref for Scratch {
+    type Target = std::path::Path;
+    fn deref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}
+
+/// A fresh folder for one test, removed when it passes (keep the guard to the test's end).
+pub fn temp_dir(tag: &str) -> Scratch {
     let dir = std::env::temp_dir().join(format!("vesalius-xr-{}-{tag}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
+    Scratch(dir)
 }
 
 /// Writes the manifest into `dir` and points the loader at it (and the runtime at `config`).
