@@ -28,26 +28,67 @@ pub struct CutLook {
     pub seared: bool,
 }
 
+/// What one pass over a surface's triangles finds of the vertices `open` accepts: the edges
+/// whose two ends it accepts, in the order the triangles come; each accepted vertex's first
+/// triangle; and the triangles with an accepted corner.
+struct OpenScan {
+    edges: Vec<(u32, u32)>,
+    first: Vec<u32>,
+    touching: Vec<u32>,
+}
+
+/// No triangle (in [`OpenScan::first`]).
+const NONE: u32 = u32::MAX;
+
+impl OpenScan {
+    fn of(m: &ModelSnapshot, open: impl Fn(u32) -> bool) -> Self {
+        let mut scan = OpenScan {
+            edges: Vec::new(),
+            first: vec![NONE; m.positions.len()],
+            touching: Vec::new(),
+        };
+        for (t, tri) in m.indices.chunks_exact(3).enumerate() {
+            let ok = [tri[0], tri[1], tri[2]].map(&open);
+            if ok == [false; 3] {
+                continue;
+            }
+            scan.touching.push(t as u32);
+            for k in 0..3 {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                if ok[k]
+                    && let Some(f) = scan.first.get_mut(a as usize)
+                    && *f == NONE
+                {
+                    *f = t as u32;
+                }
+                if ok[k] && ok[(k + 1) % 3] {
+                    scan.edges.push((a, b));
+                }
+            }
+        }
+        scan
+    }
+}
+
 /// The holes' outlines in `m`: closed loops of boundary edges (an edge of one triangle whose
 /// reverse no triangle has), in the direction the triangles run, in the order the triangles
 /// come. A loop through a vertex where two boundaries touch is left out. Only edges whose two
 /// ends `open` accepts are looked at (a boundary edge's reverse has the same ends, so a
 /// boundary among them is found whole).
+#[cfg(test)]
 pub fn holes(m: &ModelSnapshot, open: impl Fn(u32) -> bool) -> Vec<Vec<u32>> {
-    let open = &open;
-    let edges_of = |t: &[u32]| {
-        let t = [t[0], t[1], t[2]];
-        (0..3)
-            .map(move |k| (t[k], t[(k + 1) % 3]))
-            .filter(move |&(a, b)| open(a) && open(b))
-    };
-    let edges: HashSet<(u32, u32)> = m.indices.chunks_exact(3).flat_map(edges_of).collect();
+    outlines(&OpenScan::of(m, open).edges)
+}
+
+/// The closed loops of boundary edges among `edges` (see [`holes`]).
+fn outlines(edges: &[(u32, u32)]) -> Vec<Vec<u32>> {
+    let all: HashSet<(u32, u32)> = edges.iter().copied().collect();
     // Boundary edges, in the order the triangles come.
     let mut order = Vec::new();
     let mut next: HashMap<u32, u32> = HashMap::new();
     let mut pinched: HashSet<u32> = HashSet::new();
-    for (a, b) in m.indices.chunks_exact(3).flat_map(edges_of) {
-        if !edges.contains(&(b, a)) {
+    for &(a, b) in edges {
+        if !all.contains(&(b, a)) {
             if next.insert(a, b).is_some() {
                 pinched.insert(a);
             }
@@ -116,24 +157,17 @@ pub fn close_cuts(m: &mut ModelSnapshot, seared: bool) -> Vec<CutLook> {
     if !look.iter().any(|l| l.raw) {
         return look;
     }
-    let loops = holes(m, |v| look[v as usize].raw);
+    // One pass over the triangles; an outline's vertices are all cut, so what follows looks
+    // at the triangles with a cut corner only.
+    let scan = OpenScan::of(m, |v| look[v as usize].raw);
+    let loops = outlines(&scan.edges);
     // Each outline's region: that of the first triangle with a corner at the outline's first
     // vertex.
-    let mut region_of: Vec<Option<u8>> = vec![None; m.positions.len()];
-    let mut first = vec![false; m.positions.len()];
-    for ring in &loops {
-        first[ring[0] as usize] = true;
-    }
-    if !loops.is_empty() {
-        for (t, tri) in m.indices.chunks_exact(3).enumerate() {
-            for &v in tri {
-                let v = v as usize;
-                if first[v] && region_of[v].is_none() {
-                    region_of[v] = Some(m.regions.get(t).copied().unwrap_or(0));
-                }
-            }
-        }
-    }
+    let region_of = |v: u32| match scan.first.get(v as usize) {
+        Some(&t) if t != NONE => m.regions.get(t as usize).copied().unwrap_or(0),
+        _ => 0,
+    };
+    let regions: Vec<u8> = loops.iter().map(|ring| region_of(ring[0])).collect();
     // The surface's own triangles: where one has a corner on an outline, a corner off it
     // goes first, so that the triangle keeps the surface's look (the first corner sets the
     // flat attributes) and the outline shows as the smoothed loop, not a fringe of triangles.
@@ -144,15 +178,17 @@ pub fn close_cuts(m: &mut ModelSnapshot, seared: bool) -> Vec<CutLook> {
             on_outline[v as usize] = true;
         }
     }
-    for t in m.indices.chunks_exact_mut(3) {
-        if let Some(k) = (0..3).find(|&k| !on_outline[t[k] as usize])
+    for &t in &scan.touching {
+        let t = t as usize;
+        let tri = &mut m.indices[3 * t..3 * t + 3];
+        if let Some(k) = (0..3).find(|&k| !on_outline[tri[k] as usize])
             && k > 0
         {
-            t.rotate_left(k);
+            tri.rotate_left(k);
         }
     }
     debug_assert_eq!(surface_triangles * 3, m.indices.len());
-    for ring in loops {
+    for (ring, region) in loops.into_iter().zip(regions) {
         let mut p: Vec<Vec3> = ring.iter().map(|&v| m.positions[v as usize]).collect();
         smooth_loop(&mut p);
         for (&v, &q) in ring.iter().zip(&p) {
@@ -180,7 +216,6 @@ pub fn close_cuts(m: &mut ModelSnapshot, seared: bool) -> Vec<CutLook> {
         if depth <= 0.0 || normal == Vec3::ZERO {
             continue;
         }
-        let region = region_of[ring[0] as usize].unwrap_or(0);
         let base = m.positions.len() as u32;
         // Middle ring, bottom ring, then the floor's middle.
         for (band, (down, inset)) in [(0.5, 0.5 * WALL_INSET), (1.0, WALL_INSET)]
