@@ -14,7 +14,8 @@
 //! near. Awake tiles side by side in a row of tiles step as one run (and runs in successive
 //! rows of tiles with the same columns as one); each run steps as one block
 //! ([`super::block`]) into its own buffer, and the buffers are copied back in run order, so
-//! the bytes do not depend on the thread count (a small awake set steps on one thread).
+//! the bytes do not depend on the thread count (a small awake set steps on one thread);
+//! before the step's last substep, only the nodes another block reads go back (`share`).
 
 use super::block::{Block, BlockPass};
 use super::{LAYERS, Membrane};
@@ -535,18 +536,33 @@ pub(super) fn step(m: &mut Membrane, dt: f32, substeps: usize) {
             .collect();
         super::chain::place(m, Some(&a), &tiles);
         group_runs(m, &mut a);
-        super::anchor_sums::on_cpu(m, &a.runs);
         let h = dt / substeps as f32;
         let mut buffers = std::mem::take(&mut a.buffers);
         buffers.resize_with(a.groups.len(), Default::default);
         let mut members = Vec::new();
+        let whole = share::whole_exchange();
+        let loads = super::anchor_sums::wanted(m) && !whole;
+        if whole {
+            super::anchor_sums::on_cpu(m, &a.runs);
+        }
         for (b, g) in buffers.iter_mut().zip(&a.groups) {
             members.clear();
             members.extend(g.members.iter().map(|&r| a.runs[r]));
             b.prepare(m, g.span, &members);
+            if loads {
+                b.keep_loads();
+            }
         }
-        for _ in 0..substeps {
-            substep(m, &a, &mut buffers, h);
+        if !whole {
+            share::mark(m, &mut a, &mut buffers);
+        }
+        for k in 0..substeps {
+            substep(m, &a, &mut buffers, h, whole || k + 1 == substeps);
+            // Layer 0's loads by group, from the forces the first substep found at the
+            // step's start: what `anchor_sums::on_cpu` would find there, bit for bit.
+            if k == 0 && loads {
+                share::sum_block_loads(m, &a, &buffers);
+            }
         }
         a.buffers = buffers;
     }
@@ -650,7 +666,7 @@ thread_local! {
 }
 
 /// One explicit substep of the awake runs, each in its block, then copied back in order.
-fn substep(m: &mut Membrane, a: &Activity, blocks: &mut [Block], h: f32) {
+fn substep(m: &mut Membrane, a: &Activity, blocks: &mut [Block], h: f32, last: bool) {
     {
         let mm = &*m;
         let pass = |block: &mut Block| mm.vectorized(BlockPass { m: mm, block, h });
@@ -672,8 +688,14 @@ fn substep(m: &mut Membrane, a: &Activity, blocks: &mut [Block], h: f32) {
                 .for_each(pass);
         }
     }
+    // Before the step's last substep, a block writes back only the nodes that blocks read
+    // from the membrane (`share`).
     for b in blocks.iter() {
-        b.scatter(m);
+        if last {
+            b.scatter(m);
+        } else {
+            b.scatter_exports(m);
+        }
     }
 }
 
@@ -754,5 +776,7 @@ mod drawn;
 mod near;
 #[path = "active_rows.rs"]
 mod rows;
+#[path = "active_share.rs"]
+mod share;
 pub(super) use rows::Watch;
 use rows::{offsets_now, place_all_asleep, watch_all};

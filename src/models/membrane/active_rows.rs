@@ -40,19 +40,26 @@ impl Watch {
     }
 }
 
-/// Row `i` of layer `l` in tile `t` measured ([`Watch`]) after a step of `dt`; its nodes'
-/// offsets from their anchors now go into `last` (this row block's three component rows of
-/// `Activity::last`), and `now` is scratch.
-fn watch_row(
+/// Row `i` of layer `l` in the tiles `run` (each `(k, t)`: its place in the list and the
+/// tile; side by side in one row of tiles, left to right) measured ([`Watch`], pushed in
+/// order with `k` onto `out`) after a step of `dt`; their nodes' offsets from their anchors
+/// now go into `last` (this row block's three component rows of `Activity::last`), and `now`
+/// is scratch. Each tile's measure is taken over its own nodes in their order, as tile by
+/// tile; the run shares the loops over the anchors.
+fn watch_run(
     m: &Membrane,
     a: &Activity,
-    (t, l, i): (usize, usize, usize),
+    (run, l, i): (&[(usize, usize)], usize, usize),
     dt: f32,
-    last: &mut [f32],
-    now: &mut Vec<f32>,
-) -> Watch {
+    (last, now): (&mut [f32], &mut Vec<f32>),
+    out: &mut Vec<(usize, Watch)>,
+) {
     let (rows, cols) = (m.rows, m.cols);
-    let ([r0, r1], [c0, c1]) = a.span(t, rows, cols);
+    let (Some(&(_, first)), Some(&(_, end))) = (run.first(), run.last()) else {
+        return;
+    };
+    let ([r0, r1], [c0, _]) = a.span(first, rows, cols);
+    let (_, [_, c1]) = a.span(end, rows, cols);
     let b = l * rows + i;
     let w = c1 - c0;
     now.resize(3 * w, 0.0);
@@ -65,38 +72,54 @@ fn watch_row(
             *o = x - *o;
         }
     }
-    let mut watch = Watch::NONE;
     let border_row = i == r0 || i + 1 == r1;
-    let in_block = |c: usize| c * cols + c0..c * cols + c1;
+    let in_run = |c: usize| c * cols + c0..c * cols + c1;
     let (n0, rest) = now.split_at(w);
     let (n1, n2) = rest.split_at(w);
-    let (l0, l1, l2) = (&last[in_block(0)], &last[in_block(1)], &last[in_block(2)]);
-    for j in 0..w {
-        let d = Vec3::new(n0[j] - l0[j], n1[j] - l1[j], n2[j] - l2[j]);
-        watch.fastest = watch.fastest.max(d.length() / dt);
-    }
+    let (l0, l1, l2) = (&last[in_run(0)], &last[in_run(1)], &last[in_run(2)]);
     let row3 = |c: usize| (b * 3 + c) * cols + c0..(b * 3 + c) * cols + c1;
     let (o0, o1, o2) = (&a.offset[row3(0)], &a.offset[row3(1)], &a.offset[row3(2)]);
-    let moved = |j: usize| Vec3::new(n0[j] - o0[j], n1[j] - o1[j], n2[j] - o2[j]).length();
-    if border_row {
-        for j in 0..w {
-            watch.edge = watch.edge.max(moved(j));
-        }
-    } else {
-        watch.edge = watch.edge.max(moved(0)).max(moved(w - 1));
-    }
+    // Squared: the root of the largest is the largest root (a rounded root is monotonic),
+    // so one root a tile gives the same bytes as one a node.
+    let moved = |j: usize| Vec3::new(n0[j] - o0[j], n1[j] - o1[j], n2[j] - o2[j]).length_squared();
     let x = |c: usize| &m.state.data[(b * 6 + c) * cols + c0..(b * 6 + c) * cols + c1];
     let (x0, x1, x2) = (x(0), x(1), x(2));
-    for j in 0..w {
-        let p = Vec3::new(x0[j], x1[j], x2[j]);
-        watch.lo = watch.lo.min(p);
-        watch.hi = watch.hi.max(p);
-        watch.finite &= p.is_finite();
+    for &(k, t) in run {
+        let (_, [t0, t1]) = a.span(t, rows, cols);
+        let (j0, j1) = (t0 - c0, t1 - c0);
+        let mut watch = Watch::NONE;
+        let mut fastest = 0.0f32;
+        for j in j0..j1 {
+            let d = Vec3::new(n0[j] - l0[j], n1[j] - l1[j], n2[j] - l2[j]);
+            fastest = fastest.max(d.length_squared());
+        }
+        watch.fastest = fastest.sqrt() / dt;
+        let mut edge = 0.0f32;
+        if border_row {
+            for j in j0..j1 {
+                edge = edge.max(moved(j));
+            }
+        } else {
+            edge = edge.max(moved(j0)).max(moved(j1 - 1));
+        }
+        watch.edge = edge.sqrt();
+        for j in j0..j1 {
+            let p = Vec3::new(x0[j], x1[j], x2[j]);
+            watch.lo = watch.lo.min(p);
+            watch.hi = watch.hi.max(p);
+            watch.finite &= p.is_finite();
+        }
+        out.push((k, watch));
     }
     for c in 0..3 {
-        last[in_block(c)].copy_from_slice(&now[c * w..(c + 1) * w]);
+        last[in_run(c)].copy_from_slice(&now[c * w..(c + 1) * w]);
     }
-    watch
+}
+
+/// `tiles` (a row of tiles' awake tiles, `(k, t)`, left to right) cut into runs of tiles
+/// side by side.
+fn runs_of(tiles: &[(usize, usize)]) -> impl Iterator<Item = &[(usize, usize)]> {
+    tiles.chunk_by(|a, b| b.1 == a.1 + 1)
 }
 
 /// Every awake tile measured ([`Watch`], in the order of `a.list`) after a step of `dt`,
@@ -111,11 +134,18 @@ pub(super) fn watch_all(m: &Membrane, a: &mut Activity, dt: f32) -> Vec<Watch> {
     let a_ref = &*a;
     let one = |now: &mut Vec<f32>, (b, block): (usize, &mut [f32])| -> Vec<(usize, Watch)> {
         let (l, i) = (b / rows, b % rows);
-        by_row
-            .of(i)
-            .iter()
-            .map(|&(k, t)| (k, watch_row(m, a_ref, (t, l, i), dt, block, now)))
-            .collect()
+        let mut out = Vec::new();
+        for run in runs_of(by_row.of(i)) {
+            watch_run(
+                m,
+                a_ref,
+                (run, l, i),
+                dt,
+                (&mut *block, &mut *now),
+                &mut out,
+            );
+        }
+        out
     };
     let nodes = a.list.len() * LAYERS * tr * a.params.tile_cols;
     let blocks: Vec<Vec<(usize, Watch)>> = if worth_threads(nodes) {

@@ -154,14 +154,29 @@ impl Membrane {
 /// in a row of tiles as one run) on the CPU, into `m.anchor_sums`; nothing without groups.
 /// The external forces must be sorted by node.
 pub(super) fn on_cpu(m: &mut Membrane, runs: &[([usize; 2], [usize; 2])]) {
+    if m.anchor_groups.is_none() {
+        return;
+    }
+    let mut loads = std::mem::take(&mut m.load_scratch);
+    m.loads_over_runs(runs, &mut loads);
+    from_loads(m, &loads);
+    m.load_scratch = loads;
+}
+
+/// Whether the membrane sums layer 0's loads by group.
+pub(super) fn wanted(m: &Membrane) -> bool {
+    m.anchor_groups.is_some()
+}
+
+/// The sums of `loads` (row, column, load: [`Membrane::loads_over_runs`]'s, in its order)
+/// into `m.anchor_sums`; nothing without groups.
+pub(super) fn from_loads(m: &mut Membrane, loads: &[(u32, u32, Vec3)]) {
     let Some(groups) = m.anchor_groups.take() else {
         return;
     };
-    let mut loads = std::mem::take(&mut m.load_scratch);
-    m.loads_over_runs(runs, &mut loads);
     let cols = m.cols;
     let mut sums = vec![AnchorSum::default(); groups.about.len()];
-    for &(i, j, f) in &loads {
+    for &(i, j, f) in loads {
         let (i, j) = (i as usize, j as usize);
         let Some(member) = groups.members.get(groups.of_cell[i * cols + j] as usize) else {
             continue;
@@ -184,7 +199,6 @@ pub(super) fn on_cpu(m: &mut Membrane, runs: &[([usize; 2], [usize; 2])]) {
         s.weighted_stiffness += u * k;
     }
     m.anchor_sums = sums;
-    m.load_scratch = loads;
     m.anchor_groups = Some(groups);
 }
 

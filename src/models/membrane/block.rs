@@ -40,6 +40,8 @@ pub(super) struct Block {
     span: ([usize; 2], [usize; 2]),
     /// Columns a block row (the run's width and its two ring columns).
     stride: usize,
+    /// The ring's two columns in the membrane (wrapped round the section).
+    ring_cols: [usize; 2],
     /// Nodes a layer of the block.
     n: usize,
     par: Vec<f32>,
@@ -55,13 +57,31 @@ pub(super) struct Block {
     t: Vec<f32>,
     /// The awake runs in the block, each a row's columns: (block row, first column, end
     /// column), block columns, by row; and the rest of each own row (the sleeping nodes
-    /// between them and the ring's two columns), read from the membrane every substep.
+    /// between them and the ring's two columns). No substep writes the gaps, so both state
+    /// buffers keep what the step's first read there; `live_gaps` (all the gaps, unless
+    /// [`super::active`] says which of their nodes belong to some block's runs) are read
+    /// from the membrane again at every substep.
     segs: Vec<(usize, usize, usize)>,
     gaps: Vec<(usize, usize, usize)>,
+    pub(super) live_gaps: Vec<(usize, usize, usize)>,
+    /// Per block node, 1 on the runs' nodes (`segs`), else 0.
+    own: Vec<u8>,
     /// Each run row's first and last forces before the springs around are added.
     edge: Vec<[f32; 2]>,
     /// A substep has run since [`Block::prepare`] (`out` holds its end).
     stepped: bool,
+    /// Whether the step's first substep keeps layer 0's loads (`loads`, `[3][n]`: the
+    /// forces on each node of its runs less its attachment's, as
+    /// [`Membrane::loads_over_runs`] gives them).
+    keep_loads: bool,
+    loads: Vec<f32>,
+    /// The nodes of this block's runs that some block (this one too, where its ring wraps
+    /// round the section onto itself) reads from the membrane during the step: (row,
+    /// column), sorted. Each substep writes these back; the step's last writes all.
+    pub(super) exports: Vec<(u32, u32)>,
+    /// The ring's two rows hold nodes of some block's runs, so each substep reads them
+    /// again; otherwise they are sleeping nodes, which keep their state through the step.
+    pub(super) ring_rows_live: bool,
 }
 
 impl Block {
@@ -71,7 +91,8 @@ impl Block {
             + self.out.capacity()
             + self.f.capacity()
             + self.s.capacity()
-            + self.t.capacity())
+            + self.t.capacity()
+            + self.loads.capacity())
             * std::mem::size_of::<f32>()
     }
 
@@ -87,12 +108,11 @@ impl Block {
     /// Copies the `cols`-long run `src` (a row of the state or of a parameter) at the block's
     /// columns (the ring's two wrapped round the section) into `dst`.
     fn gather_row(&self, src: &[f32], dst: &mut [f32]) {
-        let cols = src.len();
         let [c0, c1] = self.span.1;
-        let w = c1 - c0;
-        dst[0] = src[(c0 + cols - 1) % cols];
+        let ([left, right], w) = (self.ring_cols, c1 - c0);
+        dst[0] = src[left];
         dst[1..=w].copy_from_slice(&src[c0..c1]);
-        dst[w + 1] = src[c1 % cols];
+        dst[w + 1] = src[right];
     }
 
     /// Sets the block up for this step's substeps over `span`, whose awake nodes are the
@@ -108,6 +128,7 @@ impl Block {
         let (rows, cols) = (m.rows, m.cols);
         self.span = span;
         let ([r0, r1], [c0, c1]) = span;
+        self.ring_cols = [(c0 + cols - 1) % cols, c1 % cols];
         let w = c1 - c0;
         self.stride = w + 2;
         self.n = (r1 - r0 + 2) * self.stride;
@@ -194,7 +215,55 @@ impl Block {
             self.gaps.push((r, from, w + 2));
         }
         self.edge.resize(self.segs.len(), [0.0; 2]);
+        self.own.clear();
+        self.own.resize(n, 0);
+        for &(r, qa, qb) in &self.segs {
+            self.own[r * self.stride + qa..r * self.stride + qb].fill(1);
+        }
         self.stepped = false;
+        self.keep_loads = false;
+        self.exports.clear();
+        self.ring_rows_live = true;
+        self.live_gaps.clone_from(&self.gaps);
+    }
+
+    /// The step's first substep keeps layer 0's loads on the block's runs (read them with
+    /// [`Block::load`]); [`Block::prepare`] turns this off.
+    pub fn keep_loads(&mut self) {
+        self.keep_loads = true;
+        self.loads.resize(3 * self.n, 0.0);
+    }
+
+    /// Layer 0's load at row `i`, column `j` (a node of one of the block's runs) kept by the
+    /// step's first substep ([`Block::keep_loads`]): what the rest of the membrane does to
+    /// it at the step's start, the attachment left out, N.
+    pub fn load(&self, i: usize, j: usize) -> Vec3 {
+        let ([r0, _], [c0, _]) = self.span;
+        let k = (i + 1 - r0) * self.stride + (j + 1 - c0);
+        Vec3::new(
+            self.loads[k],
+            self.loads[self.n + k],
+            self.loads[2 * self.n + k],
+        )
+    }
+
+    /// Layer 0's loads from the forces of the first substep (`f`, the attachment's force
+    /// `-k (x - target)` in it, taken out here as [`Membrane::loads_over_runs`] takes it).
+    fn take_loads(&mut self) {
+        let (n, p) = (self.n, self.stride);
+        for &(r, qa, qb) in &self.segs {
+            let at = r * p;
+            let ka = &self.par[ATTACH * n + at..][qa..qb];
+            for c in 0..3 {
+                let tg = &self.par[(ATTACH + 1 + c) * n + at..][qa..qb];
+                let x = &self.x[c * n + at..][qa..qb];
+                let f = &self.f[c * n + at..][qa..qb];
+                let out = &mut self.loads[c * n + at..][qa..qb];
+                for ((((o, f), k), x), t) in out.iter_mut().zip(f).zip(ka).zip(x).zip(tg) {
+                    *o = f + k * (x - t);
+                }
+            }
+        }
     }
 
     /// The state at a substep's start: gathered whole at the step's first; after that the
@@ -209,10 +278,12 @@ impl Block {
         let (rows, cols, n, p) = (m.rows, m.cols, self.n, self.stride);
         let rr = self.rows();
         let mut x = std::mem::take(&mut self.x);
-        self.gather_rows(m, &mut x, [0, rr + 1]);
+        if self.ring_rows_live {
+            self.gather_rows(m, &mut x, [0, rr + 1]);
+        }
         let [c0, c1] = self.span.1;
-        let (left, right, w) = ((c0 + cols - 1) % cols, c1 % cols, c1 - c0);
-        for &(r, qa, qb) in &self.gaps {
+        let ([left, right], w) = (self.ring_cols, c1 - c0);
+        for &(r, qa, qb) in &self.live_gaps {
             let i = self.span.0[0] + r - 1;
             // The ring's columns (wrapped round the section) and the columns between.
             let (ends, mid) = ([qa == 0, qb == w + 2], qa.max(1)..qb.min(w + 1));
@@ -237,10 +308,13 @@ impl Block {
         self.x = x;
     }
 
-    /// The block's state (and its ring's) from the membrane's.
+    /// The block's state (and its ring's) from the membrane's, into both buffers (a
+    /// substep writes only the runs' nodes, so the rest stays as read here unless it is read
+    /// again).
     fn gather_state(&mut self, m: &Membrane) {
         let mut x = std::mem::take(&mut self.x);
         self.gather_rows(m, &mut x, 0..self.rows() + 2);
+        self.out.copy_from_slice(&x);
         self.x = x;
     }
 
@@ -263,6 +337,22 @@ impl Block {
                     for lc in 0..LAYERS * 6 {
                         x[lc * n + at..][..self.stride].fill(0.0);
                     }
+                }
+            }
+        }
+    }
+
+    /// Writes the new state of the nodes [`Block::exports`] lists into the membrane's.
+    pub fn scatter_exports(&self, m: &mut Membrane) {
+        let (rows, cols, n, p) = (m.rows, m.cols, self.n, self.stride);
+        let ([r0, _], [c0, _]) = self.span;
+        for &(i, j) in &self.exports {
+            let (i, j) = (i as usize, j as usize);
+            let k = (i + 1 - r0) * p + (j + 1 - c0);
+            for l in 0..LAYERS {
+                let b = l * rows + i;
+                for c in 0..6 {
+                    m.state.data[(b * 6 + c) * cols + j] = self.out[(l * 6 + c) * n + k];
                 }
             }
         }
@@ -310,6 +400,9 @@ impl pulp::WithSimd for BlockPass<'_> {
         let BlockPass { m, block, h } = self;
         block.start_substep(m);
         forces(m, block);
+        if block.keep_loads && !block.stepped {
+            block.take_loads();
+        }
         advance(m, block, h);
         block.stepped = true;
     }
@@ -461,12 +554,14 @@ fn forces(m: &Membrane, bk: &mut Block) {
     }
 }
 
-/// Symplectic Euler on the block's own rows, into `out`.
+/// Symplectic Euler on the block's runs, into `out`: every node of its own rows is
+/// computed, and those outside the runs (`own`) keep their state.
 #[inline(always)]
 fn advance(m: &Membrane, bk: &mut Block, h: f32) {
     let (n, p) = (bk.n, bk.stride);
     let len = bk.rows() * p;
     let (g, d) = (m.params.gravity, m.params.damping_per_s);
+    let own = &bk.own[p..p + len];
     for l in 0..LAYERS {
         let inv_m = &bk.par[(l * PER_LAYER + IM) * n + p..][..len];
         let (xs, vs) = bk.x[l * 6 * n..(l + 1) * 6 * n].split_at(3 * n);
@@ -478,8 +573,10 @@ fn advance(m: &Membrane, bk: &mut Block, h: f32) {
             for j in 0..len {
                 let acc = fc[j] * inv_m[j] + (g[c] - d * v0[j]);
                 let v = v0[j] + h * acc;
-                vn[j] = v;
-                xn[j] = x0[j] + h * v;
+                let x = x0[j] + h * v;
+                let keep = own[j] == 0;
+                vn[j] = if keep { v0[j] } else { v };
+                xn[j] = if keep { x0[j] } else { x };
             }
         }
     }
