@@ -8,8 +8,9 @@
 //! `[layer][component][(rows + 2) x (width + 2)]` (the ring's nodes are the neighbours' or,
 //! round the section, the wrapped columns), its parameters once a step. After a substep the
 //! runs' nodes keep their new state in the block; the ring and the sleeping nodes between
-//! the runs are read again from the membrane (they are stepped with the rest, but their
-//! results are never written back).
+//! the runs keep what the step's first substep read (their forces are found with the rest,
+//! but they never move), and where they hold another run's nodes they are read again from
+//! the membrane (`active_share.rs` says where).
 //!
 //! Each node's force is summed in exactly the row kernel's order (the spring from the row
 //! before, the springs around with each run's two edge springs on their own, the spring to
@@ -238,8 +239,7 @@ impl Block {
     /// step's first substep ([`Block::keep_loads`]): what the rest of the membrane does to
     /// it at the step's start, the attachment left out, N.
     pub fn load(&self, i: usize, j: usize) -> Vec3 {
-        let ([r0, _], [c0, _]) = self.span;
-        let k = (i + 1 - r0) * self.stride + (j + 1 - c0);
+        let k = self.at(i, j);
         Vec3::new(
             self.loads[k],
             self.loads[self.n + k],
@@ -342,13 +342,18 @@ impl Block {
         }
     }
 
+    /// The block index of the membrane's row `i`, column `j` (inside the block's span).
+    fn at(&self, i: usize, j: usize) -> usize {
+        let ([r0, _], [c0, _]) = self.span;
+        (i + 1 - r0) * self.stride + (j + 1 - c0)
+    }
+
     /// Writes the new state of the nodes [`Block::exports`] lists into the membrane's.
     pub fn scatter_exports(&self, m: &mut Membrane) {
-        let (rows, cols, n, p) = (m.rows, m.cols, self.n, self.stride);
-        let ([r0, _], [c0, _]) = self.span;
+        let (rows, cols, n) = (m.rows, m.cols, self.n);
         for &(i, j) in &self.exports {
             let (i, j) = (i as usize, j as usize);
-            let k = (i + 1 - r0) * p + (j + 1 - c0);
+            let k = self.at(i, j);
             for l in 0..LAYERS {
                 let b = l * rows + i;
                 for c in 0..6 {
