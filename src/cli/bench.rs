@@ -109,7 +109,10 @@ fn pass(
             clock.tick();
             if clock.step().is_multiple_of(every) {
                 let t = Instant::now();
-                let snapshot = p.snapshot(clock.step());
+                let snapshot = {
+                    let _span = tracing::debug_span!("snapshot").entered();
+                    p.snapshot(clock.step())
+                };
                 frame_s.push(t.elapsed().as_secs_f64());
                 // Dropped on the render thread in a session: not timed here.
                 drop(std::hint::black_box(snapshot));

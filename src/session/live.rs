@@ -447,6 +447,7 @@ impl Live {
     }
 
     pub fn snapshot(&mut self) -> Snapshot {
+        let _span = tracing::debug_span!("snapshot").entered();
         self.proc_.snapshot(self.clock.step())
     }
 

@@ -6,7 +6,9 @@
 //! short loops on every row, which on a run a few tiles wide outweighs the arithmetic. Here
 //! every spring family of the whole block is one loop: the block's state is gathered into
 //! `[layer][component][(rows + 2) x (width + 2)]` (the ring's nodes are the neighbours' or,
-//! round the section, the wrapped columns), its parameters once a step. After a substep the
+//! round the section, the wrapped columns), its parameters once a step (the attachments'
+//! targets; the springs, tethers and masses only when the block's span or the membrane's
+//! springs changed). After a substep the
 //! runs' nodes keep their new state in the block; the ring and the sleeping nodes between
 //! the runs keep what the step's first substep read (their forces are found with the rest,
 //! but they never move), and where they hold another run's nodes they are read again from
@@ -33,6 +35,9 @@ const PER_LAYER: usize = 12;
 /// y, z each).
 const ATTACH: usize = LAYERS * PER_LAYER;
 const FIELDS: usize = ATTACH + 8;
+
+/// A block's rows and columns in the membrane.
+type Span = ([usize; 2], [usize; 2]);
 
 /// One run's block: its parameters (gathered once a step), its state and forces, and its
 /// new state after a substep.
@@ -83,9 +88,19 @@ pub(super) struct Block {
     /// The ring's two rows hold nodes of some block's runs, so each substep reads them
     /// again; otherwise they are sleeping nodes, which keep their state through the step.
     pub(super) ring_rows_live: bool,
+    /// The span and the membrane's springs version ([`Membrane::springs_version`]) the
+    /// springs, tethers and masses in `par` were gathered for: while both stay the same, a
+    /// step gathers only the attachments (whose targets move every step).
+    par_for: Option<(Span, u64)>,
 }
 
 impl Block {
+    /// The parameters as gathered (tests compare a kept block's with a fresh one's).
+    #[cfg(test)]
+    pub fn params(&self) -> &[f32] {
+        &self.par
+    }
+
     pub fn heap_bytes(&self) -> usize {
         (self.par.capacity()
             + self.x.capacity()
@@ -135,18 +150,24 @@ impl Block {
         self.n = (r1 - r0 + 2) * self.stride;
         let n = self.n;
         // Every value is written below (or a row past the membrane's edge zeroed): the
-        // buffers keep their old contents rather than being cleared each step.
+        // buffers keep their old contents rather than being cleared each step. The springs
+        // change only between steps, with the membrane's springs version.
         self.par.resize(FIELDS * n, 0.0);
+        let key = (span, m.springs_version);
+        let springs = self.par_for != Some(key);
+        self.par_for = Some(key);
         let mut par = std::mem::take(&mut self.par);
         for r in 0..r1 - r0 + 2 {
             let at = r * self.stride;
             let Some(i) = self.global_row(m, r) else {
-                for fld in 0..FIELDS {
-                    par[fld * n + at..][..self.stride].fill(0.0);
+                if springs {
+                    for fld in 0..FIELDS {
+                        par[fld * n + at..][..self.stride].fill(0.0);
+                    }
                 }
                 continue;
             };
-            for l in 0..LAYERS {
+            for l in (0..LAYERS).filter(|_| springs) {
                 let b = l * rows + i;
                 let base = l * PER_LAYER;
                 for fam in [AROUND, ALONG, LINK] {

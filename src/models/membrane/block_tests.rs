@@ -214,3 +214,48 @@ fn the_block_kernel_carries_a_run_through_a_step_as_the_row_kernel_does() {
     assert_eq!(rows_way.state_hash(), block_way.state_hash());
     assert_ne!(m.state_hash(), block_way.state_hash(), "it moved");
 }
+
+#[test]
+fn a_block_gathers_its_springs_again_only_after_they_change() {
+    // A block prepared again over the same span keeps the springs, tethers and masses it
+    // gathered and takes the attachments anew; after a cut, a damping set or a checkpoint
+    // loaded it gathers everything. Each time its parameters are a fresh block's, bit for
+    // bit.
+    let mut m = stirred(true);
+    let span = ([3, 9], [2, 12]);
+    let mut kept = Block::default();
+    let check = |m: &Membrane, kept: &mut Block, what: &str| {
+        kept.prepare(m, span, &[span]);
+        let mut fresh = Block::default();
+        fresh.prepare(m, span, &[span]);
+        assert_eq!(kept.params().len(), fresh.params().len(), "{what}");
+        for (k, (a, b)) in kept.params().iter().zip(fresh.params()).enumerate() {
+            assert_eq!(a.to_bits(), b.to_bits(), "{what}: value {k}");
+        }
+    };
+    let fresh_par = |m: &Membrane| {
+        let mut b = Block::default();
+        b.prepare(m, span, &[span]);
+        b.params().to_vec()
+    };
+    check(&m, &mut kept, "first");
+    m.save();
+    let before = fresh_par(&m);
+    // The attachments' targets move every step.
+    for j in 0..m.cols {
+        let p = m.position(m.node(0, 5, j)) + Vec3::new(0.0, 2e-4, 0.0);
+        m.set_target(5, j, p);
+    }
+    check(&m, &mut kept, "targets moved");
+    assert_ne!(fresh_par(&m), before, "the targets are gathered");
+    let cut = m.cut_plane(m.position(m.node(1, 6, 8)), 0.003);
+    assert!(cut > 0, "the cut took springs");
+    check(&m, &mut kept, "after a cut");
+    let after_cut = fresh_par(&m);
+    m.load();
+    check(&m, &mut kept, "the checkpoint loaded");
+    assert_ne!(fresh_par(&m), after_cut, "the load restored the springs");
+    m.params.spring_damping_ratio *= 2.0;
+    m.set_spring_damping();
+    check(&m, &mut kept, "the damping set");
+}

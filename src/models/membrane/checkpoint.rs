@@ -144,6 +144,7 @@ impl Membrane {
         if let Some(s) = &self.saved {
             self.state.data.clone_from(&s.state);
             self.rows_data.clone_from(&s.rows_data);
+            self.springs_version = self.springs_version.wrapping_add(1);
             self.released.clone_from(&s.released);
             self.changed.clear();
         }

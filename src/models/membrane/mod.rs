@@ -216,6 +216,9 @@ pub struct Membrane {
     /// Damping of each spring family per row block, as a time: `c = beta k` (stiffness-
     /// proportional; see [`Membrane::set_spring_damping`]).
     beta: Vec<[f32; 3]>,
+    /// Counts the changes to `rows_data` and `beta` (a cut, a damping set, a checkpoint
+    /// loaded): a CPU block keeps the parameters it gathered while this stays the same.
+    springs_version: u64,
     /// Attachments of layers 0 (slot 0, to targets the owner sets) and 3 (slot 1, to its
     /// rest): per slot and row, four runs of `cols`: stiffness N/m, then the target x, y, z.
     attach: Vec<f32>,
@@ -304,6 +307,7 @@ impl Membrane {
             mass: vec![0.0; n],
             rows_data: vec![0.0; field::COUNT * n],
             beta: vec![[0.0; 3]; LAYERS * rows],
+            springs_version: 0,
             attach: vec![0.0; 2 * 4 * per],
             released: vec![false; n],
             external: Vec::new(),
@@ -450,6 +454,7 @@ impl Membrane {
 
     fn spring_mut(&mut self, f: usize, node: usize) -> &mut f32 {
         let at = self.spring_at(f, node);
+        self.springs_version = self.springs_version.wrapping_add(1);
         &mut self.rows_data[at]
     }
 
@@ -493,6 +498,7 @@ impl Membrane {
                 0.0
             };
             let link = mean(LINK);
+            self.springs_version = self.springs_version.wrapping_add(1);
             self.beta[b] = [
                 sheet,
                 sheet,

@@ -88,7 +88,10 @@ impl Drawn {
     /// [`Membrane::catch_up`]); a vertex on a cut link of the dissection plane is marked cut.
     pub fn meshes(&self, m: &Membrane) -> [ModelSnapshot; 2] {
         let layers = [FASCIAE[0], FASCIAE[1], PELVIS];
-        let mut positions = m.carried_grid(&layers, &self.rows, &self.cols);
+        let mut positions = {
+            let _span = tracing::debug_span!("rectum_snapshot_grid").entered();
+            m.carried_grid(&layers, &self.rows, &self.cols)
+        };
         let per_layer = self.rows.len() * self.cols.len();
         let pelvis = positions.split_off(FASCIAE.len() * per_layer);
         let mut cut = Vec::with_capacity(per_layer);
@@ -107,6 +110,7 @@ impl Drawn {
 
 /// A drawn surface with its vertices `positions` and their cut marks.
 fn surface(s: &Surface, positions: Vec<glam::Vec3>, cut_edge: Vec<bool>) -> ModelSnapshot {
+    let _span = tracing::debug_span!("rectum_snapshot_surface").entered();
     ModelSnapshot {
         name: s.name.to_string(),
         normals: crate::mesh::vertex_normals(&positions, &s.indices),

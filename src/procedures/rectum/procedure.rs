@@ -542,7 +542,13 @@ impl Rectum {
         // Every awake tile as the membrane's device has it (see `Membrane::catch_up`).
         self.scene.membrane_mut().catch_up();
         let (rod, membrane, drawn) = (self.scene.rod(), self.scene.membrane(), &self.drawn);
-        let (rectum, [fascia, pelvis]) = rayon::join(|| rod.mesh(), || drawn.meshes(membrane));
+        let (rectum, [fascia, pelvis]) = rayon::join(
+            || {
+                let _span = tracing::debug_span!("rectum_snapshot_rod").entered();
+                rod.mesh()
+            },
+            || drawn.meshes(membrane),
+        );
         let time_s = Self::time_s(step, self.scenario.dt_s);
         Snapshot {
             step,
