@@ -93,6 +93,8 @@ fn pass(
     let mut events = Vec::new();
     let every = plan.publish_every();
     let mut frame_s = Vec::with_capacity((steps / every) as usize);
+    // The snapshots' builds go to the bus's builder thread, as a session's do.
+    let bus = std::sync::Arc::new(vesalius::sim::SnapshotBus::new());
     let t0 = Instant::now();
     // On a worker of the pool, as a session steps (see `vesalius::session::on_pool`), with
     // the window's cadence of snapshots (`ui::runner`).
@@ -109,16 +111,17 @@ fn pass(
             clock.tick();
             if clock.step().is_multiple_of(every) {
                 let t = Instant::now();
-                let snapshot = {
+                let job = {
                     let _span = tracing::debug_span!("snapshot").entered();
-                    p.snapshot(clock.step())
+                    p.snapshot_job(clock.step())
                 };
                 frame_s.push(t.elapsed().as_secs_f64());
-                // Dropped on the render thread in a session: not timed here.
-                drop(std::hint::black_box(snapshot));
+                bus.publish_job(job);
             }
         }
     });
+    // Every snapshot built before the clock stops.
+    bus.flush();
     let wall = t0.elapsed().as_secs_f64();
     let threads = rayon::current_num_threads();
     let line = |model: String, secs: f64, sizes: [usize; 3], awake_fraction: f64| {
@@ -173,7 +176,7 @@ fn pass(
     let share = awake_points / (total[0].max(1) as f64);
     out.push(BenchLine {
         compute: on_gpu(models.iter().find_map(|m| m.gpu.clone())),
-        frames: FrameFigures::of(&frame_s, wall),
+        frames: FrameFigures::of(&frame_s, &bus.take_build_seconds(), wall),
         ..line("procedure".to_string(), wall, total, share)
     });
     Ok(out)

@@ -171,9 +171,12 @@ pub fn bench(
                     (fr.frames, fr.frame_ms, fr.frame_ms_max, fr.frame_share)
                 {
                     say!(
-                        "{:<14} with {n} snapshots for renderers: {mean:.3} ms each (at most {max:.3}), {:.1}% of the time",
+                        "{:<14} with {n} snapshots for renderers: {mean:.3} ms each on the simulation's thread (at most {max:.3}), {:.1}% of the time{}",
                         "",
-                        100.0 * share
+                        100.0 * share,
+                        fr.build_ms
+                            .map(|b| format!("; built beside it in {b:.3} ms each"))
+                            .unwrap_or_default()
                     );
                 }
                 let c = &l.compute;

@@ -451,6 +451,13 @@ impl Live {
         self.proc_.snapshot(self.clock.step())
     }
 
+    /// [`Live::snapshot`] as a job whose build may run on another thread
+    /// ([`crate::sim::SnapshotBus::publish_job`]).
+    pub fn snapshot_job(&mut self) -> crate::sim::SnapshotJob {
+        let _span = tracing::debug_span!("snapshot").entered();
+        self.proc_.snapshot_job(self.clock.step())
+    }
+
     pub fn is_completed(&self) -> bool {
         self.proc_.is_completed()
     }

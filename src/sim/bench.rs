@@ -37,28 +37,36 @@ pub struct BenchLine {
 
 /// The snapshots built for renderers during a procedure's timed pass, one every
 /// [`super::Plan::publish_every`] steps, each announced before its step
-/// ([`super::ModelSet::read_whole_after_step`]), as the window and the headset build them on
-/// the simulation thread; the line's rate counts their time (each left out of the JSON when
+/// ([`super::ModelSet::read_whole_after_step`]), as a live session builds them: what the
+/// procedure reads of the simulation on its thread ([`super::Procedure::snapshot_job`]),
+/// the rest on the snapshot bus's builder thread ([`super::SnapshotBus::publish_job`]). The
+/// line's rate counts both: the simulation's part as it runs, the builds as they keep the
+/// simulation waiting and as the pass waits for the last (each left out of the JSON when
 /// absent).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
 pub struct FrameFigures {
     /// Snapshots built.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub frames: Option<u64>,
-    /// Their mean build time, milliseconds.
+    /// The mean time the simulation's thread spent on one, milliseconds.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub frame_ms: Option<f64>,
     /// The slowest one's, milliseconds.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub frame_ms_max: Option<f64>,
-    /// The share of the pass's wall time spent building them.
+    /// The share of the pass's wall time the simulation's thread spent on them.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub frame_share: Option<f64>,
+    /// The builder thread's mean time on one, milliseconds (none where every snapshot was
+    /// built on the simulation's thread).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub build_ms: Option<f64>,
 }
 
 impl FrameFigures {
-    /// The figures of snapshots that took `seconds` each, over a pass of `wall_s`.
-    pub fn of(seconds: &[f64], wall_s: f64) -> Self {
+    /// The figures of snapshots whose simulation's part took `seconds` each and whose
+    /// builds took `built` on the builder thread, over a pass of `wall_s`.
+    pub fn of(seconds: &[f64], built: &[f64], wall_s: f64) -> Self {
         let sum: f64 = seconds.iter().sum();
         let n = seconds.len();
         Self {
@@ -66,6 +74,8 @@ impl FrameFigures {
             frame_ms: (n > 0).then(|| 1e3 * sum / n as f64),
             frame_ms_max: seconds.iter().copied().reduce(f64::max).map(|s| 1e3 * s),
             frame_share: Some(sum / wall_s.max(1e-12)),
+            build_ms: (!built.is_empty())
+                .then(|| 1e3 * built.iter().sum::<f64>() / built.len() as f64),
         }
     }
 }

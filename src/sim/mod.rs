@@ -23,6 +23,7 @@ pub mod precompute;
 mod procedure;
 mod quarantine;
 mod snapshot;
+mod snapshot_bus;
 mod world;
 
 /// What tools, rays and cuts see of a model: collision's words, used by every model.
@@ -50,8 +51,9 @@ pub use procedure::{
 };
 pub use quarantine::Quarantine;
 pub use snapshot::{
-    InstrumentShape, ModelSnapshot, ScopeView, Snapshot, SnapshotBus, SurfaceRole, ToolSnapshot,
+    InstrumentShape, ModelSnapshot, ScopeView, Snapshot, SurfaceRole, ToolSnapshot,
 };
+pub use snapshot_bus::{SnapshotBus, SnapshotJob};
 pub use world::{
     CHECKPOINT_STEPS, Interaction, ModelId, ModelSet, PointForces, PointSource, World,
 };

@@ -420,6 +420,12 @@ pub trait Procedure: Send {
     fn step(&mut self, input: &InputFrame, step: u64, events: &mut Vec<SimEvent>);
     /// What renderers need of this instant.
     fn snapshot(&mut self, step: u64) -> Snapshot;
+    /// [`Procedure::snapshot`] as a job: what must be read of the simulation is read now,
+    /// and the rest of the build may run on another thread (the same snapshot either way).
+    /// By default everything is built now.
+    fn snapshot_job(&mut self, step: u64) -> super::SnapshotJob {
+        super::SnapshotJob::ready(self.snapshot(step))
+    }
     /// How the task stands; vulnerable structures are looked for within `near_m`.
     fn status(&self, near_m: f32) -> TaskStatus;
     /// The report at the end of the session.

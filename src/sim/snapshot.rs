@@ -1,7 +1,5 @@
 use super::Emission;
-use arc_swap::ArcSwap;
 use glam::Vec3;
-use std::sync::Arc;
 
 /// What a surface is, for the renderer's choice of material (and, later, assessment): the
 /// procedure says it; the renderer knows no organ.
@@ -120,52 +118,4 @@ pub struct Snapshot {
 pub struct ScopeView {
     pub eye: Vec3,
     pub target: Vec3,
-}
-
-/// Publishes snapshots without blocking: readers load the newest `Arc`, the simulation swaps in
-/// a new one.
-#[derive(Default)]
-pub struct SnapshotBus {
-    current: ArcSwap<Snapshot>,
-}
-
-impl SnapshotBus {
-    pub fn new() -> Self {
-        Self::default()
-    }
-
-    pub fn publish(&self, s: Snapshot) {
-        self.current.store(Arc::new(s));
-    }
-
-    pub fn latest(&self) -> Arc<Snapshot> {
-        self.current.load_full()
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn readers_keep_their_snapshot_while_a_new_one_is_published() {
-        let bus = SnapshotBus::new();
-        bus.publish(Snapshot {
-            step: 1,
-            ..Default::default()
-        });
-        let held = bus.latest();
-        let reader = std::thread::scope(|s| {
-            s.spawn(|| {
-                bus.publish(Snapshot {
-                    step: 2,
-                    ..Default::default()
-                })
-            });
-            s.spawn(|| bus.latest().step).join().unwrap_or(0)
-        });
-        assert_eq!(held.step, 1);
-        assert!(reader == 1 || reader == 2);
-        assert_eq!(bus.latest().step, 2);
-    }
 }

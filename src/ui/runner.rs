@@ -170,7 +170,12 @@ fn play(
     live: &mut Live,
     source: &mut Source,
     inbox: &Receiver<Command>,
-    (bus, status, stop, paused): (&SnapshotBus, &ArcSwap<Status>, &AtomicBool, &AtomicBool),
+    (bus, status, stop, paused): (
+        &Arc<SnapshotBus>,
+        &ArcSwap<Status>,
+        &AtomicBool,
+        &AtomicBool,
+    ),
 ) -> Result<(), SessionError> {
     let mut was_paused = false;
     let publish_every = live.publish_every();
@@ -225,7 +230,8 @@ fn play(
         }
         live.step(frame)?;
         if live.step_count().is_multiple_of(publish_every) {
-            bus.publish(live.snapshot());
+            // Built on the bus's thread while the simulation steps on.
+            bus.publish_job(live.snapshot_job());
             status.store(Arc::new(live.status(LOOK_M)));
         }
     }

@@ -36,6 +36,7 @@ use crate::collision::{Instrument, ToolCylinder};
 use crate::mesh::TriMesh;
 use crate::models::cosserat::{CosseratRod, RodParams};
 use glam::{DVec3, Vec3};
+use std::sync::Arc;
 
 /// Substeps per world step at most (a stiffer grasp than this allows is stepped anyway).
 const MAX_SUBSTEPS: usize = 64;
@@ -261,8 +262,10 @@ pub struct SkinnedRod {
     pending: [Vec3; 2],
     touched: [bool; 2],
     substep_s: f64,
-    surface: TriMesh,
-    skin: Skin,
+    /// The surface at rest and its skin (shared with the snapshots built off the simulation
+    /// thread: [`SkinnedRod::mesh_later`]).
+    surface: Arc<TriMesh>,
+    skin: Arc<Skin>,
     saved: CosseratRod,
     saved_grips: [Option<Grip>; 2],
     saved_world_grip: [bool; 2],
@@ -412,8 +415,8 @@ impl SkinnedRod {
             pending: [Vec3::ZERO; 2],
             touched: [false; 2],
             substep_s,
-            surface: surface.clone(),
-            skin: Skin::bind_pose(RodPose::of(&rod), &surface.positions),
+            surface: Arc::new(surface.clone()),
+            skin: Arc::new(Skin::bind_pose(RodPose::of(&rod), &surface.positions)),
             saved: rod.clone(),
             rod,
             saved_grips: [None; 2],

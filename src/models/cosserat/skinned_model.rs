@@ -3,7 +3,8 @@
 
 use super::SkinnedRod;
 use crate::collision::GeneralizedCylinder;
-use crate::models::cosserat::skin::Selection;
+use crate::mesh::TriMesh;
+use crate::models::cosserat::skin::{RodPose, Selection, Skin};
 use crate::sim::Fnv;
 use crate::sim::{
     Collider, Contact, ContactKind, EventKind, ModelOutput, ModelSizes, ModelSnapshot, SurfaceRole,
@@ -60,47 +61,76 @@ impl SkinnedRod {
 
     /// The surface mesh where the rod carries it, with area-weighted vertex normals.
     pub fn surface_now(&self) -> (Vec<Vec3>, Vec<Vec3>) {
-        let mut positions = vec![Vec3::ZERO; self.skin.len()];
-        // The skin was bound to this rod's nodes and the buffer sized to it: this cannot fail.
-        if self
-            .skin
-            .place(self, Selection::All, &mut positions)
-            .is_err()
-        {
-            positions.clone_from(&self.surface.positions);
-        }
-        let mut normals = vec![Vec3::ZERO; positions.len()];
-        for t in &self.surface.triangles {
-            let [a, b, c] = t.map(|v| v as usize);
-            if let (Some(&pa), Some(&pb), Some(&pc)) =
-                (positions.get(a), positions.get(b), positions.get(c))
-            {
-                let n = (pb - pa).cross(pc - pa);
-                normals[a] += n;
-                normals[b] += n;
-                normals[c] += n;
-            }
-        }
-        for n in &mut normals {
-            *n = n.normalize_or(Vec3::Y);
-        }
-        (positions, normals)
+        carried_surface(&self.skin, &self.surface, RodPose::of(&self.rod))
     }
 
     /// The surface as the rod carries it now, for the renderer.
     pub fn mesh(&self) -> ModelSnapshot {
         let (positions, normals) = self.surface_now();
-        let cut_edge = vec![false; positions.len()];
-        ModelSnapshot {
-            seared: Vec::new(),
-            name: self.name.clone(),
-            positions,
-            normals,
-            indices: self.surface.triangles.iter().flatten().copied().collect(),
-            regions: vec![0; self.surface.triangles.len()],
-            roles: vec![SurfaceRole::Tissue],
-            cut_edge,
+        mesh_of(&self.name, &self.surface, positions, normals)
+    }
+
+    /// [`SkinnedRod::mesh`] of the rod as it is now, built later on any thread: the pose is
+    /// copied now (a few hundred bytes), the surface and its skin shared.
+    pub fn mesh_later(&self) -> impl FnOnce() -> ModelSnapshot + Send + 'static {
+        let (skin, surface, name) = (self.skin.clone(), self.surface.clone(), self.name.clone());
+        let (positions, frames) = (self.rod.positions().to_vec(), self.rod.frames().to_vec());
+        move || {
+            let pose = RodPose {
+                positions: &positions,
+                frames: &frames,
+            };
+            let (p, n) = carried_surface(&skin, &surface, pose);
+            mesh_of(&name, &surface, p, n)
         }
+    }
+}
+
+/// `surface` where `skin` carries it on `pose`, with area-weighted vertex normals.
+fn carried_surface(skin: &Skin, surface: &TriMesh, pose: RodPose<'_>) -> (Vec<Vec3>, Vec<Vec3>) {
+    let mut positions = vec![Vec3::ZERO; skin.len()];
+    // The skin was bound to this rod's nodes and the buffer sized to it: this cannot fail.
+    if skin
+        .place_pose(pose, Selection::All, &mut positions)
+        .is_err()
+    {
+        positions.clone_from(&surface.positions);
+    }
+    let mut normals = vec![Vec3::ZERO; positions.len()];
+    for t in &surface.triangles {
+        let [a, b, c] = t.map(|v| v as usize);
+        if let (Some(&pa), Some(&pb), Some(&pc)) =
+            (positions.get(a), positions.get(b), positions.get(c))
+        {
+            let n = (pb - pa).cross(pc - pa);
+            normals[a] += n;
+            normals[b] += n;
+            normals[c] += n;
+        }
+    }
+    for n in &mut normals {
+        *n = n.normalize_or(Vec3::Y);
+    }
+    (positions, normals)
+}
+
+/// The renderer's mesh `name` of `surface` at `positions` with `normals`.
+fn mesh_of(
+    name: &str,
+    surface: &TriMesh,
+    positions: Vec<Vec3>,
+    normals: Vec<Vec3>,
+) -> ModelSnapshot {
+    let cut_edge = vec![false; positions.len()];
+    ModelSnapshot {
+        seared: Vec::new(),
+        name: name.to_string(),
+        positions,
+        normals,
+        indices: surface.triangles.iter().flatten().copied().collect(),
+        regions: vec![0; surface.triangles.len()],
+        roles: vec![SurfaceRole::Tissue],
+        cut_edge,
     }
 }
 

@@ -8,6 +8,7 @@ use super::regions::{self, RegionKind};
 use super::scene::RectumScene;
 use crate::models::membrane::{LAYERS, Membrane};
 use crate::sim::{ModelSnapshot, SurfaceRole};
+use std::sync::Arc;
 
 /// Most vertices a drawn membrane layer has (the grid is decimated to stay under it).
 const DRAWN_LAYER_VERTICES: usize = 20_000;
@@ -32,8 +33,9 @@ struct Surface {
 pub struct Drawn {
     rows: Vec<usize>,
     cols: Vec<usize>,
-    fascia: Surface,
-    pelvis: Surface,
+    /// Shared with the snapshots built off the simulation thread ([`Drawn::meshes_later`]).
+    fascia: Arc<Surface>,
+    pelvis: Arc<Surface>,
 }
 
 impl Drawn {
@@ -79,14 +81,23 @@ impl Drawn {
         Drawn {
             rows: ri,
             cols: cj,
-            fascia,
-            pelvis,
+            fascia: Arc::new(fascia),
+            pelvis: Arc::new(pelvis),
         }
     }
 
     /// The fasciae and the pelvic side as `m` is now (current on the CPU: see
     /// [`Membrane::catch_up`]); a vertex on a cut link of the dissection plane is marked cut.
     pub fn meshes(&self, m: &Membrane) -> [ModelSnapshot; 2] {
+        self.meshes_later(m)()
+    }
+
+    /// [`Drawn::meshes`], the vertices placed and the cut links marked now, the surfaces
+    /// (their normals) built later on any thread.
+    pub fn meshes_later(
+        &self,
+        m: &Membrane,
+    ) -> impl FnOnce() -> [ModelSnapshot; 2] + Send + 'static {
         let layers = [FASCIAE[0], FASCIAE[1], PELVIS];
         let mut positions = {
             let _span = tracing::debug_span!("rectum_snapshot_grid").entered();
@@ -100,11 +111,14 @@ impl Drawn {
         }
         let fascia_cut = [cut.as_slice(), cut.as_slice()].concat();
         let pelvis_cut = vec![false; pelvis.len()];
-        let (fascia, pelvis) = rayon::join(
-            || surface(&self.fascia, positions, fascia_cut),
-            || surface(&self.pelvis, pelvis, pelvis_cut),
-        );
-        [fascia, pelvis]
+        let (fs, ps) = (self.fascia.clone(), self.pelvis.clone());
+        move || {
+            let (fascia, pelvis) = rayon::join(
+                || surface(&fs, positions, fascia_cut),
+                || surface(&ps, pelvis, pelvis_cut),
+            );
+            [fascia, pelvis]
+        }
     }
 }
 

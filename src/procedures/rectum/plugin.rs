@@ -43,6 +43,10 @@ pub const INFO: ProcedureInfo = crate::procedure_info! {
 impl Procedure for Rectum {
     crate::procedure_basics!(INFO, report(errors: metrics.alarms), models: [scene]);
 
+    fn snapshot_job(&mut self, step: u64) -> crate::sim::SnapshotJob {
+        Rectum::snapshot_job(self, step)
+    }
+
     fn instrument_tips(&self) -> Option<[Vec3; 2]> {
         Some([self.tool_tip(0), self.tool_tip(1)])
     }

@@ -12,6 +12,7 @@ use super::scene::{ALARM_RECTAL_WALL, RectumScene, StepOutcome, ToolState};
 use crate::models::membrane::LAYERS;
 use crate::procedures::scope::Scope;
 use crate::sim::Fnv;
+use crate::sim::SnapshotJob;
 use crate::sim::TaskStatus;
 use crate::sim::{
     EmissionKind, EmissionLog, EventKind, Hand, HandInput, InputFrame, InstrumentShape,
@@ -549,11 +550,39 @@ impl Rectum {
             },
             || drawn.meshes(membrane),
         );
+        let mut s = self.snapshot_frame(step);
+        s.models = vec![rectum, fascia, pelvis];
+        s
+    }
+
+    /// [`Rectum::snapshot`] as a job: the rod's pose copied, the membrane's drawn vertices
+    /// placed and the rest read now; the meshes (the rod's skin, every normal) built later,
+    /// on any thread, to the same snapshot.
+    pub fn snapshot_job(&mut self, step: u64) -> SnapshotJob {
+        self.scene.membrane_mut().catch_up();
+        let rod = self.scene.rod().mesh_later();
+        let membrane = self.drawn.meshes_later(self.scene.membrane());
+        let mut s = self.snapshot_frame(step);
+        SnapshotJob::later(move || {
+            let (rectum, [fascia, pelvis]) = rayon::join(
+                || {
+                    let _span = tracing::debug_span!("rectum_snapshot_rod").entered();
+                    rod()
+                },
+                membrane,
+            );
+            s.models = vec![rectum, fascia, pelvis];
+            s
+        })
+    }
+
+    /// A snapshot at `step` with everything but the models.
+    fn snapshot_frame(&mut self, step: u64) -> Snapshot {
         let time_s = Self::time_s(step, self.scenario.dt_s);
         Snapshot {
             step,
             time_s,
-            models: vec![rectum, fascia, pelvis],
+            models: Vec::new(),
             tools: self.tools,
             reactions: self.reactions(),
             target_found: true,

@@ -535,3 +535,31 @@ fn a_frame_announced_before_its_step_takes_no_round_trip_on_the_gpu() {
         assert!(a == b, "frame {k}");
     }
 }
+
+#[test]
+fn a_snapshot_built_on_another_thread_is_the_one_built_at_once() {
+    // The hook cuts in the plane, so tiles are awake and asleep and links are cut: the job
+    // reads the drawn vertices and the rod's pose now and builds the meshes later, on
+    // another thread, into the very snapshot `snapshot` builds at once.
+    let mut r = rectum(coarse(|s| s));
+    let corner = in_plane(&r, 30, 2);
+    let mut events = Vec::new();
+    for step in 0..60 {
+        r.step(&hook_at(corner, step >= 20), step, &mut events);
+    }
+    let now = r.snapshot(60);
+    let job = r.snapshot_job(60);
+    assert!(!job.is_ready(), "the meshes are left to the build");
+    let later = std::thread::spawn(move || job.build())
+        .join()
+        .expect("built");
+    assert_eq!(now.models.len(), 3);
+    for m in &now.models {
+        assert!(!m.positions.is_empty() && m.normals.len() == m.positions.len());
+    }
+    assert!(
+        now.models[1].cut_edge.iter().any(|&c| c),
+        "the hook cut links of the drawn plane"
+    );
+    assert_eq!(now, later);
+}
