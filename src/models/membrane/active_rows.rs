@@ -62,7 +62,8 @@ fn watch_run(
     let (_, [_, c1]) = a.span(end, rows, cols);
     let b = l * rows + i;
     let w = c1 - c0;
-    now.resize(3 * w, 0.0);
+    // Three component rows of offsets now, then each node's squared speed and move.
+    now.resize(5 * w, 0.0);
     // Each node's offset from its anchor now, by component.
     for c in 0..3 {
         let out = &mut now[c * w..(c + 1) * w];
@@ -74,34 +75,38 @@ fn watch_run(
     }
     let border_row = i == r0 || i + 1 == r1;
     let in_run = |c: usize| c * cols + c0..c * cols + c1;
-    let (n0, rest) = now.split_at(w);
-    let (n1, n2) = rest.split_at(w);
+    let (n0, rest) = now.split_at_mut(w);
+    let (n1, rest) = rest.split_at_mut(w);
+    let (n2, rest) = rest.split_at_mut(w);
+    let (fast, moved) = rest.split_at_mut(w);
     let (l0, l1, l2) = (&last[in_run(0)], &last[in_run(1)], &last[in_run(2)]);
     let row3 = |c: usize| (b * 3 + c) * cols + c0..(b * 3 + c) * cols + c1;
     let (o0, o1, o2) = (&a.offset[row3(0)], &a.offset[row3(1)], &a.offset[row3(2)]);
-    // Squared: the root of the largest is the largest root (a rounded root is monotonic),
-    // so one root a tile gives the same bytes as one a node.
-    let moved = |j: usize| Vec3::new(n0[j] - o0[j], n1[j] - o1[j], n2[j] - o2[j]).length_squared();
+    // Squared lengths, node by node over the run ([`squared`]). Squared: the root of the
+    // largest is the largest root (a rounded root is monotonic), so one root a tile gives
+    // the same bytes as one a node.
+    let (n0, n1, n2) = (&*n0, &*n1, &*n2);
+    squared(fast, [n0, n1, n2], [l0, l1, l2]);
+    let mv = |j: usize| {
+        let (x, y, z) = (n0[j] - o0[j], n1[j] - o1[j], n2[j] - o2[j]);
+        x * x + y * y + z * z
+    };
+    if border_row {
+        squared(moved, [n0, n1, n2], [o0, o1, o2]);
+    }
+    let most = |v: &[f32]| v.iter().fold(0.0f32, |m, &x| m.max(x));
     let x = |c: usize| &m.state.data[(b * 6 + c) * cols + c0..(b * 6 + c) * cols + c1];
     let (x0, x1, x2) = (x(0), x(1), x(2));
     for &(k, t) in run {
         let (_, [t0, t1]) = a.span(t, rows, cols);
         let (j0, j1) = (t0 - c0, t1 - c0);
         let mut watch = Watch::NONE;
-        let mut fastest = 0.0f32;
-        for j in j0..j1 {
-            let d = Vec3::new(n0[j] - l0[j], n1[j] - l1[j], n2[j] - l2[j]);
-            fastest = fastest.max(d.length_squared());
-        }
-        watch.fastest = fastest.sqrt() / dt;
-        let mut edge = 0.0f32;
-        if border_row {
-            for j in j0..j1 {
-                edge = edge.max(moved(j));
-            }
+        watch.fastest = most(&fast[j0..j1]).sqrt() / dt;
+        let edge = if border_row {
+            most(&moved[j0..j1])
         } else {
-            edge = edge.max(moved(j0)).max(moved(j1 - 1));
-        }
+            0.0f32.max(mv(j0)).max(mv(j1 - 1))
+        };
         watch.edge = edge.sqrt();
         for j in j0..j1 {
             let p = Vec3::new(x0[j], x1[j], x2[j]);
@@ -113,6 +118,18 @@ fn watch_run(
     }
     for c in 0..3 {
         last[in_run(c)].copy_from_slice(&now[c * w..(c + 1) * w]);
+    }
+}
+
+/// Each node's squared length of `p - q` (three component rows each) into `out`, summed
+/// as `Vec3::length_squared` sums it, in a loop the compiler vectorises.
+#[inline(always)]
+fn squared(out: &mut [f32], [p0, p1, p2]: [&[f32]; 3], [q0, q1, q2]: [&[f32]; 3]) {
+    let n = out.len();
+    let (p0, p1, p2, q0, q1, q2) = (&p0[..n], &p1[..n], &p2[..n], &q0[..n], &q1[..n], &q2[..n]);
+    for k in 0..n {
+        let (x, y, z) = (p0[k] - q0[k], p1[k] - q1[k], p2[k] - q2[k]);
+        out[k] = x * x + y * y + z * z;
     }
 }
 
