@@ -251,7 +251,7 @@ impl XrLoop {
             pose: Pose::looking_at(at, at + glam::Vec3::Y),
             buttons: Buttons::default(),
         });
-        let sim = Stepper::start(live)?;
+        let sim = Stepper::start(live, opts.coupling)?;
         Ok(XrLoop {
             app,
             gpu,

@@ -71,8 +71,11 @@ pub struct Stepper {
 const IDLE_FLUSH: Duration = Duration::from_millis(200);
 
 impl Stepper {
-    /// Starts the thread with the session (built, its recording already streaming).
-    pub fn start(mut live: Live) -> Result<Stepper, SessionError> {
+    /// Starts the thread with the session (built, its recording already streaming), for
+    /// frames coupled as `coupling` says: paced, each frame's snapshot is built beside the
+    /// simulation ([`SnapshotBus::publish_job`]: a frame shows the newest there is);
+    /// lockstep, on this thread before the frame is done (the frame shows its own).
+    pub fn start(mut live: Live, coupling: Coupling) -> Result<Stepper, SessionError> {
         let bus = Arc::new(SnapshotBus::new());
         bus.publish(live.snapshot());
         let status = Arc::new(ArcSwap::from_pointee(live.status(crate::session::LOOK_M)));
@@ -86,7 +89,8 @@ impl Stepper {
             .spawn(move || -> Result<Live, SessionError> {
                 // Steps on a worker of the pool (see `crate::session::on_pool`).
                 crate::session::on_pool(move || {
-                    let r = serve(&mut live, &inbox, &done_tx, (&b, &s));
+                    let beside = coupling == Coupling::Paced;
+                    let r = serve(&mut live, &inbox, &done_tx, (&b, &s), beside);
                     if r.is_err() {
                         // The frame loop may be waiting for this frame.
                         let _ = done_tx.send(Err(()));
@@ -205,7 +209,8 @@ fn serve(
     live: &mut Live,
     inbox: &Receiver<ToSim>,
     done: &Sender<Result<FrameDone, ()>>,
-    (bus, status): (&SnapshotBus, &ArcSwap<Status>),
+    (bus, status): (&Arc<SnapshotBus>, &ArcSwap<Status>),
+    beside: bool,
 ) -> Result<(), SessionError> {
     let dt = f64::from(live.dt_s());
     let tools = live.info().tools;
@@ -254,7 +259,11 @@ fn serve(
                 }
                 last_t_s = live.time_s();
                 held = Some(hands);
-                bus.publish(live.snapshot());
+                if beside {
+                    bus.publish_job(live.snapshot_job());
+                } else {
+                    bus.publish(live.snapshot());
+                }
                 status.store(Arc::new(live.status(crate::session::LOOK_M)));
                 let _ = done.send(Ok(FrameDone {
                     feel,
