@@ -2,7 +2,8 @@
 //! outline is a smooth seared ring (no staircase of whole triangles) around a bed of raw
 //! tissue, not a window onto what lies behind the kidney; the laser smokes while it cuts, and
 //! only then; a laser cut into the renal artery bleeds; and a grasper pressed side-on into the kidney dents it along its shaft, as a
-//! depth map of the drawn surface shows.
+//! depth map of the drawn surface shows. A snapshot whose meshes are built beside the
+//! simulation while it cuts on draws the instant it was handed over.
 
 mod common;
 
@@ -447,4 +448,40 @@ fn a_laser_cut_into_the_renal_artery_bleeds_and_the_demo_injures_nothing() {
 /// The left eye of a look at a snapshot, 270 x 300.
 fn eye(gpu: &Gpu, look: &Look, snap: &Snapshot) -> Vec<u8> {
     common::left_eye(gpu, look, snap, (270, 300))
+}
+
+#[test]
+fn a_snapshot_built_beside_the_simulation_is_the_one_built_at_once() {
+    // 8 s into the demo the laser is cutting round the tumour: the job reads the bodies now,
+    // the simulation steps on for a second and cuts further (the kidney's mesh changes
+    // while the job holds it), and the job, built later on another thread, draws the instant it was
+    // handed over, as the snapshot built at once did.
+    let (mut n, now) = demo_at(8.0);
+    let s = Scenario::parse("builtin nephrectomy scenario", INFO.scenario).expect("scenario");
+    let dt = f64::from(s.dt_s);
+    let keys = KeyTrace::parse("demo", INFO.demo_trace).expect("demo trace");
+    let at = now.step;
+    let job = n.snapshot_job(at);
+    assert!(!job.is_ready(), "the meshes are left to the build");
+    let mut events = Vec::new();
+    for step in at..at + 250 {
+        n.step(&keys.sample(step as f64 * dt), step, &mut events);
+    }
+    let later = std::thread::spawn(move || job.build())
+        .join()
+        .expect("built");
+    assert!(later == now, "the job drew another instant");
+    // Vertices on a cut's edge in the kidney.
+    let edge = |s: &Snapshot| {
+        s.models
+            .iter()
+            .find(|m| m.name == "kidney")
+            .map(|m| m.cut_edge.iter().filter(|&&c| c).count())
+            .expect("kidney")
+    };
+    let after = n.snapshot(at + 250);
+    assert!(
+        edge(&now) > 0 && edge(&after) > edge(&now),
+        "the laser did not cut further meanwhile"
+    );
 }

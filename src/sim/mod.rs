@@ -53,9 +53,9 @@ pub use quarantine::Quarantine;
 pub use snapshot::{
     InstrumentShape, ModelSnapshot, ScopeView, Snapshot, SurfaceRole, ToolSnapshot,
 };
-pub use snapshot_bus::{SnapshotBus, SnapshotJob};
+pub use snapshot_bus::{MeshJob, SnapshotBus, SnapshotJob};
 pub use world::{
-    CHECKPOINT_STEPS, Interaction, ModelId, ModelSet, PointForces, PointSource, World,
+    CHECKPOINT_STEPS, Interaction, MeshesJob, ModelId, ModelSet, PointForces, PointSource, World,
 };
 
 /// Runs a closure on a pool of so many workers (tests comparing the bytes of 1 and 2 threads).

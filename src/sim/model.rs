@@ -85,6 +85,12 @@ pub trait TissueModel: Send {
     fn collider(&self) -> super::Collider<'_>;
     /// Render positions, normals and live triangles for a snapshot.
     fn render_mesh(&mut self) -> crate::sim::ModelSnapshot;
+    /// [`TissueModel::render_mesh`] as a job: what must be read of the state is read now,
+    /// and the rest (normals, drawn vertices, indices) may be built on another thread, the
+    /// same mesh either way. By default it is built now.
+    fn render_job(&mut self) -> crate::sim::MeshJob {
+        crate::sim::MeshJob::ready(self.render_mesh())
+    }
     /// Saves the current state as the last good one.
     fn checkpoint(&mut self);
     /// The whole state is read after the next step (its checkpoint, a frame's snapshot): a
@@ -159,6 +165,9 @@ impl TissueModel for Box<dyn TissueModel> {
     }
     fn render_mesh(&mut self) -> crate::sim::ModelSnapshot {
         (**self).render_mesh()
+    }
+    fn render_job(&mut self) -> crate::sim::MeshJob {
+        (**self).render_job()
     }
     fn checkpoint(&mut self) {
         (**self).checkpoint();
@@ -244,6 +253,9 @@ macro_rules! tissue_models {
             }
             fn render_mesh(&mut self) -> $crate::sim::ModelSnapshot {
                 match self { $(Self::$variant(m) => <$ty as $crate::sim::TissueModel>::render_mesh(m)),+ }
+            }
+            fn render_job(&mut self) -> $crate::sim::MeshJob {
+                match self { $(Self::$variant(m) => <$ty as $crate::sim::TissueModel>::render_job(m)),+ }
             }
             fn checkpoint(&mut self) {
                 match self { $(Self::$variant(m) => <$ty as $crate::sim::TissueModel>::checkpoint(m)),+ }

@@ -4,45 +4,53 @@
 //! on while the picture is put together. Built snapshots are published in the order they
 //! were handed over: a slow build never replaces a newer picture.
 
-use super::Snapshot;
+use super::{ModelSnapshot, Snapshot};
 use arc_swap::ArcSwap;
 use std::sync::mpsc::{SyncSender, sync_channel};
 use std::sync::{Arc, Condvar, Mutex, PoisonError, Weak};
 use std::time::Instant;
 
-/// A snapshot, built or still to build.
-pub struct SnapshotJob(Job);
+/// A value built already, or still to build from what the job owns (read from the
+/// simulation already): the build may run on any thread, and gives the same value on every
+/// one.
+pub struct Job<T>(Build<T>);
 
-enum Job {
-    Ready(Box<Snapshot>),
-    Later(Box<dyn FnOnce() -> Snapshot + Send>),
+enum Build<T> {
+    Ready(Box<T>),
+    Later(Box<dyn FnOnce() -> T + Send>),
 }
 
-impl SnapshotJob {
-    /// A snapshot built already.
-    pub fn ready(s: Snapshot) -> Self {
-        Self(Job::Ready(Box::new(s)))
+impl<T> Job<T> {
+    /// A value built already.
+    pub fn ready(value: T) -> Self {
+        Self(Build::Ready(Box::new(value)))
     }
 
-    /// A snapshot that `build` puts together from what it owns (read from the simulation
-    /// already): it may run on any thread, and gives the same snapshot on every one.
-    pub fn later(build: impl FnOnce() -> Snapshot + Send + 'static) -> Self {
-        Self(Job::Later(Box::new(build)))
+    /// A value that `build` puts together from what it owns.
+    pub fn later(build: impl FnOnce() -> T + Send + 'static) -> Self {
+        Self(Build::Later(Box::new(build)))
     }
 
     /// Whether it is built already.
     pub fn is_ready(&self) -> bool {
-        matches!(self.0, Job::Ready(_))
+        matches!(self.0, Build::Ready(_))
     }
 
-    /// The snapshot (built here, if it was not yet).
-    pub fn build(self) -> Snapshot {
+    /// The value (built here, if it was not yet).
+    pub fn build(self) -> T {
         match self.0 {
-            Job::Ready(s) => *s,
-            Job::Later(f) => f(),
+            Build::Ready(v) => *v,
+            Build::Later(f) => f(),
         }
     }
 }
+
+/// A snapshot, built or still to build.
+pub type SnapshotJob = Job<Snapshot>;
+
+/// One model's render mesh, built or still to build ([`super::TissueModel::render_job`]):
+/// what a snapshot's job carries of each model.
+pub type MeshJob = Job<ModelSnapshot>;
 
 /// Jobs handed to the builder at most before [`SnapshotBus::publish_job`] waits (one being
 /// built, one waiting): a builder that falls behind slows the simulation rather than

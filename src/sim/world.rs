@@ -421,20 +421,20 @@ impl<M: TissueModel> World<M> {
             .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
     }
 
-    /// Every model's render mesh, with its surface roles from `roles`.
-    pub fn render(
-        &mut self,
-        roles: impl Fn(ModelId, &M) -> Vec<SurfaceRole>,
-    ) -> Vec<ModelSnapshot> {
-        self.slots
-            .iter_mut()
-            .enumerate()
-            .map(|(i, s)| {
-                let mut snap = s.model.render_mesh();
-                snap.roles = roles(ModelId(i as u32), &s.model);
-                snap
-            })
-            .collect()
+    /// Every model's render mesh, with its surface roles from `roles`, as a job: each model
+    /// reads what it must now ([`TissueModel::render_job`]), and [`MeshesJob::build`] puts
+    /// the meshes together on any thread, the same meshes on every one.
+    pub fn render_job(&mut self, roles: impl Fn(ModelId, &M) -> Vec<SurfaceRole>) -> MeshesJob {
+        MeshesJob(
+            self.slots
+                .iter_mut()
+                .enumerate()
+                .map(|(i, s)| {
+                    let r = roles(ModelId(i as u32), &s.model);
+                    (s.model.render_job(), r)
+                })
+                .collect(),
+        )
     }
 
     /// Sizes of every model, for reports.
@@ -600,5 +600,22 @@ impl<M: TissueModel> ModelSet for World<M> {
         for slot in &mut self.slots {
             slot.model.read_whole_after_step();
         }
+    }
+}
+
+/// Every model's render mesh still to build, with its surface roles ([`World::render_job`]).
+pub struct MeshesJob(Vec<(crate::sim::MeshJob, Vec<SurfaceRole>)>);
+
+impl MeshesJob {
+    /// The meshes, in the world's order.
+    pub fn build(self) -> Vec<ModelSnapshot> {
+        self.0
+            .into_iter()
+            .map(|(job, roles)| {
+                let mut snap = job.build();
+                snap.roles = roles;
+                snap
+            })
+            .collect()
     }
 }

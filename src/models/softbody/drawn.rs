@@ -5,11 +5,76 @@
 //! bit for bit (a normal depends on nothing else).
 
 use crate::models::simplex::SimplexMesh;
+use crate::sim::ModelSnapshot;
 use glam::Vec3;
 use rayon::prelude::*;
 
-/// The fewest points one task of the snapshot's normals takes.
+/// The fewest points (or drawn vertices) one task of the snapshot takes.
 const PER_TASK: usize = 4096;
+
+/// What a snapshot of a body reads of it: borrowed from the body, or from the copies a
+/// snapshot's job owns.
+pub(super) struct Drawn<'a> {
+    pub name: &'a str,
+    pub mesh: &'a SimplexMesh,
+    pub x: &'a [Vec3],
+    /// Per point (and its triangle-mesh face): alive.
+    pub alive: &'a [bool],
+    pub regions: &'a [u8],
+    pub sear_cuts: bool,
+}
+
+/// The surface drawn of `d`: the drawn vertices (found in parallel, each value written once:
+/// the threads change no bit) on the points' normals that `kept` keeps from the last
+/// snapshot, the live triangles, smooth normals, and the cuts' outlines.
+pub(super) fn surface(d: &Drawn, kept: &mut DrawnNormals) -> ModelSnapshot {
+    let Drawn { mesh, x, alive, .. } = *d;
+    let normals = kept.update(mesh, x, alive);
+    let positions: Vec<Vec3> = (0..mesh.render.len())
+        .into_par_iter()
+        .with_min_len(PER_TASK)
+        .map(|r| mesh.render_position(r, x, normals))
+        .collect();
+    let mut indices = Vec::with_capacity(mesh.faces.len() * 3);
+    let mut regions = Vec::with_capacity(mesh.faces.len());
+    for f in 0..mesh.faces.len() {
+        if alive[f] {
+            indices.extend_from_slice(&mesh.corners[f]);
+            regions.push(d.regions[f]);
+        }
+    }
+    // Smooth render normals from the triangles.
+    let mut rn = vec![Vec3::ZERO; positions.len()];
+    for t in indices.chunks_exact(3) {
+        let [a, b, c] = [t[0], t[1], t[2]].map(|i| positions[i as usize]);
+        let n = (b - a).cross(c - a);
+        for &i in t {
+            rn[i as usize] += n;
+        }
+    }
+    let cut_edge = (0..mesh.render.len())
+        .into_par_iter()
+        .with_min_len(PER_TASK)
+        .map(|r| mesh.is_split(r))
+        .collect();
+    let mut out = ModelSnapshot {
+        name: d.name.to_string(),
+        cut_edge,
+        positions,
+        normals: rn.into_iter().map(Vec3::normalize_or_zero).collect(),
+        indices,
+        regions,
+        // The procedure says what each region is.
+        roles: Vec::new(),
+        seared: Vec::new(),
+    };
+    // The holes cuts left: smooth outlines and a bed of raw (seared) tissue.
+    let look = super::crater::close_cuts(&mut out, d.sear_cuts);
+    if d.sear_cuts {
+        out.seared = look.iter().map(|l| l.seared).collect();
+    }
+    out
+}
 
 /// The positions and life of every point at the last snapshot, and their normals then.
 #[derive(Debug, Clone, Default)]

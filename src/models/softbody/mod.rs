@@ -18,6 +18,7 @@ use crate::sim::{
 };
 use glam::{Quat, Vec3};
 use parry3d::bounding_volume::Aabb;
+use std::sync::{Arc, Mutex};
 
 /// How long a point must stay slow and unloaded before it sleeps, s (a time, not a step
 /// count, so that the awake set does not grow with a shorter step).
@@ -155,7 +156,8 @@ fn leaf_aabb(x: &[Vec3], pad: &[f32], neighbors: &[[u32; 3]], f: usize) -> Aabb 
 pub struct SoftBody {
     name: String,
     pub params: SoftBodyParams,
-    mesh: SimplexMesh,
+    /// Shared with snapshots' jobs still building (a cut copies it while one holds it).
+    mesh: Arc<SimplexMesh>,
     region: Vec<u8>,
     /// Region whose largest connected part is anchored to the body.
     anchor_region: u8,
@@ -250,8 +252,9 @@ pub struct SoftBody {
     held_slots: Vec<(u32, u32)>,
     /// Scratch: the normals and areas being refreshed.
     normal_scratch: Vec<(Vec3, f32)>,
-    /// The normals the last snapshot drew, kept for the next.
-    drawn: drawn::DrawnNormals,
+    /// The normals the last snapshot drew, kept for the next (shared with the snapshot's
+    /// job, which may build on another thread).
+    drawn: Arc<Mutex<drawn::DrawnNormals>>,
     /// Points whose shear links a cut changed (refreshed with the topology).
     relink: Vec<u32>,
     /// Per region: the running sum of volume terms.
@@ -372,7 +375,7 @@ impl SoftBody {
             stay_awake: false,
             sear_cuts: false,
             x,
-            mesh,
+            mesh: Arc::new(mesh),
         };
         body.regroup_pressure();
         for i in 0..n {
@@ -412,6 +415,13 @@ impl SoftBody {
 
     pub fn mesh(&self) -> &SimplexMesh {
         &self.mesh
+    }
+
+    /// The normals kept for the next snapshot (a job building elsewhere holds them a while).
+    fn drawn_normals(&self) -> std::sync::MutexGuard<'_, drawn::DrawnNormals> {
+        self.drawn
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
     pub fn positions(&self) -> &[Vec3] {
@@ -456,7 +466,7 @@ impl SoftBody {
     /// them, and around their neighbours (whose normals at rest changed), are made again.
     fn rebuild_render_runs(&mut self, removed: &[u32]) {
         let changed = self.mesh.vertices_around(removed);
-        self.mesh.update_render(&self.alive, &changed);
+        Arc::make_mut(&mut self.mesh).update_render(&self.alive, &changed);
     }
 
     /// Brings connected parts and anchoring up to date after cuts or torn ties.

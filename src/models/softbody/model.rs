@@ -3,9 +3,6 @@
 use super::*;
 use crate::sim::Fnv;
 
-/// Points or drawn vertices a task of the snapshot takes at the least.
-const DRAWN_PER_TASK: usize = 4096;
-
 impl SoftBody {
     /// Heap bytes held by each part of the body (capacity, not length), for the profiler.
     pub fn memory(&self) -> Vec<(&'static str, usize)> {
@@ -60,7 +57,7 @@ impl SoftBody {
             ),
             (
                 "normals+relink scratch, drawn normals",
-                b(&self.normal_scratch) + b(&self.relink) + self.drawn.heap_bytes(),
+                b(&self.normal_scratch) + b(&self.relink) + self.drawn_normals().heap_bytes(),
             ),
             ("lambda", b(&self.lambda)),
             (
@@ -353,53 +350,45 @@ impl TissueModel for SoftBody {
     /// last snapshot: `drawn.rs`) and the drawn vertices found in parallel (each value
     /// written once: the threads change no bit).
     fn render_mesh(&mut self) -> ModelSnapshot {
-        use rayon::prelude::*;
-        let (mesh, x, alive) = (&self.mesh, &self.x, &self.alive);
-        let normals = self.drawn.update(mesh, x, alive);
-        let positions: Vec<Vec3> = (0..mesh.render.len())
-            .into_par_iter()
-            .with_min_len(DRAWN_PER_TASK)
-            .map(|r| mesh.render_position(r, x, normals))
-            .collect();
-        let mut indices = Vec::with_capacity(self.mesh.faces.len() * 3);
-        let mut regions = Vec::with_capacity(self.mesh.faces.len());
-        for f in 0..self.mesh.faces.len() {
-            if self.alive[f] {
-                indices.extend_from_slice(&self.mesh.corners[f]);
-                regions.push(self.region[f]);
-            }
-        }
-        // Smooth render normals from the triangles.
-        let mut rn = vec![Vec3::ZERO; positions.len()];
-        for t in indices.chunks_exact(3) {
-            let [a, b, c] = [t[0], t[1], t[2]].map(|i| positions[i as usize]);
-            let n = (b - a).cross(c - a);
-            for &i in t {
-                rn[i as usize] += n;
-            }
-        }
-        let cut_edge = (0..mesh.render.len())
-            .into_par_iter()
-            .with_min_len(DRAWN_PER_TASK)
-            .map(|r| mesh.is_split(r))
-            .collect();
-        let mut out = ModelSnapshot {
-            name: self.name.clone(),
-            cut_edge,
-            positions,
-            normals: rn.into_iter().map(Vec3::normalize_or_zero).collect(),
-            indices,
-            regions,
-            // The procedure says what each region is.
-            roles: Vec::new(),
-            seared: Vec::new(),
-        };
-        // The holes cuts left: smooth outlines and a bed of raw (seared) tissue.
-        let look = super::crater::close_cuts(&mut out, self.sear_cuts);
-        if self.sear_cuts {
-            out.seared = look.iter().map(|l| l.seared).collect();
-        }
-        out
+        let mut kept = self.drawn_normals();
+        drawn::surface(
+            &drawn::Drawn {
+                name: &self.name,
+                mesh: &self.mesh,
+                x: &self.x,
+                alive: &self.alive,
+                regions: &self.region,
+                sear_cuts: self.sear_cuts,
+            },
+            &mut kept,
+        )
+    }
+
+    /// The snapshot's mesh, its points and their life copied now and the rest built by the
+    /// job ([`drawn::surface`], as [`TissueModel::render_mesh`] builds it). The mesh is
+    /// shared: a cut while a job holds it copies it first.
+    fn render_job(&mut self) -> crate::sim::MeshJob {
+        let name = self.name.clone();
+        let mesh = Arc::clone(&self.mesh);
+        let (x, alive, regions) = (self.x.clone(), self.alive.clone(), self.region.clone());
+        let kept = Arc::clone(&self.drawn);
+        let sear_cuts = self.sear_cuts;
+        crate::sim::MeshJob::later(move || {
+            let mut kept = kept
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+            drawn::surface(
+                &drawn::Drawn {
+                    name: &name,
+                    mesh: &mesh,
+                    x: &x,
+                    alive: &alive,
+                    regions: &regions,
+                    sear_cuts,
+                },
+                &mut kept,
+            )
+        })
     }
 
     /// Keeps the positions only: a restored body is put to sleep where it was, at rest.

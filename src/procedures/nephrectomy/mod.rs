@@ -703,16 +703,22 @@ impl Nephrectomy {
     }
 
     pub fn snapshot(&mut self, step: u64) -> Snapshot {
-        let models = self.world.render(|_, m| match m.name() {
+        self.snapshot_job(step).build()
+    }
+
+    /// The snapshot as a job: the models' state and the scene are read now, the meshes
+    /// built by the job (on the snapshot bus's builder, beside the simulation).
+    pub fn snapshot_job(&mut self, step: u64) -> crate::sim::SnapshotJob {
+        let meshes = self.world.render_job(|_, m| match m.name() {
             "kidney" => vec![SurfaceRole::Tissue, SurfaceRole::Target],
             "renal_artery" => vec![SurfaceRole::Artery],
             "renal_vein" => vec![SurfaceRole::Vein],
             _ => vec![SurfaceRole::Duct],
         });
-        Snapshot {
+        let rest = Snapshot {
             step,
             time_s: step as f64 * self.scenario.dt_s as f64,
-            models,
+            models: Vec::new(),
             tools: self.tools,
             reactions: self.world.reactions(),
             target_found: self.identified,
@@ -720,6 +726,10 @@ impl Nephrectomy {
             bleeding: self.bleeds.clone(),
             scope: None,
             picture: None,
-        }
+        };
+        crate::sim::SnapshotJob::later(move || Snapshot {
+            models: meshes.build(),
+            ..rest
+        })
     }
 }

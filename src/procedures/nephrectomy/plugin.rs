@@ -20,6 +20,10 @@ const LASER_PRESSURE: &str = super::scenario::LASER_PRESSURE.key;
 impl Procedure for Nephrectomy {
     crate::procedure_basics!(INFO);
 
+    fn snapshot_job(&mut self, step: u64) -> crate::sim::SnapshotJob {
+        Nephrectomy::snapshot_job(self, step)
+    }
+
     fn status(&self, near_m: f32) -> TaskStatus {
         let m = &self.metrics;
         let (score, _) = super::score(&self.scenario, m);

@@ -314,11 +314,16 @@ impl Sandbox {
     }
 
     pub fn snapshot(&mut self, step: u64) -> Snapshot {
-        let models = self.world.render(|_, _| ROLES.to_vec());
-        Snapshot {
+        self.snapshot_job(step).build()
+    }
+
+    /// The snapshot as a job: the block's state is read now, its mesh built by the job.
+    pub fn snapshot_job(&mut self, step: u64) -> crate::sim::SnapshotJob {
+        let meshes = self.world.render_job(|_, _| ROLES.to_vec());
+        let rest = Snapshot {
             step,
             time_s: step as f64 * f64::from(self.scenario.dt_s),
-            models,
+            models: Vec::new(),
             tools: self.tools,
             reactions: self.world.reactions(),
             // The target is given, not found: the top is highlighted from the start.
@@ -327,7 +332,11 @@ impl Sandbox {
             bleeding: Vec::new(),
             scope: None,
             picture: None,
-        }
+        };
+        crate::sim::SnapshotJob::later(move || Snapshot {
+            models: meshes.build(),
+            ..rest
+        })
     }
 
     /// Digest of the block's state and the task's progress.

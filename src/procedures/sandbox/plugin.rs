@@ -39,6 +39,10 @@ pub fn score(s: &Scenario, m: &Metrics) -> (f32, ScoreParts) {
 impl Procedure for Sandbox {
     crate::procedure_basics!(INFO, report(errors: metrics.grasper_overloads));
 
+    fn snapshot_job(&mut self, step: u64) -> crate::sim::SnapshotJob {
+        Sandbox::snapshot_job(self, step)
+    }
+
     fn contacts_now(&self) -> [Option<(Vec3, Vec3)>; 2] {
         // Both instruments are tips: the block pushes each out along its normal.
         [0, 1].map(|k| {
