@@ -12,7 +12,7 @@
 # `cargo build --release`); TOP, how many functions to list (default 20); KEEP, a folder to
 # keep cachegrind's output in (default: removed). Needs valgrind (Debian: valgrind) and
 # python3. A demo runs about 20 to 50 times slower under cachegrind than alone: the rectum's
-# preset demo takes about 40 s on two cores here, the sandbox's about 2 minutes.
+# preset demo takes about 40 s here, the sandbox's about 35 s.
 set -euo pipefail
 
 if [ $# -lt 1 ]; then
