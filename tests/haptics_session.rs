@@ -2,7 +2,8 @@
 //! The simulated stylus presses the procedure's tissue; the session is recorded, ends after
 //! its `--seconds`, and replays to the same state. Two devices drive both hands. A Phantom
 //! (here the fake libHD the build makes) runs the same session through the real FFI path, and
-//! two Phantoms share HD's one scheduler.
+//! two Phantoms share HD's one scheduler. In the headset (the simulated runtime) a stylus
+//! drives its hand's instrument while the controller of that hand stays up and away.
 
 mod common;
 use common::{bin, report, text, tmp};
@@ -43,7 +44,11 @@ fn one_simulated_stylus_presses_the_block_and_the_session_replays() {
     let depth = r["metrics"]["max_probe_depth_m"].as_f64().unwrap_or(0.0);
     assert!(f > 0.05 && depth > 0.005, "probe {f} N at {depth} m: {r}");
     // The recording replays to the same state.
-    let again = d.join("replay");
+    replays_to(&out, &d.join("replay"), &r);
+}
+
+/// The recording in `out` replayed into `again` reaches the state and step count of `r`.
+fn replays_to(out: &std::path::Path, again: &std::path::Path, r: &serde_json::Value) {
     let o = run(&[
         "replay",
         out.join("input.vtrace").to_str().expect("utf-8"),
@@ -51,7 +56,7 @@ fn one_simulated_stylus_presses_the_block_and_the_session_replays() {
         again.to_str().expect("utf-8"),
     ]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
-    let back = report(&again);
+    let back = report(again);
     assert_eq!(back["state_hash"], r["state_hash"]);
     assert_eq!(back["steps"], r["steps"]);
 }
@@ -281,4 +286,75 @@ fn the_catheters_default_device_is_a_falcon_on_the_catheters_hand() {
         r["metrics"]["tip_path_m"].as_f64().unwrap_or(0.0) > 0.01,
         "{r}"
     );
+}
+
+/// A trace for the simulated runtime whose controllers stay 10 cm over the block, pointing
+/// away from it, for `seconds`: whatever the probe touches, a stylus made it.
+fn controller_held_away(dir: &std::path::Path, seconds: f64) -> std::path::PathBuf {
+    let trace = dir.join("away.toml");
+    let keys = format!(
+        "procedure = \"sandbox\"\n\
+         [[head]]\nt_s = 0.0\nposition = [0.0, 0.135, 0.16]\ntarget = [0.0, 0.015, 0.0]\n\
+         [[right]]\nt_s = 0.0\nposition = [0.04, 0.13, 0.03]\ntarget = [0.04, 0.18, 0.03]\n\
+         [[right]]\nt_s = {seconds}\nposition = [0.04, 0.13, 0.03]\ntarget = [0.04, 0.18, 0.03]\n\
+         [[left]]\nt_s = 0.0\nposition = [-0.04, 0.13, 0.03]\ntarget = [-0.04, 0.18, 0.03]\n"
+    );
+    std::fs::write(&trace, keys).expect("trace");
+    trace
+}
+
+#[test]
+fn a_stylus_drives_its_instrument_in_the_headset() {
+    let d = tmp("haptics-session", "xr");
+    let trace = controller_held_away(&d, 2.0);
+    let session = |name: &str, stylus: bool| {
+        let out = d.join(name);
+        let mut args = vec![
+            "run",
+            "sandbox",
+            "--xr-sim",
+            trace.to_str().expect("utf-8"),
+            "--xr-duration",
+            "2",
+            "--no-window",
+            "--eye-size",
+            "64x64",
+            "--out",
+            out.to_str().expect("utf-8"),
+        ];
+        if stylus {
+            args.extend(["--haptics", "sim"]);
+        }
+        let o = run(&args);
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+        (String::from_utf8_lossy(&o.stdout).into_owned(), out)
+    };
+    // The controller alone touches nothing.
+    let (_, alone) = session("controller", false);
+    let r = report(&alone);
+    assert_eq!(r["events"]["contact"].as_u64().unwrap_or(0), 0, "{r}");
+    // With the stylus bound, the probe follows the stylus down into the block (26 mm from
+    // 15 mm above it), and the servo loop felt the block push back.
+    let (stdout, out) = session("stylus", true);
+    assert!(
+        stdout.contains("simulated stylus on the right hand"),
+        "{stdout}"
+    );
+    let r = report(&out);
+    assert_eq!(r["ended"], "xr_exit", "{r}");
+    assert!(r["events"]["contact"].as_u64().unwrap_or(0) >= 1, "{r}");
+    let f = r["metrics"]["max_probe_force_n"].as_f64().unwrap_or(0.0);
+    let depth = r["metrics"]["max_probe_depth_m"].as_f64().unwrap_or(0.0);
+    assert!(f > 0.05 && depth > 0.005, "probe {f} N at {depth} m: {r}");
+    let felt = stdout
+        .lines()
+        .find_map(|l| l.split("max force ").nth(1))
+        .and_then(|rest| rest.split(' ').next())
+        .and_then(|n| n.parse::<f64>().ok())
+        .unwrap_or(0.0);
+    assert!(felt > 0.05, "the stylus felt {felt} N: {stdout}");
+    // The servo loop's start-up ramp is in the session's events.
+    assert!(r["events"]["haptic_ramp"].as_u64().unwrap_or(0) >= 1, "{r}");
+    // The recording holds the stylus's input: it replays to the same state.
+    replays_to(&out, &d.join("replay"), &r);
 }

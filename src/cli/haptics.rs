@@ -107,16 +107,7 @@ pub fn haptics(
 /// window where there is a display (and no `--no-window`), else without one; then its report
 /// and one line per device.
 pub fn run_with_devices(a: &RunArgs) -> Result<(), CliError> {
-    if a.haptics.len() > 2 {
-        return Err(CliError::Usage(format!(
-            "--haptics: one or two devices (one per hand), got {}",
-            a.haptics.len()
-        )));
-    }
-    let info = vesalius::registry::find(&a.procedure)
-        .ok_or_else(|| CliError::Usage(format!("no procedure '{}'", a.procedure)))?;
-    let chosen: Vec<DeviceArg> = a.haptics.iter().map(|d| d.resolved(info)).collect();
-    let names = hd_names(&chosen, &a.hd_names)?;
+    let (chosen, names) = chosen_devices(a)?;
     let windowed = !a.no_window && super::session::display_available();
     if !windowed && a.screenshot.is_some() {
         return Err(CliError::Usage(
@@ -128,10 +119,7 @@ pub fn run_with_devices(a: &RunArgs) -> Result<(), CliError> {
     if let Some(dir) = &a.out {
         vesalius::session::prepare(dir)?;
     }
-    let mut devices = Vec::new();
-    for (d, name) in chosen.iter().zip(&names) {
-        devices.push(open_device((*d).into(), name.as_deref())?);
-    }
+    let devices = open_devices(&chosen, &names)?;
     if windowed {
         let seconds = a.seconds;
         let options = RigOptions {
@@ -159,6 +147,69 @@ pub fn run_with_devices(a: &RunArgs) -> Result<(), CliError> {
     super::session::finish(&run.outcome, a.out.as_deref())?;
     say_devices(&run.devices)?;
     super::session::interrupted()
+}
+
+/// `--haptics` resolved against the procedure (at most two devices), with each Phantom's HD
+/// name.
+fn chosen_devices(a: &RunArgs) -> Result<(Vec<DeviceArg>, Vec<Option<String>>), CliError> {
+    if a.haptics.len() > 2 {
+        return Err(CliError::Usage(format!(
+            "--haptics: one or two devices (one per hand), got {}",
+            a.haptics.len()
+        )));
+    }
+    let info = vesalius::registry::find(&a.procedure)
+        .ok_or_else(|| CliError::Usage(format!("no procedure '{}'", a.procedure)))?;
+    let chosen: Vec<DeviceArg> = a.haptics.iter().map(|d| d.resolved(info)).collect();
+    let names = hd_names(&chosen, &a.hd_names)?;
+    Ok((chosen, names))
+}
+
+fn open_devices(
+    chosen: &[DeviceArg],
+    names: &[Option<String>],
+) -> Result<Vec<Box<dyn vesalius::haptics::HapticDevice>>, CliError> {
+    let mut devices = Vec::new();
+    for (d, name) in chosen.iter().zip(names) {
+        devices.push(open_device((*d).into(), name.as_deref())?);
+    }
+    Ok(devices)
+}
+
+/// `run <procedure> --xr --haptics D[,D]`: the devices for a session in the headset (none
+/// without `--haptics`), bound for `duration_s` at the most (none: until it ends).
+pub fn xr_devices(
+    a: &RunArgs,
+    duration_s: Option<f64>,
+) -> Result<Option<vesalius::xr::XrDevices>, CliError> {
+    if a.haptics.is_empty() {
+        return Ok(None);
+    }
+    let (chosen, names) = chosen_devices(a)?;
+    Ok(Some(vesalius::xr::XrDevices {
+        devices: open_devices(&chosen, &names)?,
+        options: RigOptions {
+            scale: a.workspace_scale,
+            safety: SafetyParams::default(),
+            // The servo loops end with the session; a backstop for a day's use.
+            backstop_s: duration_s.map_or(24.0 * 3600.0, |s| 4.0 * s + 10.0),
+        },
+    }))
+}
+
+/// The command line's words for `devices`, passed on to the process that runs a session
+/// under the simulated runtime.
+pub fn device_words(devices: &[DeviceArg]) -> String {
+    devices
+        .iter()
+        .map(|d| match d {
+            DeviceArg::Sim => "sim",
+            DeviceArg::Phantom => "phantom",
+            DeviceArg::Falcon => "falcon",
+            DeviceArg::Default => "default",
+        })
+        .collect::<Vec<_>>()
+        .join(",")
 }
 
 /// How long a device-driven session without a window runs unless told, simulated seconds.

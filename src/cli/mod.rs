@@ -350,9 +350,9 @@ struct RunArgs {
     /// Force-feedback devices driving the instruments, one or two of sim, phantom, falcon
     /// (two: left and right hand), in the desktop window where there is a display (else, or
     /// with --no-window, without one); ends when the window closes, after --seconds, or at
-    /// Ctrl-C.
+    /// Ctrl-C. With --xr (or --xr-sim): in the headset, the other hand on its controller.
     #[arg(long, value_name = "DEVICES", value_enum, value_delimiter = ',',
-          conflicts_with_all = ["headless", "trace", "xr", "xr_sim"])]
+          conflicts_with_all = ["headless", "trace"])]
     haptics: Vec<haptics::DeviceArg>,
     /// With --haptics: the Phantoms' device names as Touch Setup shows them, in the order the
     /// Phantoms are listed (default: HD's default device; two Phantoms need both names).
@@ -368,8 +368,8 @@ struct RunArgs {
           value_parser = positive_scale)]
     workspace_scale: f64,
     /// With --haptics: how long the session runs, simulated seconds (default: until the
-    /// window closes; without a window, 60).
-    #[arg(long, value_name = "S", requires = "haptics",
+    /// window closes; without a window, 60). In the headset, --xr-duration says it.
+    #[arg(long, value_name = "S", requires = "haptics", conflicts_with_all = ["xr", "xr_sim"],
           value_parser = positive_seconds, allow_negative_numbers = true)]
     seconds: Option<f64>,
 }

@@ -146,7 +146,8 @@ pub(super) fn finish(outcome: &session::Outcome, out: Option<&Path>) -> Result<(
 
 /// `run`: picks the window, headless, XR or simulated-XR path.
 pub fn run(a: RunArgs) -> Result<(), CliError> {
-    if !a.haptics.is_empty() {
+    // Styluses in the headset go with the XR session below.
+    if !a.haptics.is_empty() && !a.xr && a.xr_sim.is_none() {
         return super::haptics::run_with_devices(&a);
     }
     if a.records.is_some() && (a.xr_sim.is_some() || a.no_window) {
@@ -352,9 +353,15 @@ fn run_xr(a: &RunArgs) -> Result<(), CliError> {
             .map_or(vesalius::xr::Coupling::Paced, Into::into),
         assessment: load_tree(a.assessment.as_deref(), &a.procedure)?,
     };
+    let devices = super::haptics::xr_devices(a, a.xr_duration)?;
     // The supervisor's mirror opens beside the headset wherever there is a display.
     if !a.no_window && display_available() {
-        return run_window(a, Some(opts), None);
+        let devices = devices.map(|d| vesalius::ui::window::WindowDevices {
+            devices: d.devices,
+            options: d.options,
+            until_s: None,
+        });
+        return run_window(a, Some(opts), devices);
     }
     if a.screenshot.is_some() {
         return Err(CliError::Usage(
@@ -368,7 +375,7 @@ fn run_xr(a: &RunArgs) -> Result<(), CliError> {
         session::prepare(dir)?;
     }
     let (file, text) = scenario_text(&a.procedure, a.scenario.as_deref(), a.preset, a.compute)?;
-    let run = vesalius::xr::run(&text, &file, opts, a.out.as_deref())?;
+    let run = vesalius::xr::run(&text, &file, opts, a.out.as_deref(), devices)?;
     say!(
         "XR runtime '{}' on {}: {} stereo frames at {}x{} per eye, {} session(s)",
         run.runtime,
@@ -379,6 +386,11 @@ fn run_xr(a: &RunArgs) -> Result<(), CliError> {
         run.sessions
     );
     finish(&run.outcome, a.out.as_deref())?;
+    super::haptics::say_devices(&run.devices)?;
+    // A device's fault, once the session's record is safe.
+    if let Some(e) = run.device_error {
+        return Err(e.into());
+    }
     interrupted()
 }
 
@@ -445,6 +457,13 @@ fn run_xr_sim(a: &RunArgs, trace: &Path) -> Result<(), CliError> {
         .env(vesalius_sim_runtime::CONFIG_ENV, &config);
     if let Some(f) = &a.scenario {
         cmd.arg("--scenario").arg(f);
+    }
+    if !a.haptics.is_empty() {
+        cmd.args(["--haptics", &super::haptics::device_words(&a.haptics)])
+            .args(["--workspace-scale", &a.workspace_scale.to_string()]);
+        if !a.hd_names.is_empty() {
+            cmd.args(["--hd-names", &a.hd_names.join(",")]);
+        }
     }
     if let Some(super::PresetArg::Cpu) = a.preset {
         cmd.args(["--preset", "cpu"]);

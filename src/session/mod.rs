@@ -37,6 +37,9 @@ pub mod ended {
     pub const XR_EXIT: &str = "xr_exit";
     /// The session's set length (`run --haptics --seconds`) ran out.
     pub const TIME_UP: &str = "time_up";
+    /// A force-feedback device's servo loop ended (a device fault) in a session in the
+    /// headset.
+    pub const DEVICE_STOPPED: &str = "device_stopped";
     /// A replay of a recording that stops short (its session was killed or crashed).
     pub const TRUNCATED_RECORDING: &str = "truncated_recording";
 }

@@ -12,6 +12,12 @@
 //! click its mark button. A controller that stops tracking
 //! freezes its instrument and raises `controller_lost`; a lost session stops the simulation,
 //! keeps its record, and a new session carries on when the headset returns.
+//!
+//! Force-feedback styluses may drive instruments instead ([`XrDevices`]): a hand bound to a
+//! stylus follows it, its servo loop renders the tissue's force at 1 kHz on a thread of its
+//! own, and the other hand (if any) follows its controller. The simulation then steps in
+//! real time, so that the servo loops get a haptic frame every step rather than a burst each
+//! display frame.
 
 use crate::profiler::FrameCounters;
 use crate::render::{EyeView, Fov, Gpu, RenderError, RenderTarget, Renderer};
@@ -42,6 +48,17 @@ pub struct XrRun {
     pub sessions: u32,
     pub eye_size: (u32, u32),
     pub device: String,
+    /// How each force-feedback device went (none without styluses).
+    pub devices: Vec<crate::haptics::DeviceRun>,
+    /// A device's fault, if one ended its servo loop (the session is kept all the same).
+    pub device_error: Option<crate::haptics::HapticsError>,
+}
+
+/// Force-feedback devices bound to the instruments of a session in the headset: one drives
+/// the procedure's probe (else its right-hand instrument), two drive both hands.
+pub struct XrDevices {
+    pub devices: Vec<Box<dyn crate::haptics::HapticDevice>>,
+    pub options: crate::haptics::RigOptions,
 }
 
 /// How long to run, and at what eye size.
@@ -74,6 +91,9 @@ pub enum XrRunError {
     HeadsetGone,
     #[error("the runtime located fewer than two views")]
     TooFewViews,
+    /// A force-feedback device could not be bound (its servo thread did not start).
+    #[error(transparent)]
+    Haptics(#[from] crate::haptics::HapticsError),
 }
 
 /// A frame-loop call's result, its error named after the OpenXR function.
@@ -179,6 +199,8 @@ pub struct XrLoop {
     renderer: Renderer,
     eye: (u32, u32),
     sim: Stepper,
+    /// The styluses' servo loops, where styluses drive instruments.
+    rig: Option<crate::haptics::Rig>,
     /// How the session will say it ended (unless the simulation ended it first).
     ending: &'static str,
     opts: XrOptions,
@@ -212,13 +234,21 @@ impl XrLoop {
         scenario_file: &str,
         opts: XrOptions,
         out: Option<&std::path::Path>,
+        devices: Option<XrDevices>,
     ) -> Result<XrLoop, XrRunError> {
         let (app, xg) = XrApp::open("vesalius")?;
         let gpu = Gpu::from_parts(xg.instance, xg.adapter, xg.device, xg.queue, xg.multiview);
         let mut renderer = Renderer::new(&gpu, EYE_FORMAT)?;
         let eye = opts.eye_size.unwrap_or(app.eye_size);
         gpu.check_eye_size(eye)?;
-        let mut live = Live::new(scenario_text, scenario_file, Pacing::AsFastAsPossible)?;
+        // Styluses: steps in real time, each publishing the servo loops' frame (not a burst
+        // of steps each display frame, between which a servo loop would see a stall).
+        let pacing = if devices.is_some() {
+            Pacing::RealTime
+        } else {
+            Pacing::AsFastAsPossible
+        };
+        let mut live = Live::new(scenario_text, scenario_file, pacing)?;
         if let Some((file, tree)) = &opts.assessment {
             live.set_assessment(file, tree.clone())?;
         }
@@ -251,8 +281,17 @@ impl XrLoop {
             pose: Pose::looking_at(at, at + glam::Vec3::Y),
             buttons: Buttons::default(),
         });
-        let sim = Stepper::start(live, opts.coupling)?;
+        let (rig, input) = match devices {
+            Some(d) => {
+                let (rig, input) =
+                    crate::haptics::Rig::start(d.devices, live.info(), live.haptics(), d.options)?;
+                (Some(rig), Some(input))
+            }
+            None => (None, None),
+        };
+        let sim = Stepper::start(live, opts.coupling, input)?;
         Ok(XrLoop {
+            rig,
             app,
             gpu,
             renderer,
@@ -318,6 +357,11 @@ impl XrLoop {
     pub fn tick(&mut self) -> Result<Tick, XrRunError> {
         if crate::session::interrupt::interrupted().is_some() {
             self.interrupted();
+            return Ok(Tick::Exit);
+        }
+        // A stylus's servo loop ended (a device fault): so does the session.
+        if self.rig.as_ref().is_some_and(crate::haptics::Rig::stopped) {
+            self.ending = crate::session::ended::DEVICE_STOPPED;
             return Ok(Tick::Exit);
         }
         if self.session.is_none() {
@@ -501,8 +545,19 @@ impl XrLoop {
     /// Ends the loop: the simulation steps what it was sent, and the session's outcome.
     pub fn finish(self) -> Result<XrRun, XrRunError> {
         let device = self.gpu.describe();
-        let live = self.sim.finish(self.ending)?;
+        let mut live = self.sim.finish(self.ending)?;
+        // The servo loops stop with the simulation; their safety events join the session's.
+        let (mut devices, device_error) = match self.rig.map(crate::haptics::Rig::stop) {
+            Some(Ok(runs)) => (runs, None),
+            Some(Err(e)) => (Vec::new(), Some(e)),
+            None => (Vec::new(), None),
+        };
+        for r in &mut devices {
+            live.merge_events(std::mem::take(&mut r.servo.events));
+        }
         Ok(XrRun {
+            devices,
+            device_error,
             outcome: live.finish(Vec::new())?,
             runtime: self.app.runtime_name.clone(),
             frames: self.frames,
@@ -513,15 +568,16 @@ impl XrLoop {
     }
 }
 
-/// Runs the procedure in the headset until `duration_s` or the menu button; the recording
-/// streams into `out` while it runs.
+/// Runs the procedure in the headset until `duration_s` or the menu button (styluses, where
+/// given, drive their hands' instruments); the recording streams into `out` while it runs.
 pub fn run(
     scenario_text: &str,
     scenario_file: &str,
     opts: XrOptions,
     out: Option<&std::path::Path>,
+    devices: Option<XrDevices>,
 ) -> Result<XrRun, XrRunError> {
-    let mut xr_loop = XrLoop::open(scenario_text, scenario_file, opts, out)?;
+    let mut xr_loop = XrLoop::open(scenario_text, scenario_file, opts, out, devices)?;
     while xr_loop.tick()? != Tick::Exit {}
     xr_loop.finish()
 }

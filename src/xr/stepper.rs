@@ -12,6 +12,7 @@
 //! same in both: the steps depend only on the frames' times and readings.
 
 use super::vibration::FrameFeel;
+use crate::haptics::RigInput;
 use crate::session::{Live, SessionError, Status};
 use crate::sim::{EventKind, HandInput, InputFrame, Snapshot, SnapshotBus};
 use arc_swap::ArcSwap;
@@ -75,7 +76,13 @@ impl Stepper {
     /// frames coupled as `coupling` says: paced, each frame's snapshot is built beside the
     /// simulation ([`SnapshotBus::publish_job`]: a frame shows the newest there is);
     /// lockstep, on this thread before the frame is done (the frame shows its own).
-    pub fn start(mut live: Live, coupling: Coupling) -> Result<Stepper, SessionError> {
+    /// With `devices` (force-feedback styluses bound to instruments: [`crate::haptics::Rig`]),
+    /// each step takes their hands' input from the styluses and the others' from the frames.
+    pub fn start(
+        mut live: Live,
+        coupling: Coupling,
+        devices: Option<RigInput>,
+    ) -> Result<Stepper, SessionError> {
         let bus = Arc::new(SnapshotBus::new());
         bus.publish(live.snapshot());
         let status = Arc::new(ArcSwap::from_pointee(live.status(crate::session::LOOK_M)));
@@ -90,7 +97,7 @@ impl Stepper {
                 // Steps on a worker of the pool (see `crate::session::on_pool`).
                 crate::session::on_pool(move || {
                     let beside = coupling == Coupling::Paced;
-                    let r = serve(&mut live, &inbox, &done_tx, (&b, &s), beside);
+                    let r = serve(&mut live, &inbox, &done_tx, (&b, &s), beside, devices);
                     if r.is_err() {
                         // The frame loop may be waiting for this frame.
                         let _ = done_tx.send(Err(()));
@@ -211,6 +218,7 @@ fn serve(
     done: &Sender<Result<FrameDone, ()>>,
     (bus, status): (&Arc<SnapshotBus>, &ArcSwap<Status>),
     beside: bool,
+    mut devices: Option<RigInput>,
 ) -> Result<(), SessionError> {
     let dt = f64::from(live.dt_s());
     let tools = live.info().tools;
@@ -237,12 +245,19 @@ fn serve(
                 let from = held.unwrap_or(hands);
                 while live.time_s() + dt * 0.5 <= target_s {
                     let s = ((live.time_s() - last_t_s) / span).clamp(0.0, 1.0) as f32;
-                    let frame = InputFrame {
+                    let mut frame = InputFrame {
                         hands: [
                             super::between(&from[0], &hands[0], s),
                             super::between(&from[1], &hands[1], s),
                         ],
                     };
+                    // A hand a stylus drives follows the stylus as it is now.
+                    if let Some(d) = devices.as_mut() {
+                        let bound = d.frame();
+                        for h in d.hands() {
+                            frame.hands[h.index()] = bound.hands[h.index()];
+                        }
+                    }
                     // The frame's snapshot follows the last of its steps.
                     if live.time_s() + dt * 1.5 > target_s {
                         live.snapshot_follows();

@@ -214,13 +214,22 @@ pub fn run(mut opts: WindowOptions) -> Result<WindowRun, WindowError> {
                 None,
             )
         }
-        (xr, _) => match xr {
+        (xr, d) => match xr {
             Some(x) => {
+                // Styluses in the headset: they drive their hands' instruments there.
+                let devices = d.map(|d| {
+                    device_names = d.devices.iter().map(|x| x.name().to_string()).collect();
+                    crate::xr::XrDevices {
+                        devices: d.devices,
+                        options: d.options,
+                    }
+                });
                 let mut l = XrLoop::open(
                     &opts.scenario_text,
                     &opts.scenario_file,
                     x,
                     opts.out.as_deref(),
+                    devices,
                 )?;
                 l.mirror_eye(MirrorEye::Left);
                 (None, Some(l))
@@ -240,6 +249,11 @@ pub fn run(mut opts: WindowOptions) -> Result<WindowRun, WindowError> {
     };
     let event_loop = EventLoop::new().map_err(WindowError::NoDisplay)?;
     let source = match (&opts.trace, &xr) {
+        (_, Some(l)) if !device_names.is_empty() => format!(
+            "headset ({}), force feedback: {}",
+            l.runtime_name(),
+            device_names.join(", ")
+        ),
         _ if !device_names.is_empty() => format!("force feedback: {}", device_names.join(", ")),
         (_, Some(l)) => format!("headset ({})", l.runtime_name()),
         (Some((_, name)), None) => format!("playing {name}"),
@@ -437,6 +451,8 @@ impl App {
         } else if let Some(x) = self.xr.take() {
             let run = x.finish()?;
             self.xr_run = Some((run.runtime, run.frames, run.sessions, run.eye_size));
+            self.device_runs = run.devices;
+            device_error = run.device_error;
             run.outcome
         } else {
             return Ok(());
