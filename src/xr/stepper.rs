@@ -285,7 +285,14 @@ fn serve(
                     time_s: last_t_s,
                 }));
             }
-            ToSim::Note(kind) => live.note(kind),
+            ToSim::Note(kind) => {
+                // A new session carries on from where the simulation stopped: real-time
+                // pacing (styluses bound) goes on from now, not from before the gap.
+                if matches!(kind, EventKind::SessionRestarted) {
+                    live.resume_pacing();
+                }
+                live.note(kind);
+            }
             ToSim::End(how) => {
                 if live.ended() == crate::session::ended::END_OF_INPUT {
                     live.set_ended(how);
