@@ -288,25 +288,10 @@ fn the_catheters_default_device_is_a_falcon_on_the_catheters_hand() {
     );
 }
 
-/// A trace for the simulated runtime whose controllers stay 10 cm over the block, pointing
-/// away from it, for `seconds`: whatever the probe touches, a stylus made it.
-fn controller_held_away(dir: &std::path::Path, seconds: f64) -> std::path::PathBuf {
-    let trace = dir.join("away.toml");
-    let keys = format!(
-        "procedure = \"sandbox\"\n\
-         [[head]]\nt_s = 0.0\nposition = [0.0, 0.135, 0.16]\ntarget = [0.0, 0.015, 0.0]\n\
-         [[right]]\nt_s = 0.0\nposition = [0.04, 0.13, 0.03]\ntarget = [0.04, 0.18, 0.03]\n\
-         [[right]]\nt_s = {seconds}\nposition = [0.04, 0.13, 0.03]\ntarget = [0.04, 0.18, 0.03]\n\
-         [[left]]\nt_s = 0.0\nposition = [-0.04, 0.13, 0.03]\ntarget = [-0.04, 0.18, 0.03]\n"
-    );
-    std::fs::write(&trace, keys).expect("trace");
-    trace
-}
-
 #[test]
 fn a_stylus_drives_its_instrument_in_the_headset() {
     let d = tmp("haptics-session", "xr");
-    let trace = controller_held_away(&d, 2.0);
+    let trace = common::controllers_held_away(&d, 2.0);
     let session = |name: &str, stylus: bool| {
         let out = d.join(name);
         let mut args = vec![

@@ -331,25 +331,7 @@ fn a_stylus_drives_the_probe_in_the_window_and_the_session_replays() {
         .args(["--trainee", "res-03"])
         .output()
         .expect("xvfb-run (apt-get install xvfb xauth)");
-    let stdout = succeeded(&o);
-    assert!(stdout.contains("window on "), "{stdout}");
-    assert!(
-        stdout.contains("simulated stylus on the right hand"),
-        "{stdout}"
-    );
-    let report = read_report(&dir.join("out"));
-    assert_eq!(report["ended"], "time_up", "{report}");
-    // The stylus came down 26 mm from 15 mm above the block: the probe touched and pushed.
-    let f = report["metrics"]["max_probe_force_n"]
-        .as_f64()
-        .unwrap_or(0.0);
-    let depth = report["metrics"]["max_probe_depth_m"]
-        .as_f64()
-        .unwrap_or(0.0);
-    assert!(
-        f > 0.05 && depth > 0.005,
-        "probe {f} N at {depth} m: {report}"
-    );
+    let report = the_stylus_pressed(&o, &dir.join("out"), "time_up");
     let replay = Command::new(env!("CARGO_BIN_EXE_vesalius"))
         .arg("replay")
         .arg(dir.join("out/input.vtrace"))
@@ -376,6 +358,61 @@ fn a_stylus_drives_the_probe_in_the_window_and_the_session_replays() {
             .any(|l| l.starts_with(id) && l.contains("res-03")),
         "{list}"
     );
+}
+
+/// A stylus in the headset, with the supervisor's mirror window open: the controllers stay
+/// over the block pointing away, the stylus drives the probe into it, and the window names
+/// the headset and the device.
+#[test]
+fn a_stylus_drives_the_probe_in_the_headset_with_the_mirror_open() {
+    let dir = common::tmp("window", "xr-stylus");
+    let trace = common::controllers_held_away(&dir, 2.0);
+    let o = Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 1920x1080x24"])
+        .arg(env!("CARGO_BIN_EXE_vesalius"))
+        .args(["run", "sandbox", "--xr-sim"])
+        .arg(&trace)
+        .args([
+            "--xr-duration",
+            "2",
+            "--eye-size",
+            "64x64",
+            "--haptics",
+            "sim",
+        ])
+        .arg("--out")
+        .arg(dir.join("out"))
+        // The window closes once its picture is taken at the session's end.
+        .arg("--screenshot")
+        .arg(dir.join("shot.png"))
+        .output()
+        .expect("xvfb-run (apt-get install xvfb xauth)");
+    the_stylus_pressed(&o, &dir.join("out"), "xr_exit");
+}
+
+/// A window session with the simulated stylus on the probe succeeded, ended as `ended`, and
+/// printed the window's and the device's lines; the stylus came down 26 mm from 15 mm above
+/// the block, so the probe touched and pushed. Its report.
+fn the_stylus_pressed(o: &std::process::Output, out: &Path, ended: &str) -> serde_json::Value {
+    let stdout = succeeded(o);
+    assert!(stdout.contains("window on "), "{stdout}");
+    assert!(
+        stdout.contains("simulated stylus on the right hand"),
+        "{stdout}"
+    );
+    let report = read_report(out);
+    assert_eq!(report["ended"], ended, "{report}");
+    let f = report["metrics"]["max_probe_force_n"]
+        .as_f64()
+        .unwrap_or(0.0);
+    let depth = report["metrics"]["max_probe_depth_m"]
+        .as_f64()
+        .unwrap_or(0.0);
+    assert!(
+        f > 0.05 && depth > 0.005,
+        "probe {f} N at {depth} m: {report}"
+    );
+    report
 }
 
 /// The catheterisation's demo in the window shows the fluoroscope, not the 3D view: the

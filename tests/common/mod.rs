@@ -120,3 +120,18 @@ pub fn left_eye(
     let [left, _] = target.read(gpu).expect("read back");
     left
 }
+
+/// A trace for the simulated runtime whose controllers stay 10 cm over the block, pointing
+/// away from it, for `seconds`: whatever the probe touches, a stylus made it.
+pub fn controllers_held_away(dir: &std::path::Path, seconds: f64) -> std::path::PathBuf {
+    let trace = dir.join("away.toml");
+    let keys = format!(
+        "procedure = \"sandbox\"\n\
+         [[head]]\nt_s = 0.0\nposition = [0.0, 0.135, 0.16]\ntarget = [0.0, 0.015, 0.0]\n\
+         [[right]]\nt_s = 0.0\nposition = [0.04, 0.13, 0.03]\ntarget = [0.04, 0.18, 0.03]\n\
+         [[right]]\nt_s = {seconds}\nposition = [0.04, 0.13, 0.03]\ntarget = [0.04, 0.18, 0.03]\n\
+         [[left]]\nt_s = 0.0\nposition = [-0.04, 0.13, 0.03]\ntarget = [-0.04, 0.18, 0.03]\n"
+    );
+    std::fs::write(&trace, keys).expect("trace");
+    trace
+}
