@@ -177,11 +177,8 @@ fn open_devices(
 }
 
 /// `run <procedure> --xr --haptics D[,D]`: the devices for a session in the headset (none
-/// without `--haptics`), bound for `duration_s` at the most (none: until it ends).
-pub fn xr_devices(
-    a: &RunArgs,
-    duration_s: Option<f64>,
-) -> Result<Option<vesalius::xr::XrDevices>, CliError> {
+/// without `--haptics`).
+pub fn xr_devices(a: &RunArgs) -> Result<Option<vesalius::xr::XrDevices>, CliError> {
     if a.haptics.is_empty() {
         return Ok(None);
     }
@@ -191,8 +188,10 @@ pub fn xr_devices(
         options: RigOptions {
             scale: a.workspace_scale,
             safety: SafetyParams::default(),
-            // The servo loops end with the session; a backstop for a day's use.
-            backstop_s: duration_s.map_or(24.0 * 3600.0, |s| 4.0 * s + 10.0),
+            // The servo loops end with the session, however slowly its frames come (the
+            // simulated runtime's clock waits for each frame drawn); a backstop for a day's
+            // use.
+            backstop_s: 24.0 * 3600.0,
         },
     }))
 }

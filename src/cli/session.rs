@@ -353,7 +353,7 @@ fn run_xr(a: &RunArgs) -> Result<(), CliError> {
             .map_or(vesalius::xr::Coupling::Paced, Into::into),
         assessment: load_tree(a.assessment.as_deref(), &a.procedure)?,
     };
-    let devices = super::haptics::xr_devices(a, a.xr_duration)?;
+    let devices = super::haptics::xr_devices(a)?;
     // The supervisor's mirror opens beside the headset wherever there is a display.
     if !a.no_window && display_available() {
         let devices = devices.map(|d| vesalius::ui::window::WindowDevices {
