@@ -8,6 +8,15 @@ use common::Scratch;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+/// `vesalius` on a virtual 1920 x 1080 display of its own (`xvfb-run -a`), its arguments to
+/// follow.
+fn in_xvfb() -> Command {
+    let mut c = Command::new("xvfb-run");
+    c.args(["-a", "-s", "-screen 0 1920x1080x24"])
+        .arg(env!("CARGO_BIN_EXE_vesalius"));
+    c
+}
+
 fn read_png(p: &Path) -> (u32, u32, Vec<u8>) {
     let d = png::Decoder::new(std::io::BufReader::new(
         std::fs::File::open(p).expect("screenshot written"),
@@ -69,9 +78,7 @@ fn demo_in_window(procedure: &str, name: &str) -> (Scratch, PathBuf, std::proces
     let trace = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("assets/traces")
         .join(format!("{procedure}-demo.toml"));
-    let o = Command::new("xvfb-run")
-        .args(["-a", "-s", "-screen 0 1920x1080x24"])
-        .arg(env!("CARGO_BIN_EXE_vesalius"))
+    let o = in_xvfb()
         .args(["run", procedure, "--trace"])
         .arg(&trace)
         .arg("--screenshot")
@@ -217,10 +224,8 @@ fn the_xr_mirror_shows_the_headsets_eye_without_drawing_the_scene_again() {
     .expect("trace written");
     let shot = dir.join("shot.png");
     // A monitor at 1.25 device pixels per point: the window and its panels scale with it.
-    let o = Command::new("xvfb-run")
+    let o = in_xvfb()
         .env("WINIT_X11_SCALE_FACTOR", "1.25")
-        .args(["-a", "-s", "-screen 0 1920x1080x24"])
-        .arg(env!("CARGO_BIN_EXE_vesalius"))
         .args(["run", "nephrectomy", "--xr-sim"])
         .arg(&trace)
         .arg("--out")
@@ -276,9 +281,7 @@ fn the_xr_mirror_shows_the_monitors_picture_where_the_headset_shows_a_monitor() 
     let trace = dir.join("demo.toml");
     std::fs::write(&trace, vesalius::procedures::myotomy::INFO.demo_trace).expect("trace");
     let shot = dir.join("shot.png");
-    let o = Command::new("xvfb-run")
-        .args(["-a", "-s", "-screen 0 1920x1080x24"])
-        .arg(env!("CARGO_BIN_EXE_vesalius"))
+    let o = in_xvfb()
         .args(["run", "myotomy", "--xr-sim"])
         .arg(&trace)
         .arg("--out")
@@ -318,9 +321,7 @@ fn the_xr_mirror_shows_the_monitors_picture_where_the_headset_shows_a_monitor() 
 #[test]
 fn a_stylus_drives_the_probe_in_the_window_and_the_session_replays() {
     let dir = common::tmp("window", "stylus");
-    let o = Command::new("xvfb-run")
-        .args(["-a", "-s", "-screen 0 1920x1080x24"])
-        .arg(env!("CARGO_BIN_EXE_vesalius"))
+    let o = in_xvfb()
         .args(["run", "sandbox", "--haptics", "sim", "--seconds", "2"])
         .arg("--screenshot")
         .arg(dir.join("shot.png"))
@@ -367,9 +368,7 @@ fn a_stylus_drives_the_probe_in_the_window_and_the_session_replays() {
 fn a_stylus_drives_the_probe_in_the_headset_with_the_mirror_open() {
     let dir = common::tmp("window", "xr-stylus");
     let trace = common::controllers_held_away(&dir, 2.0);
-    let o = Command::new("xvfb-run")
-        .args(["-a", "-s", "-screen 0 1920x1080x24"])
-        .arg(env!("CARGO_BIN_EXE_vesalius"))
+    let o = in_xvfb()
         .args(["run", "sandbox", "--xr-sim"])
         .arg(&trace)
         .args([
