@@ -177,6 +177,7 @@ pub(crate) fn with_mapped<R>(
     bytes: u64,
     read: impl FnOnce(&[u8]) -> R,
 ) -> Result<R, RenderError> {
+    let wait = tracing::debug_span!("gpu_map_wait").entered();
     let (tx, rx) = std::sync::mpsc::channel();
     staging
         .slice(..bytes)
@@ -189,6 +190,7 @@ pub(crate) fn with_mapped<R>(
     rx.recv()
         .map_err(|e| RenderError::Readback(e.to_string()))?
         .map_err(|e| RenderError::Readback(e.to_string()))?;
+    drop(wait);
     if let Err(e) = gpu.check() {
         staging.unmap();
         return Err(e);

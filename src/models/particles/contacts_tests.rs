@@ -64,6 +64,54 @@ fn the_grid_finds_the_pairs_brute_force_finds() {
 }
 
 #[test]
+fn the_grid_finds_the_pairs_brute_force_finds_among_many_bodies() {
+    // 2,000 members scattered through a 3 cm box, of 20 bodies (those from 15 on share the
+    // grid's last body bit), a shell of one body round a core of another, and two members of
+    // bodies 15 and 16 alone: the columns' body bits pass over most members, and nothing they
+    // pass over had a pair.
+    let (r, margin) = (0.001, 0.0005);
+    let mut p = Particles::new();
+    let mut seed = 0x9e37_79b9_u32;
+    let mut next = || {
+        seed ^= seed << 13;
+        seed ^= seed >> 17;
+        seed ^= seed << 5;
+        seed as f32 / u32::MAX as f32
+    };
+    for k in 0..2000 {
+        let x = Vec3::new(next(), next(), next()) * 0.03;
+        p.add(x, 1e-5, (k % 20) as u16);
+    }
+    for k in 0..400 {
+        // A sphere of body 0 (4 cm across) about a small core of body 1 far from the rest.
+        let t = k as f32 * 2.399_963;
+        let z = 1.0 - 2.0 * (k as f32 + 0.5) / 400.0;
+        let s = (1.0 - z * z).sqrt();
+        let on = Vec3::new(s * t.cos(), s * t.sin(), z);
+        p.add(Vec3::splat(0.2) + on * 0.02, 1e-5, 0);
+        if k < 20 {
+            p.add(Vec3::splat(0.2) + on * 0.0015, 1e-5, 1);
+        }
+    }
+    // Two bodies from 15 on, alone together.
+    let lone = [
+        p.add(Vec3::splat(0.1), 1e-5, 15),
+        p.add(Vec3::new(0.102, 0.1, 0.1), 1e-5, 16),
+    ];
+    let all: Vec<u32> = (0..p.len() as u32).collect();
+    let mut c = BodyContacts::new(all, r, margin);
+    c.refresh(&p);
+    let want = brute_pairs(&p, 2.0 * r + margin);
+    assert!(want.len() > 100, "{} pairs", want.len());
+    assert!(want.contains(&(lone[0], lone[1])));
+    assert!(
+        want.iter()
+            .any(|&(i, j)| p.body[i as usize] >= 15 && p.body[j as usize] >= 15)
+    );
+    assert_eq!(c.pairs(), &want[..]);
+}
+
+#[test]
 fn overlapping_bodies_are_pushed_apart_keeping_momentum() {
     let (h, r) = (0.002, 0.001);
     // The second block's bottom layer 0.8 mm into the first's top layer.

@@ -281,6 +281,8 @@ pub(super) fn step(
     let Some(mut d) = s.device.on.take() else {
         return 0;
     };
+    let _span = tracing::debug_span!("particles_gpu_step").entered();
+    let prep = tracing::debug_span!("particles_gpu_prep").entered();
     let n = s.params.substeps.max(1);
     let strands = s.adhesion.segments() + s.bonds.segments() > 0;
     let contacts = s.contacts.members() > 0;
@@ -311,6 +313,7 @@ pub(super) fn step(
         d.upload(&s.particles);
         d.upload_shape(&s.shape);
     }
+    drop(prep);
     let mut done = 0;
     // Whether the next substep's forces and search are in place already.
     let mut ready = false;
@@ -333,6 +336,7 @@ pub(super) fn step(
         if ahead {
             before_substep(s, ext, sub_dt, contacts);
             if signature(s) == s.device.uploaded && s.contacts.searches == s.device.searched {
+                let _span = tracing::debug_span!("particles_gpu_later").entered();
                 let totals = s.device.later.apply(&mut s.particles, &mut s.shape);
                 // The device's submission took the forces, as `advance` takes them.
                 s.particles.ext.fill(glam::Vec3::ZERO);
@@ -341,6 +345,7 @@ pub(super) fn step(
                 after_substep(s, out, contacts, strands);
                 s.device.ahead[0] += 1;
             } else {
+                let _span = tracing::debug_span!("particles_gpu_rerun").entered();
                 d.upload(&s.particles);
                 d.upload_shape(&s.shape);
                 ready = true;
@@ -360,6 +365,7 @@ pub(super) fn step(
 /// the contacts' search where the particles moved far enough (the CPU's substep searches
 /// from the predicted positions: formed here as the prediction forms them).
 fn before_substep(s: &mut ParticleSolver, ext: Option<&[glam::Vec3]>, dt: f32, contacts: bool) {
+    let _span = tracing::debug_span!("particles_before_substep").entered();
     if let Some(e) = ext {
         s.particles.ext.copy_from_slice(e);
     }
@@ -372,6 +378,7 @@ fn before_substep(s: &mut ParticleSolver, ext: Option<&[glam::Vec3]>, dt: f32, c
 /// What the CPU does after each device substep, from the particles read back: the contacts
 /// touching counted, the strands weakened and torn.
 fn after_substep(s: &mut ParticleSolver, out: &mut StepOutcome, contacts: bool, strands: bool) {
+    let _span = tracing::debug_span!("particles_after_substep").entered();
     if contacts {
         s.contacts.count_touching(&s.particles);
     }
@@ -390,6 +397,7 @@ fn run(
     how: &Stepping,
     ahead: bool,
 ) -> Result<[[f32; 4]; 2], RenderError> {
+    let _span = tracing::debug_span!("particles_gpu_run").entered();
     let now = signature(s);
     if now != s.device.uploaded {
         d.set_constraints(&s.constraints())?;

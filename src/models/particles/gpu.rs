@@ -638,7 +638,7 @@ impl ParticlesGpu {
     /// Sends the clusters' centres, rotations and warm starts of `s` up (after the CPU
     /// stepped them).
     pub fn upload_shape(&mut self, s: &ShapeMatching) {
-        let state = s.arrays().state;
+        let state = s.state_rows();
         if !state.is_empty() {
             self.gpu
                 .queue

@@ -180,6 +180,7 @@ impl ParticlesGpu {
         let mut rows = (Vec::new(), Vec::new());
         let n = p.len().min(self.particles as usize);
         let (totals, seconds) = compute::with_mapped(&self.gpu, &self.readback, bytes, |raw| {
+            let _span = tracing::debug_span!("particles_gpu_decode").entered();
             particles_from(raw, &at, &mut p.x[..n], &mut p.x0[..n], &mut p.v[..n]);
             if s.is_some() {
                 rows = clusters_from(raw, &at, self.clusters as usize);
@@ -227,6 +228,7 @@ impl ParticlesGpu {
         let mut first_rows = (Vec::new(), Vec::new());
         let (first, seconds) =
             compute::with_mapped(&self.gpu, &self.readback, 2 * at.total, |raw| {
+                let _span = tracing::debug_span!("particles_gpu_decode").entered();
                 let (end, between) = raw.split_at(at.total as usize);
                 particles_from(between, &at, &mut p.x[..n], &mut p.x0[..n], &mut p.v[..n]);
                 particles_from(end, &at, &mut later.x, &mut later.x0, &mut later.v);

@@ -462,7 +462,7 @@ impl ShapeMatching {
     pub(super) fn arrays(&self) -> ShapeArrays {
         let mut a = ShapeArrays {
             info: Vec::with_capacity(self.clusters.len()),
-            state: Vec::with_capacity(2 * self.clusters.len()),
+            state: Vec::new(),
             member_index: Vec::new(),
             member_mw: Vec::new(),
             offsets: self.offsets.clone(),
@@ -486,11 +486,21 @@ impl ShapeMatching {
             );
             a.info
                 .push([first, a.member_index.len() as u32, c.mw_sum.to_bits(), 0]);
-            let warm = if c.warm { 1.0 } else { 0.0 };
-            a.state.push([c.centre.x, c.centre.y, c.centre.z, warm]);
-            a.state.push(c.q.to_array());
         }
+        a.state = self.state_rows();
         a
+    }
+
+    /// The clusters' centres with their warm starts and their rotations, two rows a cluster
+    /// (what a device holds of them between substeps).
+    pub(super) fn state_rows(&self) -> Vec<[f32; 4]> {
+        let mut state = Vec::with_capacity(2 * self.clusters.len());
+        for c in &self.clusters {
+            let warm = if c.warm { 1.0 } else { 0.0 };
+            state.push([c.centre.x, c.centre.y, c.centre.z, warm]);
+            state.push(c.q.to_array());
+        }
+        state
     }
 
     /// Takes the clusters' centres, rotations and warm starts (`[centre, warm]`,
