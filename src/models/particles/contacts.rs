@@ -165,6 +165,11 @@ impl BodyContacts {
         self.members.len()
     }
 
+    /// The particles tested, in order.
+    pub fn member_indices(&self) -> &[u32] {
+        &self.members
+    }
+
     /// Candidate pairs now.
     pub fn pairs(&self) -> &[(u32, u32)] {
         &self.pairs

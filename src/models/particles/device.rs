@@ -1,7 +1,10 @@
 //! The particle solver stepped on a GPU inside a world ([`ParticlesGpu`]): the CPU keeps the
 //! model (the particles as of the last step, the outcome, checkpoints, the hash) and the
-//! device runs the step's substeps and sweeps; after each step the particles and the
-//! clusters' frames come back in one round trip, so the CPU always holds the newest state.
+//! device runs the step's substeps and sweeps; after each substep the particles' positions
+//! and velocities come back (one round trip a submission), so the CPU holds the newest
+//! particles. The clusters' centres and rotations stay on the device: they come back only
+//! before the CPU steps them itself, and where the device is lost by then, the CPU's step
+//! finds every rotation again from a cold start.
 //!
 //! The device's kernels step shape matching, the vessels' chains, the ties, the cloth (its
 //! edges and hinges), the strands (each set colour by colour, as the CPU takes them; in one
@@ -54,6 +57,10 @@ pub(super) struct Slot {
     later: Later,
     /// Submissions so far.
     submissions: u64,
+    /// Where the contacts' members will be after the next substep's prediction (kept).
+    predicted: Vec<glam::Vec3>,
+    /// Whether something fell between the last step's substeps (its next runs one by one).
+    missed: bool,
 }
 
 impl Clone for Slot {
@@ -79,6 +86,17 @@ impl Slot {
 }
 
 impl ParticleSolver {
+    /// The clusters' centres, rotations and goal frames from the device, where it stepped them
+    /// on from the CPU's (each substep reads only the particles back). Where the device cannot
+    /// give them, the CPU's next step starts every rotation cold.
+    pub(crate) fn read_device_clusters(&mut self) {
+        if let (Some(d), true) = (&self.device.on, self.shape.is_behind())
+            && let Err(e) = d.download_clusters(&mut self.shape)
+        {
+            tracing::warn!("the particle solver's clusters could not be read back: {e}");
+        }
+    }
+
     /// The ties and the cloth as the device takes them.
     fn constraints(&self) -> Constraints<'_> {
         let (ties, tie_colours) = self.ties();
@@ -131,6 +149,8 @@ impl ParticleSolver {
             ahead: [0; 2],
             later: Later::default(),
             submissions: 0,
+            predicted: Vec::new(),
+            missed: false,
         };
         Ok(())
     }
@@ -308,10 +328,17 @@ pub(super) fn step(
         substeps: 2,
         ..how
     };
-    let split = chunk == 1 && !s.device.one_by_one;
+    // After a step whose second substep had to run again (an instrument dragging tissue
+    // makes a search at nearly every substep), the next runs a submission a substep: the
+    // same bytes, without a substep the device runs for nothing and its upload.
+    let split = chunk == 1 && !s.device.one_by_one && !s.device.missed;
+    let mut missed = false;
     if s.device.stale {
         d.upload(&s.particles);
-        d.upload_shape(&s.shape);
+        // Where the device stepped the clusters on from the CPU's, it holds the newest.
+        if !s.shape.is_behind() {
+            d.upload_shape(&s.shape);
+        }
     }
     drop(prep);
     let mut done = 0;
@@ -320,6 +347,10 @@ pub(super) fn step(
     while done < n {
         if !ready {
             before_substep(s, ext, sub_dt, contacts);
+            // Would a second substep run ahead have had to run again?
+            let changed = signature(s) != s.device.uploaded
+                || s.contacts.searches != s.device.searched;
+            missed |= done > 0 && changed;
         }
         ready = false;
         let ahead = split && n - done >= 2;
@@ -337,7 +368,7 @@ pub(super) fn step(
             before_substep(s, ext, sub_dt, contacts);
             if signature(s) == s.device.uploaded && s.contacts.searches == s.device.searched {
                 let _span = tracing::debug_span!("particles_gpu_later").entered();
-                let totals = s.device.later.apply(&mut s.particles, &mut s.shape);
+                let totals = s.device.later.apply(&mut s.particles);
                 // The device's submission took the forces, as `advance` takes them.
                 s.particles.ext.fill(glam::Vec3::ZERO);
                 add_reactions(out, totals, pushing, sub_dt, n);
@@ -347,8 +378,9 @@ pub(super) fn step(
             } else {
                 let _span = tracing::debug_span!("particles_gpu_rerun").entered();
                 d.upload(&s.particles);
-                d.upload_shape(&s.shape);
+                d.upload_cluster_state(s.device.later.first_state());
                 ready = true;
+                missed = true;
                 s.device.ahead[1] += 1;
             }
         }
@@ -358,6 +390,7 @@ pub(super) fn step(
     }
     s.device.on = Some(d);
     s.device.stale = false;
+    s.device.missed = missed;
     n
 }
 
@@ -370,8 +403,16 @@ fn before_substep(s: &mut ParticleSolver, ext: Option<&[glam::Vec3]>, dt: f32, c
         s.particles.ext.copy_from_slice(e);
     }
     if contacts {
-        let predicted = predict(&s.particles, dt, s.params.gravity_m_per_s2);
+        let mut predicted = std::mem::take(&mut s.device.predicted);
+        predict(
+            &s.particles,
+            s.contacts.member_indices(),
+            dt,
+            s.params.gravity_m_per_s2,
+            &mut predicted,
+        );
         s.contacts.refresh_at(&predicted, &s.particles.body);
+        s.device.predicted = predicted;
     }
 }
 
@@ -411,11 +452,12 @@ fn run(
     s.device.submissions += 1;
     let totals = if ahead {
         d.advance_split(&mut s.particles, how)?;
-        d.download_split(&mut s.particles, &mut s.shape, &mut s.device.later)?
+        d.download_split(&mut s.particles, &mut s.device.later)?
     } else {
         d.advance(&mut s.particles, how, 1)?;
-        d.download_all(&mut s.particles, &mut s.shape)?
+        d.download_lean(&mut s.particles)?
     };
+    s.shape.fall_behind();
     s.device.kernel_s += d.kernel_seconds()?.unwrap_or(0.0);
     Ok(totals)
 }
@@ -441,27 +483,33 @@ fn add_reactions(
     }
 }
 
-/// Where [`super::Particles::predict`] will put the particles in a substep of `dt` (the same
-/// operations in the same order).
-fn predict(p: &super::Particles, dt: f32, gravity: glam::Vec3) -> Vec<glam::Vec3> {
-    p.x.iter()
-        .zip(&p.v)
-        .zip(&p.w)
-        .zip(&p.ext)
-        .map(|(((x, v), &w), e)| {
-            if w > 0.0 {
-                let v = *v + dt * (gravity + *e * w);
-                *x + dt * v
-            } else {
-                *x
-            }
-        })
-        .collect()
+/// Where [`super::Particles::predict`] will put the particles `members` in a substep of `dt`
+/// (the same operations in the same order), into `out` (as long as the particles; the others'
+/// places in it are left as they were: only the members are read).
+fn predict(
+    p: &super::Particles,
+    members: &[u32],
+    dt: f32,
+    gravity: glam::Vec3,
+    out: &mut Vec<glam::Vec3>,
+) {
+    out.resize(p.len(), glam::Vec3::ZERO);
+    for &i in members {
+        let i = i as usize;
+        let (x, v, w, e) = (p.x[i], p.v[i], p.w[i], p.ext[i]);
+        out[i] = if w > 0.0 {
+            let v = v + dt * (gravity + e * w);
+            x + dt * v
+        } else {
+            x
+        };
+    }
 }
 
 /// Before a step the CPU runs while the solver has a device: the CPU holds the newest state
 /// (each device step reads the particles and the clusters back), and after the CPU's step the
 /// device's is old.
 pub(super) fn before_cpu_step(s: &mut ParticleSolver) {
+    s.read_device_clusters();
     s.device.stale();
 }

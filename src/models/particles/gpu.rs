@@ -638,11 +638,16 @@ impl ParticlesGpu {
     /// Sends the clusters' centres, rotations and warm starts of `s` up (after the CPU
     /// stepped them).
     pub fn upload_shape(&mut self, s: &ShapeMatching) {
-        let state = s.state_rows();
-        if !state.is_empty() {
+        self.upload_cluster_state(&s.state_rows());
+    }
+
+    /// Sends the clusters' state rows (two a cluster, as [`ShapeMatching::state_rows`] makes
+    /// them, or as a split submission's first substep left them) up.
+    pub fn upload_cluster_state(&mut self, rows: &[[f32; 4]]) {
+        if !rows.is_empty() && rows.len() == 2 * self.clusters as usize {
             self.gpu
                 .queue
-                .write_buffer(&self.cluster_state, 0, bytes(&state));
+                .write_buffer(&self.cluster_state, 0, bytes(rows));
             self.copied.set(false);
         }
     }

@@ -133,6 +133,10 @@ pub struct ShapeMatching {
     coef_dt: f32,
     /// Particles in runs of about [`RUN`] memberships (the parallel tasks).
     runs: Vec<(usize, usize)>,
+    /// A device holds newer centres and rotations than these (it steps the clusters and
+    /// sends only the particles back each substep): a step on the CPU starts every rotation
+    /// cold, and a device made from these starts them cold too.
+    behind: bool,
 }
 
 impl ShapeMatching {
@@ -288,6 +292,7 @@ impl ShapeMatching {
             mu,
             coef_dt: 0.0,
             runs,
+            behind: false,
         })
     }
 
@@ -334,6 +339,20 @@ impl ShapeMatching {
     /// Starts a step: the springs' multipliers back to zero.
     pub fn begin_step(&mut self) {
         self.mu.fill(Vec3A::ZERO);
+        if self.behind {
+            self.clusters.iter_mut().for_each(|c| c.warm = false);
+            self.behind = false;
+        }
+    }
+
+    /// A device stepped the clusters on from these (see [`ShapeMatching::is_behind`]).
+    pub(super) fn fall_behind(&mut self) {
+        self.behind = true;
+    }
+
+    /// Whether a device holds newer centres and rotations than these.
+    pub(super) fn is_behind(&self) -> bool {
+        self.behind
     }
 
     /// One iteration of a step of `dt_s`: goals, then every free particle through its
@@ -496,7 +515,7 @@ impl ShapeMatching {
     pub(super) fn state_rows(&self) -> Vec<[f32; 4]> {
         let mut state = Vec::with_capacity(2 * self.clusters.len());
         for c in &self.clusters {
-            let warm = if c.warm { 1.0 } else { 0.0 };
+            let warm = if c.warm && !self.behind { 1.0 } else { 0.0 };
             state.push([c.centre.x, c.centre.y, c.centre.z, warm]);
             state.push(c.q.to_array());
         }
@@ -530,6 +549,7 @@ impl ShapeMatching {
         for (m, d) in self.mu.iter_mut().zip(mu) {
             *m = Vec3A::new(d[0], d[1], d[2]);
         }
+        self.behind = false;
     }
 }
 
