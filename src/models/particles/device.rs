@@ -348,8 +348,8 @@ pub(super) fn step(
         if !ready {
             before_substep(s, ext, sub_dt, contacts);
             // Would a second substep run ahead have had to run again?
-            let changed = signature(s) != s.device.uploaded
-                || s.contacts.searches != s.device.searched;
+            let changed =
+                signature(s) != s.device.uploaded || s.contacts.searches != s.device.searched;
             missed |= done > 0 && changed;
         }
         ready = false;
