@@ -774,6 +774,7 @@ fn settle(m: &mut Membrane, a: &mut Activity, dt: f32, measured: Option<Vec<Watc
 mod drawn;
 #[path = "active_near.rs"]
 mod near;
+pub use near::AHEAD_M;
 #[path = "active_rows.rs"]
 mod rows;
 #[path = "active_share.rs"]

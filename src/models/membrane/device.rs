@@ -574,7 +574,7 @@ impl OnDevice {
         gpu.queue
             .write_buffer(&self.pack_params, 0, bytemuck::bytes_of(&params));
         // Every awake tile packed, those the CPU reads next first: only they come back.
-        self.books.wanted(a, m.periodic, dt, self.resend);
+        self.books.wanted(a, dt, self.resend);
         let want = std::mem::take(&mut self.books.want);
         let (_, floats) = run_places(
             m,

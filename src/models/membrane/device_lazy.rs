@@ -1,9 +1,10 @@
 //! What of the device's step comes back to the CPU, and when. The device packs every awake
 //! tile each step (`shaders/membrane_sync.wgsl`), but only the runs of tiles the CPU is
 //! expected to read next come back with the step: the tiles an instrument's queries returned
-//! this step ([`Membrane::awake_tiles_near`], the cut's search) and the tiles beside them, and
-//! the tiles that may fall asleep at this step's check (their offsets are taken from their
-//! positions). The other awake tiles are *behind* on the CPU: the device holds their newest
+//! this step ([`Membrane::awake_tiles_near`], the cut's search) and those the same query
+//! would meet reaching a millimetre further (`active_near.rs`: where an instrument or the
+//! tissue may be at the next step), and the tiles that may fall asleep at this step's check
+//! (their offsets are taken from their positions). The other awake tiles are *behind* on the CPU: the device holds their newest
 //! state, and its packed copy of it stays on the device until the next step packs anew.
 //!
 //! A behind tile is brought up to date (its run copied from the packed copy, read back and
@@ -83,8 +84,8 @@ impl Books {
         }
     }
 
-    /// The CPU read tiles `tiles` this step: they and the tiles beside them come back with
-    /// it.
+    /// The CPU read tiles `tiles` this step, or may read them at the next: they come back
+    /// with it.
     pub fn mark(&mut self, tiles: &[usize]) {
         for &t in tiles {
             if let Some(m) = self.marks.get_mut(t)
@@ -97,19 +98,16 @@ impl Books {
     }
 
     /// The tiles wanted back with a step of `dt` over `a`'s awake tiles, into `want`: those
-    /// marked and the tiles beside them, and those whose still time reaches the sleep time
-    /// with this step (they may fall asleep at its check); every one where eager (`want`
-    /// empty). The marks are cleared.
-    pub fn wanted(&mut self, a: &Activity, periodic: bool, dt: f32, eager: bool) {
+    /// marked, and those whose still time reaches the sleep time with this step (they may
+    /// fall asleep at its check); every one where eager (`want` empty). The marks are
+    /// cleared.
+    pub fn wanted(&mut self, a: &Activity, dt: f32, eager: bool) {
         self.want.clear();
         let every = eager || self.eager || std::mem::take(&mut self.once);
         if !every {
             self.want.resize(a.awake.len(), false);
             for &t in &self.marked {
                 self.want[t] = true;
-                for n in a.neighbours(t, periodic) {
-                    self.want[n] = true;
-                }
             }
             for &t in &a.list {
                 let t = t as usize;
@@ -226,6 +224,18 @@ impl Membrane {
         }
     }
 
+    /// The CPU may read tiles `tiles` next step: they come back with this one.
+    pub(in crate::models::membrane) fn read_tiles_next(&mut self, tiles: &[usize]) {
+        if let Some(d) = self.device.on.as_deref_mut() {
+            d.books.mark(tiles);
+        }
+    }
+
+    /// Whether the queries mark the tiles ahead of them (the membrane steps on a device).
+    pub(in crate::models::membrane) fn marks_ahead(&self) -> bool {
+        self.device.on.is_some()
+    }
+
     /// The whole state as the device has it, where the CPU's copy of some tiles lags it (a
     /// copy with those tiles read back); the CPU's own otherwise. A read that fails gives the
     /// CPU's copy, with a warning.
@@ -243,6 +253,12 @@ impl Membrane {
                 Cow::Borrowed(&self.state.data)
             }
         }
+    }
+
+    /// Tests: whether tile `t` lags the device (none on the CPU).
+    #[cfg(test)]
+    pub(in crate::models::membrane) fn gpu_tile_behind(&self, t: usize) -> Option<bool> {
+        self.device.on.as_deref().map(|d| d.books.is_behind(t))
     }
 
     /// Tests: panics where node `node`'s tile lags the device (a read the code must not make

@@ -358,6 +358,40 @@ impl MembraneGpu {
         }
     }
 
+    /// [`MembraneGpu::advance`] with the first `probe.size() - 16` bytes of the newest state
+    /// (a stand-in for what a session reads back each step, the tools' forces) and the pass's
+    /// timestamps copied into `probe` in the same submission, then read in one round trip:
+    /// the pass's time on the GPU's clock, seconds (none without timestamp queries).
+    pub fn advance_and_probe(
+        &mut self,
+        m: &mut Membrane,
+        dt_s: f32,
+        substeps: usize,
+        probe: &wgpu::Buffer,
+    ) -> Result<Option<f64>, RenderError> {
+        let count = self.upload_externals(m)?.0;
+        let mut encoder = self
+            .gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("membrane step and probe"),
+            });
+        self.encode_substeps(&mut encoder, m, dt_s, substeps, count, None);
+        let state_bytes = probe.size().saturating_sub(16);
+        if state_bytes > 0 {
+            encoder.copy_buffer_to_buffer(&self.state[self.current], 0, probe, 0, state_bytes);
+        }
+        if let Some(t) = &self.timer {
+            t.copy_into(&mut encoder, probe, state_bytes);
+        }
+        self.gpu.queue.submit([encoder.finish()]);
+        let timer = self.timer.as_ref();
+        compute::with_mapped(&self.gpu, probe, probe.size(), |b| {
+            let stamps = b.get(state_bytes as usize..).unwrap_or(&[]);
+            timer.map(|t| t.seconds_of(stamps))
+        })
+    }
+
     /// Waits for the device and copies its state into `m`.
     pub fn download(&self, m: &mut Membrane) -> Result<(), RenderError> {
         let n = m.state.data.len();
@@ -477,9 +511,16 @@ pub fn time(
 ) -> Result<KernelTiming, RenderError> {
     let mut dev = pushed(m);
     let mut k = MembraneGpu::with_layout(gpu, &dev, layout)?;
-    let probe = 1024u64.min(4 * dev.state.data.len() as u64);
-    k.advance(&mut dev, dt_s, substeps)?;
-    compute::read(gpu, &k.state[k.current], probe)?;
+    // Each step reads back 1 KB of the state (a session reads the tools' forces) and the
+    // pass's timestamps, copied in the step's own submission: one round trip a step, as a
+    // session's step takes.
+    let probe = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("membrane bench probe"),
+        size: 1024u64.min(4 * dev.state.data.len() as u64) + 16,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    k.advance_and_probe(&mut dev, dt_s, substeps, &probe)?;
     let mut latencies = Vec::new();
     let mut kernel = k.timer.as_ref().map(|_| 0.0);
     let t0 = Instant::now();
@@ -487,10 +528,9 @@ pub fn time(
     while steps < max_steps.max(5) && (steps < 5 || t0.elapsed().as_secs_f64() < budget_s) {
         steps += 1;
         let t = Instant::now();
-        k.advance(&mut dev, dt_s, substeps)?;
-        compute::read(gpu, &k.state[k.current], probe)?;
+        let s = k.advance_and_probe(&mut dev, dt_s, substeps, &probe)?;
         latencies.push(t.elapsed().as_secs_f64());
-        if let (Some(sum), Some(s)) = (kernel.as_mut(), k.kernel_seconds()?) {
+        if let (Some(sum), Some(s)) = (kernel.as_mut(), s) {
             *sum += s;
         }
     }

@@ -548,3 +548,94 @@ fn the_sleep_check_tells_the_quarantine_of_a_nan_on_the_device_as_on_the_cpu() {
     }
     assert!(dev.gpu_adapter().is_some(), "it stayed on the device");
 }
+
+#[test]
+fn the_bench_line_reads_a_step_and_its_time_on_the_gpu_clock_in_one_round_trip() {
+    // Each timed step's probe of the state and the pass's timestamps come back together:
+    // the GPU's own time of a step's substeps is read from the same mapping as the probe,
+    // so it must be positive and within the wall time of the steps it was summed over.
+    let gpu = device();
+    let m = sleepy(24, 32);
+    let line = super::gpu::bench_line(&gpu, &m, 1e-3, 0.9, 0.2, super::gpu::Layout::Flat)
+        .expect("a line on the adapter there is");
+    let c = &line.compute;
+    assert!(line.steps >= 5, "{} steps", line.steps);
+    let n = c.substeps_per_step.expect("substeps");
+    assert_eq!(n, m.substeps_for(1e-3, 0.9));
+    let check = c.check_rel_err.expect("checked against the CPU");
+    assert!(check.is_finite() && check < 1e-3, "{check}");
+    let wall = c.wall_s.expect("wall time");
+    let p99 = c.latency_p99_ms.expect("latency") * 1e-3;
+    assert!(p99 > 0.0 && p99 <= wall, "p99 {p99} s of {wall} s");
+    let timestamps = gpu
+        .device
+        .features()
+        .contains(wgpu::Features::TIMESTAMP_QUERY);
+    assert_eq!(c.kernel_s.is_some(), timestamps);
+    if let Some(k) = c.kernel_s {
+        assert!(k > 0.0 && k < wall, "{k} s on the GPU's clock in {wall} s");
+    }
+}
+
+#[test]
+fn a_query_brings_back_the_tiles_a_millimetre_beyond_its_reach_and_no_others() {
+    use crate::sim::TissueModel;
+    let gpu = device();
+    let mut m = sleepy(48, 64);
+    m.use_gpu(&gpu).expect("uploads");
+    let mut out = crate::sim::ModelOutput::default();
+    // Every tile awake (none still long enough to be about to fall asleep).
+    let everywhere = (Vec3::splat(-1.0), Vec3::splat(1.0));
+    for _ in 0..3 {
+        m.wake_near(&[everywhere]);
+        out.clear();
+        TissueModel::step(&mut m, 1e-3, &[], &mut out);
+    }
+    let (tr, tc) = m.tiles();
+    let awake: Vec<usize> = (0..tr * tc).filter(|&t| m.tile_awake(t)).collect();
+    assert_eq!(awake.len(), tr * tc);
+    // How far each tile's box lies from the point, along the axis where it lies furthest.
+    m.catch_up();
+    let p = m.position(m.node(1, 24, 32));
+    let gap = |m: &Membrane, t: usize| {
+        let (lo, hi) = m
+            .activity
+            .as_ref()
+            .and_then(|a| a.tile_box(t))
+            .expect("a box");
+        (lo - p).max(p - hi).max(Vec3::ZERO).max_element()
+    };
+    let within = |m: &Membrane, reach: f32| -> Vec<usize> {
+        awake
+            .iter()
+            .copied()
+            .filter(|&t| gap(m, t) <= reach)
+            .collect()
+    };
+    // Tiles lie 0, 0.26, 0.98 (two), 2.04 (two) mm and further from it.
+    let margin = 0.5e-3;
+    let reach_ahead = margin + super::active::AHEAD_M;
+    let (read_expected, ahead) = (within(&m, margin), within(&m, reach_ahead));
+    let mut read = Vec::new();
+    m.awake_tiles_near(p, p, margin, &mut read);
+    assert_eq!(read, read_expected);
+    assert!(
+        read.len() < ahead.len() && ahead.len() < awake.len(),
+        "{} read, {} within a millimetre more, {} awake",
+        read.len(),
+        ahead.len(),
+        awake.len()
+    );
+    out.clear();
+    TissueModel::step(&mut m, 1e-3, &[], &mut out);
+    // Those within the reach and the millimetre beyond came back with the step; the others
+    // lag on the CPU until something reads them.
+    for &t in &awake {
+        assert_eq!(
+            m.gpu_tile_behind(t),
+            Some(!ahead.contains(&t)),
+            "tile {t}, {:.2} mm away",
+            gap(&m, t) * 1e3
+        );
+    }
+}

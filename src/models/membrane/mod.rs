@@ -52,7 +52,7 @@ mod tile_tests;
 
 use glam::Vec3;
 
-pub use active::{ActivityParams, TILE_COLS, TILE_ROWS};
+pub use active::{AHEAD_M, ActivityParams, TILE_COLS, TILE_ROWS};
 pub use anchor_sums::AnchorSum;
 pub use chain::{ChainBinding, frames as chain_frames};
 
