@@ -4,8 +4,9 @@
 //! this step ([`Membrane::awake_tiles_near`], the cut's search) and those the same query
 //! would meet reaching a millimetre further (`active_near.rs`: where an instrument or the
 //! tissue may be at the next step), and the tiles that may fall asleep at this step's check
-//! (their offsets are taken from their positions). The other awake tiles are *behind* on the CPU: the device holds their newest
-//! state, and its packed copy of it stays on the device until the next step packs anew.
+//! (their offsets are taken from their positions). The other awake tiles are *behind* on the
+//! CPU: the device holds their newest state, and its packed copy of it stays on the device
+//! until the next step packs anew.
 //!
 //! A behind tile is brought up to date (its run copied from the packed copy, read back and
 //! unpacked: one more round trip) before the CPU reads or writes it: when a query returns it,
