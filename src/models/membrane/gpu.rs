@@ -283,6 +283,20 @@ impl MembraneGpu {
         substeps: usize,
         external_count: u32,
     ) -> Result<(), RenderError> {
+        let encoder = self.step_encoder(m, dt_s, substeps, external_count);
+        self.gpu.queue.submit([encoder.finish()]);
+        self.gpu.check()
+    }
+
+    /// A new encoder holding [`MembraneGpu::substeps`]' pass, for more to follow it in the
+    /// same submission.
+    fn step_encoder(
+        &mut self,
+        m: &Membrane,
+        dt_s: f32,
+        substeps: usize,
+        external_count: u32,
+    ) -> wgpu::CommandEncoder {
         let mut encoder = self
             .gpu
             .device
@@ -290,8 +304,7 @@ impl MembraneGpu {
                 label: Some("membrane step"),
             });
         self.encode_substeps(&mut encoder, m, dt_s, substeps, external_count, None);
-        self.gpu.queue.submit([encoder.finish()]);
-        self.gpu.check()
+        encoder
     }
 
     /// The substeps' pass into `encoder`: every node by this kernel's layout, or with `tiles`
@@ -370,13 +383,7 @@ impl MembraneGpu {
         probe: &wgpu::Buffer,
     ) -> Result<Option<f64>, RenderError> {
         let count = self.upload_externals(m)?.0;
-        let mut encoder = self
-            .gpu
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("membrane step and probe"),
-            });
-        self.encode_substeps(&mut encoder, m, dt_s, substeps, count, None);
+        let mut encoder = self.step_encoder(m, dt_s, substeps, count);
         let state_bytes = probe.size().saturating_sub(16);
         if state_bytes > 0 {
             encoder.copy_buffer_to_buffer(&self.state[self.current], 0, probe, 0, state_bytes);
