@@ -43,24 +43,39 @@ pub struct BodyContacts {
 /// sorted by their cell along z, then by member. A dense grid of cells would be mostly empty
 /// cells round the organs' surfaces, each zeroed and summed at every search; columns are
 /// fewer by the box's depth in cells. Each column also keeps which bodies' members it holds,
-/// a bit each (bodies from 15 on share the last bit), so that a member with no other body's
-/// member in the columns round it is passed over.
+/// a bit each (bodies from 15 on share the last bit), and which the columns round it hold,
+/// so that a column with one body round it, and a member with no other body's member round
+/// it, are passed over.
 #[derive(Debug, Clone, Default)]
 struct ColumnGrid {
     start: Vec<u32>,
     bodies: Vec<u16>,
+    /// The bodies of the 3 x 3 columns round each column (itself included), and of the
+    /// 1 x 3 along y (on the way there).
+    around: Vec<u16>,
+    along: Vec<u16>,
     /// Each listed member's cell along z and its index.
     cells: Vec<(u32, u32)>,
-    column_of: Vec<u32>,
+    /// Each member's column (`u32::MAX` where it is not finite) and cell along z.
+    column_of: Vec<(u32, u32)>,
+    /// Each member's body.
+    body_of: Vec<u16>,
 }
 
 fn body_bit(b: u16) -> u16 {
     1 << b.min(15)
 }
 
+/// The columns (x, y) of the 3 x 3 round column (`x`, `y`) inside a box of `dims` cells.
+fn neighbourhood(x: u32, y: u32, dims: glam::UVec3) -> impl Iterator<Item = (u32, u32)> {
+    let (x0, y0) = (x.saturating_sub(1), y.saturating_sub(1));
+    let (x1, y1) = ((x + 1).min(dims.x - 1), (y + 1).min(dims.y - 1));
+    (x0..=x1).flat_map(move |x| (y0..=y1).map(move |y| (x, y)))
+}
+
 impl ColumnGrid {
     /// The members at `at` (those not finite left out) in the columns of a box of `dims`
-    /// cells, each in cell `cell_of`.
+    /// cells, each in cell `cell_of`, of body `body_of`.
     fn fill(
         &mut self,
         at: &[Vec3],
@@ -74,18 +89,19 @@ impl ColumnGrid {
         self.bodies.clear();
         self.bodies.resize(columns, 0);
         self.column_of.clear();
+        self.body_of.clear();
         for (k, a) in at.iter().enumerate() {
-            let col = if a.is_finite() {
-                let c = cell_of(*a);
-                c.x * dims.y + c.y
-            } else {
-                u32::MAX
-            };
-            self.column_of.push(col);
-            if let Some(s) = self.start.get_mut(col as usize + 1) {
-                *s += 1;
-                self.bodies[col as usize] |= body_bit(body_of(k));
+            let b = body_of(k);
+            self.body_of.push(b);
+            if !a.is_finite() {
+                self.column_of.push((u32::MAX, 0));
+                continue;
             }
+            let c = cell_of(*a);
+            let col = c.x * dims.y + c.y;
+            self.column_of.push((col, c.z));
+            self.start[col as usize + 1] += 1;
+            self.bodies[col as usize] |= body_bit(b);
         }
         for c in 0..columns {
             self.start[c + 1] += self.start[c];
@@ -93,29 +109,49 @@ impl ColumnGrid {
         self.cells.clear();
         self.cells.resize(self.start[columns] as usize, (0, 0));
         let mut fill = self.start.clone();
-        for (k, (a, &col)) in at.iter().zip(&self.column_of).enumerate() {
+        for (k, &(col, z)) in self.column_of.iter().enumerate() {
             if let Some(f) = fill.get_mut(col as usize) {
-                self.cells[*f as usize] = (cell_of(*a).z, k as u32);
+                self.cells[*f as usize] = (z, k as u32);
                 *f += 1;
             }
         }
         for c in 0..columns {
             self.cells[self.start[c] as usize..self.start[c + 1] as usize].sort_unstable();
         }
+        // The bodies round each column: along y, then along x (column `x * ny + y`).
+        let ny = dims.y as usize;
+        let bodies = &self.bodies;
+        self.along.clear();
+        self.along.extend((0..columns).map(|c| {
+            let y = c % ny;
+            let below = if y > 0 { bodies[c - 1] } else { 0 };
+            let above = if y + 1 < ny { bodies[c + 1] } else { 0 };
+            below | bodies[c] | above
+        }));
+        let along = &self.along;
+        self.around.clear();
+        self.around.extend((0..columns).map(|c| {
+            let before = if c >= ny { along[c - ny] } else { 0 };
+            let after = along.get(c + ny).copied().unwrap_or(0);
+            before | along[c] | after
+        }));
     }
 
     fn heap_bytes(&self) -> usize {
-        (self.start.capacity() + self.column_of.capacity()) * 4
-            + self.bodies.capacity() * 2
-            + self.cells.capacity() * 8
+        self.start.capacity() * 4
+            + (self.bodies.capacity()
+                + self.around.capacity()
+                + self.along.capacity()
+                + self.body_of.capacity())
+                * 2
+            + (self.cells.capacity() + self.column_of.capacity()) * 8
     }
 
-    /// Whether a member of a body other than `own` lies in one of `columns`.
-    fn other_body_in(&self, columns: impl Iterator<Item = u32>, own: u16) -> bool {
+    /// Whether a member of a body other than `own` lies in the columns round `col`.
+    fn other_body_round(&self, col: u32, own: u16) -> bool {
         // A body from 15 on cannot tell its bit from another's: it always looks.
         let own = if own < 15 { body_bit(own) } else { 0 };
-        let seen = columns.fold(0, |seen, c| seen | self.bodies[c as usize]);
-        seen & !own != 0
+        self.around[col as usize] & !own != 0
     }
 
     /// The members of column `col` in the cells along z from `z - 1` to `z + 1`.
@@ -151,7 +187,10 @@ impl BodyContacts {
         let margin = self.margin_m;
         self.margin_m = 0.0;
         self.ignore.clear();
-        self.search(&p.x, &p.body);
+        self.at_search.clear();
+        self.at_search
+            .extend(self.members.iter().map(|&i| p.x[i as usize]));
+        self.search(&p.body);
         self.ignore = std::mem::take(&mut self.pairs);
         self.order.clear();
         self.colours.clear();
@@ -178,21 +217,25 @@ impl BodyContacts {
     /// Searches again for candidate pairs if a member has moved more than half the margin
     /// since the last search (or there was none).
     pub fn refresh(&mut self, p: &Particles) {
-        self.refresh_at(&p.x, &p.body);
+        self.refresh_by(&p.body, |i| p.x[i]);
     }
 
-    /// [`BodyContacts::refresh`] with the particles at `x` (bodies `body`): a device's
-    /// substep searches from the positions its prediction will give, formed on the CPU.
-    pub fn refresh_at(&mut self, x: &[Vec3], body: &[u16]) {
+    /// [`BodyContacts::refresh`] with particle `i` at `at(i)` (bodies `body`): a device's
+    /// substep searches from the positions its prediction will give, formed on the CPU member
+    /// by member as the test and the search read them (no copy of every particle's).
+    pub fn refresh_by(&mut self, body: &[u16], at: impl Fn(usize) -> Vec3) {
         let half = 0.5 * self.margin_m;
         let moved = self.at_search.len() != self.members.len()
             || self
                 .members
                 .iter()
                 .zip(&self.at_search)
-                .any(|(&i, a)| x[i as usize].distance_squared(*a) > half * half);
+                .any(|(&i, a)| at(i as usize).distance_squared(*a) > half * half);
         if moved {
-            self.search(x, body);
+            self.at_search.clear();
+            self.at_search
+                .extend(self.members.iter().map(|&i| at(i as usize)));
+            self.search(body);
             let colours =
                 colour::greedy(&self.pairs.iter().map(|&(i, j)| [i, j]).collect::<Vec<_>>());
             let order = colour::order(&colours);
@@ -212,11 +255,9 @@ impl BodyContacts {
         2.0 * self.radius_m
     }
 
-    fn search(&mut self, x: &[Vec3], body: &[u16]) {
+    /// The candidate pairs among the members at `at_search`.
+    fn search(&mut self, body: &[u16]) {
         self.searches += 1;
-        self.at_search.clear();
-        self.at_search
-            .extend(self.members.iter().map(|&i| x[i as usize]));
         self.pairs.clear();
         let reach = 2.0 * self.radius_m + self.margin_m;
         let cell = reach.max(1e-6);
@@ -238,31 +279,34 @@ impl BodyContacts {
             self.search_sorted(body, reach);
             return;
         }
-        let cell_of = |a: Vec3| ((a - lo) / cell).floor().as_uvec3().min(dims - 1);
+        // `a - lo` is never negative, so the conversion's truncation is the floor (without
+        // SSE4.1, which a portable build may not assume, `floor` is a call a component).
+        let cell_of = |a: Vec3| ((a - lo) / cell).as_uvec3().min(dims - 1);
         let mut grid = std::mem::take(&mut self.grid);
-        let body_of = |k: usize| body[self.members[k] as usize];
-        grid.fill(&self.at_search, dims, cell_of, body_of);
+        grid.fill(&self.at_search, dims, cell_of, |k| {
+            body[self.members[k] as usize]
+        });
         let r2 = reach * reach;
         let mut found = std::mem::take(&mut self.pairs);
-        for (k, a) in self.at_search.iter().enumerate() {
-            if !a.is_finite() {
+        // Only the members that another body's members may lie beside need looking at:
+        // about one in sixteen of the cholecystectomy's. A column with one body round it
+        // (not one of the bodies from 15 on, which share a bit) holds none of them.
+        let one_body = |seen: u16| seen.count_ones() < 2 && seen & body_bit(15) == 0;
+        for col in 0..columns as u32 {
+            if one_body(grid.around[col as usize]) {
                 continue;
             }
-            let c = cell_of(*a);
-            let (x0, y0) = (c.x.saturating_sub(1), c.y.saturating_sub(1));
-            let (x1, y1) = ((c.x + 1).min(dims.x - 1), (c.y + 1).min(dims.y - 1));
-            // Only the members that another body's members may lie beside need looking at:
-            // about one in sixteen of the cholecystectomy's.
-            let columns = (x0..=x1).flat_map(|x| (y0..=y1).map(move |y| x * dims.y + y));
-            if !grid.other_body_in(columns, body_of(k)) {
-                continue;
-            }
-            for x in x0..=x1 {
-                for y in y0..=y1 {
+            let (x, y) = (col / dims.y, col % dims.y);
+            let listed = grid.start[col as usize] as usize..grid.start[col as usize + 1] as usize;
+            for &(z, k) in &grid.cells[listed] {
+                if !grid.other_body_round(col, grid.body_of[k as usize]) {
+                    continue;
+                }
+                for (cx, cy) in neighbourhood(x, y, dims) {
                     // Only members after `k` make a pair with it (members are sorted by
                     // particle), each pair found once.
-                    for m in grid.near(x * dims.y + y, c.z).filter(|&m| m as usize > k) {
-                        found.extend(pair(self, body, k, m as usize, r2));
+                    for m in grid.near(cx * dims.y + cy, z).filter(|&m| m > k) {
+                        found.extend(pair(self, body, k as usize, m as usize, r2));
                     }
                 }
             }

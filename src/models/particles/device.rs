@@ -57,8 +57,6 @@ pub(super) struct Slot {
     later: Later,
     /// Submissions so far.
     submissions: u64,
-    /// Where the contacts' members will be after the next substep's prediction (kept).
-    predicted: Vec<glam::Vec3>,
     /// Whether something fell between the last step's substeps (its next runs one by one).
     missed: bool,
 }
@@ -149,7 +147,6 @@ impl ParticleSolver {
             ahead: [0; 2],
             later: Later::default(),
             submissions: 0,
-            predicted: Vec::new(),
             missed: false,
         };
         Ok(())
@@ -403,16 +400,9 @@ fn before_substep(s: &mut ParticleSolver, ext: Option<&[glam::Vec3]>, dt: f32, c
         s.particles.ext.copy_from_slice(e);
     }
     if contacts {
-        let mut predicted = std::mem::take(&mut s.device.predicted);
-        predict(
-            &s.particles,
-            s.contacts.member_indices(),
-            dt,
-            s.params.gravity_m_per_s2,
-            &mut predicted,
-        );
-        s.contacts.refresh_at(&predicted, &s.particles.body);
-        s.device.predicted = predicted;
+        let p = &s.particles;
+        let g = s.params.gravity_m_per_s2;
+        s.contacts.refresh_by(&p.body, |i| predicted(p, i, dt, g));
     }
 }
 
@@ -483,26 +473,15 @@ fn add_reactions(
     }
 }
 
-/// Where [`super::Particles::predict`] will put the particles `members` in a substep of `dt`
-/// (the same operations in the same order), into `out` (as long as the particles; the others'
-/// places in it are left as they were: only the members are read).
-fn predict(
-    p: &super::Particles,
-    members: &[u32],
-    dt: f32,
-    gravity: glam::Vec3,
-    out: &mut Vec<glam::Vec3>,
-) {
-    out.resize(p.len(), glam::Vec3::ZERO);
-    for &i in members {
-        let i = i as usize;
-        let (x, v, w, e) = (p.x[i], p.v[i], p.w[i], p.ext[i]);
-        out[i] = if w > 0.0 {
-            let v = v + dt * (gravity + e * w);
-            x + dt * v
-        } else {
-            x
-        };
+/// Where [`super::Particles::predict`] will put particle `i` in a substep of `dt` (the same
+/// operations in the same order).
+fn predicted(p: &super::Particles, i: usize, dt: f32, gravity: glam::Vec3) -> glam::Vec3 {
+    let (x, v, w, e) = (p.x[i], p.v[i], p.w[i], p.ext[i]);
+    if w > 0.0 {
+        let v = v + dt * (gravity + e * w);
+        x + dt * v
+    } else {
+        x
     }
 }
 
