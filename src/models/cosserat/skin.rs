@@ -106,7 +106,9 @@ fn blend(elements: usize, e: usize, t: f32) -> (usize, f32) {
         return (0, 0.0);
     }
     let s = e as f32 + t - 0.5;
-    let k = (s.floor().max(0.0) as usize).min(elements - 2);
+    // The conversion truncates, which is the floor once `s` is no longer negative (and a
+    // portable build without SSE4.1 makes `floor` a call).
+    let k = (s.max(0.0) as usize).min(elements - 2);
     (k, (s - k as f32).clamp(0.0, 1.0))
 }
 
