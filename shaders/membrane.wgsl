@@ -187,6 +187,18 @@ fn substep_rows(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
 }
 
+// One invocation per node of 64 columns of one row in all four layers (local y = layer), a
+// row of workgroups a row: a node's links and tethers read its column's other layers, which
+// the same workgroup reads (in the state's order they lie a quarter of the grid apart, and a
+// grid larger than the GPU's cache would read them from memory again).
+@compute @workgroup_size(64, 4, 1)
+fn substep_layers(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) li: vec3<u32>) {
+    let j = wg.x * 64u + li.x;
+    if (j < p.cols && wg.y < p.rows) {
+        advance(j, li.y * p.rows + wg.y);
+    }
+}
+
 // One invocation per node in the state's order, workgroups of 256 over all of them (a
 // workgroup may span two rows; only the last one idles in part). The grid of workgroups is
 // `groups_x` wide, so more than 65,535 of them fit.
@@ -198,17 +210,18 @@ fn substep_flat(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
 }
 
-// The active set's substep: one workgroup a tile of the list and a layer, one invocation a
-// node of its 8 rows x 16 columns (an edge tile's missing nodes idle). Nodes outside the
+// The active set's substep: one workgroup a layer (x) and a tile of the list (y), one
+// invocation a node of its 8 rows x 16 columns (an edge tile's missing nodes idle): a tile's
+// four layers follow one another, as its links and tethers read them. Nodes outside the
 // awake tiles are not written: they sleep, and both state buffers hold the same values for
 // them.
 @compute @workgroup_size(128, 1, 1)
 fn substep_tiles(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
-    let t = tiles[wg.x];
+    let t = tiles[wg.y];
     let i = (t / p.tiles_c) * TILE_ROWS + li / TILE_COLS;
     let j = (t % p.tiles_c) * TILE_COLS + li % TILE_COLS;
     if (i < p.rows && j < p.cols) {
-        advance(j, wg.y * p.rows + i);
+        advance(j, wg.x * p.rows + i);
     }
 }
 

@@ -537,7 +537,8 @@ impl OnDevice {
         }
         gpu.queue
             .write_buffer(&self.awake_list, 0, bytemuck::cast_slice(awake));
-        let groups = (awake.len() as u32, LAYERS as u32, 1);
+        // A tile's four layers one after another (`substep_tiles`).
+        let groups = (LAYERS as u32, awake.len() as u32, 1);
         let (count, grown) = self.k.upload_externals(m)?;
         if grown {
             self.tiles_bind =

@@ -13,13 +13,17 @@ use std::time::Instant;
 
 pub(super) const SHADER: &str = include_str!("../../../shaders/membrane.wgsl");
 
-/// How the nodes are laid out in workgroups (the shader's two entry points).
+/// How the nodes are laid out in workgroups (the shader's entry points).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Layout {
     /// 64 invocations along a row, a row of workgroups a row block (`substep_rows`).
     Rows,
     /// 256 invocations over the nodes in the state's order (`substep_flat`).
     Flat,
+    /// 64 columns of one row in all four layers, a workgroup (`substep_layers`): a node's
+    /// links and tethers read its column's other layers, which the same workgroup reads, so
+    /// a grid too large for the GPU's cache reads each value from memory once.
+    Layers,
 }
 
 impl Layout {
@@ -27,6 +31,7 @@ impl Layout {
         match self {
             Layout::Rows => "rows_of_64",
             Layout::Flat => "flat_256",
+            Layout::Layers => "layers_together",
         }
     }
 
@@ -34,6 +39,7 @@ impl Layout {
         match self {
             Layout::Rows => "substep_rows",
             Layout::Flat => "substep_flat",
+            Layout::Layers => "substep_layers",
         }
     }
 }
@@ -363,6 +369,7 @@ impl MembraneGpu {
         let blocks = LAYERS as u32 * self.rows;
         match self.layout {
             Layout::Rows => (self.cols.div_ceil(64), blocks, 1),
+            Layout::Layers => (self.cols.div_ceil(64), self.rows, 1),
             Layout::Flat => {
                 let total = (blocks * self.cols).div_ceil(256);
                 let x = total.min(MAX_GROUPS);

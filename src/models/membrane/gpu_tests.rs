@@ -50,7 +50,7 @@ fn the_gpu_substep_follows_the_cpu_within_float_rounding() {
     for (name, m) in [("tube", tube(24, 40)), ("sheet", sheet(20, 33))] {
         let dt = 0.5 * m.explicit_step_limit();
         // Velocities after a few substeps from the pushed state.
-        for layout in [gpu::Layout::Flat, gpu::Layout::Rows] {
+        for layout in [gpu::Layout::Flat, gpu::Layout::Rows, gpu::Layout::Layers] {
             let v_err = gpu::compare(&gpu, &m, 10, dt, layout).expect("the kernel runs");
             assert!(
                 v_err < 1e-4,
@@ -82,6 +82,31 @@ fn the_gpu_substep_follows_the_cpu_within_float_rounding() {
         );
         assert!(dev.is_finite());
     }
+}
+
+#[test]
+fn every_layout_of_the_workgroups_gives_the_same_bytes() {
+    // Each node's substep is one invocation's work whatever workgroup holds it, so the
+    // layouts differ only in what the GPU's cache holds: the same bytes. A tube (its columns
+    // wrap round) of 72 columns (the last workgroup of 64 a row idles in part) and 9 rows,
+    // with a cut and a pushed node.
+    let gpu = device();
+    let run = |layout| {
+        let mut m = gpu::pushed(&tube(9, 72));
+        m.cut_plane(m.position(m.node(1, 4, 30)), 0.003);
+        let dt = 0.5 * m.explicit_step_limit();
+        let mut k = MembraneGpu::with_layout(&gpu, &m, layout).expect("uploads");
+        for _ in 0..10 {
+            m.add_force(m.node(3, 2, 70), Vec3::new(0.0, 0.01, 0.0));
+            k.advance(&mut m, 4.0 * dt, 4).expect("steps");
+        }
+        k.download(&mut m).expect("reads back");
+        m.state_hash()
+    };
+    let flat = run(gpu::Layout::Flat);
+    assert_ne!(flat, gpu::pushed(&tube(9, 72)).state_hash(), "it moved");
+    assert_eq!(run(gpu::Layout::Rows), flat, "rows of 64");
+    assert_eq!(run(gpu::Layout::Layers), flat, "the layers together");
 }
 
 #[test]

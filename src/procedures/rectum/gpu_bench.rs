@@ -20,12 +20,16 @@ pub fn lines(gpu: &Gpu) -> Result<Vec<BenchLine>, BenchError> {
     let (dt, safety) = (s.dt_s, s.scene_params().substep_safety);
     let r =
         Rectum::new(s, &anatomy).map_err(|e| InputError::new(file, "membrane", e.to_string()))?;
-    // The default layout, then the other for comparison.
-    [membrane::gpu::Layout::Flat, membrane::gpu::Layout::Rows]
-        .into_iter()
-        .map(|layout| {
-            membrane::gpu::bench_line(gpu, r.scene.membrane(), dt, safety, BUDGET_S, layout)
-                .map_err(BenchError::from)
-        })
-        .collect()
+    // The default layout, then the others for comparison.
+    [
+        membrane::gpu::Layout::Flat,
+        membrane::gpu::Layout::Rows,
+        membrane::gpu::Layout::Layers,
+    ]
+    .into_iter()
+    .map(|layout| {
+        membrane::gpu::bench_line(gpu, r.scene.membrane(), dt, safety, BUDGET_S, layout)
+            .map_err(BenchError::from)
+    })
+    .collect()
 }
