@@ -187,10 +187,7 @@ impl BodyContacts {
         let margin = self.margin_m;
         self.margin_m = 0.0;
         self.ignore.clear();
-        self.at_search.clear();
-        self.at_search
-            .extend(self.members.iter().map(|&i| p.x[i as usize]));
-        self.search(&p.body);
+        self.search_at(&p.body, |i| p.x[i]);
         self.ignore = std::mem::take(&mut self.pairs);
         self.order.clear();
         self.colours.clear();
@@ -232,10 +229,7 @@ impl BodyContacts {
                 .zip(&self.at_search)
                 .any(|(&i, a)| at(i as usize).distance_squared(*a) > half * half);
         if moved {
-            self.at_search.clear();
-            self.at_search
-                .extend(self.members.iter().map(|&i| at(i as usize)));
-            self.search(body);
+            self.search_at(body, at);
             let colours =
                 colour::greedy(&self.pairs.iter().map(|&(i, j)| [i, j]).collect::<Vec<_>>());
             let order = colour::order(&colours);
@@ -255,8 +249,12 @@ impl BodyContacts {
         2.0 * self.radius_m
     }
 
-    /// The candidate pairs among the members at `at_search`.
-    fn search(&mut self, body: &[u16]) {
+    /// The candidate pairs among the members, each particle `i` at `at(i)` (kept as where
+    /// the search found them).
+    fn search_at(&mut self, body: &[u16], at: impl Fn(usize) -> Vec3) {
+        self.at_search.clear();
+        self.at_search
+            .extend(self.members.iter().map(|&i| at(i as usize)));
         self.searches += 1;
         self.pairs.clear();
         let reach = 2.0 * self.radius_m + self.margin_m;
