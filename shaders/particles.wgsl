@@ -448,6 +448,66 @@ fn solve_run(lo: u32, hi: u32, compliance: f32, weak: f32, weakened: bool, lambd
     }
 }
 
+// A segment's compliance: a breakable one's is `weak` once its strand is weakened.
+fn seg_compliance(flags: u32, compliance: f32, weak: f32, weakened: bool) -> f32 {
+    if weakened && (flags & 2u) != 0u {
+        return weak;
+    }
+    return compliance;
+}
+
+// A whole strand, segments `lo..hi`, at its equilibrium (`adhesion.rs`, `Whole`): one
+// tension-only constraint between its ends of its segments' compliance in series, then its
+// interior particles on the line between the ends, each segment stretched by the shared
+// tension (evenly spaced when slack); every segment's multiplier is the strand's.
+fn whole_strand(lo: u32, hi: u32, compliance: f32, weak: f32, weakened: bool, lambda_at: u32) {
+    var total = 0.0;
+    var rest = 0.0;
+    for (var j = lo; j < hi; j++) {
+        total += seg_compliance(chain_segs[j].w, compliance, weak, weakened);
+    }
+    for (var j = lo; j < hi; j++) {
+        rest += bitcast<f32>(chain_segs[j].z);
+    }
+    let a = chain_segs[lo].x;
+    let b = chain_segs[hi - 1u].y;
+    let xa = x[a];
+    let xb = x[b];
+    let wsum = xa.w + xb.w;
+    let d = xa.xyz - xb.xyz;
+    let len = length(d);
+    if wsum > 0.0 && len > 1.1920929e-7 {
+        let n = d / len;
+        let alpha = total / (p.dt * p.dt);
+        let held = lambda[lambda_at + lo];
+        let dl = min((-(len - rest) - alpha * held) / (wsum + alpha) + held, 0.0) - held;
+        x[a] = vec4<f32>(xa.xyz + n * (xa.w * dl), xa.w);
+        x[b] = vec4<f32>(xb.xyz - n * (xb.w * dl), xb.w);
+        for (var j = lo; j < hi; j++) {
+            lambda[lambda_at + j] = held + dl;
+        }
+    }
+    let pa = x[a].xyz;
+    let pb = x[b].xyz;
+    let span = distance(pa, pb);
+    let excess = span - rest;
+    let count = f32(hi - lo);
+    var along = 0.0;
+    for (var j = lo; j + 1u < hi; j++) {
+        let g = chain_segs[j];
+        if excess > 0.0 {
+            along += bitcast<f32>(g.z) + excess * seg_compliance(g.w, compliance, weak, weakened) / total;
+        } else {
+            along += span / count;
+        }
+        var t = 0.0;
+        if span > 1.1920929e-7 {
+            t = along / span;
+        }
+        x[g.y] = vec4<f32>(pa + (pb - pa) * t, x[g.y].w);
+    }
+}
+
 // One colour of chains (`Chains::project`, `Adhesion::project`): each chain's runs of intact
 // segments solved together (`solves` times), then its bending springs one by one.
 @compute @workgroup_size(64)
@@ -466,9 +526,13 @@ fn chain_one(k: u32) {
     let more = chains[3u * k + 2u];
     let compliance = bitcast<f32>(how.x);
     let weak = bitcast<f32>(how.y);
-    let weakened = how.z != 0u;
+    let weakened = (how.z & 1u) != 0u;
     // The segments' multipliers: segment j's at `lambda_at + j`.
     let lambda_at = more.y - span.x;
+    if (how.z & 2u) != 0u {
+        whole_strand(span.x, span.y, compliance, weak, weakened, lambda_at);
+        return;
+    }
     var lo = span.x;
     while lo < span.y {
         if (chain_segs[lo].w & 1u) == 0u {

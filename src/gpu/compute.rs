@@ -3,7 +3,6 @@
 //! timestamp queries where the adapter has them.
 
 use super::{Gpu, RenderError};
-use wgpu::util::DeviceExt;
 
 /// Compiles the WGSL `source` of file `file`. A compile error is returned naming the file:
 /// left to the device's error handler it would surface far from its cause.
@@ -62,36 +61,53 @@ pub fn storage(gpu: &Gpu, label: &str, data: &[u8]) -> Result<wgpu::Buffer, Rend
             most >> 20
         )));
     }
-    let padded;
-    let contents = if data.len() < 16 {
-        padded = {
-            let mut v = data.to_vec();
-            v.resize(16, 0);
-            v
-        };
-        &padded[..]
+    let buffer = filled(
+        gpu,
+        label,
+        data,
+        16,
+        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+    );
+    gpu.check()?;
+    Ok(buffer)
+}
+
+/// A buffer of `data` (padded with zeros to a multiple of 4 bytes and to at least `least`),
+/// written through the queue. Not mapped at its creation: on a lost device a mapped buffer's
+/// range panics inside wgpu, where a written one reports the loss through [`Gpu::check`].
+fn filled(
+    gpu: &Gpu,
+    label: &str,
+    data: &[u8],
+    least: usize,
+    usage: wgpu::BufferUsages,
+) -> wgpu::Buffer {
+    let size = data.len().max(least).next_multiple_of(4);
+    let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: size as u64,
+        usage,
+        mapped_at_creation: false,
+    });
+    if size == data.len() {
+        gpu.queue.write_buffer(&buffer, 0, data);
     } else {
-        data
-    };
-    Ok(gpu
-        .device
-        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(label),
-            contents,
-            usage: wgpu::BufferUsages::STORAGE
-                | wgpu::BufferUsages::COPY_DST
-                | wgpu::BufferUsages::COPY_SRC,
-        }))
+        let mut padded = data.to_vec();
+        padded.resize(size, 0);
+        gpu.queue.write_buffer(&buffer, 0, &padded);
+    }
+    buffer
 }
 
 /// A uniform buffer of `data`, written again with `queue.write_buffer`.
 pub fn uniform(gpu: &Gpu, label: &str, data: &[u8]) -> wgpu::Buffer {
-    gpu.device
-        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(label),
-            contents: data,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        })
+    filled(
+        gpu,
+        label,
+        data,
+        4,
+        wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+    )
 }
 
 /// Copies `bytes` bytes of `buffer` from its start into a mappable buffer and reads them

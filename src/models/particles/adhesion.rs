@@ -17,19 +17,25 @@
 //!    stretches them (the paper's break threshold). A weakened strand stays weakened. With the
 //!    ends held apart by a force `F` that the stiff segments alone would carry, the strand is
 //!    weakened at `F = k / n (break_stretch - 1) L`;
-//! 2. in each strand, the segment stretched most past `tear_strain l0` beyond its rest length
-//!    (if any) tears: it is removed and the event returned. One tear a strand a step, and a
-//!    torn strand's other breakable segments stiff again: the two halves stay on their organs
-//!    as sticky strands, not let go by a second weak link (their own weight would stretch
-//!    one past the tear strain) nor leaving a piece floating between two tears.
+//! 2. in each whole strand, the segment strained most past `tear_strain` (if any) tears: it is
+//!    removed and the event returned. The strains are the strand's equilibrium's, from its
+//!    ends' distance `D`: the segments in series share the tension, so segment `i` of
+//!    compliance `c_i` stretches `(D - L) c_i / sum c` (nothing when slack). One tear a
+//!    strand, and a torn strand's breakable segments stiff again: the two halves stay on their
+//!    organs as sticky strands, not let go by a second weak link nor leaving a piece floating
+//!    between two tears.
 //!
-//! Each segment is an XPBD constraint of compliance `1 / k` (m/N) whose multiplier is kept over
+//! A whole strand is solved at its equilibrium ([`Whole`]): one XPBD constraint between its
+//! ends, `C = |a - b| - L`, tension only, of compliance `sum c_i` (m/N), its interior particles
+//! then placed on the line between the ends, each segment stretched by the shared tension.
+//! The interior particles weigh milligrams against the organs' grams, so at the step's length
+//! they are always where the tension puts them; as a chain of light particles a substep's
+//! solve threw them past their line and the next threw them back. The multiplier is kept over
 //! the step's iterations (zeroed by [`Adhesion::begin_step`]); after the iterations,
-//! `-lambda / dt^2` is the force the segment carries, newtons (positive in tension). A sweep
-//! solves each strand's chain of intact segments together (its linearised system is
-//! tridiagonal: one pass of the Thomas algorithm), strand after strand: the interior
-//! particles weigh a millionth of the organs' particles, and segment by segment the
-//! iterations would never carry a pull from one end to the other.
+//! `-lambda / dt^2` is the force the strand carries, newtons (positive in tension), and every
+//! segment's multiplier is its strand's. A torn strand's halves hang from their organs as
+//! chains: a sweep solves each run of intact segments together (its linearised system is
+//! tridiagonal: one pass of the Thomas algorithm).
 //!
 //! Units are SI: metres, kilograms, seconds, newtons. Determinism: every sweep, check and cut
 //! goes through the strands and segments in order, and the generator is seeded, so the same
@@ -39,16 +45,10 @@ use super::chain::{Row, solve_chain};
 use super::gpu::{ChainSegment, ChainSet, DeviceChain};
 use super::{Particles, colour};
 
-/// Solves of each run of a strand per sweep, each linearised where the last left it (Newton
-/// steps on the strand's own system). A strand's interior particles weigh a fraction of a
-/// microgram between ends of micrograms to grams: where the strand is bent, one linearised
-/// solve throws them past their line and the next sweep throws them back, a swing of period
-/// two substeps that the step's few sweeps never damp. On the 7 mm / 4 mm lattice left alone
-/// the strands' interiors swung at up to 4.1 m/s (three solves: 0.7 m/s); in its demo a
-/// cystic artery particle held by a fat strand flipped 0.7 mm every substep, and the
-/// contacts' pairs were searched again in 93 % of the substeps
-/// (`left_alone_nothing_swings_in_place`). Three solves cost a third of the strands' time
-/// more.
+/// Solves of each run of a torn strand's halves per sweep, each linearised where the last left
+/// it (Newton steps on the run's own system): where a half is bent, one linearised solve
+/// throws its light particles past their line and the next sweep throws them back. (Whole
+/// strands are solved at their equilibrium instead, [`Whole`].)
 pub const STRAND_NEWTON_STEPS: usize = 3;
 use crate::models::xpbd::Stretch;
 use glam::Vec3;
@@ -182,6 +182,66 @@ struct Strand {
     weak: bool,
     /// Segments torn or cut.
     torn: u32,
+}
+
+/// A whole strand at its equilibrium: one XPBD constraint between its ends, `C = |a - b| - L`,
+/// tension only, of the compliance of its segments in series; then its interior particles on
+/// the line from `a` to `b`, each segment stretched by the tension they share (evenly spaced
+/// when slack). Its interior particles weigh milligrams against the organs' grams: a segment's
+/// own swing is thousands of radians a second, so at the step's length they are always where
+/// the tension puts them. Solved as a chain of light particles instead, a substep's
+/// linearised solve threw them past their line and the next threw them back (a swing of
+/// period two substeps that shook what the strands hold, and tore strands whose ends were
+/// 1.1 times their rest length apart, more of them the longer the step:
+/// docs/cholecystectomy.md, "The strands at their equilibrium").
+struct Whole {
+    a: usize,
+    b: usize,
+    first: usize,
+}
+
+impl Whole {
+    /// One solve; every segment's multiplier becomes the strand's.
+    fn solve(
+        &self,
+        p: &mut Particles,
+        segs: &[Segment],
+        lambda: &mut [f32],
+        compliance: impl Fn(&Segment) -> f32,
+        dt: f32,
+    ) {
+        let (a, b) = (self.a, self.b);
+        let total: f32 = segs.iter().map(&compliance).sum();
+        let rest: f32 = segs.iter().map(|s| s.c.rest_m).sum();
+        let x = &mut p.x;
+        let wsum = p.w[a] + p.w[b];
+        let d = x[a] - x[b];
+        let len = d.length();
+        if wsum > 0.0 && len > f32::EPSILON {
+            let n = d / len;
+            let alpha = total / (dt * dt);
+            let held = lambda[0];
+            // Tension only (the multiplier is negative in tension): a slack strand buckles.
+            let dl = ((-(len - rest) - alpha * held) / (wsum + alpha) + held).min(0.0) - held;
+            x[a] += n * (p.w[a] * dl);
+            x[b] -= n * (p.w[b] * dl);
+            lambda.fill(held + dl);
+        }
+        let (xa, xb) = (x[a], x[b]);
+        let len = xa.distance(xb);
+        let excess = len - rest;
+        let count = segs.len() as f32;
+        let mut along = 0.0f32;
+        for (j, seg) in segs[..segs.len() - 1].iter().enumerate() {
+            along += if excess > 0.0 {
+                seg.c.rest_m + excess * compliance(seg) / total
+            } else {
+                len / count
+            };
+            let t = if len > f32::EPSILON { along / len } else { 0.0 };
+            x[self.first + j] = xa + (xb - xa) * t;
+        }
+    }
 }
 
 #[derive(Debug, Clone)]
@@ -440,9 +500,9 @@ impl Adhesion {
         self.lambda.fill(0.0);
     }
 
-    /// One sweep of a step of `dt` seconds over the intact segments: Gauss-Seidel from strand to
-    /// strand in projection order (by colour), each strand's runs of intact segments solved together (see
-    /// [`solve_chain`]). Does nothing when `dt` is not a positive number or `p` lacks the
+    /// One sweep of a step of `dt` seconds: Gauss-Seidel from strand to strand in projection
+    /// order (by colour), each whole strand at its equilibrium ([`Whole`]), each torn one's runs
+    /// of intact segments solved together (see [`solve_chain`]). Does nothing when `dt` is not a positive number or `p` lacks the
     /// strands' particles.
     pub fn project(&mut self, p: &mut Particles, dt: f32) {
         if !(dt.is_finite() && dt > 0.0) || p.len() < self.needs {
@@ -456,7 +516,24 @@ impl Adhesion {
             let (k, strand) = (k as usize, &self.strands[k as usize]);
             let segs = &self.segments[k * n..(k + 1) * n];
             let lambda = &mut self.lambda[k * n..(k + 1) * n];
-            let weakened = strand.weak && strand.torn == 0;
+            if strand.torn == 0 {
+                let compliance = |s: &Segment| {
+                    if s.breakable && strand.weak {
+                        weak
+                    } else {
+                        stiff
+                    }
+                };
+                let whole = Whole {
+                    a: strand.a as usize,
+                    b: strand.b as usize,
+                    first: strand.first as usize,
+                };
+                whole.solve(p, segs, lambda, compliance, dt);
+                continue;
+            }
+            // A torn strand's halves hang from their organs as chains of particles, their
+            // segments stiff again.
             let mut from = 0;
             while from < n {
                 if !segs[from].intact {
@@ -468,8 +545,8 @@ impl Adhesion {
                     to += 1;
                 }
                 let rows = &mut self.rows[..to - from];
-                for (row, s) in rows.iter_mut().zip(&segs[from..to]) {
-                    row.compliance = if s.breakable && weakened { weak } else { stiff };
+                for row in rows.iter_mut() {
+                    row.compliance = stiff;
                 }
                 for _ in 0..STRAND_NEWTON_STEPS {
                     solve_chain(p, &segs[from..to], &mut lambda[from..to], rows, dt);
@@ -508,6 +585,7 @@ impl Adhesion {
                 compliance: 1.0 / self.params.stiffness_n_per_m,
                 weak_compliance: 1.0 / self.params.weak_stiffness_n_per_m,
                 weakened: strand.weak && strand.torn == 0,
+                whole: strand.torn == 0,
                 solves: STRAND_NEWTON_STEPS as u32,
                 bend_compliance: 0.0,
                 colour: self.colours[k],
@@ -533,16 +611,32 @@ impl Adhesion {
                 s.weak = true;
             }
         }
-        // Each strand's most stretched segment past the tear strain, if any, tears.
+        // Each whole strand's most strained segment past the tear strain, if any, tears. The
+        // strains are the strand's equilibrium's, from its ends' distance: its interior
+        // particles weigh milligrams against the organs' grams (a segment's own swing is
+        // thousands of radians a second), so the strand is a spring of its segments in series,
+        // each stretched by the tension they share. Read from the interior particles'
+        // positions instead, a strand swinging sideways between two substeps had segments
+        // past the tear strain with its ends 1.1 times their rest length apart, and how many
+        // tore depended on the step's length (docs/cholecystectomy.md, "The strands at
+        // their equilibrium").
         let n = self.params.segments as usize;
+        let stiff = 1.0 / self.params.stiffness_n_per_m;
+        let weak = 1.0 / self.params.weak_stiffness_n_per_m;
         for (k, s) in self.strands.iter_mut().enumerate() {
+            if s.torn > 0 {
+                continue;
+            }
+            let excess = x[s.a as usize].distance(x[s.b as usize]) - s.rest_m;
+            if excess.is_nan() || excess <= 0.0 {
+                continue;
+            }
+            let segs = &self.segments[k * n..(k + 1) * n];
+            let compliance = |seg: &Segment| if seg.breakable && s.weak { weak } else { stiff };
+            let total: f32 = segs.iter().map(compliance).sum();
             let mut worst: Option<(usize, f32)> = None;
-            for (j, seg) in self.segments[k * n..(k + 1) * n].iter().enumerate() {
-                if !seg.intact {
-                    continue;
-                }
-                let strain = (x[seg.c.a as usize].distance(x[seg.c.b as usize]) - seg.c.rest_m)
-                    / seg.c.rest_m;
+            for (j, seg) in segs.iter().enumerate() {
+                let strain = excess * compliance(seg) / total / seg.c.rest_m;
                 if strain > self.params.tear_strain && worst.is_none_or(|(_, w)| strain > w) {
                     worst = Some((j, strain));
                 }

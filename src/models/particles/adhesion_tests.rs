@@ -133,9 +133,10 @@ fn pulled_past_the_threshold_the_strand_breaks_at_a_breakable_segment() {
     assert_eq!((tears[0].strand, tears[0].segment), (0, 2));
     assert!(a.is_weakened(0));
     assert_eq!((a.intact_strands(), a.torn_segments()), (0, 1));
-    // Let go, the gallbladder flies off with its half; 50 ms on, each half hangs from its
+    // Pulled on, the gallbladder flies off with its half; 50 ms on, each half hangs from its
     // organ, every particle its chain's length from it.
     for _ in 0..50 {
+        p.add_force(g, Vec3::new(broke_at, 0.0, 0.0));
         assert!(step(&mut p, &mut a, 10, 0.0).is_empty());
     }
     let chain = a.strand_particles(0);
@@ -369,4 +370,37 @@ fn the_same_pulls_give_the_same_bytes_and_breaks() {
     assert!(!t1.is_empty());
     assert_eq!(h1, h2);
     assert_eq!(t1, t2);
+}
+
+#[test]
+fn a_whole_strand_sits_at_its_equilibrium_and_tears_by_its_ends() {
+    // An interior particle thrown 3 mm off the line (a segment then 80 % longer than its 2 mm
+    // rest length, past the 50 % tear strain) with the ends at their rest distance: the
+    // strand's tension is nil, so nothing tears, and a step puts the particle back on the line
+    // between the ends. Read from the particles, the segment would have torn.
+    let (mut p, mut a, g) = pair(params(), 1);
+    let chain = a.strand_particles(0);
+    let thrown = chain[2] as usize;
+    p.x[thrown].y += 0.003;
+    assert!(step(&mut p, &mut a, 2, 0.0).is_empty());
+    assert_eq!(a.torn_segments(), 0);
+    for (k, &i) in chain.iter().enumerate() {
+        let on_line = p.x[g].lerp(Vec3::ZERO, k as f32 / 5.0);
+        assert!(
+            p.x[i as usize].distance(on_line) < 1e-7,
+            "{k}: {}",
+            p.x[i as usize]
+        );
+    }
+    // Held 12 % apart (past the 10 % break stretch), it is weakened and its breakable segment,
+    // which takes all the stretch, tears in the same step: at 1, 2 and 8 sweeps alike.
+    for sweeps in [1, 2, 8] {
+        let (mut p, mut a, g) = pair(params(), 1);
+        p.x[g].x = 1.12 * L;
+        p.w[g] = 0.0;
+        let tears = step(&mut p, &mut a, sweeps, 0.0);
+        assert_eq!(tears.len(), 1, "{sweeps} sweeps");
+        let breakable: Vec<_> = a.breakable_segments(0).collect();
+        assert_eq!(vec![tears[0].segment], breakable, "{sweeps} sweeps");
+    }
 }

@@ -358,6 +358,7 @@ impl Chains {
                 compliance: span.compliance,
                 weak_compliance: span.compliance,
                 weakened: false,
+                whole: false,
                 solves: 1,
                 bend_compliance: span.bend_compliance,
                 colour: self.colours[k as usize],

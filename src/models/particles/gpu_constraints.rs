@@ -57,7 +57,7 @@ impl ParticlesGpu {
                 info.push([
                     ch.compliance.to_bits(),
                     ch.weak_compliance.to_bits(),
-                    u32::from(ch.weakened),
+                    u32::from(ch.weakened) | (u32::from(ch.whole) << 1),
                     ch.solves,
                 ]);
                 info.push([

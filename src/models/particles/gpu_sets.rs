@@ -42,6 +42,9 @@ pub struct DeviceChain {
     pub compliance: f32,
     pub weak_compliance: f32,
     pub weakened: bool,
+    /// A whole strand, solved at its equilibrium (`adhesion.rs`, `Whole`) instead of as a
+    /// chain of particles.
+    pub whole: bool,
     /// Solves of each run a sweep.
     pub solves: u32,
     /// The bending springs' compliance, m/N.

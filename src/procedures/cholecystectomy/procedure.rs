@@ -98,6 +98,11 @@ const OPEN_RAD: f32 = 0.6;
 /// past every fat particle).
 const EXPOSURE_EVERY: u64 = 20;
 
+/// The live hook's end off the liver for this long or less, s, is still the same contact (one
+/// injury): pressed on, the capsule's particle can spring out of the current's reach and back
+/// within a few steps (traced on the coarse lattice: 3 steps out of reach in a press of 30).
+const CONTACT_GAP_S: f64 = 0.05;
+
 /// A vessel cut short of its clips: where on it, which end is the patient's, and its bleeding.
 #[derive(Debug, Clone, Copy)]
 struct Bleeding {
@@ -186,8 +191,8 @@ pub struct Cholecystectomy {
     /// Last step's primary button and trigger on the right hand (presses act once).
     right_button: bool,
     right_trigger: bool,
-    /// The hook's end was on the liver last step with the current on.
-    burning: bool,
+    /// When the live hook's end was last on the liver, s (None: not since the current went on).
+    burned_at_s: Option<f64>,
     /// Where the left grasp took the gallbladder (its held particles' mean), m.
     grasp_from: Option<Vec3>,
     prev_tools: Option<[Vec3; 2]>,
@@ -259,7 +264,7 @@ impl Cholecystectomy {
             right: RightTool::Hook,
             right_button: false,
             right_trigger: false,
-            burning: false,
+            burned_at_s: None,
             grasp_from: None,
             prev_tools: None,
             last: StepOutcome::default(),
@@ -370,7 +375,10 @@ impl Cholecystectomy {
                     let on_liver = self.scene.touching(body::LIVER, end, reach) > 0;
                     if on_liver {
                         self.metrics.liver_burn_steps += 1;
-                        if !self.burning {
+                        let same_contact = self
+                            .burned_at_s
+                            .is_some_and(|at| now_s - at <= CONTACT_GAP_S);
+                        if !same_contact {
                             self.metrics.injuries += 1;
                             self.metrics.errors += 1;
                             ev.push(EventKind::Procedure(ProcedureEvent::new(
@@ -386,7 +394,9 @@ impl Cholecystectomy {
                             });
                         }
                     }
-                    self.burning = on_liver;
+                    if on_liver {
+                        self.burned_at_s = Some(now_s);
+                    }
                     if !cut_strands.is_empty() || d.cloth > 0 || fat_cut > 0 {
                         self.smoke.record(now_s, end, EmissionKind::Smoke);
                     }
@@ -402,7 +412,7 @@ impl Cholecystectomy {
             _ => {}
         }
         if !(self.right == RightTool::Hook && trigger) {
-            self.burning = false;
+            self.burned_at_s = None;
         }
         let was_held = !self.scene.held(0).is_empty();
         let out = self.scene.step(dt, [left_tool, right_tool], step, &mut ev);

@@ -199,14 +199,16 @@ impl Params for AdhesionTable {
         ParamSpec::new(
             "stiffness_n_per_m",
             "N/m",
-            400.0,
+            100.0,
             (1.0, 1e5),
-            "each segment of an adhesion strand while intact (4 segments in series)",
+            "each segment of an adhesion strand while intact at the shipped lattice (4 segments \
+             in series: 25 N/m a strand, the fascia's 20 kPa over the 12.5 mm^2 a strand holds \
+             across about 1 cm); scaled by the area a strand holds at other lattices",
         ),
         ParamSpec::new(
             "break_stretch",
             "ratio",
-            3.0,
+            1.1,
             (1.01, 20.0),
             "a strand whose ends are further apart than this times its rest length is \
              weakened (the paper's break threshold)",
@@ -216,7 +218,8 @@ impl Params for AdhesionTable {
             "strain",
             0.5,
             (0.01, 10.0),
-            "a segment stretched past this strain tears",
+            "a segment stretched past this strain tears (its strand's tension shared by its \
+             segments in series)",
         ),
         ParamSpec::new(
             "fat_stiffness_n_per_m",
@@ -502,7 +505,7 @@ impl Scenario {
                 ..d.solver
             },
             adhesion: crate::models::particles::adhesion::AdhesionParams {
-                stiffness_n_per_m: a.stiffness_n_per_m,
+                stiffness_n_per_m: a.stiffness_n_per_m * self.strand_area_ratio(),
                 break_stretch: a.break_stretch,
                 tear_strain: a.tear_strain,
                 ..d.adhesion
@@ -514,6 +517,16 @@ impl Scenario {
             adhesion_seed: u64::from(a.seed),
             ..d
         }
+    }
+
+    /// The bed's area a strand holds (every `adhesion_every`-th particle of the gallbladder's
+    /// upper surface, each a square of the lattice's spacing) over the shipped lattice's
+    /// (every 2nd at 2.5 mm, 12.5 mm^2): the strands' stiffness is given for the shipped
+    /// lattice and grows with the area each holds, so the bed holds the gallbladder alike at
+    /// any lattice (the CPU preset's 5 mm lattice has a fifth of the strands).
+    pub fn strand_area_ratio(&self) -> f32 {
+        let area = self.anatomy.adhesion_every as f32 * self.anatomy.organ_spacing_m.powi(2);
+        area / (2.0 * 0.0025f32.powi(2))
     }
 
     /// Particles the anatomy will have, roughly (the organs' ellipsoid volumes over their
