@@ -251,6 +251,17 @@ struct Segment {
     intact: bool,
 }
 
+impl Segment {
+    /// Its compliance, m/N: `weak` for a breakable segment of a weakened strand, else `stiff`.
+    fn compliance(&self, weakened: bool, stiff: f32, weak: f32) -> f32 {
+        if self.breakable && weakened {
+            weak
+        } else {
+            stiff
+        }
+    }
+}
+
 impl AsRef<Stretch> for Segment {
     fn as_ref(&self) -> &Stretch {
         &self.c
@@ -502,8 +513,8 @@ impl Adhesion {
 
     /// One sweep of a step of `dt` seconds: Gauss-Seidel from strand to strand in projection
     /// order (by colour), each whole strand at its equilibrium ([`Whole`]), each torn one's runs
-    /// of intact segments solved together (see [`solve_chain`]). Does nothing when `dt` is not a positive number or `p` lacks the
-    /// strands' particles.
+    /// of intact segments solved together (see [`solve_chain`]). Does nothing when `dt` is not
+    /// a positive number or `p` lacks the strands' particles.
     pub fn project(&mut self, p: &mut Particles, dt: f32) {
         if !(dt.is_finite() && dt > 0.0) || p.len() < self.needs {
             return;
@@ -517,13 +528,7 @@ impl Adhesion {
             let segs = &self.segments[k * n..(k + 1) * n];
             let lambda = &mut self.lambda[k * n..(k + 1) * n];
             if strand.torn == 0 {
-                let compliance = |s: &Segment| {
-                    if s.breakable && strand.weak {
-                        weak
-                    } else {
-                        stiff
-                    }
-                };
+                let compliance = |s: &Segment| s.compliance(strand.weak, stiff, weak);
                 let whole = Whole {
                     a: strand.a as usize,
                     b: strand.b as usize,
@@ -627,12 +632,14 @@ impl Adhesion {
             if s.torn > 0 {
                 continue;
             }
-            let excess = x[s.a as usize].distance(x[s.b as usize]) - s.rest_m;
+            let segs = &self.segments[k * n..(k + 1) * n];
+            // The rest length as the solve takes it (`Whole::solve`): its segments' together.
+            let rest: f32 = segs.iter().map(|seg| seg.c.rest_m).sum();
+            let excess = x[s.a as usize].distance(x[s.b as usize]) - rest;
             if excess.is_nan() || excess <= 0.0 {
                 continue;
             }
-            let segs = &self.segments[k * n..(k + 1) * n];
-            let compliance = |seg: &Segment| if seg.breakable && s.weak { weak } else { stiff };
+            let compliance = |seg: &Segment| seg.compliance(s.weak, stiff, weak);
             let total: f32 = segs.iter().map(compliance).sum();
             let mut worst: Option<(usize, f32)> = None;
             for (j, seg) in segs.iter().enumerate() {
