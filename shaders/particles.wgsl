@@ -387,10 +387,7 @@ fn solve_run(lo: u32, hi: u32, compliance: f32, weak: f32, weakened: bool, lambd
     let inv_dt2 = 1.0 / (p.dt * p.dt);
     for (var j = lo; j < hi; j++) {
         let g = chain_segs[j];
-        var comp = compliance;
-        if weakened && (g.w & 2u) != 0u {
-            comp = weak;
-        }
+        let comp = seg_compliance(g.w, compliance, weak, weakened);
         if hi - lo == 1u {
             stretch_one(g.x, g.y, bitcast<f32>(g.z), comp, lambda_at + j);
             return;
