@@ -32,6 +32,11 @@ fn jittered_sheet() -> Vec<Vec3> {
     pts
 }
 
+/// One vector per coordinate of `pts` (the membrane's layout).
+fn components(pts: &[Vec3]) -> [Vec<f32>; 3] {
+    [0, 1, 2].map(|k| pts.iter().map(|p| p[k]).collect())
+}
+
 // ---------------------------------------------------------------------------- broad phase
 
 fn poses() -> Vec<(&'static str, Instrument)> {
@@ -102,9 +107,7 @@ fn broad_phase_finds_exactly_the_brute_force_contacts_and_examines_fewer_points(
     let cloud_pts: Vec<Vec3> = (0..4000)
         .map(|_| (v(rng.next(), rng.next(), rng.next()) - Vec3::splat(0.5)) * 0.03)
         .collect();
-    let x: Vec<f32> = cloud_pts.iter().map(|p| p.x).collect();
-    let y: Vec<f32> = cloud_pts.iter().map(|p| p.y).collect();
-    let z: Vec<f32> = cloud_pts.iter().map(|p| p.z).collect();
+    let [x, y, z] = components(&cloud_pts);
     let soa = PointCloud::from_components(&x, &y, &z).expect("same lengths");
     let aos = PointCloud::from_points(&cloud_pts);
     let blocks = PointBlocks::new(soa);
@@ -199,4 +202,62 @@ fn refresh_and_query_are_the_same_on_one_and_two_threads() {
     let two = crate::testing::on_threads(2, run);
     assert!(!one.1.is_empty());
     assert_eq!(one, two);
+}
+
+#[test]
+fn the_sieve_keeps_every_point_on_the_edge_of_a_cylinder() {
+    // Points at r(t) (1 + e) from each cylinder's axis, e from -1e-5 to +1e-5, at axis
+    // parameters from just before p0 to just past p1, round the axis; and points that are not
+    // finite. The sieve must pass every point the exact test takes.
+    let tools = [
+        Instrument::l_hook(v(0.003, -0.002, 0.001), aiming(v(0.3, -0.4, -1.0))).expect("valid"),
+        Instrument::grasper(v(0.0, 0.004, -0.002), aiming(v(1.0, 0.2, -0.6)), 0.8).expect("valid"),
+    ];
+    for tool in &tools {
+        let mut pts = Vec::new();
+        for cyl in tool.cylinders() {
+            let (p0, p1) = (cyl.p0(), cyl.p1());
+            let (u, w) = (p1 - p0).normalize().any_orthonormal_pair();
+            for ti in -2..=42 {
+                let t = ti as f32 / 40.0;
+                let centre = p0 + (p1 - p0) * t;
+                let r = cyl.radius_at(t);
+                for (k, e) in [-1e-5f32, -1e-6, -1e-7, 0.0, 1e-7, 1e-6, 1e-5]
+                    .into_iter()
+                    .enumerate()
+                {
+                    let a = 0.7 * (ti * 7 + k as i32) as f32;
+                    pts.push(centre + (u * a.cos() + w * a.sin()) * r * (1.0 + e));
+                }
+            }
+        }
+        pts.extend([
+            Vec3::NAN,
+            v(f32::INFINITY, 0.0, 0.0),
+            v(0.0, f32::NEG_INFINITY, 0.001),
+        ]);
+        let [x, y, z] = components(&pts);
+        let soa = PointCloud::from_components(&x, &y, &z).expect("same lengths");
+        let aos = PointCloud::from_points(&pts);
+        let blocks = PointBlocks::new(aos);
+        let (mut from_aos, mut from_soa, mut brute) = (Vec::new(), Vec::new(), Vec::new());
+        tool.contacts_all(aos, &mut brute);
+        tool.contacts(aos, &blocks, &mut from_aos).expect("fresh");
+        tool.contacts(soa, &blocks, &mut from_soa).expect("fresh");
+        // Both sides of the edge are there: some points in, some out.
+        assert!(
+            brute.len() > pts.len() / 5,
+            "{} of {}",
+            brute.len(),
+            pts.len()
+        );
+        assert!(
+            brute.len() < pts.len() * 4 / 5,
+            "{} of {}",
+            brute.len(),
+            pts.len()
+        );
+        assert_eq!(from_aos, brute);
+        assert_eq!(from_soa, brute);
+    }
 }

@@ -253,6 +253,14 @@ impl ToolCylinder {
         self.max_r
     }
 
+    /// The distance from the axis segment within which a point may penetrate, with room for
+    /// rounding, metres. A point that [`Self::penetration`] takes lies within `r(t)` of an
+    /// axis point, so within `max_r` of the segment; the sieve's own rounding (about 1e-7 of
+    /// the coordinates, in metres) is far below the micrometre added.
+    fn sieve_reach_m(&self) -> f32 {
+        self.max_r * (1.0 + 1e-3) + 1e-6
+    }
+
     /// The radius at axis parameter `t`, metres: linear between the bracketing samples,
     /// the first sample's radius before it and the last one's after it.
     pub fn radius_at(&self, t: f32) -> f32 {
@@ -545,6 +553,7 @@ impl Instrument {
         let mut stats = QueryStats::default();
         // Up to 8 cylinders without allocating; more fall back to testing all of them.
         let mut touch = [false; 8];
+        let mut near = [false; BLOCK_POINTS];
         let few = self.cylinders.len() <= touch.len();
         for (b, &(lo, hi)) in blocks.bounds.iter().enumerate() {
             let mut any = false;
@@ -562,7 +571,19 @@ impl Instrument {
             stats.blocks_examined += 1;
             stats.points_examined += range.len();
             let mask: &[bool] = if few { &touch } else { &[] };
-            points.for_each(range, |i, v| out.extend(self.deepest(i, v, mask)));
+            // The sieve: only points near a cylinder's axis segment are tested exactly.
+            let near = &mut near[..range.len()];
+            near.fill(false);
+            for (c, cyl) in self.cylinders.iter().enumerate() {
+                if mask.get(c).copied().unwrap_or(true) {
+                    let segment = (cyl.p0, cyl.axis, cyl.inv_len2);
+                    points.mark_near_segment(range.clone(), segment, cyl.sieve_reach_m(), near);
+                }
+            }
+            for (k, _) in near.iter().enumerate().filter(|&(_, &n)| n) {
+                let i = range.start + k;
+                out.extend(self.deepest(i, points.point(i), mask));
+            }
         }
         Ok(stats)
     }

@@ -49,6 +49,31 @@ pub fn pipeline(
     }
 }
 
+/// The bytes last written into a buffer from the CPU, so that a write of the same bytes
+/// again is left out: each `write_buffer` stages its bytes in a buffer of its own, made and
+/// freed by the driver, which costs more than comparing a few kilobytes. Only for buffers
+/// that no kernel writes.
+#[derive(Debug, Default)]
+pub(crate) struct LastWrite {
+    at: u64,
+    bytes: Vec<u8>,
+    written: bool,
+}
+
+impl LastWrite {
+    /// `bytes` into `buffer` at `at`, unless the last write through here was the same.
+    pub(crate) fn write(&mut self, gpu: &Gpu, buffer: &wgpu::Buffer, at: u64, bytes: &[u8]) {
+        if self.written && self.at == at && self.bytes == bytes {
+            return;
+        }
+        gpu.queue.write_buffer(buffer, at, bytes);
+        self.at = at;
+        self.bytes.clear();
+        self.bytes.extend_from_slice(bytes);
+        self.written = true;
+    }
+}
+
 /// A storage buffer holding `data` (at least 16 bytes, so an empty list still binds), that
 /// can be copied to and from. Refused with a clear error where it is larger than the device
 /// binds.

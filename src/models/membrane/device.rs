@@ -22,7 +22,7 @@
 use super::active::{Activity, TILE_COLS, TILE_ROWS, Watch};
 use super::gpu::MembraneGpu;
 use super::{LAYERS, Membrane, field};
-use crate::gpu::compute::{self, bind};
+use crate::gpu::compute::{self, LastWrite, bind};
 use crate::gpu::{Gpu, RenderError};
 use bytemuck::Zeroable;
 
@@ -231,6 +231,21 @@ struct OnDevice {
     up_state: Vec<f32>,
     up_springs: Vec<f32>,
     up_attach: Vec<f32>,
+    /// What the small buffers the CPU writes every step last held (not written again
+    /// unchanged).
+    written: Written,
+}
+
+/// What went last into the buffers the CPU writes every step (none of them is written by a
+/// kernel): the awake list, the synced list, the unpack's and the pack's parameters, the
+/// packed places.
+#[derive(Default)]
+struct Written {
+    awake: LastWrite,
+    sync: LastWrite,
+    sync_params: LastWrite,
+    pack_params: LastWrite,
+    places: LastWrite,
 }
 
 /// The shader's `Sync` (32 bytes).
@@ -320,7 +335,12 @@ impl OnDevice {
         let pack_params = compute::uniform(gpu, "membrane pack params", bytemuck::bytes_of(&zero));
         let readback = readback_buffer(gpu, 0, tiles);
         let watcher = match &m.activity {
-            Some(a) => Some(watch::Watcher::new(gpu, a, &k.state, &k.attach)?),
+            Some(a) => Some(watch::Watcher::new(
+                gpu,
+                a,
+                &k.state,
+                (&k.attach, &awake_list),
+            )?),
             None => None,
         };
         let [a, b] = &k.state;
@@ -395,6 +415,7 @@ impl OnDevice {
             up_state: Vec::new(),
             up_springs: Vec::new(),
             up_attach: Vec::new(),
+            written: Written::default(),
         })
     }
 
@@ -535,8 +556,8 @@ impl OnDevice {
             gpu.queue.submit([encoder.finish()]);
             return gpu.check().map(|()| Some(Vec::new()));
         }
-        gpu.queue
-            .write_buffer(&self.awake_list, 0, bytemuck::cast_slice(awake));
+        let list = bytemuck::cast_slice(awake);
+        self.written.awake.write(&gpu, &self.awake_list, 0, list);
         // A tile's four layers one after another (`substep_tiles`).
         let groups = (LAYERS as u32, awake.len() as u32, 1);
         let (count, grown) = self.k.upload_externals(m)?;
@@ -572,8 +593,10 @@ impl OnDevice {
             flag: self.k.current as u32,
             ..SyncParams::zeroed()
         };
-        gpu.queue
-            .write_buffer(&self.pack_params, 0, bytemuck::bytes_of(&params));
+        let bytes = bytemuck::bytes_of(&params);
+        self.written
+            .pack_params
+            .write(&gpu, &self.pack_params, 0, bytes);
         // Every awake tile packed, those the CPU reads next first: only they come back.
         self.books.wanted(a, dt, self.resend);
         let want = std::mem::take(&mut self.books.want);
@@ -584,8 +607,10 @@ impl OnDevice {
             (&mut self.runs, &mut self.places, &mut self.books.run_of),
         );
         self.books.want = want;
-        gpu.queue
-            .write_buffer(&self.pack_places, 0, bytemuck::cast_slice(&self.places));
+        let places = bytemuck::cast_slice(&self.places);
+        self.written
+            .places
+            .write(&gpu, &self.pack_places, 0, places);
         let groups = [awake.len() as u32, LAYERS as u32, 1];
         one_pass(
             &mut encoder,
@@ -624,7 +649,7 @@ impl OnDevice {
             let (s, rest) = raw.split_at(sums_bytes);
             let (measures, state) = rest.split_at(measured.unwrap_or(0) as usize);
             if let Some(sums_of) = sums {
-                m.anchor_sums = sums_of.read(s);
+                sums_of.read_into(s, &mut m.anchor_sums);
             }
             let _unpack = tracing::debug_span!("membrane_gpu_unpack", runs = back.len()).entered();
             let dims = (m.rows, m.cols);

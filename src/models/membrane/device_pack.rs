@@ -189,11 +189,10 @@ pub(super) fn as_floats<R>(raw: &[u8], read: impl FnOnce(&[f32]) -> R) -> R {
 /// written once, so the bytes are the same).
 pub(super) fn unpack((rows, cols): (usize, usize), data: &mut [f32], runs: &[Run], packed: &[f32]) {
     use rayon::prelude::*;
-    let one = |(b, x): (usize, &mut [f32])| {
-        let (l, i) = (b / rows, b % rows);
-        let (ti, di) = (i / TILE_ROWS, i % TILE_ROWS);
-        let first = runs.partition_point(|r| r.tile_row < ti);
-        for r in runs[first..].iter().take_while(|r| r.tile_row == ti) {
+    // Row `di` of layer `l` in the tile row of `runs` (all of one tile row) into its stretch
+    // `x` of the state.
+    let copy = |x: &mut [f32], (l, di): (usize, usize), runs: &[Run]| {
+        for r in runs {
             let [c0, c1] = r.cols;
             let w = c1 - c0;
             for c in 0..6 {
@@ -207,9 +206,32 @@ pub(super) fn unpack((rows, cols): (usize, usize), data: &mut [f32], runs: &[Run
     };
     let nodes = runs.iter().map(Run::floats).sum::<usize>() / 6;
     if super::super::active::worth_threads(nodes) {
-        data.par_chunks_mut(6 * cols).enumerate().for_each(one);
-    } else {
-        data.chunks_mut(6 * cols).enumerate().for_each(one);
+        data.par_chunks_mut(6 * cols)
+            .enumerate()
+            .for_each(|(b, x)| {
+                let (l, i) = (b / rows, b % rows);
+                let ti = i / TILE_ROWS;
+                let first = runs.partition_point(|r| r.tile_row < ti);
+                let last = first + runs[first..].partition_point(|r| r.tile_row == ti);
+                copy(x, (l, i % TILE_ROWS), &runs[first..last]);
+            });
+        return;
+    }
+    // A few runs: only the rows they cover are visited.
+    let layers = data.len() / (6 * cols * rows).max(1);
+    let mut rest = runs;
+    while let Some(ti) = rest.first().map(|r| r.tile_row) {
+        let n = rest.partition_point(|r| r.tile_row == ti);
+        let (these, after) = rest.split_at(n);
+        for l in 0..layers {
+            for i in ti * TILE_ROWS..((ti + 1) * TILE_ROWS).min(rows) {
+                let b = l * rows + i;
+                if let Some(x) = data.get_mut(b * 6 * cols..(b + 1) * 6 * cols) {
+                    copy(x, (l, i % TILE_ROWS), these);
+                }
+            }
+        }
+        rest = after;
     }
 }
 
@@ -252,8 +274,10 @@ impl OnDevice {
                 &mut self.up_springs,
             ),
         );
-        let q = &self.k.gpu().queue;
-        q.write_buffer(&self.sync_list, 0, bytemuck::cast_slice(sync));
+        let gpu = self.k.gpu().clone();
+        let q = &gpu.queue;
+        let list = bytemuck::cast_slice(sync);
+        self.written.sync.write(&gpu, &self.sync_list, 0, list);
         if state_tiles > 0 {
             q.write_buffer(&self.packed_state, 0, bytemuck::cast_slice(&self.up_state));
         }
@@ -281,14 +305,16 @@ impl OnDevice {
             attach_sent: u32::from(!carry),
             pad: 0,
         };
-        q.write_buffer(&self.sync_params, 0, bytemuck::bytes_of(&params));
+        let bytes = bytemuck::bytes_of(&params);
+        self.written
+            .sync_params
+            .write(&gpu, &self.sync_params, 0, bytes);
         let groups = [sync.len() as u32, LAYERS as u32, 1];
         let unpack = (&self.unpack, &self.unpack_bind);
         one_pass(encoder, "membrane unpack", unpack, groups);
         // The targets after the unpack, before anything reads them (the halo's placing, the
         // sums, the substeps).
         if let Some(c) = chain {
-            let gpu = self.k.gpu().clone();
             if !self.carrier_tried {
                 self.carrier_tried = true;
                 let at = (rows, cols, self.tiles_c);

@@ -5,7 +5,7 @@
 
 use super::super::anchor_sums::{AnchorGroups, AnchorSum};
 use super::super::gpu::MembraneGpu;
-use crate::gpu::compute::{self, bind};
+use crate::gpu::compute::{self, LastWrite, bind};
 use crate::gpu::{Gpu, RenderError};
 use glam::DVec3;
 
@@ -25,6 +25,8 @@ pub(super) struct Sums {
     groups: usize,
     /// Per tile, 1 where awake (written each step).
     mask: Vec<u32>,
+    /// What the mask held when last written (not written again unchanged).
+    mask_written: LastWrite,
 }
 
 impl Sums {
@@ -71,6 +73,7 @@ impl Sums {
             out,
             groups,
             mask: vec![0; tiles.max(1)],
+            mask_written: LastWrite::default(),
         }))
     }
 
@@ -131,8 +134,8 @@ impl Sums {
             }
         }
         let at = (4 * (self.groups + 1)) as u64;
-        gpu.queue
-            .write_buffer(&self.index, at, bytemuck::cast_slice(&self.mask));
+        let mask = bytemuck::cast_slice(&self.mask);
+        self.mask_written.write(gpu, &self.index, at, mask);
         let kernel = (&self.pipeline, &self.bind[current.min(1)]);
         super::one_pass(
             encoder,
@@ -147,22 +150,29 @@ impl Sums {
         encoder.copy_buffer_to_buffer(&self.out, 0, to, 0, self.bytes());
     }
 
-    /// The sums read back (`raw`: this pass's bytes), per group.
-    pub fn read(&self, raw: &[u8]) -> Vec<AnchorSum> {
-        let v: Vec<f32> = raw
-            .chunks_exact(4)
-            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-            .collect();
-        let d = |s: &[f32], c: usize| DVec3::new(s[c].into(), s[c + 1].into(), s[c + 2].into());
-        v.chunks_exact(TERMS)
-            .take(self.groups)
-            .map(|s| AnchorSum {
-                force: d(s, 0),
-                weighted_force: d(s, 3),
-                moment: d(s, 6),
-                stiffness: s[9].into(),
-                weighted_stiffness: s[10].into(),
-            })
-            .collect()
+    /// The sums read back (`raw`: this pass's bytes), per group, into `out` (its allocation
+    /// kept from step to step).
+    pub fn read_into(&self, raw: &[u8], out: &mut Vec<AnchorSum>) {
+        let f = |b: &[u8]| f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+        let d = |s: &[u8], c: usize| {
+            let c = 4 * c;
+            DVec3::new(
+                f(&s[c..]).into(),
+                f(&s[c + 4..]).into(),
+                f(&s[c + 8..]).into(),
+            )
+        };
+        out.clear();
+        out.extend(
+            raw.chunks_exact(4 * TERMS)
+                .take(self.groups)
+                .map(|s| AnchorSum {
+                    force: d(s, 0),
+                    weighted_force: d(s, 3),
+                    moment: d(s, 6),
+                    stiffness: f(&s[36..]).into(),
+                    weighted_stiffness: f(&s[40..]).into(),
+                }),
+        );
     }
 }

@@ -14,7 +14,7 @@
 use super::super::active::{Activity, TILE_COLS, TILE_ROWS, Watch};
 use super::super::{LAYERS, Membrane};
 use super::one_pass;
-use crate::gpu::compute::{self, bind};
+use crate::gpu::compute::{self, LastWrite, bind};
 use crate::gpu::{Gpu, RenderError};
 use glam::Vec3;
 
@@ -45,7 +45,6 @@ pub(super) struct Watcher {
     watch_bind: [wgpu::BindGroup; 2],
     start_bind: wgpu::BindGroup,
     place_bind: wgpu::BindGroup,
-    list: wgpu::Buffer,
     start_list: wgpu::Buffer,
     place_list: wgpu::Buffer,
     measures: wgpu::Buffer,
@@ -54,6 +53,11 @@ pub(super) struct Watcher {
     held: Vec<bool>,
     up: Vec<f32>,
     tiles_c: u32,
+    /// The step's length in the parameters (only the watch reads it), and what went into
+    /// the parameters and the halo's list last (not written again unchanged).
+    dt: f32,
+    params_written: LastWrite,
+    place_written: LastWrite,
 }
 
 impl Watcher {
@@ -63,7 +67,7 @@ impl Watcher {
         gpu: &Gpu,
         a: &Activity,
         state: &[wgpu::Buffer; 2],
-        attach: &wgpu::Buffer,
+        (attach, list): (&wgpu::Buffer, &wgpu::Buffer),
     ) -> Result<Watcher, RenderError> {
         let module = compute::compile(&gpu.device, "shaders/membrane_watch.wgsl", SHADER)?;
         let watch = compute::pipeline(gpu, &module, "watch")?;
@@ -76,7 +80,6 @@ impl Watcher {
         // The CPU's offsets and last offsets now: the device holds every tile's.
         let offset = compute::storage(gpu, "membrane offsets", bytemuck::cast_slice(&a.offset))?;
         let last = compute::storage(gpu, "membrane last offsets", bytemuck::cast_slice(&a.last))?;
-        let list = compute::storage(gpu, "membrane watched tiles", &zeros(tiles))?;
         let start_list = compute::storage(gpu, "membrane started tiles", &zeros(tiles))?;
         let place_list = compute::storage(gpu, "membrane placed tiles", &zeros(tiles))?;
         let measures = compute::storage(gpu, "membrane measures", &zeros(tiles * MEASURES))?;
@@ -96,7 +99,7 @@ impl Watcher {
                     (4, &weight),
                     (5, &offset),
                     (6, &last),
-                    (7, &list),
+                    (7, list),
                     (8, &measures),
                 ],
             )
@@ -137,7 +140,6 @@ impl Watcher {
             watch_bind,
             start_bind,
             place_bind,
-            list,
             start_list,
             place_list,
             measures,
@@ -145,6 +147,9 @@ impl Watcher {
             held: vec![true; a.awake.len()],
             up: Vec::new(),
             tiles_c: a.tiles_c as u32,
+            dt: 0.0,
+            params_written: LastWrite::default(),
+            place_written: LastWrite::default(),
         })
     }
 
@@ -156,15 +161,15 @@ impl Watcher {
         }
     }
 
-    fn write_params(&self, gpu: &Gpu, m: &Membrane, dt: f32) {
+    fn write_params(&mut self, gpu: &Gpu, m: &Membrane) {
         let params = Params {
             rows: m.rows as u32,
             cols: m.cols as u32,
             tiles_c: self.tiles_c,
-            dt,
+            dt: self.dt,
         };
-        gpu.queue
-            .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        let bytes = bytemuck::bytes_of(&params);
+        self.params_written.write(gpu, &self.params, 0, bytes);
     }
 
     /// Before a step's substeps, into `encoder`: the offsets of the awake tiles `awake` and
@@ -177,7 +182,7 @@ impl Watcher {
         (m, a): (&Membrane, &Activity),
         (awake, halo): (&[u32], &[usize]),
     ) {
-        self.write_params(gpu, m, 0.0);
+        self.write_params(gpu, m);
         let halo: Vec<u32> = halo.iter().map(|&t| t as u32).collect();
         let starting: Vec<u32> = awake
             .iter()
@@ -203,8 +208,8 @@ impl Watcher {
             }
         }
         if !halo.is_empty() {
-            gpu.queue
-                .write_buffer(&self.place_list, 0, bytemuck::cast_slice(&halo));
+            let list = bytemuck::cast_slice(&halo);
+            self.place_written.write(gpu, &self.place_list, 0, list);
             let groups = [halo.len() as u32, 1, 1];
             one_pass(
                 encoder,
@@ -216,7 +221,8 @@ impl Watcher {
     }
 
     /// After a step of `dt` whose newest state is in state buffer `current`, into
-    /// `encoder`: the awake tiles `awake` measured.
+    /// `encoder`: the awake tiles `awake` measured. The list of them is the one the
+    /// substeps read, written for this step.
     pub fn encode_watch(
         &mut self,
         gpu: &Gpu,
@@ -224,9 +230,8 @@ impl Watcher {
         m: &Membrane,
         (awake, current, dt): (&[u32], usize, f32),
     ) {
-        self.write_params(gpu, m, dt);
-        gpu.queue
-            .write_buffer(&self.list, 0, bytemuck::cast_slice(awake));
+        self.dt = dt;
+        self.write_params(gpu, m);
         let bind = &self.watch_bind[current.min(1)];
         one_pass(
             encoder,
@@ -280,11 +285,15 @@ impl Watcher {
 
     /// The measures read back (`raw`), a tile each.
     pub fn read(raw: &[u8]) -> Vec<Watch> {
-        let v: Vec<f32> = raw
-            .chunks_exact(4)
-            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-            .collect();
-        v.chunks_exact(MEASURES)
+        let f = |b: &[u8]| f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+        raw.chunks_exact(4 * MEASURES)
+            .map(|b| {
+                let mut s = [0.0f32; MEASURES];
+                for (v, b) in s.iter_mut().zip(b.chunks_exact(4)) {
+                    *v = f(b);
+                }
+                s
+            })
             .map(|s| Watch {
                 fastest: s[0],
                 edge: s[1],
