@@ -167,3 +167,44 @@ fn verify_lists_every_case_within_its_tolerance() {
         "{out}"
     );
 }
+
+#[test]
+fn bench_on_the_gpu_gives_a_steps_cpu_part_beside_its_wait_for_the_device() {
+    // The cholecystectomy's preset on whatever Vulkan adapter there is (CI: lavapipe): the
+    // solver's kernel lines, then the procedure stepping with its solver on the device.
+    let o = bin()
+        .args([
+            "bench",
+            "cholecystectomy",
+            "--compute",
+            "gpu",
+            "--preset",
+            "cpu",
+            "--json",
+        ])
+        .output()
+        .expect("runs");
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("JSON line"))
+        .collect();
+    let procedure = lines
+        .iter()
+        .find(|l| l["model"] == "procedure")
+        .expect("a procedure line");
+    assert_eq!(procedure["backend"], "gpu", "{procedure}");
+    let ms = |key: &str| procedure[key].as_f64().unwrap_or(f64::NAN);
+    let (median, p99, wait) = (
+        ms("step_cpu_ms_median"),
+        ms("step_cpu_ms_p99"),
+        ms("step_wait_ms_median"),
+    );
+    // Every step waits for the device's results, and the CPU does some of the step.
+    assert!(wait > 0.0, "{procedure}");
+    assert!(median > 0.0 && p99 >= median, "{procedure}");
+    // The kernel's own lines time the solver alone: no step of a procedure in them.
+    for l in lines.iter().filter(|l| l["model"] != "procedure") {
+        assert!(l.get("step_cpu_ms_median").is_none(), "{l}");
+    }
+}

@@ -93,6 +93,9 @@ fn pass(
     let mut events = Vec::new();
     let every = plan.publish_every();
     let mut frame_s = Vec::with_capacity((steps / every) as usize);
+    // Each step's time outside its waits for a device, and those waits, s.
+    let mut step_cpu_s = Vec::with_capacity(steps as usize);
+    let mut step_wait_s = Vec::with_capacity(steps as usize);
     // The snapshots' builds go to the bus's builder thread, as a session's do.
     let bus = std::sync::Arc::new(vesalius::sim::SnapshotBus::new());
     let t0 = Instant::now();
@@ -106,7 +109,12 @@ fn pass(
             {
                 m.read_whole_after_step();
             }
+            let (waited, t) = (vesalius::gpu::compute::waited_ns(), Instant::now());
             p.step(&f, clock.step(), &mut events);
+            let took = t.elapsed().as_secs_f64();
+            let wait = vesalius::gpu::compute::waited_ns().saturating_sub(waited) as f64 * 1e-9;
+            step_cpu_s.push((took - wait).max(0.0));
+            step_wait_s.push(wait);
             events.clear();
             clock.tick();
             if clock.step().is_multiple_of(every) {
@@ -174,12 +182,31 @@ fn pass(
         .map(|(m, a)| m.vertices as f64 * a)
         .sum();
     let share = awake_points / (total[0].max(1) as f64);
+    let adapter = models.iter().find_map(|m| m.gpu.clone());
+    let steps_on_device = adapter
+        .is_some()
+        .then(|| step_figures(step_cpu_s, step_wait_s));
     out.push(BenchLine {
-        compute: on_gpu(models.iter().find_map(|m| m.gpu.clone())),
+        compute: vesalius::sim::ComputeFigures {
+            step_cpu_ms_median: steps_on_device.map(|s| s.0),
+            step_cpu_ms_p99: steps_on_device.map(|s| s.1),
+            step_wait_ms_median: steps_on_device.map(|s| s.2),
+            ..on_gpu(adapter)
+        },
         frames: FrameFigures::of(&frame_s, &bus.take_build_seconds(), wall),
         ..line("procedure".to_string(), wall, total, share)
     });
     Ok(out)
+}
+
+/// The median and 99th percentile of the steps' CPU parts `cpu` and the median of their
+/// waits `wait` (seconds), in ms.
+fn step_figures(mut cpu: Vec<f64>, mut wait: Vec<f64>) -> (f64, f64, f64) {
+    use vesalius::assess::stats::quantile;
+    cpu.sort_by(f64::total_cmp);
+    wait.sort_by(f64::total_cmp);
+    let ms = |v: &[f64], p: f64| quantile(v, p).map_or(f64::NAN, |s| 1e3 * s);
+    (ms(&cpu, 0.5), ms(&cpu, 0.99), ms(&wait, 0.5))
 }
 
 /// A line's backend: the GPU `adapter` names, or (none) the CPU, said by leaving it out.

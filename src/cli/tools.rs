@@ -181,8 +181,18 @@ pub fn bench(
                 }
                 let c = &l.compute;
                 if let (Some(adapter), None) = (&c.adapter, c.substeps_per_s) {
-                    // A model of the procedure stepping on the GPU.
-                    say!("{:<14} on {adapter}", "");
+                    // A model of the procedure stepping on the GPU, or the procedure.
+                    match (
+                        c.step_cpu_ms_median,
+                        c.step_cpu_ms_p99,
+                        c.step_wait_ms_median,
+                    ) {
+                        (Some(median), Some(p99), Some(wait)) => say!(
+                            "{:<14} on {adapter}: a step's CPU part {median:.3} ms (p99 {p99:.3}) outside the device's {wait:.3} ms",
+                            ""
+                        ),
+                        _ => say!("{:<14} on {adapter}", ""),
+                    }
                 } else if let Some(adapter) = &c.adapter {
                     let or_dash = |v: Option<f64>, f: fn(f64) -> String| v.map_or("-".into(), f);
                     say!(

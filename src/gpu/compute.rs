@@ -209,6 +209,18 @@ pub(crate) fn map_read(
     with_mapped(gpu, staging, bytes, <[u8]>::to_vec)
 }
 
+/// Nanoseconds this process's threads have spent in [`with_mapped`]'s waits, summed (an
+/// integer, so the sum does not depend on the order the waits end in).
+static WAITED_NS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
+/// Nanoseconds spent waiting for devices so far (all threads): what a bench takes off a
+/// step's time to give the CPU's part of it. A wait counts from the map's request to its
+/// answer, so it holds the device's work and what wgpu does once it is done (freeing the
+/// submission's command buffers and staging buffers).
+pub fn waited_ns() -> u64 {
+    WAITED_NS.load(std::sync::atomic::Ordering::Relaxed)
+}
+
 /// Maps a `MAP_READ` buffer once what was submitted before has run, hands its first `bytes`
 /// bytes to `read` (no copy) and unmaps it. An error the device reported meanwhile is
 /// returned instead, before anything is read.
@@ -218,6 +230,11 @@ pub(crate) fn with_mapped<R>(
     bytes: u64,
     read: impl FnOnce(&[u8]) -> R,
 ) -> Result<R, RenderError> {
+    let started = std::time::Instant::now();
+    let waited = || {
+        let ns = u64::try_from(started.elapsed().as_nanos()).unwrap_or(u64::MAX);
+        WAITED_NS.fetch_add(ns, std::sync::atomic::Ordering::Relaxed);
+    };
     let wait = tracing::debug_span!("gpu_map_wait").entered();
     let (tx, rx) = std::sync::mpsc::channel();
     staging
@@ -225,13 +242,15 @@ pub(crate) fn with_mapped<R>(
         .map_async(wgpu::MapMode::Read, move |r| {
             let _ = tx.send(r);
         });
-    gpu.device
+    let answered = gpu
+        .device
         .poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| RenderError::Readback(e.to_string()))?;
-    rx.recv()
-        .map_err(|e| RenderError::Readback(e.to_string()))?
-        .map_err(|e| RenderError::Readback(e.to_string()))?;
+        .map_err(|e| RenderError::Readback(e.to_string()))
+        .and_then(|_| rx.recv().map_err(|e| RenderError::Readback(e.to_string())))
+        .and_then(|r| r.map_err(|e| RenderError::Readback(e.to_string())));
+    waited();
     drop(wait);
+    answered?;
     if let Err(e) = gpu.check() {
         staging.unmap();
         return Err(e);

@@ -121,6 +121,15 @@ pub struct ComputeFigures {
     /// substeps share one).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub submissions_per_step: Option<f64>,
+    /// A whole procedure's step with models on the device: the median and 99th percentile
+    /// of its time outside the waits for the device (the CPU's part, which 1.5 x real time
+    /// leaves 0.67 ms of a 1 ms step), and the median of those waits, ms.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub step_cpu_ms_median: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub step_cpu_ms_p99: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub step_wait_ms_median: Option<f64>,
 }
 
 /// A one-off computation's seconds, size and rate, beside the machine's peak (each left out

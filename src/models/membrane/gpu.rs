@@ -615,6 +615,7 @@ pub fn bench_line(
         dispatches_per_substep: Some(1),
         // Each step's substeps go in one submission (`substeps`).
         submissions_per_step: Some(1.0),
+        ..Default::default()
     };
     Ok(line)
 }

@@ -102,6 +102,7 @@ pub fn bench_line(
         check_rel_err: Some(check),
         dispatches_per_substep: dev.gpu_dispatches_per_substep(),
         submissions_per_step: Some(submissions as f64 / steps.max(1) as f64),
+        ..ComputeFigures::default()
     };
     Ok(line)
 }
