@@ -139,8 +139,6 @@ pub struct PointBlocks {
 fn block_bounds(points: PointCloud<'_>, block: usize) -> (Vec3, Vec3) {
     let n = points.len();
     let range = (block * BLOCK_POINTS).min(n)..((block + 1) * BLOCK_POINTS).min(n);
-    let mut lo = Vec3::splat(f32::INFINITY);
-    let mut hi = Vec3::splat(f32::NEG_INFINITY);
     match points.0 {
         // Lane by lane without a branch (which the compiler vectorises): a point that is not
         // finite moves neither corner.
@@ -163,6 +161,8 @@ fn block_bounds(points: PointCloud<'_>, block: usize) -> (Vec3, Vec3) {
             (Vec3::from(l), Vec3::from(h))
         }
         Layout::Points(_) => {
+            let mut lo = Vec3::splat(f32::INFINITY);
+            let mut hi = Vec3::splat(f32::NEG_INFINITY);
             points.for_each(range, |_, p| {
                 if p.is_finite() {
                     lo = lo.min(p);
