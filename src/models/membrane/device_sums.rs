@@ -153,26 +153,16 @@ impl Sums {
     /// The sums read back (`raw`: this pass's bytes), per group, into `out` (its allocation
     /// kept from step to step).
     pub fn read_into(&self, raw: &[u8], out: &mut Vec<AnchorSum>) {
-        let f = |b: &[u8]| f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
-        let d = |s: &[u8], c: usize| {
-            let c = 4 * c;
-            DVec3::new(
-                f(&s[c..]).into(),
-                f(&s[c + 4..]).into(),
-                f(&s[c + 8..]).into(),
-            )
-        };
+        let d = |s: &[f32], c: usize| DVec3::new(s[c].into(), s[c + 1].into(), s[c + 2].into());
         out.clear();
-        out.extend(
-            raw.chunks_exact(4 * TERMS)
-                .take(self.groups)
-                .map(|s| AnchorSum {
-                    force: d(s, 0),
-                    weighted_force: d(s, 3),
-                    moment: d(s, 6),
-                    stiffness: f(&s[36..]).into(),
-                    weighted_stiffness: f(&s[40..]).into(),
-                }),
-        );
+        super::pack::as_floats(raw, |v| {
+            out.extend(v.chunks_exact(TERMS).take(self.groups).map(|s| AnchorSum {
+                force: d(s, 0),
+                weighted_force: d(s, 3),
+                moment: d(s, 6),
+                stiffness: s[9].into(),
+                weighted_stiffness: s[10].into(),
+            }));
+        });
     }
 }

@@ -285,22 +285,16 @@ impl Watcher {
 
     /// The measures read back (`raw`), a tile each.
     pub fn read(raw: &[u8]) -> Vec<Watch> {
-        let f = |b: &[u8]| f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
-        raw.chunks_exact(4 * MEASURES)
-            .map(|b| {
-                let mut s = [0.0f32; MEASURES];
-                for (v, b) in s.iter_mut().zip(b.chunks_exact(4)) {
-                    *v = f(b);
-                }
-                s
-            })
-            .map(|s| Watch {
-                fastest: s[0],
-                edge: s[1],
-                lo: Vec3::new(s[2], s[3], s[4]),
-                hi: Vec3::new(s[5], s[6], s[7]),
-                finite: s[8] == 0.0,
-            })
-            .collect()
+        super::pack::as_floats(raw, |v| {
+            v.chunks_exact(MEASURES)
+                .map(|s| Watch {
+                    fastest: s[0],
+                    edge: s[1],
+                    lo: Vec3::new(s[2], s[3], s[4]),
+                    hi: Vec3::new(s[5], s[6], s[7]),
+                    finite: s[8] == 0.0,
+                })
+                .collect()
+        })
     }
 }
