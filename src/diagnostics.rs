@@ -186,6 +186,21 @@ impl tracing::field::Visit for ArgVisitor<'_> {
     }
 }
 
+/// The calling thread's CPU time so far, s: the OS's clock for the thread, which runs only
+/// while the thread runs (not while it waits, or is ready but kept off its core); none where
+/// the OS keeps no such clock.
+pub fn thread_cpu_s() -> Option<f64> {
+    #[cfg(unix)]
+    {
+        let t = rustix::time::clock_gettime(rustix::time::ClockId::ThreadCPUTime);
+        Some(t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9)
+    }
+    #[cfg(not(unix))]
+    {
+        None
+    }
+}
+
 /// Writes every span as a Chrome "complete" event (`ph: "X"`, start and duration in
 /// microseconds, the thread it ran on, its fields as `args`) and every event as an instant
 /// (`ph: "i"`).
@@ -298,5 +313,31 @@ mod tests {
             assert!(!t.would_enable(theirs, &Level::INFO), "{theirs}");
             assert!(t.would_enable(theirs, &Level::WARN), "{theirs}");
         }
+    }
+}
+
+#[cfg(test)]
+mod thread_clock_tests {
+    use super::thread_cpu_s;
+
+    #[cfg(unix)]
+    #[test]
+    fn the_threads_clock_runs_while_it_works_and_stands_while_it_sleeps() {
+        let start = thread_cpu_s().expect("a thread clock on unix");
+        // Work until the thread's clock has moved (it moves only while the thread runs).
+        let mut x = 0u64;
+        let mut worked = 0.0;
+        while worked <= 0.0 {
+            for i in 0..100_000u64 {
+                x = std::hint::black_box(x.wrapping_mul(6364136223846793005).wrapping_add(i));
+            }
+            worked = thread_cpu_s().expect("a thread clock") - start;
+        }
+        assert!(worked > 0.0 && worked < 60.0, "{worked} s");
+        // A sleep of 200 ms costs the thread next to nothing (a wall clock would give 0.2 s).
+        let before = thread_cpu_s().expect("a thread clock");
+        std::thread::sleep(std::time::Duration::from_millis(200));
+        let slept = thread_cpu_s().expect("a thread clock") - before;
+        assert!((0.0..0.1).contains(&slept), "{slept} s of CPU asleep");
     }
 }

@@ -195,14 +195,17 @@ fn bench_on_the_gpu_gives_a_steps_cpu_part_beside_its_wait_for_the_device() {
         .expect("a procedure line");
     assert_eq!(procedure["backend"], "gpu", "{procedure}");
     let ms = |key: &str| procedure[key].as_f64().unwrap_or(f64::NAN);
-    let (median, p99, wait) = (
+    let (median, mean, p99, wait) = (
         ms("step_cpu_ms_median"),
+        ms("step_cpu_ms_mean"),
         ms("step_cpu_ms_p99"),
         ms("step_wait_ms_median"),
     );
     // Every step waits for the device's results, and the CPU does some of the step.
     assert!(wait > 0.0, "{procedure}");
-    assert!(median > 0.0 && p99 >= median, "{procedure}");
+    assert!(median > 0.0 && p99 >= median && mean > 0.0, "{procedure}");
+    // The simulation thread's own clock ran in its steps.
+    assert!(ms("step_thread_cpu_ms_mean") > 0.0, "{procedure}");
     // The kernel's own lines time the solver alone: no step of a procedure in them.
     for l in lines.iter().filter(|l| l["model"] != "procedure") {
         assert!(l.get("step_cpu_ms_median").is_none(), "{l}");

@@ -96,6 +96,8 @@ fn pass(
     // Each step's time outside its waits for a device, and those waits, s.
     let mut step_cpu_s = Vec::with_capacity(steps as usize);
     let mut step_wait_s = Vec::with_capacity(steps as usize);
+    // Each step's CPU time on the simulation thread (its own clock), s.
+    let mut step_thread_s = Vec::with_capacity(steps as usize);
     // The snapshots' builds go to the bus's builder thread, as a session's do.
     let bus = std::sync::Arc::new(vesalius::sim::SnapshotBus::new());
     let t0 = Instant::now();
@@ -110,8 +112,12 @@ fn pass(
                 m.read_whole_after_step();
             }
             let (waited, t) = (vesalius::gpu::compute::waited_ns(), Instant::now());
+            let ran = vesalius::diagnostics::thread_cpu_s();
             p.step(&f, clock.step(), &mut events);
             let took = t.elapsed().as_secs_f64();
+            if let (Some(a), Some(b)) = (ran, vesalius::diagnostics::thread_cpu_s()) {
+                step_thread_s.push(b - a);
+            }
             let wait = vesalius::gpu::compute::waited_ns().saturating_sub(waited) as f64 * 1e-9;
             step_cpu_s.push((took - wait).max(0.0));
             step_wait_s.push(wait);
@@ -185,12 +191,14 @@ fn pass(
     let adapter = models.iter().find_map(|m| m.gpu.clone());
     let steps_on_device = adapter
         .is_some()
-        .then(|| step_figures(step_cpu_s, step_wait_s));
+        .then(|| step_figures(step_cpu_s, step_wait_s, &step_thread_s));
     out.push(BenchLine {
         compute: vesalius::sim::ComputeFigures {
-            step_cpu_ms_median: steps_on_device.map(|s| s.0),
-            step_cpu_ms_p99: steps_on_device.map(|s| s.1),
-            step_wait_ms_median: steps_on_device.map(|s| s.2),
+            step_cpu_ms_median: steps_on_device.map(|s| s.median),
+            step_cpu_ms_mean: steps_on_device.map(|s| s.mean),
+            step_cpu_ms_p99: steps_on_device.map(|s| s.p99),
+            step_thread_cpu_ms_mean: steps_on_device.and_then(|s| s.thread_mean),
+            step_wait_ms_median: steps_on_device.map(|s| s.wait_median),
             ..on_gpu(adapter)
         },
         frames: FrameFigures::of(&frame_s, &bus.take_build_seconds(), wall),
@@ -199,14 +207,39 @@ fn pass(
     Ok(out)
 }
 
-/// The median and 99th percentile of the steps' CPU parts `cpu` and the median of their
-/// waits `wait` (seconds), in ms.
-fn step_figures(mut cpu: Vec<f64>, mut wait: Vec<f64>) -> (f64, f64, f64) {
+/// A procedure's steps on a device: their CPU parts' median, mean and 99th percentile, their
+/// waits' median, and the simulation thread's own CPU time a step on average, ms.
+#[derive(Clone, Copy)]
+struct StepFigures {
+    median: f64,
+    mean: f64,
+    p99: f64,
+    wait_median: f64,
+    thread_mean: Option<f64>,
+}
+
+/// The mean of `v` (seconds) in ms; NaN for none.
+fn mean_ms(v: &[f64]) -> f64 {
+    match v.len() {
+        0 => f64::NAN,
+        n => 1e3 * v.iter().sum::<f64>() / n as f64,
+    }
+}
+
+/// The figures of the steps' CPU parts `cpu`, their waits `wait` and the simulation thread's
+/// CPU time in each, `thread` (seconds; none where the OS keeps no thread clock).
+fn step_figures(mut cpu: Vec<f64>, mut wait: Vec<f64>, thread: &[f64]) -> StepFigures {
     use vesalius::assess::stats::quantile;
     cpu.sort_by(f64::total_cmp);
     wait.sort_by(f64::total_cmp);
     let ms = |v: &[f64], p: f64| quantile(v, p).map_or(f64::NAN, |s| 1e3 * s);
-    (ms(&cpu, 0.5), ms(&cpu, 0.99), ms(&wait, 0.5))
+    StepFigures {
+        median: ms(&cpu, 0.5),
+        mean: mean_ms(&cpu),
+        p99: ms(&cpu, 0.99),
+        wait_median: ms(&wait, 0.5),
+        thread_mean: (!thread.is_empty()).then(|| mean_ms(thread)),
+    }
 }
 
 /// A line's backend: the GPU `adapter` names, or (none) the CPU, said by leaving it out.
@@ -221,6 +254,23 @@ fn on_gpu(adapter: Option<String>) -> vesalius::sim::ComputeFigures {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_steps_figures_are_its_cpu_parts_quantiles_and_mean_in_ms() {
+        // Nine steps of 1 ms and one of 11 ms: the slow one lifts the mean to 2 ms and the
+        // 99th percentile near it, and leaves the median at 1 ms.
+        let mut cpu = vec![1e-3; 9];
+        cpu.insert(3, 11e-3);
+        let wait = vec![5e-3, 1e-3, 3e-3];
+        let f = step_figures(cpu, wait, &[2e-3, 4e-3]);
+        assert!((f.median - 1.0).abs() < 1e-9, "{}", f.median);
+        assert!((f.mean - 2.0).abs() < 1e-9, "{}", f.mean);
+        assert!(f.p99 > 10.0 && f.p99 <= 11.0, "{}", f.p99);
+        assert!((f.wait_median - 3.0).abs() < 1e-9, "{}", f.wait_median);
+        assert!(f.thread_mean.is_some_and(|t| (t - 3.0).abs() < 1e-9));
+        let none = step_figures(Vec::new(), Vec::new(), &[]);
+        assert!(none.mean.is_nan() && none.thread_mean.is_none());
+    }
 
     #[test]
     fn an_unknown_procedure_is_named() {

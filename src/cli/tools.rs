@@ -184,12 +184,15 @@ pub fn bench(
                     // A model of the procedure stepping on the GPU, or the procedure.
                     match (
                         c.step_cpu_ms_median,
+                        c.step_cpu_ms_mean,
                         c.step_cpu_ms_p99,
                         c.step_wait_ms_median,
                     ) {
-                        (Some(median), Some(p99), Some(wait)) => say!(
-                            "{:<14} on {adapter}: a step's CPU part {median:.3} ms (p99 {p99:.3}) outside the device's {wait:.3} ms",
-                            ""
+                        (Some(median), Some(mean), Some(p99), Some(wait)) => say!(
+                            "{:<14} on {adapter}: a step's CPU part {median:.3} ms median, {mean:.3} ms mean (p99 {p99:.3}; the thread's own CPU time {} ms) outside the device's {wait:.3} ms",
+                            "",
+                            c.step_thread_cpu_ms_mean
+                                .map_or("-".to_string(), |t| format!("{t:.3}"))
                         ),
                         _ => say!("{:<14} on {adapter}", ""),
                     }

@@ -97,6 +97,13 @@ pub trait TissueModel: Send {
     /// model whose state lags on a device brings all of it back with that step, not in a
     /// round trip of its own.
     fn read_whole_after_step(&mut self) {}
+    /// A checkpoint follows the next step (the world's quarantine). By default the whole
+    /// state is read after it ([`TissueModel::read_whole_after_step`]); a model whose state
+    /// lags on a device may instead take what the checkpoint needs of it straight from what
+    /// that step brings back, without bringing its own copy up to date.
+    fn checkpoint_follows(&mut self) {
+        self.read_whole_after_step();
+    }
     /// Returns to the last checkpoint.
     fn restore(&mut self);
     /// Whether every state value changed since the last check is finite.
@@ -174,6 +181,9 @@ impl TissueModel for Box<dyn TissueModel> {
     }
     fn read_whole_after_step(&mut self) {
         (**self).read_whole_after_step();
+    }
+    fn checkpoint_follows(&mut self) {
+        (**self).checkpoint_follows();
     }
     fn restore(&mut self) {
         (**self).restore();
@@ -262,6 +272,9 @@ macro_rules! tissue_models {
             }
             fn read_whole_after_step(&mut self) {
                 match self { $(Self::$variant(m) => <$ty as $crate::sim::TissueModel>::read_whole_after_step(m)),+ }
+            }
+            fn checkpoint_follows(&mut self) {
+                match self { $(Self::$variant(m) => <$ty as $crate::sim::TissueModel>::checkpoint_follows(m)),+ }
             }
             fn restore(&mut self) {
                 match self { $(Self::$variant(m) => <$ty as $crate::sim::TissueModel>::restore(m)),+ }

@@ -523,7 +523,7 @@ fn step_slot<M: TissueModel>(
     let reactions_before = slot.output.reactions.len();
     slot.model.apply_point_forces(forces);
     if last && slot.guard.checkpoint_due(step) {
-        slot.model.read_whole_after_step();
+        slot.model.checkpoint_follows();
     }
     slot.model.step(h, &slot.contacts, &mut slot.output);
     slot.time_s += t0.elapsed().as_secs_f64();

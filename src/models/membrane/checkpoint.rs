@@ -82,29 +82,69 @@ impl Membrane {
     }
 
     /// The checkpoint brought up to date: the whole model the first time and after a
-    /// whole rewrite, else the tiles that changed since the last one.
+    /// whole rewrite, else the tiles that changed since the last one. Where the membrane
+    /// steps on a device and a checkpoint was announced, the nodes of the tiles that lag on
+    /// the CPU came back into the checkpoint's copy with the step (`device_lazy.rs`): they
+    /// are not copied again (nor brought up to date first: [`Membrane::saved_holds_lagging`]).
     pub(super) fn save(&mut self) {
         let whole = self.changed.all || self.activity.is_none();
+        let grid =
+            (self.activity.as_ref()).map(|a| (a.params.tile_rows, a.params.tile_cols, a.tiles_c));
+        let slot = std::mem::take(&mut self.device);
+        self.save_with(whole, grid, &|t| slot.lagging_in_saved(t));
+        self.device = slot;
+        self.device.saved_taken();
+        #[cfg(test)]
+        assert!(
+            self.checkpoint_is_whole(),
+            "a tile changed since the last checkpoint without being marked"
+        );
+    }
+
+    /// Whether the checkpoint's copy already holds the nodes of every tile lagging on the
+    /// CPU (so a checkpoint need not bring them up to date), with a copy by tile to follow.
+    pub(super) fn saved_holds_lagging(&self) -> bool {
+        self.device.saved_holds_lagging() && self.activity.is_some() && self.saved_takes_tiles()
+    }
+
+    /// Whether the next checkpoint copies by tile into an existing copy (not everything).
+    pub(super) fn saved_takes_tiles(&self) -> bool {
+        self.saved.is_some() && !self.changed.all
+    }
+
+    /// [`Membrane::save`]: the whole model where `whole`, else the changed tiles of the grid
+    /// `grid` (a tile's rows and columns, and tiles a row of tiles), but for the nodes of
+    /// those that `in_saved` says the copy holds already.
+    pub(super) fn save_with(
+        &mut self,
+        whole: bool,
+        grid: Option<(usize, usize, usize)>,
+        in_saved: &dyn Fn(usize) -> bool,
+    ) {
         match &mut self.saved {
             Some(s) if !whole => {
-                let Some(a) = &self.activity else {
+                let Some((tr, tc, tiles_c)) = grid else {
                     return;
                 };
                 let (rows, cols) = (self.rows, self.cols);
                 let per = rows * cols;
                 let c = &self.changed;
                 for &t in &c.marked {
-                    let ([r0, r1], [c0, c1]) = a.span(t, rows, cols);
+                    let (r0, c0) = ((t / tiles_c) * tr, (t % tiles_c) * tc);
+                    let (r1, c1) = ((r0 + tr).min(rows), (c0 + tc).min(cols));
                     let springs = c.springs.get(t).copied().unwrap_or(false);
+                    let nodes = !in_saved(t);
                     for l in 0..LAYERS {
                         for i in r0..r1 {
                             let b = l * rows + i;
                             let row = |k: usize, n: usize| {
                                 (b * n + k) * cols + c0..(b * n + k) * cols + c1
                             };
-                            for k in 0..6 {
-                                let r = row(k, 6);
-                                s.state[r.clone()].copy_from_slice(&self.state.data[r]);
+                            if nodes {
+                                for k in 0..6 {
+                                    let r = row(k, 6);
+                                    s.state[r.clone()].copy_from_slice(&self.state.data[r]);
+                                }
                             }
                             if springs {
                                 for k in 0..field::COUNT {
@@ -132,11 +172,12 @@ impl Membrane {
             }
         }
         self.changed.clear();
-        #[cfg(test)]
-        assert!(
-            self.checkpoint_is_whole(),
-            "a tile changed since the last checkpoint without being marked"
-        );
+    }
+
+    /// The checkpoint's copy of the nodes, for a device's step to bring the tiles it leaves
+    /// lagging into (`device_lazy.rs`); none before the first checkpoint.
+    pub(super) fn saved_nodes(&mut self) -> Option<&mut [f32]> {
+        self.saved.as_deref_mut().map(|s| s.state.as_mut_slice())
     }
 
     /// The model back at its checkpoint (where there is one); nothing differs from it then.
@@ -151,14 +192,16 @@ impl Membrane {
     }
 
     /// Whether the checkpoint holds what a copy of the whole model would (a test's check on
-    /// the marks: every tile that changed was marked).
+    /// the marks: every tile that changed was marked), the device's newest state of the tiles
+    /// lagging on the CPU included.
     #[cfg(test)]
     pub(super) fn checkpoint_is_whole(&self) -> bool {
+        let state = self.current_state();
         self.saved.as_ref().is_some_and(|s| {
             s.state
                 .iter()
                 .map(|v| v.to_bits())
-                .eq(self.state.data.iter().map(|v| v.to_bits()))
+                .eq(state.iter().map(|v| v.to_bits()))
                 && s.rows_data
                     .iter()
                     .map(|v| v.to_bits())

@@ -481,6 +481,15 @@ impl OnDevice {
         if self.whole_stale {
             self.upload_whole(m);
         }
+        // A checkpoint follows: the tiles this step leaves lagging come back too, into the
+        // checkpoint's copy (every awake tile into the CPU's where that copy cannot take them
+        // by tile, or every tile comes back anyway).
+        let books = &mut self.books;
+        let to_saved = std::mem::take(&mut books.checkpoint_next);
+        let to_saved_ok = !books.once && !books.eager && !self.resend && m.saved_takes_tiles();
+        books.once |= to_saved && !to_saved_ok;
+        let to_saved = to_saved && to_saved_ok;
+        books.lagging_in_saved = false;
         self.make_sums(m, a)?;
         let awake: &[u32] = &a.list;
         let _span = tracing::debug_span!(
@@ -600,12 +609,13 @@ impl OnDevice {
         // Every awake tile packed, those the CPU reads next first: only they come back.
         self.books.wanted(a, dt, self.resend);
         let want = std::mem::take(&mut self.books.want);
-        let (_, floats) = run_places(
+        let (all_floats, wanted_floats) = run_places(
             m,
             a,
             &want,
             (&mut self.runs, &mut self.places, &mut self.books.run_of),
         );
+        let floats = if to_saved { all_floats } else { wanted_floats };
         self.books.want = want;
         let places = bytemuck::cast_slice(&self.places);
         self.written
@@ -640,10 +650,14 @@ impl OnDevice {
         // Read where the device left it (no copy), once the device reported no error.
         let sums_bytes = self.sums_bytes as usize;
         let back: Vec<Run> = self.runs.iter().filter(|r| r.wanted).copied().collect();
+        let lagging: Vec<Run> = match to_saved {
+            true => self.runs.iter().filter(|r| !r.wanted).copied().collect(),
+            false => Vec::new(),
+        };
         let sums = self.sums.as_ref();
         let wait = tracing::debug_span!("membrane_gpu_readback", bytes).entered();
         let mapped = (at + bytes).max(4);
-        let measures = compute::with_mapped(&gpu, &self.readback, mapped, |raw| {
+        let (measures, into_saved) = compute::with_mapped(&gpu, &self.readback, mapped, |raw| {
             let raw = &raw[..(at + bytes) as usize];
             drop(wait);
             let (s, rest) = raw.split_at(sums_bytes);
@@ -651,12 +665,25 @@ impl OnDevice {
             if let Some(sums_of) = sums {
                 sums_of.read_into(s, &mut m.anchor_sums);
             }
+            let measures = measured.map(|_| watch::Watcher::read(measures));
+            // The lagging tiles go into the checkpoint's copy only where every awake tile is
+            // finite: else the quarantine goes back to that copy as it stands.
+            let finite = measures
+                .as_ref()
+                .is_some_and(|w| w.iter().all(|w| w.finite));
+            let into_saved = to_saved && finite;
             let _unpack = tracing::debug_span!("membrane_gpu_unpack", runs = back.len()).entered();
             let dims = (m.rows, m.cols);
-            as_floats(state, |v| unpack(dims, &mut m.state.data, &back, v));
-            measured.map(|_| watch::Watcher::read(measures))
+            as_floats(state, |v| {
+                unpack(dims, &mut m.state.data, &back, v);
+                if let Some(saved) = m.saved_nodes().filter(|_| into_saved) {
+                    unpack(dims, saved, &lagging, v);
+                }
+            });
+            (measures, into_saved)
         })?;
         self.books.stepped(awake, &self.runs);
+        self.books.lagging_in_saved = into_saved;
         Ok(measures)
     }
 
@@ -718,45 +745,6 @@ impl Membrane {
     pub fn gpu_adapter(&self) -> Option<String> {
         self.device.adapter()
     }
-
-    /// Destroys the device under the membrane, as a driver reset or an unplugged GPU would
-    /// (fault injection: the next step must fall back to the CPU). False when on the CPU.
-    pub fn inject_device_loss(&mut self) -> bool {
-        match &self.device.on {
-            Some(d) => {
-                d.k.gpu().device.destroy();
-                true
-            }
-            None => false,
-        }
-    }
-
-    /// Why the device was given up, once (the model reports it as an event).
-    pub fn take_device_note(&mut self) -> Option<String> {
-        self.device.note.take()
-    }
-}
-
-/// `step` on the membrane's device; none where it has none, or where `step` failed: the
-/// failure is noted, the device dropped and the external forces put back for the CPU (the
-/// CPU's state is written only by a step that succeeded).
-fn on_device<R>(
-    m: &mut Membrane,
-    step: impl FnOnce(&mut OnDevice, &mut Membrane) -> Result<R, RenderError>,
-) -> Option<R> {
-    let mut d = m.device.on.take()?;
-    let external = m.external.clone();
-    match step(&mut d, m) {
-        Ok(r) => {
-            m.device.on = Some(d);
-            Some(r)
-        }
-        Err(e) => {
-            m.external = external;
-            lazy::lose_device(m, *d, &e);
-            None
-        }
-    }
 }
 
 /// The active set's substeps of this step on the membrane's device, with the awake tiles'
@@ -780,13 +768,13 @@ pub(super) fn active_substeps(
     if !stray.is_empty() {
         m.catch_up_tiles(&stray);
     }
-    on_device(m, |d, m| d.active_step(m, a, halo, dt, substeps))
+    lazy::on_device(m, |d, m| d.active_step(m, a, halo, dt, substeps))
 }
 
 /// Every node's substeps on the membrane's device; false where it has none or it failed.
 pub(super) fn whole_substeps(m: &mut Membrane, dt: f32, substeps: usize) -> bool {
     m.catch_up();
-    on_device(m, |d, m| d.whole_step(m, dt, substeps)).is_some()
+    lazy::on_device(m, |d, m| d.whole_step(m, dt, substeps)).is_some()
 }
 
 /// The awake tiles' sleep measures a device step took, in the order of the awake list (none

@@ -20,7 +20,7 @@
 //! reported as an event.
 
 use super::pack::{Run, as_floats, unpack};
-use super::{Membrane, OnDevice};
+use super::{Membrane, OnDevice, TILE_COLS, TILE_ROWS};
 use crate::gpu::RenderError;
 use crate::gpu::compute;
 use crate::models::membrane::active::Activity;
@@ -42,9 +42,16 @@ pub(super) struct Books {
     pub want: Vec<bool>,
     /// Read every awake tile back with each step (to compare; tests).
     pub eager: bool,
-    /// Read every awake tile back with the next step only (a checkpoint or a frame follows
-    /// it: [`super::Slot::read_whole_next`]).
+    /// Read every awake tile back with the next step only (a frame follows it:
+    /// [`super::Slot::read_whole_next`]).
     pub once: bool,
+    /// A checkpoint follows the next step ([`super::Slot::checkpoint_next`]): the awake tiles
+    /// it leaves lagging come back with it too, into the checkpoint's copy of the nodes (not
+    /// the CPU's), where their state is finite.
+    pub checkpoint_next: bool,
+    /// The last step's lagging tiles went into the checkpoint's copy as the device left them
+    /// (until the checkpoint is taken): a tile still lagging needs no catching up for it.
+    pub lagging_in_saved: bool,
     /// Tiles that came back with a step, and round trips that brought behind runs up to date,
     /// over the device's life (tests' counts).
     pub tiles_back: u64,
@@ -164,6 +171,39 @@ impl super::Slot {
             d.books.once = true;
         }
     }
+
+    /// A checkpoint follows the next step: the tiles it leaves lagging come back with it
+    /// into the checkpoint's copy (every awake tile into the CPU's where the device does not
+    /// measure their finiteness).
+    pub fn checkpoint_next(&mut self) {
+        if let Some(d) = self.on.as_deref_mut() {
+            if d.watcher.is_some() {
+                d.books.checkpoint_next = true;
+            } else {
+                d.books.once = true;
+            }
+        }
+    }
+
+    /// Whether the checkpoint's copy holds the newest nodes of the tiles that lag on the
+    /// CPU (the step before brought them there).
+    pub fn saved_holds_lagging(&self) -> bool {
+        self.on.as_deref().is_some_and(|d| d.books.lagging_in_saved)
+    }
+
+    /// Whether tile `t`'s newest nodes are in the checkpoint's copy and not the CPU's.
+    pub fn lagging_in_saved(&self, t: usize) -> bool {
+        self.on
+            .as_deref()
+            .is_some_and(|d| d.books.lagging_in_saved && d.books.is_behind(t))
+    }
+
+    /// The checkpoint was taken: its copy holds nothing the CPU's lacks.
+    pub fn saved_taken(&mut self) {
+        if let Some(d) = self.on.as_deref_mut() {
+            d.books.lagging_in_saved = false;
+        }
+    }
 }
 
 impl OnDevice {
@@ -204,6 +244,23 @@ impl OnDevice {
 }
 
 impl Membrane {
+    /// Destroys the device under the membrane, as a driver reset or an unplugged GPU would
+    /// (fault injection: the next step must fall back to the CPU). False when on the CPU.
+    pub fn inject_device_loss(&mut self) -> bool {
+        match &self.device.on {
+            Some(d) => {
+                d.k.gpu().device.destroy();
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Why the device was given up, once (the model reports it as an event).
+    pub fn take_device_note(&mut self) -> Option<String> {
+        self.device.note.take()
+    }
+
     /// Brings the CPU's copy of every awake tile up to date where the membrane steps on a
     /// device (see `device_lazy.rs`): call before reading nodes other than those
     /// [`Membrane::awake_tiles_near`] returned. Nothing to do on the CPU.
@@ -277,6 +334,28 @@ impl Membrane {
     }
 }
 
+/// `step` on the membrane's device; none where it has none, or where `step` failed: the
+/// failure is noted, the device dropped and the external forces put back for the CPU (the
+/// CPU's state is written only by a step that succeeded).
+pub(super) fn on_device<R>(
+    m: &mut Membrane,
+    step: impl FnOnce(&mut OnDevice, &mut Membrane) -> Result<R, RenderError>,
+) -> Option<R> {
+    let mut d = m.device.on.take()?;
+    let external = m.external.clone();
+    match step(&mut d, m) {
+        Ok(r) => {
+            m.device.on = Some(d);
+            Some(r)
+        }
+        Err(e) => {
+            m.external = external;
+            lose_device(m, *d, &e);
+            None
+        }
+    }
+}
+
 /// Brings the behind tiles among `tiles` (all where none) up to date; should the read fail,
 /// the device is given up (see [`lose_device`]).
 fn catch_up_with(m: &mut Membrane, tiles: Option<&[usize]>) {
@@ -313,9 +392,17 @@ fn catch_up_with(m: &mut Membrane, tiles: Option<&[usize]>) {
 
 /// The device `d` (taken from `m`) failed with `e`: it is dropped and the failure noted; where
 /// the CPU's copy lagged it, the membrane goes back to its last checkpoint (the external
-/// forces of the step kept).
+/// forces of the step kept). Where the lagging tiles' newest nodes had come back into the
+/// checkpoint's copy (a checkpoint was to follow this step), that copy is completed from the
+/// CPU's for the other tiles and the membrane goes on from it: nothing is lost.
 pub(super) fn lose_device(m: &mut Membrane, d: OnDevice, e: &RenderError) {
-    let lagged = d.books.any_behind();
+    let mut lagged = d.books.any_behind();
+    if lagged && d.books.lagging_in_saved && m.saved_takes_tiles() {
+        let grid = (TILE_ROWS, TILE_COLS, d.tiles_c as usize);
+        m.save_with(false, Some(grid), &|t| d.books.is_behind(t));
+        m.load();
+        lagged = false;
+    }
     drop(d);
     m.device.give_up(e);
     if lagged {

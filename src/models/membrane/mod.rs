@@ -35,6 +35,8 @@ mod chain;
 #[cfg(test)]
 mod chain_tests;
 mod checkpoint;
+#[cfg(test)]
+mod checkpoint_tests;
 mod cuts;
 mod device;
 mod forces;

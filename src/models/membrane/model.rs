@@ -128,16 +128,26 @@ impl TissueModel for Membrane {
     }
 
     /// The tiles that changed since the last checkpoint (`checkpoint.rs`), brought up to date
-    /// from the device first.
+    /// from the device first unless the step before brought those lagging on the CPU into
+    /// the checkpoint's copy.
     fn checkpoint(&mut self) {
-        self.catch_up();
+        if !self.saved_holds_lagging() {
+            self.catch_up();
+        }
         self.save();
     }
 
-    /// A checkpoint follows the next step: every awake tile comes back with it, so the
-    /// checkpoint finds nothing lagging.
+    /// A frame follows the next step: every awake tile comes back with it, so the frame
+    /// finds nothing lagging.
     fn read_whole_after_step(&mut self) {
         self.device.read_whole_next();
+    }
+
+    /// A checkpoint follows the next step: the tiles it would leave lagging on the CPU come
+    /// back with it into the checkpoint's copy, not the CPU's, so the checkpoint neither
+    /// waits for them nor copies them twice.
+    fn checkpoint_follows(&mut self) {
+        self.device.checkpoint_next();
     }
 
     fn restore(&mut self) {
