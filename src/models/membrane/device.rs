@@ -650,9 +650,10 @@ impl OnDevice {
         // Read where the device left it (no copy), once the device reported no error.
         let sums_bytes = self.sums_bytes as usize;
         let back: Vec<Run> = self.runs.iter().filter(|r| r.wanted).copied().collect();
-        let lagging: Vec<Run> = match to_saved {
-            true => self.runs.iter().filter(|r| !r.wanted).copied().collect(),
-            false => Vec::new(),
+        let lagging: Vec<Run> = if to_saved {
+            self.runs.iter().filter(|r| !r.wanted).copied().collect()
+        } else {
+            Vec::new()
         };
         let sums = self.sums.as_ref();
         let wait = tracing::debug_span!("membrane_gpu_readback", bytes).entered();
