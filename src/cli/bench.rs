@@ -218,27 +218,19 @@ struct StepFigures {
     thread_mean: Option<f64>,
 }
 
-/// The mean of `v` (seconds) in ms; NaN for none.
-fn mean_ms(v: &[f64]) -> f64 {
-    match v.len() {
-        0 => f64::NAN,
-        n => 1e3 * v.iter().sum::<f64>() / n as f64,
-    }
-}
-
 /// The figures of the steps' CPU parts `cpu`, their waits `wait` and the simulation thread's
 /// CPU time in each, `thread` (seconds; none where the OS keeps no thread clock).
 fn step_figures(mut cpu: Vec<f64>, mut wait: Vec<f64>, thread: &[f64]) -> StepFigures {
-    use vesalius::assess::stats::quantile;
+    use vesalius::assess::{questionnaire::mean, stats::quantile};
     cpu.sort_by(f64::total_cmp);
     wait.sort_by(f64::total_cmp);
     let ms = |v: &[f64], p: f64| quantile(v, p).map_or(f64::NAN, |s| 1e3 * s);
     StepFigures {
         median: ms(&cpu, 0.5),
-        mean: mean_ms(&cpu),
+        mean: mean(&cpu).map_or(f64::NAN, |s| 1e3 * s),
         p99: ms(&cpu, 0.99),
         wait_median: ms(&wait, 0.5),
-        thread_mean: (!thread.is_empty()).then(|| mean_ms(thread)),
+        thread_mean: mean(thread).map(|s| 1e3 * s),
     }
 }
 

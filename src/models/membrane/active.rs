@@ -307,12 +307,18 @@ impl Membrane {
 
     /// The tile holding row `i`, column `j`.
     pub fn tile_of(&self, i: usize, j: usize) -> usize {
+        let (tr, tc, tiles_c) = self.tile_grid();
+        (i / tr) * tiles_c + j / tc
+    }
+
+    /// The tiles' grid: a tile's rows and columns, and tiles a row of tiles (the active set's,
+    /// or the default tiles' where it has none or is out for its step).
+    pub(super) fn tile_grid(&self) -> (usize, usize, usize) {
         let p = self
             .activity
             .as_ref()
             .map_or_else(ActivityParams::default, |a| a.params);
-        let tc = self.cols.div_ceil(p.tile_cols);
-        (i / p.tile_rows) * tc + j / p.tile_cols
+        (p.tile_rows, p.tile_cols, self.cols.div_ceil(p.tile_cols))
     }
 
     /// Where node `node` is drawn: its position, or for a node of a sleeping tile where its

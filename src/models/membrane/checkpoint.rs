@@ -88,8 +88,7 @@ impl Membrane {
     /// are not copied again (nor brought up to date first: [`Membrane::saved_holds_lagging`]).
     pub(super) fn save(&mut self) {
         let whole = self.changed.all || self.activity.is_none();
-        let grid =
-            (self.activity.as_ref()).map(|a| (a.params.tile_rows, a.params.tile_cols, a.tiles_c));
+        let grid = self.tile_grid();
         let slot = std::mem::take(&mut self.device);
         self.save_with(whole, grid, &|t| slot.lagging_in_saved(t));
         self.device = slot;
@@ -113,19 +112,16 @@ impl Membrane {
     }
 
     /// [`Membrane::save`]: the whole model where `whole`, else the changed tiles of the grid
-    /// `grid` (a tile's rows and columns, and tiles a row of tiles), but for the nodes of
-    /// those that `in_saved` says the copy holds already.
+    /// `grid` ([`Membrane::tile_grid`]), but for the nodes of those that `in_saved` says the
+    /// copy holds already.
     pub(super) fn save_with(
         &mut self,
         whole: bool,
-        grid: Option<(usize, usize, usize)>,
+        (tr, tc, tiles_c): (usize, usize, usize),
         in_saved: &dyn Fn(usize) -> bool,
     ) {
         match &mut self.saved {
             Some(s) if !whole => {
-                let Some((tr, tc, tiles_c)) = grid else {
-                    return;
-                };
                 let (rows, cols) = (self.rows, self.cols);
                 let per = rows * cols;
                 let c = &self.changed;

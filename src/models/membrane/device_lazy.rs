@@ -20,7 +20,7 @@
 //! reported as an event.
 
 use super::pack::{Run, as_floats, unpack};
-use super::{Membrane, OnDevice, TILE_COLS, TILE_ROWS};
+use super::{Membrane, OnDevice};
 use crate::gpu::RenderError;
 use crate::gpu::compute;
 use crate::models::membrane::active::Activity;
@@ -398,8 +398,8 @@ fn catch_up_with(m: &mut Membrane, tiles: Option<&[usize]>) {
 pub(super) fn lose_device(m: &mut Membrane, d: OnDevice, e: &RenderError) {
     let mut lagged = d.books.any_behind();
     if lagged && d.books.lagging_in_saved && m.saved_takes_tiles() {
-        let grid = (TILE_ROWS, TILE_COLS, d.tiles_c as usize);
-        m.save_with(false, Some(grid), &|t| d.books.is_behind(t));
+        // The device's tiles are the active set's (`OnDevice::new`), out for its step or not.
+        m.save_with(false, m.tile_grid(), &|t| d.books.is_behind(t));
         m.load();
         lagged = false;
     }
