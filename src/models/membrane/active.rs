@@ -87,6 +87,8 @@ pub(super) struct Activity {
     pub(super) weight: Vec<f32>,
     /// Offsets of nodes from their anchors when their tile fell asleep: `[b][3][cols]`.
     pub(super) offset: Vec<f32>,
+    /// Per tile: the [`stamp`] of the last write of its offsets.
+    pub(super) slept: Vec<u64>,
     /// Offsets of awake tiles' nodes at the last check (their speed is measured from it;
     /// where a device measures them, only the device's are current).
     pub(super) last: Vec<f32>,
@@ -154,6 +156,7 @@ impl Activity {
             rest,
             weight,
             offset: vec![0.0; LAYERS * rows * 3 * cols],
+            slept: vec![stamp(); tiles_r * tiles_c],
             last: vec![0.0; LAYERS * rows * 3 * cols],
             last_on_device: false,
             measured_finite: None,
@@ -760,6 +763,7 @@ fn settle(m: &mut Membrane, a: &mut Activity, dt: f32, measured: Option<Vec<Watc
             }
             a.awake[t] = false;
             a.still_s[t] = 0.0;
+            a.slept[t] = stamp();
             m.device.offsets_changed(t);
         }
     }
@@ -778,6 +782,8 @@ fn settle(m: &mut Membrane, a: &mut Activity, dt: f32, measured: Option<Vec<Watc
 
 #[path = "active_drawn.rs"]
 mod drawn;
+pub use drawn::DrawnGrid;
+pub(super) use drawn::stamp;
 #[path = "active_near.rs"]
 mod near;
 pub use near::AHEAD_M;

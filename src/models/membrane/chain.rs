@@ -37,6 +37,9 @@ pub(super) struct Chain {
     pub quats: Vec<Quat>,
     /// The pose's number (0: none handed yet).
     pub pose: u64,
+    /// Marks this binding (a copy of `bound` made under another stamp is not current: see
+    /// `active_drawn.rs`).
+    pub stamp: u64,
     /// Per tile (of the active set; one without): the pose its CPU targets came from.
     placed: Vec<u64>,
 }
@@ -51,7 +54,12 @@ impl Chain {
     /// Node `k`'s target under the pose.
     #[inline]
     pub fn target(&self, k: usize) -> Option<Vec3> {
-        let b = self.bound.get(k)?;
+        self.target_of(self.bound.get(k)?)
+    }
+
+    /// The target of a node bound at `b` under the pose.
+    #[inline]
+    pub fn target_of(&self, b: &ChainBinding) -> Option<Vec3> {
         let (e, p) = (b.segment as usize, b.pair as usize);
         let (a, z) = (*self.points.get(e)?, *self.points.get(e + 1)?);
         let c = a + (z - a) * f64::from(b.t);
@@ -111,6 +119,7 @@ impl Membrane {
             points: Vec::new(),
             quats: Vec::new(),
             pose: 0,
+            stamp: super::active::stamp(),
             placed: Vec::new(),
         }));
         self.device.chain_changed();
@@ -175,6 +184,11 @@ impl Membrane {
         {
             return p;
         }
+        self.target_set(i, j)
+    }
+
+    /// Layer 0's target at row `i`, column `j` as last placed or set on the CPU.
+    pub(super) fn target_set(&self, i: usize, j: usize) -> Vec3 {
         Vec3::from_array(std::array::from_fn(|c| {
             self.attach[(i * 4 + 1 + c) * self.cols + j]
         }))

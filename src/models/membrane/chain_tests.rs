@@ -250,6 +250,64 @@ fn a_drawn_grid_holds_where_each_of_its_nodes_is_drawn() {
 }
 
 #[test]
+fn a_drawn_grid_kept_from_frame_to_frame_follows_tiles_falling_asleep_and_waking() {
+    // The pull of `session_step` twice, at steps 0-39 and 160-199, on a twisting chain; a
+    // frame every 9 steps from one grid kept throughout. Its tiles fall asleep with new
+    // offsets and wake again between frames: each frame must still place every node where
+    // `carried_position` does, bit for bit.
+    let (rows, len) = (48, length(48));
+    let mut m = sleepy(rows, 64);
+    bind_along(&mut m, len);
+    let rs: Vec<usize> = (0..m.rows()).step_by(3).collect();
+    let cs: Vec<usize> = (0..m.cols()).step_by(2).chain([m.cols() + 1]).collect();
+    let layers = [1, 2, 3, 4];
+    let mut grid = DrawnGrid::new(&layers, &rs, &cs);
+    let mut out = crate::sim::ModelOutput::default();
+    let (mut before, mut fell_asleep, mut woke, mut frames) = (awake_tiles(&m), 0, 0, 0);
+    for k in 0..=400 {
+        // A frame before the first step too: every tile's parts are copied while it sleeps.
+        if k > 0 {
+            let p = pose(len, k);
+            m.pose_targets(&p.0, &p.1).expect("a pose");
+            session_step(&mut m, (k - 1) % 200, &mut out);
+            if k % 9 != 0 {
+                continue;
+            }
+        }
+        let now = awake_tiles(&m);
+        fell_asleep += before.iter().filter(|t| !now.contains(t)).count();
+        woke += now.iter().filter(|t| !before.contains(t)).count();
+        before = now;
+        let drawn = m.place_drawn(&mut grid);
+        assert_eq!(drawn.len(), grid.len());
+        let mut at = drawn.iter();
+        for l in layers {
+            for &i in &rs {
+                for &j in &cs {
+                    let p = *at.next().expect("a node");
+                    let want = if l < LAYERS && j < m.cols() {
+                        m.carried_position(m.node(l, i, j))
+                    } else {
+                        Vec3::ZERO
+                    };
+                    assert_eq!(
+                        p.to_array().map(f32::to_bits),
+                        want.to_array().map(f32::to_bits),
+                        "step {k}: ({l}, {i}, {j})"
+                    );
+                }
+            }
+        }
+        frames += 1;
+    }
+    assert!(frames > 30);
+    assert!(
+        woke > 0 && fell_asleep > 0,
+        "woke {woke}, fell asleep {fell_asleep}"
+    );
+}
+
+#[test]
 fn the_device_places_the_targets_from_the_pose_and_none_go_up() {
     // The twisting session on the CPU, on a device placing the targets itself, and on a
     // device taking them from the CPU as before: the same tiles sleep and wake at every

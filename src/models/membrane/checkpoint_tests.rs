@@ -9,7 +9,7 @@ use glam::Vec3;
 
 /// The sleepy tube twice on one device, with a tile woken far from the tool in both (read by
 /// nothing, so its newest state stays on the device).
-fn two_on_one_device() -> (crate::gpu::Gpu, Membrane, Membrane) {
+pub(super) fn two_on_one_device() -> (crate::gpu::Gpu, Membrane, Membrane) {
     let gpu = device();
     let start = sleepy(48, 64);
     let far = {

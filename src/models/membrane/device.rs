@@ -490,6 +490,9 @@ impl OnDevice {
         books.once |= to_saved && !to_saved_ok;
         let to_saved = to_saved && to_saved_ok;
         books.lagging_in_saved = false;
+        // A frame follows: every run goes to the readback too (the lagging ones stay there).
+        let copy_all = std::mem::take(&mut books.frame_next) || to_saved;
+        books.in_readback = None;
         self.make_sums(m, a)?;
         let awake: &[u32] = &a.list;
         let _span = tracing::debug_span!(
@@ -615,7 +618,7 @@ impl OnDevice {
             &want,
             (&mut self.runs, &mut self.places, &mut self.books.run_of),
         );
-        let floats = if to_saved { all_floats } else { wanted_floats };
+        let floats = if copy_all { all_floats } else { wanted_floats };
         self.books.want = want;
         let places = bytemuck::cast_slice(&self.places);
         self.written
@@ -685,6 +688,7 @@ impl OnDevice {
         })?;
         self.books.stepped(awake, &self.runs);
         self.books.lagging_in_saved = into_saved;
+        self.books.in_readback = copy_all.then_some(at);
         Ok(measures)
     }
 

@@ -10,9 +10,13 @@
 //!
 //! A behind tile is brought up to date (its run copied from the packed copy, read back and
 //! unpacked: one more round trip) before the CPU reads or writes it: when a query returns it,
-//! when it falls asleep, and for everything at once before a checkpoint, a frame, a hash, or
-//! anything that rewrites the model ([`Membrane::catch_up`]). Every awake tile is in the
-//! packed copy, so the bytes are those of reading everything back each step (tested).
+//! when it falls asleep, and for everything at once before a checkpoint, a hash, or anything
+//! that rewrites the model ([`Membrane::catch_up`]). Every awake tile is in the packed copy,
+//! so the bytes are those of reading everything back each step (tested). A frame reads only
+//! the positions of its drawn nodes of a behind tile, as the device left them, and leaves
+//! the tile behind ([`Membrane::lagging_positions`]). Where a step copied every run to the
+//! readback (a frame or a checkpoint was announced for it), what reads a behind run before
+//! the next step reads it there, with no copy on the device.
 //!
 //! Should a read fail (the device lost), the CPU's copy of the behind tiles is older than
 //! the rest: the membrane goes back to its last checkpoint (taken when it went on the
@@ -24,6 +28,7 @@ use super::{Membrane, OnDevice};
 use crate::gpu::RenderError;
 use crate::gpu::compute;
 use crate::models::membrane::active::Activity;
+use glam::Vec3;
 use std::borrow::Cow;
 
 /// The per-tile books of what the CPU lags and what it read (kept in [`OnDevice`]).
@@ -42,9 +47,18 @@ pub(super) struct Books {
     pub want: Vec<bool>,
     /// Read every awake tile back with each step (to compare; tests).
     pub eager: bool,
-    /// Read every awake tile back with the next step only (a frame follows it:
-    /// [`super::Slot::read_whole_next`]).
+    /// Read every awake tile back with the next step only (a checkpoint follows where its
+    /// copy cannot take the lagging tiles: [`super::Slot::checkpoint_next`]).
     pub once: bool,
+    /// A frame follows the next step ([`super::Slot::read_whole_next`]): every awake tile's
+    /// run is copied to the readback with it, the wanted ones unpacked as usual, so that the
+    /// frame reads the others' drawn nodes there, and a catch-up before the next step
+    /// unpacks them from there, with no copy on the device.
+    pub frame_next: bool,
+    /// Where the last step's packed runs start in the readback (bytes), all of them, where
+    /// it copied every one (a frame or a checkpoint followed it); none once the readback
+    /// holds anything else.
+    pub in_readback: Option<u64>,
     /// A checkpoint follows the next step ([`super::Slot::checkpoint_next`]): the awake tiles
     /// it leaves lagging come back with it too, into the checkpoint's copy of the nodes (not
     /// the CPU's), where their state is finite.
@@ -52,10 +66,12 @@ pub(super) struct Books {
     /// The last step's lagging tiles went into the checkpoint's copy as the device left them
     /// (until the checkpoint is taken): a tile still lagging needs no catching up for it.
     pub lagging_in_saved: bool,
-    /// Tiles that came back with a step, and round trips that brought behind runs up to date,
-    /// over the device's life (tests' counts).
+    /// Tiles that came back with a step, and round trips that copied behind runs on the
+    /// device to bring them up to date, over the device's life (tests' counts).
     pub tiles_back: u64,
     pub catch_ups: u64,
+    /// Frames' reads of lagging nodes that copied runs on the device first (tests' count).
+    pub frame_copies: std::sync::atomic::AtomicU64,
 }
 
 impl Books {
@@ -165,10 +181,12 @@ impl Books {
 }
 
 impl super::Slot {
-    /// Every awake tile comes back with the next step (something reads them all after it).
+    /// Every awake tile comes back with the next step (something reads them all after it):
+    /// into the readback, where the CPU reads what it needs of the tiles it lags (see
+    /// [`Books::frame_next`]).
     pub fn read_whole_next(&mut self) {
         if let Some(d) = self.on.as_deref_mut() {
-            d.books.once = true;
+            d.books.frame_next = true;
         }
     }
 
@@ -207,6 +225,38 @@ impl super::Slot {
 }
 
 impl OnDevice {
+    /// Runs `which` (indices into the last step's runs) as the device packed them, handed to
+    /// `read` with their places in what was read: from the readback where the last step
+    /// left them all there (no copy on the device), else copied there first ([`fetch`]).
+    /// Whether they were copied comes with the result.
+    ///
+    /// [`fetch`]: OnDevice::fetch
+    fn read_runs<R>(
+        &self,
+        which: &[usize],
+        read: impl FnOnce(&[Run], &[f32]) -> R,
+    ) -> Result<(R, bool), RenderError> {
+        let Some(at) = self.books.in_readback else {
+            return self.fetch(which, read).map(|r| (r, true));
+        };
+        let floats = self
+            .runs
+            .iter()
+            .map(|r| r.base + r.floats())
+            .max()
+            .unwrap_or(0);
+        let got: Vec<Run> = which
+            .iter()
+            .filter_map(|&k| self.runs.get(k).copied())
+            .collect();
+        let (at, bytes) = (at as usize, floats * 4);
+        let gpu = self.k.gpu();
+        compute::with_mapped(gpu, &self.readback, (at + bytes).max(4) as u64, |raw| {
+            as_floats(&raw[at..at + bytes], |v| read(&got, v))
+        })
+        .map(|r| (r, false))
+    }
+
     /// Runs `which` (indices into the last step's runs) copied from the device's packed copy
     /// and read back, handed to `read` with their places in what was read (the runs in order,
     /// side by side).
@@ -289,6 +339,53 @@ impl Membrane {
         }
     }
 
+    /// Whether tile `t`'s CPU copy lags the device (never on the CPU).
+    pub(in crate::models::membrane) fn tile_lags(&self, t: usize) -> bool {
+        self.device
+            .on
+            .as_deref()
+            .is_some_and(|d| d.books.is_behind(t))
+    }
+
+    /// The positions of nodes `nodes` (layer, row, column; each of a tile the CPU lags) as
+    /// the device left them at the last step, each into `out` at its place: read where the
+    /// last step left every run (a frame was announced), else copied there first. The CPU's
+    /// copy stays as it is, and its tiles lagging.
+    pub(in crate::models::membrane) fn lagging_positions(
+        &self,
+        nodes: &[([usize; 3], usize)],
+        out: &mut [Vec3],
+    ) -> Result<(), RenderError> {
+        let Some(d) = self.device.on.as_deref() else {
+            return Ok(());
+        };
+        let run = |&([_, i, j], _): &([usize; 3], usize)| {
+            d.books.run_of.get(self.tile_of(i, j)).map(|&k| k as usize)
+        };
+        let mut which: Vec<usize> = nodes.iter().filter_map(run).collect();
+        which.sort_unstable();
+        which.dedup();
+        let _span = tracing::debug_span!("membrane_gpu_peek", runs = which.len()).entered();
+        let read = d.read_runs(&which, |runs, v| {
+            for n in nodes {
+                let Some(r) = run(n)
+                    .and_then(|k| which.binary_search(&k).ok())
+                    .and_then(|x| runs.get(x))
+                else {
+                    continue;
+                };
+                let p = std::array::from_fn(|c| v.get(r.at(n.0, c)).copied().unwrap_or(0.0));
+                if let Some(o) = out.get_mut(n.1) {
+                    *o = Vec3::from_array(p);
+                }
+            }
+        });
+        let copies = &d.books.frame_copies;
+        read.map(|((), copied)| {
+            copies.fetch_add(u64::from(copied), std::sync::atomic::Ordering::Relaxed);
+        })
+    }
+
     /// Whether the queries mark the tiles ahead of them (the membrane steps on a device).
     pub(in crate::models::membrane) fn marks_ahead(&self) -> bool {
         self.device.on.is_some()
@@ -304,8 +401,8 @@ impl Membrane {
         let which = d.books.behind_runs(None);
         let mut data = self.state.data.clone();
         let dims = (self.rows, self.cols);
-        match d.fetch(&which, |runs, v| unpack(dims, &mut data, runs, v)) {
-            Ok(()) => Cow::Owned(data),
+        match d.read_runs(&which, |runs, v| unpack(dims, &mut data, runs, v)) {
+            Ok(_) => Cow::Owned(data),
             Err(e) => {
                 tracing::warn!("the membrane's newest state could not be read back: {e}");
                 Cow::Borrowed(&self.state.data)
@@ -369,10 +466,10 @@ fn catch_up_with(m: &mut Membrane, tiles: Option<&[usize]>) {
     let _span = tracing::debug_span!("membrane_gpu_catch_up", runs = which.len()).entered();
     let dims = (m.rows, m.cols);
     let data = &mut m.state.data;
-    match d.fetch(&which, |runs, v| unpack(dims, data, runs, v)) {
-        Ok(()) => {
+    match d.read_runs(&which, |runs, v| unpack(dims, data, runs, v)) {
+        Ok(((), copied)) => {
             let tiles_c = d.tiles_c as usize;
-            d.books.catch_ups += 1;
+            d.books.catch_ups += u64::from(copied);
             for &k in &which {
                 for t in d.runs[k].tiles(tiles_c) {
                     if d.books.behind.get(t).copied().unwrap_or(false) {

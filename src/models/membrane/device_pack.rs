@@ -111,6 +111,13 @@ impl Run {
         LAYERS * TILE_ROWS * 6 * (self.cols[1] - self.cols[0])
     }
 
+    /// Where value `c` (0-2 position, 3-5 velocity) of node `(l, i, j)` lies in the packed
+    /// copy (the node in the run: row `i` in its row of tiles, column `j` in its columns).
+    pub fn at(&self, [l, i, j]: [usize; 3], c: usize) -> usize {
+        let w = self.cols[1] - self.cols[0];
+        self.base + ((l * TILE_ROWS + i % TILE_ROWS) * 6 + c) * w + (j - self.cols[0])
+    }
+
     /// The tiles the run covers, with `tiles_c` tiles a row of tiles.
     pub fn tiles(&self, tiles_c: usize) -> std::ops::Range<usize> {
         let first = self.tile_row * tiles_c + self.cols[0] / TILE_COLS;

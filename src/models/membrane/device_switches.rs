@@ -50,6 +50,17 @@ impl Membrane {
             .map(|d| (d.books.tiles_back, d.books.catch_ups))
     }
 
+    /// Frames' reads of lagging nodes that copied runs on the device first (none on the
+    /// CPU).
+    pub(crate) fn gpu_frame_copies(&self) -> Option<u64> {
+        let d = self.device.on.as_ref()?;
+        Some(
+            d.books
+                .frame_copies
+                .load(std::sync::atomic::Ordering::Relaxed),
+        )
+    }
+
     /// Awake tiles whose newest state only the device holds (none on the CPU).
     pub(crate) fn gpu_tiles_behind(&self) -> Option<usize> {
         self.device.on.as_ref().map(|d| d.books.behind_count())

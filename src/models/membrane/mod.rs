@@ -40,6 +40,8 @@ mod checkpoint_tests;
 mod cuts;
 mod device;
 mod forces;
+#[cfg(test)]
+mod frame_tests;
 pub mod gpu;
 #[cfg(test)]
 mod gpu_tests;
@@ -54,7 +56,7 @@ mod tile_tests;
 
 use glam::Vec3;
 
-pub use active::{AHEAD_M, ActivityParams, TILE_COLS, TILE_ROWS};
+pub use active::{AHEAD_M, ActivityParams, DrawnGrid, TILE_COLS, TILE_ROWS};
 pub use anchor_sums::AnchorSum;
 pub use chain::{ChainBinding, frames as chain_frames};
 

@@ -2,11 +2,11 @@
 //! showing, and the pelvic side (layer 3) with its vulnerable structures, as triangle grids
 //! decimated to at most [`DRAWN_LAYER_VERTICES`] vertices a layer. The grids' triangles and
 //! regions never change, so they are laid out once; a snapshot places the vertices (every
-//! drawn node once, [`Membrane::carried_grid`]), marks the cut links and takes the normals.
+//! drawn node once, [`Membrane::place_drawn`]), marks the cut links and takes the normals.
 
 use super::regions::{self, RegionKind};
 use super::scene::RectumScene;
-use crate::models::membrane::{LAYERS, Membrane};
+use crate::models::membrane::{DrawnGrid, LAYERS, Membrane};
 use crate::sim::{ModelSnapshot, SurfaceRole};
 use std::sync::Arc;
 
@@ -33,6 +33,8 @@ struct Surface {
 pub struct Drawn {
     rows: Vec<usize>,
     cols: Vec<usize>,
+    /// The drawn nodes of the three layers, with what places the sleeping ones.
+    grid: DrawnGrid,
     /// Shared with the snapshots built off the simulation thread ([`Drawn::meshes_later`]).
     fascia: Arc<Surface>,
     pelvis: Arc<Surface>,
@@ -79,6 +81,7 @@ impl Drawn {
             regions,
         };
         Drawn {
+            grid: DrawnGrid::new(&[FASCIAE[0], FASCIAE[1], PELVIS], &ri, &cj),
             rows: ri,
             cols: cj,
             fascia: Arc::new(fascia),
@@ -86,22 +89,17 @@ impl Drawn {
         }
     }
 
-    /// The fasciae and the pelvic side as `m` is now (current on the CPU: see
-    /// [`Membrane::catch_up`]); a vertex on a cut link of the dissection plane is marked cut.
-    pub fn meshes(&self, m: &Membrane) -> [ModelSnapshot; 2] {
-        self.meshes_later(m)()
-    }
-
-    /// [`Drawn::meshes`], the vertices placed and the cut links marked now, the surfaces
-    /// (their normals) built later on any thread.
+    /// The fasciae and the pelvic side as `m` is now (where it steps on a device, as the
+    /// device left it: see [`Membrane::place_drawn`]), the vertices placed and the cut links
+    /// marked now (a vertex on a cut link of the dissection plane is marked cut), the
+    /// surfaces (their normals) built later on any thread.
     pub fn meshes_later(
-        &self,
-        m: &Membrane,
+        &mut self,
+        m: &mut Membrane,
     ) -> impl FnOnce() -> [ModelSnapshot; 2] + Send + 'static {
-        let layers = [FASCIAE[0], FASCIAE[1], PELVIS];
         let mut positions = {
             let _span = tracing::debug_span!("rectum_snapshot_grid").entered();
-            m.carried_grid(&layers, &self.rows, &self.cols)
+            m.place_drawn(&mut self.grid)
         };
         let per_layer = self.rows.len() * self.cols.len();
         let pelvis = positions.split_off(FASCIAE.len() * per_layer);

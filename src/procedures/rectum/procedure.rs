@@ -540,15 +540,15 @@ impl Rectum {
     }
 
     pub fn snapshot(&mut self, step: u64) -> Snapshot {
-        // Every awake tile as the membrane's device has it (see `Membrane::catch_up`).
-        self.scene.membrane_mut().catch_up();
-        let (rod, membrane, drawn) = (self.scene.rod(), self.scene.membrane(), &self.drawn);
+        // The drawn nodes as the membrane's device left them (see `Membrane::place_drawn`).
+        let membrane = self.drawn.meshes_later(self.scene.membrane_mut());
+        let rod = self.scene.rod();
         let (rectum, [fascia, pelvis]) = rayon::join(
             || {
                 let _span = tracing::debug_span!("rectum_snapshot_rod").entered();
                 rod.mesh()
             },
-            || drawn.meshes(membrane),
+            membrane,
         );
         let mut s = self.snapshot_frame(step);
         s.models = vec![rectum, fascia, pelvis];
@@ -559,9 +559,8 @@ impl Rectum {
     /// placed and the rest read now; the meshes (the rod's skin, every normal) built later,
     /// on any thread, to the same snapshot.
     pub fn snapshot_job(&mut self, step: u64) -> SnapshotJob {
-        self.scene.membrane_mut().catch_up();
         let rod = self.scene.rod().mesh_later();
-        let membrane = self.drawn.meshes_later(self.scene.membrane());
+        let membrane = self.drawn.meshes_later(self.scene.membrane_mut());
         let mut s = self.snapshot_frame(step);
         SnapshotJob::later(move || {
             let (rectum, [fascia, pelvis]) = rayon::join(

@@ -1,0 +1,115 @@
+//! Frames of a membrane stepping on a device (lavapipe here): a frame draws the tiles the
+//! CPU lags where the device left them, from the readback of a step announced before it
+//! (no copy on the device, the tiles left lagging) or copied for it where none was
+//! announced, and a device lost before a frame's read loses the frame nothing.
+
+use super::DrawnGrid;
+use super::Membrane;
+use super::gpu_tests::session_step;
+use crate::sim::{ModelOutput, TissueModel};
+use glam::Vec3;
+
+/// The sleepy tube twice on one device, with a tile woken far from the tool in both
+/// (`checkpoint_tests.rs`), and a drawn grid over it.
+fn two_on_one_device() -> (crate::gpu::Gpu, Membrane, Membrane, DrawnGrid) {
+    let (gpu, told, untold) = super::checkpoint_tests::two_on_one_device();
+    let rows: Vec<usize> = (0..48).step_by(3).chain([47]).collect();
+    let cols: Vec<usize> = (0..64).step_by(2).collect();
+    (gpu, told, untold, DrawnGrid::new(&[1, 2, 3], &rows, &cols))
+}
+
+/// The first node where `a` and `b` differ in a bit, with both values (none: the same).
+fn first_difference(a: &[Vec3], b: &[Vec3]) -> Option<(usize, Vec3, Vec3)> {
+    let bits = |p: &Vec3| p.to_array().map(f32::to_bits);
+    if a.len() != b.len() {
+        return Some((a.len().min(b.len()), Vec3::NAN, Vec3::NAN));
+    }
+    (0..a.len())
+        .find(|&k| bits(&a[k]) != bits(&b[k]))
+        .map(|k| (k, a[k], b[k]))
+}
+
+#[test]
+fn a_frame_draws_the_lagging_tiles_where_the_device_left_them() {
+    // Both run the same session; one announces its frames (every 5 steps) before their
+    // steps, as a session's window does. Each frame of both must be what the whole newest
+    // state draws, to the bit; the announced ones read the lagging tiles from their step's
+    // readback, with no copy on the device, and leave them lagging.
+    let (_gpu, mut told, mut untold, grid) = two_on_one_device();
+    let (mut g_told, mut g_untold, mut g_whole) = (grid.clone(), grid.clone(), grid);
+    let mut out = ModelOutput::default();
+    let (mut lagging_at_frames, mut frames) = (0, 0);
+    for k in 0..40 {
+        let frame = k % 5 == 4;
+        if frame {
+            told.read_whole_after_step();
+        }
+        session_step(&mut told, k, &mut out);
+        session_step(&mut untold, k, &mut out);
+        if !frame {
+            continue;
+        }
+        let lagging = told.gpu_tiles_behind().unwrap_or(0);
+        assert_eq!(untold.gpu_tiles_behind(), Some(lagging), "step {k}");
+        let copies = (told.gpu_frame_copies(), untold.gpu_frame_copies());
+        let (a, b) = (
+            told.place_drawn(&mut g_told),
+            untold.place_drawn(&mut g_untold),
+        );
+        assert_eq!(
+            told.gpu_frame_copies(),
+            copies.0,
+            "step {k}: a copy for the frame"
+        );
+        let copied = untold.gpu_frame_copies().unwrap_or(0) - copies.1.unwrap_or(0);
+        assert_eq!(copied, u64::from(lagging > 0), "step {k}");
+        assert_eq!(
+            told.gpu_tiles_behind(),
+            Some(lagging),
+            "step {k}: caught up"
+        );
+        // The whole newest state, on the CPU, draws the same.
+        untold.catch_up();
+        let whole = untold.place_drawn(&mut g_whole);
+        assert_eq!(first_difference(&a, &whole), None, "step {k}: announced");
+        assert_eq!(first_difference(&b, &whole), None, "step {k}: copied");
+        lagging_at_frames += lagging;
+        frames += 1;
+    }
+    assert_eq!(frames, 8);
+    assert!(lagging_at_frames > 0, "no tile lagged at a frame");
+    // A catch-up after an announced step reads the readback too, and the bytes agree.
+    told.read_whole_after_step();
+    session_step(&mut told, 40, &mut out);
+    session_step(&mut untold, 40, &mut out);
+    let before = told.gpu_readback_counts().map(|(_, c)| c);
+    told.catch_up();
+    assert_eq!(told.gpu_readback_counts().map(|(_, c)| c), before);
+    assert_eq!(told.gpu_tiles_behind(), Some(0));
+    assert!(told.gpu_adapter().is_some() && untold.gpu_adapter().is_some());
+    assert_eq!(told.state_hash(), untold.state_hash());
+}
+
+#[test]
+fn a_device_lost_before_a_frame_reads_it_leaves_a_whole_frame_on_the_cpu() {
+    // The device goes after an announced step while a tile lags: the frame's read fails,
+    // the membrane gives the device up (back to its last checkpoint, as any read that
+    // fails), and the frame draws that state, every node finite, on the CPU.
+    let (_gpu, mut m, _, mut grid) = two_on_one_device();
+    let mut out = ModelOutput::default();
+    for k in 0..10 {
+        if k == 9 {
+            m.read_whole_after_step();
+        }
+        session_step(&mut m, k, &mut out);
+    }
+    assert!(m.gpu_tiles_behind().is_some_and(|n| n > 0), "none lags");
+    assert!(m.inject_device_loss());
+    let drawn = m.place_drawn(&mut grid);
+    assert!(m.gpu_adapter().is_none(), "on the CPU from the loss on");
+    assert!(m.take_device_note().is_some_and(|n| !n.is_empty()));
+    let again = m.place_drawn(&mut grid.clone());
+    assert_eq!(first_difference(&drawn, &again), None);
+    assert!(drawn.iter().all(|p| p.is_finite()));
+    assert!(drawn.iter().filter(|p| **p != Vec3::ZERO).count() > drawn.len() / 2);
+}
