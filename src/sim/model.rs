@@ -94,8 +94,8 @@ pub trait TissueModel: Send {
     /// Saves the current state as the last good one.
     fn checkpoint(&mut self);
     /// The whole state is read after the next step (its checkpoint, a frame's snapshot): a
-    /// model whose state lags on a device brings all of it back with that step, not in a
-    /// round trip of its own.
+    /// model whose state lags on a device brings all of it back with that step (to where it
+    /// can be read without a round trip of its own).
     fn read_whole_after_step(&mut self) {}
     /// A checkpoint follows the next step (the world's quarantine). By default the whole
     /// state is read after it ([`TissueModel::read_whole_after_step`]); a model whose state

@@ -137,8 +137,9 @@ impl TissueModel for Membrane {
         self.save();
     }
 
-    /// A frame follows the next step: every awake tile comes back with it, so the frame
-    /// finds nothing lagging.
+    /// A frame follows the next step: every awake tile comes back with it, to the readback,
+    /// where the frame reads the drawn nodes of the tiles the CPU lags, with no round trip
+    /// (see `device_lazy.rs`).
     fn read_whole_after_step(&mut self) {
         self.device.read_whole_next();
     }
