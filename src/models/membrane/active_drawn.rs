@@ -39,8 +39,18 @@ struct Fixed {
 }
 
 impl Fixed {
-    /// Where the node is drawn under its column's layer-0 target `target` (the arithmetic of
-    /// [`Membrane::carried_asleep`], term for term).
+    /// Node `(l, i, j)`'s parts in the active set `a` of `m`.
+    fn of(m: &Membrane, a: &Activity, [l, i, j]: [usize; 3]) -> Fixed {
+        let (cols, b) = (m.cols, l * m.rows + i);
+        Fixed {
+            rest: std::array::from_fn(|c| a.rest[(b * 3 + c) * cols + j]),
+            rest0: std::array::from_fn(|c| a.rest[(i * 3 + c) * cols + j]),
+            offset: std::array::from_fn(|c| a.offset[(b * 3 + c) * cols + j]),
+            keep: 1.0 - a.weight[b * cols + j],
+        }
+    }
+
+    /// Where the node is drawn under its column's layer-0 target `target`.
     #[inline]
     fn at(&self, target: Vec3) -> Vec3 {
         Vec3::from_array(std::array::from_fn(|c| {
@@ -136,7 +146,6 @@ impl DrawnGrid {
         if !stale.contains(&true) {
             return;
         }
-        let (rows, cols) = (m.rows, m.cols);
         for (cell, &t) in self.tile.iter().enumerate() {
             if t == u32::MAX || !stale[t as usize] {
                 continue;
@@ -146,13 +155,7 @@ impl DrawnGrid {
                 if l >= LAYERS {
                     continue;
                 }
-                let b = l * rows + i;
-                self.fixed[k * nr * nc + cell] = Fixed {
-                    rest: std::array::from_fn(|c| a.rest[(b * 3 + c) * cols + j]),
-                    rest0: std::array::from_fn(|c| a.rest[(i * 3 + c) * cols + j]),
-                    offset: std::array::from_fn(|c| a.offset[(b * 3 + c) * cols + j]),
-                    keep: 1.0 - a.weight[b * cols + j],
-                };
+                self.fixed[k * nr * nc + cell] = Fixed::of(m, a, [l, i, j]);
             }
         }
         for (t, s) in stale.into_iter().enumerate() {
@@ -166,14 +169,8 @@ impl DrawnGrid {
 impl Membrane {
     /// Node `(l, i, j)` of a sleeping tile: where its anchor, on layer 0's target `target`
     /// at its column, and its offset carry it.
-    pub(super) fn carried_asleep(&self, a: &Activity, [l, i, j]: [usize; 3], target: Vec3) -> Vec3 {
-        let (cols, b) = (self.cols, l * self.rows + i);
-        let keep = 1.0 - a.weight[b * cols + j];
-        Vec3::from_array(std::array::from_fn(|c| {
-            let rest = a.rest[(b * 3 + c) * cols + j];
-            let rest0 = a.rest[(i * 3 + c) * cols + j];
-            rest + (target[c] - rest0) * keep + a.offset[(b * 3 + c) * cols + j]
-        }))
+    pub(super) fn carried_asleep(&self, a: &Activity, node: [usize; 3], target: Vec3) -> Vec3 {
+        Fixed::of(self, a, node).at(target)
     }
 
     /// [`Membrane::carried_position`] of the nodes of layers `layers` at rows `rows` and
