@@ -44,12 +44,14 @@ for p in rectum cholecystectomy; do
         cat "$out/$p-gpu.err" >&2
     fi
 done
-# Every procedure's stereo frame at the Vive's 1080 x 1200 a eye, the simulation beside it
-# (GPU_CHECK_PROFILE=0 leaves them out).
+# Every procedure's stereo frame at the Vive's 1080 x 1200 a eye: alone, then for 3 s at 90 Hz
+# with the simulation stepping beside it in real time (its compute as `auto` chooses: on the
+# GPU where it has a path), with how far the simulation kept up and how often a fresh force
+# reached the haptic channel (GPU_CHECK_PROFILE=0 leaves them out).
 [ "${GPU_CHECK_PROFILE:-1}" = 1 ] && for p in $("$bin" list --names 2>/dev/null || echo sandbox nephrectomy rectum cholecystectomy catheter myotomy); do
     echo "== vesalius profile $p" >&2
     if timeout 150 "$bin" profile "$p" --json >"$out/$p-profile.json" 2>"$out/$p-profile.err"; then
-        python3 -c "import json,sys; d=json.load(open(sys.argv[1])); print(json.dumps({'profile': sys.argv[2], 'device': d.get('device'), 'frame_ms': d.get('frame_ms'), 'cpu': d.get('vesalius', {}).get('cpu')}))" \
+        python3 -c "import json,sys; d=json.load(open(sys.argv[1])); print(json.dumps({'profile': sys.argv[2], 'device': d.get('device'), 'frame_ms': d.get('frame_ms'), 'cpu': d.get('vesalius', {}).get('cpu'), 'beside': d.get('beside')}))" \
             "$out/$p-profile.json" "$p" >>"$out/profile-gpu.jsonl" || true
     else
         status=1

@@ -118,12 +118,34 @@ def main():
         for (what, row, key, goal, least, aim) in table
     ]
     for f in frames:
+        name = f.get("profile")
+        beside = f.get("beside") or {}
         rows.append(
             target(
-                "stereo frame at 1080 x 1200 a eye, %s, ms" % f.get("profile"),
+                "stereo frame at 1080 x 1200 a eye, %s, alone (mean), ms" % name,
                 f.get("frame_ms"),
                 FRAME_MS,
                 at_least=False,
+            )
+        )
+        # The frame: drawn at 90 Hz with the simulation running beside it; every
+        # frame must make it, so the 99th percentile stands for them.
+        rows.append(
+            target(
+                "stereo frame at 1080 x 1200 a eye, %s, the simulation beside it (p99), ms"
+                % name,
+                beside.get("frame_ms_p99"),
+                FRAME_MS,
+                at_least=False,
+            )
+        )
+        # Paced to the wall clock, the simulation is at most 1 x real time there: this says
+        # whether it kept up while the frames were drawn.
+        rows.append(
+            target(
+                "%s simulation beside the frames, times real time (paced: 1 at most)" % name,
+                beside.get("realtime_factor"),
+                0.99,
             )
         )
     peak, source = peak_gbs(out_dir)

@@ -93,10 +93,34 @@ fn bench_and_profile_run_the_sandbox() {
     }
     let p = ok(&bin()
         .args(["profile", "sandbox", "--json", "--eye-size", "64x64"])
+        .args(["--beside", "1"])
         .output()
         .expect("runs"));
     let v: serde_json::Value = serde_json::from_str(&p).expect("JSON");
     assert_eq!(v["procedure"], "sandbox");
+    // Then frames with the simulation stepping beside them, paced to the wall clock: it
+    // stepped, never ran ahead of the wall clock, and its haptic channel took fresh forces.
+    let b = &v["beside"];
+    let f = |k: &str| b[k].as_f64().unwrap_or_else(|| panic!("no {k} in {b}"));
+    assert!(b["frames"].as_u64().unwrap_or(0) >= 1, "{b}");
+    assert!(
+        f("frame_ms") > 0.0 && f("frame_ms_p99") <= f("frame_ms_max"),
+        "{b}"
+    );
+    assert!(f("simulated_s") > 0.0, "{b}");
+    assert!(
+        f("simulated_s") <= f("seconds") + 1e-6 && f("realtime_factor") <= 1.0 + 1e-6,
+        "{b}"
+    );
+    assert_eq!(b["compute"], "cpu", "the sandbox has no GPU path: {b}");
+    // Each fresh force a step apart at the least (the watch may miss some but not see one
+    // twice), so no more of them than steps.
+    let steps = f("simulated_s") / f("dt_s");
+    let seen = b["force_updates"].as_f64().unwrap_or(0.0);
+    assert!(
+        seen >= 1.0 && seen <= steps + 1.0,
+        "{seen} forces, {steps} steps: {b}"
+    );
     assert!(
         v["paper"].is_null(),
         "no paper counters for the sandbox: {v}"

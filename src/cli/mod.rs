@@ -8,6 +8,7 @@ mod bench;
 mod calibrate;
 mod haptics;
 mod precompute;
+mod profile;
 mod records;
 mod session;
 mod tools;
@@ -135,6 +136,12 @@ enum Command {
         /// Two render passes instead of one multiview pass.
         #[arg(long)]
         two_pass: bool,
+        /// Then draw frames at the headset's 90 Hz for this many seconds while the simulation
+        /// goes on beside them in real time, and report their times, whether the
+        /// simulation kept up and how often a fresh force reached the haptic channel (0:
+        /// leave them out).
+        #[arg(long, value_name = "SECONDS", default_value_t = 3.0)]
+        beside: f64,
     },
     /// Every model's reference cases: reference, measured, relative error, tolerance and
     /// simulated seconds per wall second; fails if any case is outside its tolerance.
@@ -611,11 +618,13 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
             json,
             eye_size,
             two_pass,
-        } => tools::profile(
+            beside,
+        } => profile::profile(
             procedure.as_deref(),
             json,
             eye_size.unwrap_or(vesalius::render::camera::VIVE_EYE_SIZE),
             two_pass,
+            beside,
         ),
         Command::Verify {
             json,

@@ -85,6 +85,70 @@ impl Look {
     }
 }
 
+/// Stereo frames drawn one at a time into one pair of eye targets: each frame is timed from
+/// the snapshot's upload to the GPU's finishing it.
+pub struct EyeFrames<'a> {
+    gpu: &'a Gpu,
+    look: &'a Look,
+    renderer: Renderer,
+    target: EyeTarget,
+    eyes: [EyeView; 2],
+    eye_size: (u32, u32),
+}
+
+impl<'a> EyeFrames<'a> {
+    /// A renderer and eye targets of `eye_size` for frames seen as `look` says.
+    pub fn new(gpu: &'a Gpu, look: &'a Look, eye_size: (u32, u32)) -> Result<Self, RenderError> {
+        gpu.check_eye_size(eye_size)?;
+        let renderer = look.renderer(gpu)?;
+        let target = EyeTarget::new(gpu, eye_size);
+        gpu.check()?;
+        Ok(EyeFrames {
+            gpu,
+            look,
+            renderer,
+            target,
+            eyes: look.eyes(&look.view, eye_size),
+            eye_size,
+        })
+    }
+
+    /// Draws `snap` for both eyes and waits for the GPU: the frame's counters and its wall
+    /// time (upload, render, the GPU's finish), ms. A rejected command or a lost device is
+    /// that error, not a panic.
+    pub fn draw(&mut self, snap: &Snapshot) -> Result<(FrameCounters, f64), RenderError> {
+        let t0 = Instant::now();
+        self.renderer.update(snap);
+        // A laparoscope the trainee moved shows the field from its place.
+        let eyes = match snap.scope {
+            Some(s) => self.look.eyes(
+                &Viewpoint {
+                    eye: s.eye,
+                    target: s.target,
+                },
+                self.eye_size,
+            ),
+            None => self.eyes,
+        };
+        let c = self.renderer.render(
+            self.target.target(self.renderer.multiview()),
+            self.eye_size,
+            &eyes,
+        );
+        self.gpu
+            .device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| RenderError::Readback(e.to_string()))?;
+        self.gpu.check()?;
+        Ok((c, t0.elapsed().as_secs_f64() * 1e3))
+    }
+
+    /// The last frame drawn, both eyes' pixels.
+    pub fn read(&self) -> Result<[Vec<u8>; 2], RenderError> {
+        self.target.read(self.gpu)
+    }
+}
+
 /// Renders every snapshot, waits for the GPU, and returns the counters. `save` names the
 /// folder that gets `left_NNNN.png`, `right_NNNN.png` (and nothing is read back without it).
 pub fn render_snapshots(
@@ -96,11 +160,7 @@ pub fn render_snapshots(
     sim_ms_per_frame: f64,
     save: Option<&Path>,
 ) -> Result<FramesOut, RenderError> {
-    gpu.check_eye_size(eye_size)?;
-    let mut renderer = look.renderer(gpu)?;
-    let target = EyeTarget::new(gpu, eye_size);
-    gpu.check()?;
-    let eyes = look.eyes(&look.view, eye_size);
+    let mut frames = EyeFrames::new(gpu, look, eye_size)?;
     let mut counters = Vec::with_capacity(snaps.len());
     let mut frame_ms = Vec::with_capacity(snaps.len());
     if let Some(dir) = save {
@@ -113,29 +173,11 @@ pub fn render_snapshots(
         .iter()
         .flat_map(|s| std::iter::repeat_n(s, repeat.max(1)));
     for (k, snap) in each.enumerate() {
-        let t0 = Instant::now();
-        renderer.update(snap);
-        // A laparoscope the trainee moved shows the field from its place.
-        let eyes = match snap.scope {
-            Some(s) => look.eyes(
-                &Viewpoint {
-                    eye: s.eye,
-                    target: s.target,
-                },
-                eye_size,
-            ),
-            None => eyes,
-        };
-        let mut c = renderer.render(target.target(renderer.multiview()), eye_size, &eyes);
-        gpu.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| RenderError::Readback(e.to_string()))?;
-        // A rejected command or a lost device ends the run with that error, not a panic.
-        gpu.check()?;
-        frame_ms.push(t0.elapsed().as_secs_f64() * 1e3);
+        let (mut c, ms) = frames.draw(snap)?;
+        frame_ms.push(ms);
         c.cpu.simulation_ms = sim_ms_per_frame;
         if let Some(dir) = save {
-            let [l, r] = target.read(gpu)?;
+            let [l, r] = frames.read()?;
             write_png(&dir.join(format!("left_{k:04}.png")), eye_size, &l)?;
             write_png(&dir.join(format!("right_{k:04}.png")), eye_size, &r)?;
             // The procedure's own picture (a fluoroscope's), at its own size.

@@ -159,6 +159,22 @@ impl Live {
         })
     }
 
+    /// Steps from now on are paced in real time from where the session stands (a session
+    /// warmed up as fast as possible, then run live: `vesalius profile`).
+    pub fn pace_from_now(&mut self) {
+        self.clock.pace_from_now();
+    }
+
+    /// The adapter the models step on, where any steps on a GPU.
+    pub fn adapter(&self) -> Option<String> {
+        self.proc_.model_reports().into_iter().find_map(|m| m.gpu)
+    }
+
+    /// The heap each part of the simulation holds, bytes.
+    pub fn memory(&self) -> Vec<(&'static str, usize)> {
+        self.proc_.memory()
+    }
+
     /// After a pause: real-time pacing goes on from now.
     pub fn resume_pacing(&mut self) {
         self.clock.resume();

@@ -50,6 +50,13 @@ impl Clock {
         }
     }
 
+    /// From now on, real-time pacing with the current step at the wall clock's now (a
+    /// session warmed up as fast as possible and then run live).
+    pub fn pace_from_now(&mut self) {
+        self.pacing = Pacing::RealTime;
+        self.start = Instant::now().checked_sub(Duration::from_secs_f64(self.time_s()));
+    }
+
     /// How far simulated time is ahead of the wall clock since the first real-time tick,
     /// seconds (negative: behind); none before it or when stepping as fast as possible.
     pub fn lead_s(&self) -> Option<f64> {
@@ -105,6 +112,15 @@ mod tests {
         c.resume();
         let lead = c.lead_s().expect("started");
         assert!(lead <= 0.0 && lead > paused, "{paused} -> {lead}");
+        // A clock stepped as fast as possible to 1 s and then paced from now does not wait
+        // that second out: it stands at the wall clock's now.
+        let mut warm = Clock::new(0.001, Pacing::AsFastAsPossible);
+        for _ in 0..1000 {
+            warm.tick();
+        }
+        warm.pace_from_now();
+        let lead = warm.lead_s().expect("paced");
+        assert!(lead <= 0.0 && lead > -0.5, "{lead}");
         // As fast as possible: no wall clock is kept at all.
         let mut fast = Clock::new(1.0, Pacing::AsFastAsPossible);
         fast.tick();

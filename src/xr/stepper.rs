@@ -17,6 +17,7 @@ use crate::session::{Live, SessionError, Status};
 use crate::sim::{EventKind, HandInput, InputFrame, Snapshot, SnapshotBus};
 use arc_swap::ArcSwap;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, channel};
 use std::thread::JoinHandle;
 use std::time::Duration;
@@ -61,6 +62,8 @@ pub struct Stepper {
     bus: Arc<SnapshotBus>,
     status: Arc<ArcSwap<Status>>,
     handle: Option<JoinHandle<Result<Live, SessionError>>>,
+    /// Set: the thread steps no more (the frames still queued are passed over).
+    halt: Arc<AtomicBool>,
     /// Frames sent and not yet reported done.
     pending: usize,
     /// The simulation's time after the last frame reported done, s.
@@ -89,6 +92,8 @@ impl Stepper {
         let (to_sim, inbox) = channel();
         let (done_tx, done) = channel();
         let (b, s) = (bus.clone(), status.clone());
+        let halt = Arc::new(AtomicBool::new(false));
+        let halted = halt.clone();
         let time_s = live.time_s();
         let dt_s = f64::from(live.dt_s());
         let handle = std::thread::Builder::new()
@@ -97,7 +102,8 @@ impl Stepper {
                 // Steps on a worker of the pool (see `crate::session::on_pool`).
                 crate::session::on_pool(move || {
                     let beside = coupling == Coupling::Paced;
-                    let r = serve(&mut live, &inbox, &done_tx, (&b, &s), beside, devices);
+                    let lines = (&inbox, &done_tx, &*halted);
+                    let r = serve(&mut live, lines, (&b, &s), beside, devices);
                     if r.is_err() {
                         // The frame loop may be waiting for this frame.
                         let _ = done_tx.send(Err(()));
@@ -115,6 +121,7 @@ impl Stepper {
             bus,
             status,
             handle: Some(handle),
+            halt,
             pending: 0,
             time_s,
             dt_s,
@@ -189,6 +196,13 @@ impl Stepper {
         }
     }
 
+    /// Ends the session as `how` at once, the frames sent and not yet stepped left
+    /// unstepped (a simulation far behind the wall clock is not waited for), and returns it.
+    pub fn finish_now(self, how: &'static str) -> Result<Live, SessionError> {
+        self.halt.store(true, Ordering::Relaxed);
+        self.finish(how)
+    }
+
     /// Ends the session as `how` once the frames sent are stepped, and returns it.
     pub fn finish(mut self, how: &'static str) -> Result<Live, SessionError> {
         let _ = self.to_sim.send(ToSim::End(how));
@@ -214,8 +228,11 @@ impl Drop for Stepper {
 /// The thread's loop: each frame's steps, in the order they came.
 fn serve(
     live: &mut Live,
-    inbox: &Receiver<ToSim>,
-    done: &Sender<Result<FrameDone, ()>>,
+    (inbox, done, halt): (
+        &Receiver<ToSim>,
+        &Sender<Result<FrameDone, ()>>,
+        &AtomicBool,
+    ),
     (bus, status): (&Arc<SnapshotBus>, &ArcSwap<Status>),
     beside: bool,
     mut devices: Option<RigInput>,
@@ -239,11 +256,13 @@ fn serve(
             Err(RecvTimeoutError::Disconnected) => ToSim::End(crate::session::ended::CLOSED),
         };
         match message {
+            // Halted: the frames still queued are passed over, unanswered.
+            ToSim::Frame { .. } if halt.load(Ordering::Relaxed) => {}
             ToSim::Frame { target_s, hands } => {
                 let mut feel = FrameFeel::default();
                 let span = (target_s - last_t_s).max(1e-9);
                 let from = held.unwrap_or(hands);
-                while live.time_s() + dt * 0.5 <= target_s {
+                while live.time_s() + dt * 0.5 <= target_s && !halt.load(Ordering::Relaxed) {
                     let s = ((live.time_s() - last_t_s) / span).clamp(0.0, 1.0) as f32;
                     let mut frame = InputFrame {
                         hands: [
