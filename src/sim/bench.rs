@@ -139,6 +139,11 @@ pub struct ComputeFigures {
     pub step_thread_cpu_ms_mean: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub step_wait_ms_median: Option<f64>,
+    /// A whole procedure's step (on the CPU or with models on a device): its time, the CPU
+    /// part and the waits together, 99th percentile, ms: how long after a step begins its
+    /// tool forces reach the haptic channel, at worst but 1 %.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub step_ms_p99: Option<f64>,
 }
 
 /// A one-off computation's seconds, size and rate, beside the machine's peak (each left out
