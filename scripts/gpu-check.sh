@@ -48,7 +48,7 @@ done
 # with the simulation stepping beside it in real time (its compute as `auto` chooses: on the
 # GPU where it has a path), with how far the simulation kept up and how often a fresh force
 # reached the haptic channel (GPU_CHECK_PROFILE=0 leaves them out).
-[ "${GPU_CHECK_PROFILE:-1}" = 1 ] && for p in $("$bin" list --names 2>/dev/null || echo sandbox nephrectomy rectum cholecystectomy catheter myotomy); do
+[ "${GPU_CHECK_PROFILE:-1}" = 1 ] && for p in sandbox nephrectomy rectum cholecystectomy catheter myotomy; do
     echo "== vesalius profile $p" >&2
     if timeout 150 "$bin" profile "$p" --json >"$out/$p-profile.json" 2>"$out/$p-profile.err"; then
         python3 -c "import json,sys; d=json.load(open(sys.argv[1])); print(json.dumps({'profile': sys.argv[2], 'device': d.get('device'), 'frame_ms': d.get('frame_ms'), 'cpu': d.get('vesalius', {}).get('cpu'), 'beside': d.get('beside')}))" \
