@@ -85,12 +85,20 @@ fn bench_and_profile_run_the_sandbox() {
         let steps = l["steps"].as_u64().expect("steps");
         if l["model"] == "procedure" {
             assert_eq!(l["frames"].as_u64(), Some(steps / 6), "{l}");
-            // The procedure's steps, on the CPU here, give their whole time's p99.
+            // The procedure's steps, on the CPU here, give their whole time's p99 and
+            // their slowest second's pace.
             assert!(l["step_ms_p99"].as_f64().is_some_and(|t| t > 0.0), "{l}");
+            let slowest = l["realtime_factor_slowest_s"].as_f64().unwrap_or(0.0);
+            assert!(slowest > 0.0 && slowest.is_finite(), "{l}");
             let share = l["frame_share"].as_f64().expect("a share");
             assert!(share > 0.0 && share < 1.0, "{l}");
         } else {
-            assert!(l["frames"].is_null() && l["step_ms_p99"].is_null(), "{l}");
+            assert!(
+                l["frames"].is_null()
+                    && l["step_ms_p99"].is_null()
+                    && l["realtime_factor_slowest_s"].is_null(),
+                "{l}"
+            );
         }
     }
     let p = ok(&bin()

@@ -98,6 +98,8 @@ fn pass(
     let mut step_wait_s = Vec::with_capacity(steps as usize);
     // Each step's CPU time on the simulation thread (its own clock), s.
     let mut step_thread_s = Vec::with_capacity(steps as usize);
+    // Each step's wall time with its snapshot where it takes one, s.
+    let mut step_wall_s = Vec::with_capacity(steps as usize);
     // The snapshots' builds go to the bus's builder thread, as a session's do.
     let bus = std::sync::Arc::new(vesalius::sim::SnapshotBus::new());
     let t0 = Instant::now();
@@ -105,6 +107,7 @@ fn pass(
     // the window's cadence of snapshots (`ui::runner`).
     vesalius::session::on_pool(|| {
         while clock.step() < steps {
+            let began = Instant::now();
             let f = trace.sample(clock.time_s());
             if (clock.step() + 1).is_multiple_of(every)
                 && let Some(m) = p.models_mut()
@@ -132,6 +135,7 @@ fn pass(
                 frame_s.push(t.elapsed().as_secs_f64());
                 bus.publish_job(job);
             }
+            step_wall_s.push(began.elapsed().as_secs_f64());
         }
     });
     // Every snapshot built before the clock stops.
@@ -156,6 +160,7 @@ fn pass(
             once: Once::default(),
             compute: Default::default(),
             frames: Default::default(),
+            pace: Default::default(),
         }
     };
     let models = p.model_reports();
@@ -198,9 +203,15 @@ fn pass(
             step_cpu_ms_p99: steps_on_device.map(|s| s.p99),
             step_thread_cpu_ms_mean: steps_on_device.and_then(|s| s.thread_mean),
             step_wait_ms_median: steps_on_device.map(|s| s.wait_median),
-            // Every procedure's: on the CPU a step's forces wait for the whole step too.
-            step_ms_p99: Some(figures.whole_p99).filter(|t| t.is_finite()),
             ..on_gpu(adapter)
+        },
+        // Every procedure's: on the CPU a step's forces wait for the whole step too.
+        pace: vesalius::sim::StepPace {
+            step_ms_p99: Some(figures.whole_p99).filter(|t| t.is_finite()),
+            realtime_factor_slowest_s: vesalius::sim::StepPace::slowest_second(
+                &step_wall_s,
+                f64::from(dt),
+            ),
         },
         frames: FrameFigures::of(&frame_s, &bus.take_build_seconds(), wall),
         ..line("procedure".to_string(), wall, total, share)

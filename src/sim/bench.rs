@@ -33,6 +33,9 @@ pub struct BenchLine {
     /// The snapshots a procedure's line built for renderers, as a live session does.
     #[serde(flatten)]
     pub frames: FrameFigures,
+    /// How a procedure's steps kept time.
+    #[serde(flatten)]
+    pub pace: StepPace,
 }
 
 /// The snapshots built for renderers during a procedure's timed pass, one every
@@ -139,11 +142,42 @@ pub struct ComputeFigures {
     pub step_thread_cpu_ms_mean: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub step_wait_ms_median: Option<f64>,
-    /// A whole procedure's step (on the CPU or with models on a device): its time, the CPU
-    /// part and the waits together, 99th percentile, ms: how long after a step begins its
-    /// tool forces reach the haptic channel, at worst but 1 %.
+}
+
+/// How a procedure's steps kept time over its pass, on the CPU or with models on a device
+/// (each left out of the JSON when absent).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct StepPace {
+    /// A whole step's time (its CPU part and its waits for a device), 99th percentile, ms:
+    /// how long after a step begins its tool forces reach the haptic channel, at worst but
+    /// 1 %.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub step_ms_p99: Option<f64>,
+    /// The real-time factor of the pass's slowest simulated second (every run of a second's
+    /// steps in a row, each step with its snapshot; the whole pass where it is shorter).
+    /// Under 1, a person would have waited for the simulation in that second, whatever the
+    /// mean says.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub realtime_factor_slowest_s: Option<f64>,
+}
+
+impl StepPace {
+    /// The real-time factor of the slowest run of `1 / dt_s` steps in a row (all of them
+    /// where there are fewer), of steps of `dt_s` that took `wall_s` each; none for none.
+    pub fn slowest_second(wall_s: &[f64], dt_s: f64) -> Option<f64> {
+        if wall_s.is_empty() || dt_s <= 0.0 {
+            return None;
+        }
+        let n = ((1.0 / dt_s).round() as usize).clamp(1, wall_s.len());
+        let mut sum: f64 = wall_s[..n].iter().sum();
+        let mut most = sum;
+        // Sliding: the window's time plus the step entering it, less the one leaving it.
+        for k in n..wall_s.len() {
+            sum += wall_s[k] - wall_s[k - n];
+            most = most.max(sum);
+        }
+        Some(n as f64 * dt_s / most.max(1e-12))
+    }
 }
 
 /// A one-off computation's seconds, size and rate, beside the machine's peak (each left out
@@ -188,6 +222,7 @@ impl BenchLine {
             once: Once::default(),
             compute: ComputeFigures::default(),
             frames: FrameFigures::default(),
+            pace: StepPace::default(),
         }
     }
 }
@@ -264,4 +299,28 @@ pub enum BenchError {
     /// `--compute gpu` for a procedure none of whose models has a GPU path yet.
     #[error("{0} has no GPU compute path yet (run it with --compute cpu)")]
     NoGpuPath(String),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::StepPace;
+
+    #[test]
+    fn the_slowest_second_finds_a_slow_stretch_that_the_mean_hides() {
+        // Thirty steps of 0.1 s, each taking 0.05 s but three in a row taking 0.5 s: the
+        // pass as a whole keeps up (3 s in 2.85 s), the second holding the slow three does
+        // not (1 s in 1.85 s).
+        let mut wall = vec![0.05; 30];
+        wall[12..15].fill(0.5);
+        let slowest = StepPace::slowest_second(&wall, 0.1).expect("steps");
+        assert!((slowest - 1.0 / 1.85).abs() < 1e-9, "{slowest}");
+        let mean = 3.0 / wall.iter().sum::<f64>();
+        assert!(mean > 1.0 && slowest < 1.0);
+        // Steady steps give the mean; a pass shorter than a second is taken whole.
+        let even = StepPace::slowest_second(&[0.05; 30], 0.1).expect("steps");
+        assert!((even - 2.0).abs() < 1e-9, "{even}");
+        let short = StepPace::slowest_second(&[0.01, 0.03], 0.1).expect("steps");
+        assert!((short - 5.0).abs() < 1e-9, "{short}");
+        assert_eq!(StepPace::slowest_second(&[], 0.1), None);
+    }
 }

@@ -31,7 +31,7 @@ pub use crate::collision::{Collider, MeshSurface, TriangleSource};
 pub use attachment::{Attachment, Link, LinkSpring};
 pub use bench::{
     ALL_AWAKE_S, BenchError, BenchLine, ComputeFigures, ExtraBench, FrameFigures, GpuBench, Once,
-    peak_gflops,
+    StepPace, peak_gflops,
 };
 pub use cases::{Case, Measured};
 pub use catalog::Catalog;
