@@ -142,6 +142,12 @@ enum Command {
         /// leave them out).
         #[arg(long, value_name = "SECONDS", default_value_t = 3.0)]
         beside: f64,
+        /// `cpu`: the procedure's preset for machines without a GPU, where it has one.
+        #[arg(long, value_enum)]
+        preset: Option<PresetArg>,
+        /// Where the models with a GPU path step (default: the scenario's `compute`, `auto`).
+        #[arg(long, value_enum)]
+        compute: Option<ComputeArg>,
     },
     /// Every model's reference cases: reference, measured, relative error, tolerance and
     /// simulated seconds per wall second; fails if any case is outside its tolerance.
@@ -619,12 +625,14 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
             eye_size,
             two_pass,
             beside,
+            preset,
+            compute,
         } => profile::profile(
             procedure.as_deref(),
             json,
             eye_size.unwrap_or(vesalius::render::camera::VIVE_EYE_SIZE),
             two_pass,
-            beside,
+            (beside, preset, compute),
         ),
         Command::Verify {
             json,

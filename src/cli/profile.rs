@@ -1,7 +1,7 @@
 //! `profile`: a procedure's stereo frame at the headset's size, its counters beside the
 //! paper's, and the same frames drawn with the simulation running beside them.
 
-use super::CliError;
+use super::{CliError, ComputeArg, PresetArg};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -161,12 +161,15 @@ pub fn frames_beside(
     })
 }
 
+/// `profile`: the demo simulated to 40 % (the scenario with `preset` and `compute` laid over
+/// it), five stereo frames of that instant with the counters, then `beside_s` seconds of
+/// frames with the simulation stepping beside them ([`frames_beside`]; none for 0).
 pub fn profile(
     procedure: Option<&str>,
     json: bool,
     eye_size: (u32, u32),
     two_pass: bool,
-    beside_s: f64,
+    (beside_s, preset, compute): (f64, Option<PresetArg>, Option<ComputeArg>),
 ) -> Result<(), CliError> {
     use vesalius::profiler::mb;
     let info = match procedure {
@@ -179,8 +182,8 @@ pub fn profile(
     // Simulate up to 40 % of the demo (mid-task: in the first procedure, the middle of the cut)
     // and render that instant with the simulation still alive, so total memory counts it as
     // Unity's profiler would.
-    let file = format!("builtin {procedure} scenario");
-    let mut live = Live::new(info.scenario, &file, Pacing::AsFastAsPossible)?;
+    let (file, text) = super::session::scenario_text(procedure, None, preset, compute)?;
+    let mut live = Live::new(&text, &file, Pacing::AsFastAsPossible)?;
     let dt = f64::from(live.dt_s());
     let steps = (keys.duration_s() * 0.4 / dt).ceil() as u64;
     let t0 = Instant::now();
