@@ -31,6 +31,7 @@ struct Run {
     haptics: Vec<Value>,
     states: Vec<String>,
     recording: Recording,
+    stdout: String,
 }
 
 fn temp_dir(name: &str) -> Scratch {
@@ -48,11 +49,24 @@ fn jsonl(path: &Path) -> Vec<Value> {
 /// Runs the procedure under the simulated runtime playing `trace`, with `inject` appended to
 /// its settings, for `duration_s` of simulated time, frame for frame (lockstep).
 fn run_xr(dir: &Path, trace: &str, inject: &str, duration_s: f64) -> Run {
-    run_xr_coupled(dir, trace, inject, duration_s, "lockstep")
+    run_xr_coupled(
+        dir,
+        trace,
+        inject,
+        duration_s,
+        &["--xr-coupling", "lockstep"],
+    )
 }
 
-/// [`run_xr`] with the frame loop coupled to the simulation `coupling`'s way.
-fn run_xr_coupled(dir: &Path, trace: &str, inject: &str, duration_s: f64, coupling: &str) -> Run {
+/// [`run_xr`] with the frame loop coupled to the simulation as `coupling` (the options of
+/// `run --xr` that say so) says.
+fn run_xr_coupled(
+    dir: &Path,
+    trace: &str,
+    inject: &str,
+    duration_s: f64,
+    coupling: &[&str],
+) -> Run {
     std::fs::write(dir.join("trace.toml"), trace).expect("trace written");
     let sim = dir.join("xr-sim");
     let settings = format!(
@@ -76,11 +90,10 @@ fn run_xr_coupled(dir: &Path, trace: &str, inject: &str, duration_s: f64, coupli
             "--no-window",
             "--eye-size",
             EYE,
-            "--xr-coupling",
-            coupling,
             "--out",
         ])
         .arg(&out)
+        .args(coupling)
         .args(["--xr-duration", &duration_s.to_string()])
         .env("XR_RUNTIME_JSON", &manifest)
         .env(vesalius_sim_runtime::CONFIG_ENV, dir.join("settings.toml"))
@@ -109,6 +122,7 @@ fn run_xr_coupled(dir: &Path, trace: &str, inject: &str, duration_s: f64, coupli
             .map(str::to_string)
             .collect(),
         recording: Recording::read(&out.join("input.vtrace")).expect("recording"),
+        stdout: String::from_utf8_lossy(&o.stdout).into_owned(),
     }
 }
 
@@ -347,7 +361,11 @@ fn paced_frames_record_the_same_session_as_lockstep_and_still_vibrate() {
     for d in [&a, &b] {
         std::fs::create_dir_all(d).expect("temp dir");
     }
-    let paced = run_xr_coupled(&a, &trace, "", 4.0, "paced");
+    // No bound on the lag: the simulated runtime makes frames far faster than the
+    // simulation steps them, and every frame's time is stepped.
+    let unbounded = ["--xr-coupling", "paced", "--xr-max-lag", "inf"];
+    let paced = run_xr_coupled(&a, &trace, "", 4.0, &unbounded);
+    assert!(!paced.stdout.contains("fell behind"), "{}", paced.stdout);
     let lockstep = run_xr(&b, &trace, "", 4.0);
     // The steps depend only on the frames' display times and readings, which the simulated
     // runtime makes the same: the same input, the same session.
@@ -361,6 +379,62 @@ fn paced_frames_record_the_same_session_as_lockstep_and_still_vibrate() {
         .filter(|l| l["hand"] == "left" && l.get("amplitude").is_some())
         .count();
     assert!(pulses >= 10, "{pulses} grasper pulses");
+}
+
+/// Paced with a bound on its lag under a frame's period (6 ms against 11.1): every frame
+/// asks for more than the bound past where the simulation stood, so the simulation runs
+/// slower than the frames' clock instead of stepping every frame's time. The session still
+/// simulates its whole duration, and its recording replays to the same state.
+#[test]
+fn a_paced_simulation_behind_the_frames_runs_slow_within_its_bound() {
+    let trace = press(&builtin_scenario()).trace;
+    let dir = temp_dir("paced-bound");
+    const { assert!(PERIOD_S > 0.006) };
+    let bounded = ["--xr-coupling", "paced", "--xr-max-lag", "0.006"];
+    let run = run_xr_coupled(&dir, &trace, "", 1.0, &bounded);
+    assert!(run.stdout.contains("fell behind"), "{}", run.stdout);
+    // No frame took the simulation more than the bound and half a 4 ms step past where it
+    // stood: a second took at least 125 frames, where 90 step it unbounded.
+    let frames: u64 = run
+        .stdout
+        .split(" stereo frames")
+        .next()
+        .and_then(|l| l.rsplit(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no frame count in {}", run.stdout));
+    assert!(frames >= 125, "{frames} frames");
+    let simulated = run.report["simulated_s"]
+        .as_f64()
+        .expect("simulated seconds");
+    assert!((simulated - 1.0).abs() < 0.01, "{simulated}");
+    let again = dir.join("replay");
+    let o = Command::new(env!("CARGO_BIN_EXE_vesalius"))
+        .arg("replay")
+        .arg(dir.join("out").join("input.vtrace"))
+        .arg("--out")
+        .arg(&again)
+        .output()
+        .expect("runs");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let back: Value =
+        serde_json::from_slice(&std::fs::read(again.join("report.json")).expect("report"))
+            .expect("JSON report");
+    assert_eq!(back["state_hash"], run.report["state_hash"]);
+    assert_eq!(back["steps"], run.report["steps"]);
+    // A bound that is not a positive number of seconds is refused, naming the option.
+    let bad = Command::new(env!("CARGO_BIN_EXE_vesalius"))
+        .args([
+            "run",
+            "nephrectomy",
+            "--xr",
+            "--no-window",
+            "--xr-max-lag",
+            "0",
+        ])
+        .output()
+        .expect("runs");
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("--xr-max-lag"));
 }
 
 /// The grasper swept through free space (no tissue within 3 cm) from `A` to `B` over 3 s,

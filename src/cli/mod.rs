@@ -340,6 +340,11 @@ struct RunArgs {
     /// runtime's clock runs as fast as frames are made): each frame shows its own time.
     #[arg(long, value_enum, value_name = "HOW")]
     xr_coupling: Option<CouplingArg>,
+    /// Under XR, paced: the most the simulation may fall behind the frames, seconds (default
+    /// 0.1). A simulation slower than real time then runs slower than the headset's clock
+    /// instead of drawing an ever older state; `inf`: no bound, every frame's time is stepped.
+    #[arg(long, value_name = "SECONDS")]
+    xr_max_lag: Option<f64>,
     /// Under XR or with --haptics: no desktop window.
     #[arg(long)]
     no_window: bool,

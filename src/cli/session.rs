@@ -178,6 +178,11 @@ pub fn run(a: RunArgs) -> Result<(), CliError> {
             "--xr-coupling: only with --xr or --xr-sim".into(),
         ));
     }
+    if a.xr_max_lag.is_some() {
+        return Err(CliError::Usage(
+            "--xr-max-lag: only with --xr or --xr-sim".into(),
+        ));
+    }
     if !a.headless {
         return run_window(&a, None, None);
     }
@@ -338,6 +343,24 @@ pub(super) fn run_window(
     interrupted()
 }
 
+/// The bound on a paced session's lag that `--xr-max-lag` gives (none for `inf`; 0.1 s by
+/// default); a value that is not a positive number of seconds is a usage error.
+fn max_lag(given: Option<f64>) -> Result<Option<f64>, CliError> {
+    match given {
+        None => Ok(Some(DEFAULT_MAX_LAG_S)),
+        Some(s) if s == f64::INFINITY => Ok(None),
+        Some(s) if s.is_finite() && s > 0.0 => Ok(Some(s)),
+        Some(s) => Err(CliError::Usage(format!(
+            "--xr-max-lag {s}: a positive number of seconds is expected (or inf for no bound)"
+        ))),
+    }
+}
+
+/// How far a paced headset session's simulation may fall behind its frames by default, s:
+/// about nine frames at 90 Hz, well past what a simulation that keeps real time ever lags
+/// (a frame or two in flight).
+const DEFAULT_MAX_LAG_S: f64 = 0.1;
+
 /// `run <p> --xr`: a session in the headset of whatever OpenXR runtime is active.
 fn run_xr(a: &RunArgs) -> Result<(), CliError> {
     if a.headless || a.trace.is_some() {
@@ -351,6 +374,7 @@ fn run_xr(a: &RunArgs) -> Result<(), CliError> {
         coupling: a
             .xr_coupling
             .map_or(vesalius::xr::Coupling::Paced, Into::into),
+        max_lag_s: max_lag(a.xr_max_lag)?,
         assessment: load_tree(a.assessment.as_deref(), &a.procedure)?,
     };
     let devices = super::haptics::xr_devices(a)?;
@@ -385,6 +409,13 @@ fn run_xr(a: &RunArgs) -> Result<(), CliError> {
         run.eye_size.1,
         run.sessions
     );
+    if run.slowed_s > 0.0 {
+        say!(
+            "the simulation fell behind the headset: it ran {:.2} s of display time slower, \
+             to stay within --xr-max-lag of the frames",
+            run.slowed_s
+        );
+    }
     finish(&run.outcome, a.out.as_deref())?;
     super::haptics::say_devices(&run.devices)?;
     // A device's fault, once the session's record is safe.
@@ -455,6 +486,9 @@ fn run_xr_sim(a: &RunArgs, trace: &Path) -> Result<(), CliError> {
         ])
         .env("XR_RUNTIME_JSON", &manifest)
         .env(vesalius_sim_runtime::CONFIG_ENV, &config);
+    if let Some(s) = a.xr_max_lag {
+        cmd.args(["--xr-max-lag", &format!("{s}")]);
+    }
     if let Some(f) = &a.scenario {
         cmd.arg("--scenario").arg(f);
     }

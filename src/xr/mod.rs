@@ -46,6 +46,9 @@ pub struct XrRun {
     pub frames: u64,
     /// Sessions started (more than one after a loss).
     pub sessions: u32,
+    /// Display time the simulation was let fall behind by, paced, so that it kept within
+    /// [`XrOptions::max_lag_s`] of the frames, s (0: it kept up).
+    pub slowed_s: f64,
     pub eye_size: (u32, u32),
     pub device: String,
     /// How each force-feedback device went (none without styluses).
@@ -71,6 +74,10 @@ pub struct XrOptions {
     pub eye_size: Option<(u32, u32)>,
     /// Whether frames wait for the simulation (see [`Coupling`]).
     pub coupling: Coupling,
+    /// Paced: the most the simulation may fall behind the frames' display times, s (none:
+    /// no bound, every frame's time is stepped). A simulation slower than real time then
+    /// runs slower than the display's clock instead of drawing an ever older state.
+    pub max_lag_s: Option<f64>,
     /// An assessment tree to score the session with instead of the procedure's own (its
     /// file's name, for errors, and the tree): its rules give the instructions.
     pub assessment: Option<(String, crate::assess::Tree)>,
@@ -218,6 +225,8 @@ pub struct XrLoop {
     sessions: u32,
     /// Display time (ns) that corresponds to simulated time 0 in the current session.
     origin: Option<i64>,
+    /// See [`XrRun::slowed_s`].
+    slowed_s: f64,
     exit_asked: bool,
     buf: xr::EventDataBuffer,
     /// The desktop mirror's copy of one eye, if a window wants it.
@@ -309,6 +318,7 @@ impl XrLoop {
             frames: 0,
             sessions: 0,
             origin: None,
+            slowed_s: 0.0,
             exit_asked: false,
             buf: xr::EventDataBuffer::new(),
             mirror: None,
@@ -440,6 +450,24 @@ impl XrLoop {
             }
         };
         let mut target_s = (t.as_nanos() - o) as f64 / 1e9;
+        // Paced, a simulation slower than real time falls behind the frames. Past the bound
+        // its time runs slower than the display's (the origin moves on by the excess), so no
+        // frame draws an older state and no step takes older hands than that.
+        if let (false, Some(most)) = (lockstep, self.opts.max_lag_s) {
+            let excess = target_s - sim.time_s() - most;
+            if excess > 0.0 {
+                let ns = (excess * 1e9).round() as i64;
+                self.origin = Some(o + ns);
+                target_s = (t.as_nanos() - o - ns) as f64 / 1e9;
+                if self.slowed_s == 0.0 {
+                    tracing::warn!(
+                        "the simulation is behind the headset by more than {most} s: it runs \
+                         slower than real time from here"
+                    );
+                }
+                self.slowed_s += ns as f64 / 1e9;
+            }
+        }
         if let Some(d) = self.opts.duration_s {
             target_s = target_s.min(d);
         }
@@ -562,6 +590,7 @@ impl XrLoop {
             runtime: self.app.runtime_name.clone(),
             frames: self.frames,
             sessions: self.sessions,
+            slowed_s: self.slowed_s,
             eye_size: self.eye,
             device,
         })
