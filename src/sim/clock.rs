@@ -54,7 +54,8 @@ impl Clock {
     /// session warmed up as fast as possible and then run live).
     pub fn pace_from_now(&mut self) {
         self.pacing = Pacing::RealTime;
-        self.start = Instant::now().checked_sub(Duration::from_secs_f64(self.time_s()));
+        self.start.get_or_insert_with(Instant::now);
+        self.resume();
     }
 
     /// How far simulated time is ahead of the wall clock since the first real-time tick,
