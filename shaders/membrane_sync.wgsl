@@ -106,3 +106,26 @@ fn pack(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) l
         packed_state[p.x + (row * 6u + c) * p.y + col] = select(state_a[at], state_b[at], s.flag != 0u);
     }
 }
+
+// A frame's drawn nodes of the tiles the CPU will lag after this step, gathered from the
+// newest state buffer (a with `flag` 0, b otherwise) so that only their positions come back
+// (`src/models/membrane/device_drawn.rs`): entry `k` of `gather_list` is a place in the
+// drawn grid, `drawn_nodes` gives that place's row block and column, and its position goes to
+// `gathered[3k..3k+3]`. `pad` holds the list's length; the dispatch may run past it.
+@group(0) @binding(10) var<storage, read> drawn_nodes: array<vec2<u32>>;
+@group(0) @binding(11) var<storage, read> gather_list: array<u32>;
+@group(0) @binding(12) var<storage, read_write> gathered: array<f32>;
+
+@compute @workgroup_size(64, 1, 1)
+fn gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
+          @builtin(local_invocation_index) li: u32) {
+    let k = (wg.y * groups.x + wg.x) * 64u + li;
+    if (k >= s.pad) {
+        return;
+    }
+    let node = drawn_nodes[gather_list[k]];
+    for (var c = 0u; c < 3u; c++) {
+        let at = (node.x * 6u + c) * s.cols + node.y;
+        gathered[k * 3u + c] = select(state_a[at], state_b[at], s.flag != 0u);
+    }
+}

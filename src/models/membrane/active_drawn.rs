@@ -104,6 +104,11 @@ impl DrawnGrid {
         self.len() == 0
     }
 
+    /// The grid's layers, rows and columns, each in its order.
+    pub(in crate::models::membrane) fn parts(&self) -> [&[usize]; 3] {
+        [&self.layers, &self.rows, &self.cols]
+    }
+
     /// Brings the copy up to `m` and its active set `a`: laid out anew for another size or
     /// tiling, the bindings copied anew for another chain, and the fixed parts of each
     /// sleeping tile whose offsets were written since.
@@ -188,7 +193,9 @@ impl Membrane {
     /// ([`Membrane::catch_up`], which gives the device up).
     pub fn place_drawn(&mut self, g: &mut DrawnGrid) -> Vec<Vec3> {
         let (mut out, lagging) = self.place_current(g);
-        if lagging.is_empty() || self.lagging_positions(&lagging, &mut out).is_ok() {
+        // The device gathers this grid's nodes for the frames after this one.
+        self.gather_drawn(g);
+        if lagging.is_empty() || self.lagging_positions(g, &lagging, &mut out).is_ok() {
             return out;
         }
         self.catch_up();

@@ -28,6 +28,8 @@ use bytemuck::Zeroable;
 
 #[path = "device_chain.rs"]
 mod carry;
+#[path = "device_drawn.rs"]
+mod drawn;
 #[path = "device_lazy.rs"]
 mod lazy;
 #[path = "device_pack.rs"]
@@ -200,6 +202,10 @@ struct OnDevice {
     runs: Vec<Run>,
     /// Which awake tiles the CPU's copy lags, and which it read (`device_lazy.rs`).
     books: lazy::Books,
+    /// The drawn grid whose lagging nodes a step before a frame gathers (`device_drawn.rs`),
+    /// once a frame drew one; whether the device refused its kernel.
+    gather: Option<drawn::Gather>,
+    gather_refused: bool,
     unpack_bind: wgpu::BindGroup,
     pack_bind: wgpu::BindGroup,
     tiles_c: u32,
@@ -398,6 +404,8 @@ impl OnDevice {
             places: Vec::new(),
             runs: Vec::new(),
             books: lazy::Books::new(m.activity.as_ref().map_or(1, |a| a.awake.len())),
+            gather: None,
+            gather_refused: false,
             unpack_bind,
             pack_bind,
             springs_changed: false,
@@ -490,9 +498,16 @@ impl OnDevice {
         books.once |= to_saved && !to_saved_ok;
         let to_saved = to_saved && to_saved_ok;
         books.lagging_in_saved = false;
-        // A frame follows: every run goes to the readback too (the lagging ones stay there).
-        let copy_all = std::mem::take(&mut books.frame_next) || to_saved;
+        // A frame follows: the drawn nodes of the tiles left lagging are gathered for it
+        // (`device_drawn.rs`), or where no grid is laid out yet, every run goes to the
+        // readback too (the lagging ones stay there). A checkpoint takes every run anyway.
+        let frame = std::mem::take(&mut books.frame_next);
+        let gathers = frame && !to_saved && self.gather.is_some();
+        let copy_all = to_saved || (frame && !gathers);
         books.in_readback = None;
+        if let Some(g) = &mut self.gather {
+            g.stale();
+        }
         self.make_sums(m, a)?;
         let awake: &[u32] = &a.list;
         let _span = tracing::debug_span!(
@@ -645,6 +660,16 @@ impl OnDevice {
         if bytes > 0 {
             encoder.copy_buffer_to_buffer(&self.packed_state, 0, &self.readback, at, bytes);
         }
+        let gathered = match self.gather.as_mut().filter(|_| gathers) {
+            Some(g) => g.encode(
+                &gpu,
+                &mut encoder,
+                (awake, &self.books.want),
+                (m.rows, m.cols, self.k.current),
+            ),
+            None => 0,
+        };
+        self.books.last_readback_bytes = bytes + gathered;
         {
             let _s = tracing::debug_span!("membrane_gpu_submit").entered();
             gpu.queue.submit([encoder.finish()]);
@@ -714,6 +739,9 @@ impl OnDevice {
         dt: f32,
         substeps: usize,
     ) -> Result<(), RenderError> {
+        if let Some(g) = &mut self.gather {
+            g.stale();
+        }
         // Springs a cut changed in a tile the active set has not sent since go up too.
         let springs_lag = self.springs_held.iter().any(|h| !h);
         if self.whole_stale || self.springs_changed || springs_lag {

@@ -14,9 +14,11 @@
 //! that rewrites the model ([`Membrane::catch_up`]). Every awake tile is in the packed copy,
 //! so the bytes are those of reading everything back each step (tested). A frame reads only
 //! the positions of its drawn nodes of a behind tile, as the device left them, and leaves
-//! the tile behind ([`Membrane::lagging_positions`]). Where a step copied every run to the
-//! readback (a frame or a checkpoint was announced for it), what reads a behind run before
-//! the next step reads it there, with no copy on the device.
+//! the tile behind ([`Membrane::lagging_positions`]): a step announced before a frame
+//! gathers them on the device and brings back only those (`device_drawn.rs`), once the
+//! device has the frame's grid. Where a step copied every run to the readback (a checkpoint
+//! was announced for it, or a frame before its grid was laid out), what reads a behind run
+//! before the next step reads it there, with no copy on the device.
 //!
 //! Should a read fail (the device lost), the CPU's copy of the behind tiles is older than
 //! the rest: the membrane goes back to its last checkpoint (taken when it went on the
@@ -50,10 +52,12 @@ pub(super) struct Books {
     /// Read every awake tile back with the next step only (a checkpoint follows where its
     /// copy cannot take the lagging tiles: [`super::Slot::checkpoint_next`]).
     pub once: bool,
-    /// A frame follows the next step ([`super::Slot::read_whole_next`]): every awake tile's
-    /// run is copied to the readback with it, the wanted ones unpacked as usual, so that the
-    /// frame reads the others' drawn nodes there, and a catch-up before the next step
-    /// unpacks them from there, with no copy on the device.
+    /// A frame follows the next step ([`super::Slot::read_whole_next`]): the drawn nodes of
+    /// the tiles it leaves lagging are gathered for the frame (`device_drawn.rs`); before the
+    /// device has the frame's grid, every awake tile's run is copied to the readback with
+    /// it instead, the wanted ones unpacked as usual, so that the frame reads the others'
+    /// drawn nodes there, and a catch-up before the next step unpacks them from there, with
+    /// no copy on the device.
     pub frame_next: bool,
     /// Where the last step's packed runs start in the readback (bytes), all of them, where
     /// it copied every one (a frame or a checkpoint followed it); none once the readback
@@ -72,6 +76,9 @@ pub(super) struct Books {
     pub catch_ups: u64,
     /// Frames' reads of lagging nodes that copied runs on the device first (tests' count).
     pub frame_copies: std::sync::atomic::AtomicU64,
+    /// Bytes the last step's results brought back of the tiles' state: the runs, and the
+    /// drawn nodes gathered for a frame.
+    pub last_readback_bytes: u64,
 }
 
 impl Books {
@@ -347,18 +354,24 @@ impl Membrane {
             .is_some_and(|d| d.books.is_behind(t))
     }
 
-    /// The positions of nodes `nodes` (layer, row, column; each of a tile the CPU lags) as
-    /// the device left them at the last step, each into `out` at its place: read where the
-    /// last step left every run (a frame was announced), else copied there first. The CPU's
-    /// copy stays as it is, and its tiles lagging.
+    /// The positions of nodes `nodes` of grid `g` (layer, row, column, and place; each of a
+    /// tile the CPU lags) as the device left them at the last step, each into `out` at its
+    /// place: where the last step gathered them (a frame was announced and `g` is laid out
+    /// on the device: `device_drawn.rs`), from there; else from the runs, read where the last
+    /// step left every run, else copied there first. The CPU's copy stays as it is, and its
+    /// tiles lagging.
     pub(in crate::models::membrane) fn lagging_positions(
         &self,
+        g: &crate::models::membrane::DrawnGrid,
         nodes: &[([usize; 3], usize)],
         out: &mut [Vec3],
     ) -> Result<(), RenderError> {
         let Some(d) = self.device.on.as_deref() else {
             return Ok(());
         };
+        if let Some(read) = self.gathered_positions(g, nodes, out) {
+            return read;
+        }
         let run = |&([_, i, j], _): &([usize; 3], usize)| {
             d.books.run_of.get(self.tile_of(i, j)).map(|&k| k as usize)
         };

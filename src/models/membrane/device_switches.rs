@@ -28,6 +28,15 @@ impl Membrane {
         }
     }
 
+    /// Leaves a frame's lagging nodes in the runs, copied whole with the step announced
+    /// before it, as before the device gathered the drawn nodes (to compare).
+    pub(crate) fn gpu_frames_copy_runs(&mut self, on: bool) {
+        if let Some(d) = &mut self.device.on {
+            d.gather_refused = on;
+            d.gather = None;
+        }
+    }
+
     /// Tiles whose layer-0 attachments went up to the device so far (none on the CPU).
     pub(crate) fn gpu_attachments_sent(&self) -> Option<u64> {
         self.device.on.as_ref().map(|d| d.attach_sent)
@@ -59,6 +68,11 @@ impl Membrane {
                 .frame_copies
                 .load(std::sync::atomic::Ordering::Relaxed),
         )
+    }
+
+    /// Bytes the last step brought back of the tiles' state (none on the CPU).
+    pub(crate) fn gpu_last_readback_bytes(&self) -> Option<u64> {
+        self.device.on.as_ref().map(|d| d.books.last_readback_bytes)
     }
 
     /// Awake tiles whose newest state only the device holds (none on the CPU).

@@ -13,9 +13,32 @@ use glam::Vec3;
 /// (`checkpoint_tests.rs`), and a drawn grid over it.
 fn two_on_one_device() -> (crate::gpu::Gpu, Membrane, Membrane, DrawnGrid) {
     let (gpu, told, untold) = super::checkpoint_tests::two_on_one_device();
+    let (rows, cols) = grid_rows_cols();
+    (
+        gpu,
+        told,
+        untold,
+        DrawnGrid::new(&DRAWN_LAYERS, &rows, &cols),
+    )
+}
+
+/// The drawn grid's layers, and its rows and columns.
+const DRAWN_LAYERS: [usize; 3] = [1, 2, 3];
+fn grid_rows_cols() -> (Vec<usize>, Vec<usize>) {
     let rows: Vec<usize> = (0..48).step_by(3).chain([47]).collect();
     let cols: Vec<usize> = (0..64).step_by(2).collect();
-    (gpu, told, untold, DrawnGrid::new(&[1, 2, 3], &rows, &cols))
+    (rows, cols)
+}
+
+/// The drawn grid's nodes in the tiles `m` lags.
+fn drawn_lagging(m: &Membrane) -> u64 {
+    let (rows, cols) = grid_rows_cols();
+    let cells = rows
+        .iter()
+        .flat_map(|&i| cols.iter().map(move |&j| (i, j)))
+        .filter(|&(i, j)| m.gpu_tile_behind(m.tile_of(i, j)) == Some(true))
+        .count();
+    (cells * DRAWN_LAYERS.len()) as u64
 }
 
 /// The first node where `a` and `b` differ in a bit, with both values (none: the same).
@@ -34,11 +57,13 @@ fn a_frame_draws_the_lagging_tiles_where_the_device_left_them() {
     // Both run the same session; one announces its frames (every 5 steps) before their
     // steps, as a session's window does. Each frame of both must be what the whole newest
     // state draws, to the bit; the announced ones read the lagging tiles from their step's
-    // readback, with no copy on the device, and leave them lagging.
+    // readback, with no copy on the device, and leave them lagging. From its second frame
+    // on, the announced one's step brings back only the drawn nodes of the lagging tiles
+    // beside the runs both bring back (three floats a node), not every run.
     let (_gpu, mut told, mut untold, grid) = two_on_one_device();
     let (mut g_told, mut g_untold, mut g_whole) = (grid.clone(), grid.clone(), grid);
     let mut out = ModelOutput::default();
-    let (mut lagging_at_frames, mut frames) = (0, 0);
+    let (mut lagging_at_frames, mut frames, mut gathered) = (0, 0, 0);
     for k in 0..40 {
         let frame = k % 5 == 4;
         if frame {
@@ -51,6 +76,21 @@ fn a_frame_draws_the_lagging_tiles_where_the_device_left_them() {
         }
         let lagging = told.gpu_tiles_behind().unwrap_or(0);
         assert_eq!(untold.gpu_tiles_behind(), Some(lagging), "step {k}");
+        let bytes = |m: &Membrane| m.gpu_last_readback_bytes().unwrap_or(0);
+        if frames > 0 {
+            let nodes = drawn_lagging(&told);
+            assert_eq!(
+                bytes(&told),
+                bytes(&untold) + 12 * nodes,
+                "step {k}: {nodes} drawn nodes lag"
+            );
+            gathered += nodes;
+        } else {
+            assert!(
+                lagging == 0 || bytes(&told) > bytes(&untold),
+                "step {k}: the first frame's step brings every run back"
+            );
+        }
         let copies = (told.gpu_frame_copies(), untold.gpu_frame_copies());
         let (a, b) = (
             told.place_drawn(&mut g_told),
@@ -78,13 +118,17 @@ fn a_frame_draws_the_lagging_tiles_where_the_device_left_them() {
     }
     assert_eq!(frames, 8);
     assert!(lagging_at_frames > 0, "no tile lagged at a frame");
-    // A catch-up after an announced step reads the readback too, and the bytes agree.
+    assert!(gathered > 0, "no drawn node was gathered");
+    // A catch-up after a step that gathered for a frame copies the lagging runs (the
+    // readback holds only the drawn nodes), and the bytes agree.
     told.read_whole_after_step();
     session_step(&mut told, 40, &mut out);
     session_step(&mut untold, 40, &mut out);
-    let before = told.gpu_readback_counts().map(|(_, c)| c);
+    let lagging = told.gpu_tiles_behind().unwrap_or(0);
+    let before = told.gpu_readback_counts().map_or(0, |(_, c)| c);
     told.catch_up();
-    assert_eq!(told.gpu_readback_counts().map(|(_, c)| c), before);
+    let after = told.gpu_readback_counts().map_or(0, |(_, c)| c);
+    assert_eq!(after - before, u64::from(lagging > 0));
     assert_eq!(told.gpu_tiles_behind(), Some(0));
     assert!(told.gpu_adapter().is_some() && untold.gpu_adapter().is_some());
     assert_eq!(told.state_hash(), untold.state_hash());

@@ -492,10 +492,14 @@ fn on_the_gpu_a_nan_is_quarantined_and_a_lost_device_hands_over_to_the_cpu() {
 fn a_frame_announced_before_its_step_takes_no_round_trip_on_the_gpu() {
     use crate::procedures::Procedure;
     // The demo's first second on lavapipe with a snapshot every 10 steps, the step before
-    // each told (as the session tells it) or not.
-    let run = |told: bool| {
+    // each told (as the session tells it) or not; told, the step gathers the drawn nodes of
+    // the tiles it leaves lagging, or (`runs`) copies every run to the readback.
+    let run = |told: bool, runs: bool| {
         let key = "procedure = \"rectum\"\ncompute = \"gpu\"";
         let mut r = rectum(coarse(|t| t.replacen("procedure = \"rectum\"", key, 1)));
+        r.scene.membrane_mut().gpu_frames_copy_runs(runs);
+        // The state bytes the frames' steps brought back.
+        let mut frame_bytes = 0;
         let trace = crate::trace::KeyTrace::parse("demo", INFO.demo_trace).expect("demo trace");
         let mut clock =
             crate::sim::Clock::new(r.scenario.dt_s, crate::sim::Pacing::AsFastAsPossible);
@@ -513,6 +517,7 @@ fn a_frame_announced_before_its_step_takes_no_round_trip_on_the_gpu() {
             }
             r.step(&trace.sample(clock.time_s()), step, &mut events);
             if frame_after {
+                frame_bytes += r.scene.membrane().gpu_last_readback_bytes().unwrap_or(0);
                 let before = catch_ups(&r).expect("on the device");
                 let s = r.snapshot(step);
                 trips += catch_ups(&r).expect("on the device") - before;
@@ -526,10 +531,20 @@ fn a_frame_announced_before_its_step_takes_no_round_trip_on_the_gpu() {
             }
             clock.tick();
         }
-        (frames, trips, left_lagging)
+        (frames, trips, left_lagging, frame_bytes)
     };
-    let (told, told_trips, told_left) = run(true);
-    let (untold, untold_trips, untold_left) = run(false);
+    let (told, told_trips, told_left, gathered_bytes) = run(true, false);
+    let (runs, runs_trips, _, runs_bytes) = run(true, true);
+    let (untold, untold_trips, untold_left, untold_bytes) = run(false, false);
+    // Told, the frames' steps bring back the lagging tiles' drawn nodes beside what every
+    // step brings back: fewer bytes than their whole runs, more than nothing.
+    eprintln!(
+        "frames' steps brought back {untold_bytes} B untold, {gathered_bytes} B told \
+         (drawn nodes gathered), {runs_bytes} B told (runs copied)"
+    );
+    assert!(untold_bytes < gathered_bytes && gathered_bytes < runs_bytes);
+    assert_eq!(runs_trips, 0);
+    assert!(runs == told, "the frames differ");
     // Untold, a frame copies the runs of the tiles away from the instruments in round trips
     // of its own; told, the step before it left them in the readback. Either way the frame
     // reads only the nodes it draws and the tiles go on lagging. The frames are the same.
