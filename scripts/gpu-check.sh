@@ -2,7 +2,8 @@
 # The GPU check for a machine with a GPU and no package registry (a lent data-centre GPU):
 # runs `vesalius verify --compute gpu`, the GPU lines of `vesalius bench` for the procedures
 # that have a compute path (the kernel alone, then the procedure with its models on the
-# device over the demo's first 2 s) and every procedure's stereo frame, and prints one JSON
+# device over the demo's first 2 s) and every procedure's stereo frame (and those with a GPU
+# path again on one device shared by frames and steps), and prints one JSON
 # summary of every line, then the issue's targets against them (`scripts/gpu-targets.py`;
 # GPU_PEAK_GBS gives the card's bandwidth where its name is not in the script's table).
 # Nothing is compiled here.
@@ -47,15 +48,25 @@ done
 # Every procedure's stereo frame at the Vive's 1080 x 1200 a eye: alone, then for 3 s at 90 Hz
 # with the simulation stepping beside it in real time (its compute as `auto` chooses: on the
 # GPU where it has a path), with how far the simulation kept up and how often a fresh force
-# reached the haptic channel (GPU_CHECK_PROFILE=0 leaves them out).
-[ "${GPU_CHECK_PROFILE:-1}" = 1 ] && for p in sandbox nephrectomy rectum cholecystectomy catheter myotomy; do
-    echo "== vesalius profile $p" >&2
-    if timeout 150 "$bin" profile "$p" --json >"$out/$p-profile.json" 2>"$out/$p-profile.err"; then
-        python3 -c "import json,sys; d=json.load(open(sys.argv[1])); print(json.dumps({'profile': sys.argv[2], 'device': d.get('device'), 'frame_ms': d.get('frame_ms'), 'cpu': d.get('vesalius', {}).get('cpu'), 'beside': d.get('beside')}))" \
-            "$out/$p-profile.json" "$p" >>"$out/profile-gpu.jsonl" || true
+# reached the haptic channel (GPU_CHECK_PROFILE=0 leaves them out). The procedures with a GPU
+# path run once more (`:shared`) with their models on the frames' own device (one wgpu device
+# and queue for both) rather than one of their own: what sharing costs the frames and the
+# fresh forces, beside the two-device figures.
+[ "${GPU_CHECK_PROFILE:-1}" = 1 ] && for run in sandbox nephrectomy rectum cholecystectomy catheter myotomy \
+    rectum:shared cholecystectomy:shared; do
+    p=${run%%:*}
+    if [ "$run" = "$p" ]; then
+        name=$p list=profile-gpu share=()
+    else
+        name=$p-shared list=profile-shared share=(--share-device)
+    fi
+    echo "== vesalius profile $p ${share[*]}" >&2
+    if timeout 150 "$bin" profile "$p" "${share[@]}" --json >"$out/$name-profile.json" 2>"$out/$name-profile.err"; then
+        python3 -c "import json,sys; d=json.load(open(sys.argv[1])); print(json.dumps({'profile': sys.argv[2], 'device': d.get('device'), 'gpu_devices': d.get('gpu_devices'), 'frame_ms': d.get('frame_ms'), 'cpu': d.get('vesalius', {}).get('cpu'), 'beside': d.get('beside')}))" \
+            "$out/$name-profile.json" "$p" >>"$out/$list.jsonl" || true
     else
         status=1
-        tail -5 "$out/$p-profile.err" >&2
+        tail -5 "$out/$name-profile.err" >&2
     fi
 done
 # One summary: every line of every procedure, in one JSON array.

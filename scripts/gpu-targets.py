@@ -4,7 +4,8 @@
     scripts/gpu-targets.py DIR      (DIR: the check's output, default /tmp/gpu-check)
 
 Reads DIR/rectum-gpu.jsonl, DIR/cholecystectomy-gpu.jsonl (`vesalius bench <p> --compute gpu
---json`), DIR/profile-gpu.jsonl and DIR/gpu.txt (nvidia-smi's name line), and prints one JSON
+--json`), DIR/profile-gpu.jsonl, DIR/profile-shared.jsonl (the same frames with the models on
+the frames' device) and DIR/gpu.txt (nvidia-smi's name line), and prints one JSON
 object: each target with what was measured and whether it was met (null where nothing was
 measured). The card's peak bandwidth comes from GPU_PEAK_GBS, or from the table below by the
 GPU's name.
@@ -175,6 +176,20 @@ def main():
         for r in rectum
         if str(r.get("model", "")).startswith("membrane")
     }
+    # The procedures with a GPU path drawn with their models on the frames' own device (one
+    # wgpu device and queue) beside the same on two devices: no target, the figures to choose
+    # by.
+    shared = lines(os.path.join(out_dir, "profile-shared.jsonl"))
+    keys = ("frame_ms_p99", "realtime_factor", "force_gap_ms_median", "force_gap_ms_p99")
+    one_or_two = {}
+    for f in shared:
+        name = f.get("profile")
+        two = next((g for g in frames if g.get("profile") == name), {})
+        one_or_two[name] = {
+            "one_device": {k: (f.get("beside") or {}).get(k) for k in keys},
+            "two_devices": {k: (two.get("beside") or {}).get(k) for k in keys},
+            "devices_opened_shared": f.get("gpu_devices"),
+        }
     measured = [r for r in rows if r["met"] is not None]
     print(
         json.dumps(
@@ -182,6 +197,7 @@ def main():
                 "targets": rows,
                 "bandwidth": bandwidth,
                 "membrane_layouts": layouts,
+                "one_device_or_two": one_or_two,
                 "met": sum(1 for r in measured if r["met"]),
                 "measured": len(measured),
             },

@@ -32,6 +32,15 @@ pub enum RenderError {
     Unsupported(String),
 }
 
+/// Devices opened so far ([`Gpu::devices_opened`]).
+static DEVICES_OPENED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+thread_local! {
+    /// The device [`Gpu::for_compute`] hands out on this thread instead of opening one (see
+    /// [`Gpu::sharing_for_compute`]).
+    static SHARED_FOR_COMPUTE: std::cell::RefCell<Option<Gpu>> = const { std::cell::RefCell::new(None) };
+}
+
 /// A wgpu device and queue with what we learned about the adapter. Clones share the device
 /// (the desktop mirror draws with the XR session's device).
 #[derive(Clone)]
@@ -61,8 +70,19 @@ impl Gpu {
     /// The device the models with a GPU path step on for `choice`: none for `cpu`, and for
     /// `auto` where the adapter is a software one (lavapipe), there is none or its device
     /// cannot be opened; `gpu` takes whatever adapter there is and is an error without one.
+    ///
+    /// Inside [`Gpu::sharing_for_compute`] it opens nothing: `gpu` takes the shared device,
+    /// and `auto` takes it where it is a real GPU.
     pub fn for_compute(choice: crate::scenario::Compute) -> Result<Option<Gpu>, RenderError> {
         use crate::scenario::Compute;
+        if let Some(shared) = SHARED_FOR_COMPUTE.with(|s| s.borrow().clone()) {
+            let real = shared.info.device_type != wgpu::DeviceType::Cpu;
+            return Ok(match choice {
+                Compute::Cpu => None,
+                Compute::Gpu => Some(shared),
+                Compute::Auto => real.then_some(shared),
+            });
+        }
         match choice {
             Compute::Cpu => Ok(None),
             Compute::Gpu => Self::headless(false).map(Some),
@@ -77,6 +97,23 @@ impl Gpu {
                 _ => Ok(None),
             },
         }
+    }
+
+    /// Runs `make` with this device as the one the models made meanwhile on this thread step
+    /// on ([`Gpu::for_compute`] hands out a clone of it rather than opening a device of
+    /// their own): frames and steps then share one device and its one queue, and its error
+    /// list. The device before, if any, is put back afterwards.
+    pub fn sharing_for_compute<R>(&self, make: impl FnOnce() -> R) -> R {
+        /// Puts the device before back, however `make` ends.
+        struct Restore(Option<Gpu>);
+        impl Drop for Restore {
+            fn drop(&mut self) {
+                let before = self.0.take();
+                SHARED_FOR_COMPUTE.with(|s| *s.borrow_mut() = before);
+            }
+        }
+        let _restore = Restore(SHARED_FOR_COMPUTE.with(|s| s.replace(Some(self.clone()))));
+        make()
     }
 
     /// The first Vulkan adapter, a real GPU before a software one.
@@ -126,7 +163,14 @@ impl Gpu {
             ..Default::default()
         }))
         .map_err(|e| RenderError::Device(e.to_string()))?;
+        DEVICES_OPENED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         Ok(Gpu::from_parts(instance, adapter, device, queue, multiview))
+    }
+
+    /// Devices this process has opened so far (each [`Gpu::headless`] and each device a
+    /// model opened for its compute; not the clones that share one).
+    pub fn devices_opened() -> usize {
+        DEVICES_OPENED.load(std::sync::atomic::Ordering::Relaxed)
     }
 
     /// Wraps a device made elsewhere (the XR runtime's Vulkan device), collecting its errors.

@@ -123,6 +123,8 @@ fn bench_and_profile_run_the_sandbox() {
         "{b}"
     );
     assert_eq!(b["compute"], "cpu", "the sandbox has no GPU path: {b}");
+    assert_eq!(v["gpu_devices"], 1, "the frames' device alone: {v}");
+    assert_eq!(b["shared_device"], false, "{b}");
     // Each fresh force a step apart at the least (the watch may miss some but not see one
     // twice), so no more of them than steps.
     let steps = f("simulated_s") / f("dt_s");
@@ -139,6 +141,33 @@ fn bench_and_profile_run_the_sandbox() {
     let draws = c["draw_calls"].as_u64().expect("draw calls");
     assert!((1..=9).contains(&draws), "{c}");
     assert!(c["triangles"].as_u64().unwrap_or(0) >= 3456, "{c}");
+}
+
+/// `profile --share-device`: the cholecystectomy's solver (its CPU preset's lattice, on the
+/// GPU path: lavapipe here) steps on the frames' own device, so the process opens one device,
+/// not two; the frames beside the simulation are drawn and it steps on that device.
+#[test]
+fn profile_steps_the_models_on_the_frames_device_when_asked() {
+    let p = ok(&bin()
+        .args([
+            "profile",
+            "cholecystectomy",
+            "--json",
+            "--eye-size",
+            "64x64",
+        ])
+        .args(["--preset", "cpu", "--compute", "gpu", "--share-device"])
+        .args(["--beside", "0.5"])
+        .output()
+        .expect("runs"));
+    let v: serde_json::Value = serde_json::from_str(&p).expect("JSON");
+    let b = &v["beside"];
+    assert_eq!(b["compute"], "gpu", "{b}");
+    assert_eq!(b["shared_device"], true, "{b}");
+    assert_eq!(b["adapter"], v["device"], "{v}");
+    assert_eq!(v["gpu_devices"], 1, "one device for frames and steps: {v}");
+    assert!(b["frames"].as_u64().unwrap_or(0) >= 1, "{b}");
+    assert!(b["simulated_s"].as_f64().unwrap_or(0.0) > 0.0, "{b}");
 }
 
 /// `vesalius demo` with the CPU presets: every procedure's demo, and every preset's, plays to

@@ -148,6 +148,11 @@ enum Command {
         /// Where the models with a GPU path step (default: the scenario's `compute`, `auto`).
         #[arg(long, value_enum)]
         compute: Option<ComputeArg>,
+        /// The models with a GPU path step on the frames' own device (one wgpu device, one
+        /// queue for frames and steps) rather than on a device of their own on the same
+        /// adapter: to measure what each costs the frames and the forces.
+        #[arg(long)]
+        share_device: bool,
     },
     /// Every model's reference cases: reference, measured, relative error, tolerance and
     /// simulated seconds per wall second; fails if any case is outside its tolerance.
@@ -632,11 +637,15 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
             beside,
             preset,
             compute,
+            share_device,
         } => profile::profile(
             procedure.as_deref(),
             json,
-            eye_size.unwrap_or(vesalius::render::camera::VIVE_EYE_SIZE),
-            two_pass,
+            (
+                eye_size.unwrap_or(vesalius::render::camera::VIVE_EYE_SIZE),
+                two_pass,
+                share_device,
+            ),
             (beside, preset, compute),
         ),
         Command::Verify {

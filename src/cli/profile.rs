@@ -48,6 +48,9 @@ pub struct Beside {
     /// `gpu` where a model stepped on a GPU (its adapter beside), else `cpu`.
     pub compute: &'static str,
     pub adapter: Option<String>,
+    /// The models stepped on the frames' own device (`--share-device`), not one of their
+    /// own.
+    pub shared_device: bool,
 }
 
 /// The `q` quantile of `v` (sorted here), none for an empty one.
@@ -79,7 +82,7 @@ pub fn frames_beside(
     frames: &mut EyeFrames<'_>,
     mut live: Live,
     keys: &KeyTrace,
-    seconds: f64,
+    (seconds, shared_device): (f64, bool),
 ) -> Result<Beside, CliError> {
     let dt_s = f64::from(live.dt_s());
     let adapter = live.adapter();
@@ -158,17 +161,19 @@ pub fn frames_beside(
         force_gap_ms_p99: quantile(&mut gaps, 0.99),
         compute: if adapter.is_some() { "gpu" } else { "cpu" },
         adapter,
+        shared_device,
     })
 }
 
 /// `profile`: the demo simulated to 40 % (the scenario with `preset` and `compute` laid over
 /// it), five stereo frames of that instant with the counters, then `beside_s` seconds of
-/// frames with the simulation stepping beside them ([`frames_beside`]; none for 0).
+/// frames with the simulation stepping beside them ([`frames_beside`]; none for 0). With
+/// `share`, the models with a GPU path step on the frames' device rather than on one of
+/// their own.
 pub fn profile(
     procedure: Option<&str>,
     json: bool,
-    eye_size: (u32, u32),
-    two_pass: bool,
+    (eye_size, two_pass, share): ((u32, u32), bool, bool),
     (beside_s, preset, compute): (f64, Option<PresetArg>, Option<ComputeArg>),
 ) -> Result<(), CliError> {
     use vesalius::profiler::mb;
@@ -183,7 +188,12 @@ pub fn profile(
     // and render that instant with the simulation still alive, so total memory counts it as
     // Unity's profiler would.
     let (file, text) = super::session::scenario_text(procedure, None, preset, compute)?;
-    let mut live = Live::new(&text, &file, Pacing::AsFastAsPossible)?;
+    let gpu = vesalius::render::Gpu::headless(!two_pass)?;
+    let mut live = if share {
+        gpu.sharing_for_compute(|| Live::new(&text, &file, Pacing::AsFastAsPossible))?
+    } else {
+        Live::new(&text, &file, Pacing::AsFastAsPossible)?
+    };
     let dt = f64::from(live.dt_s());
     let steps = (keys.duration_s() * 0.4 / dt).ceil() as u64;
     let t0 = Instant::now();
@@ -191,7 +201,6 @@ pub fn profile(
         live.step(keys.sample(step as f64 * dt))?;
     }
     let sim_ms = t0.elapsed().as_secs_f64() * 1e3 / steps.max(1) as f64;
-    let gpu = vesalius::render::Gpu::headless(!two_pass)?;
     // Five frames of the same instant: the first pays for pipeline warm-up.
     let snap = live.snapshot();
     // The headset's frame: both eyes, the full operative field, the scope light.
@@ -209,7 +218,7 @@ pub fn profile(
     // Then frames at the headset's rate with the simulation going on beside them.
     let beside = if beside_s > 0.0 {
         let mut frames = EyeFrames::new(&gpu, &look, eye_size)?;
-        Some(frames_beside(&mut frames, live, &keys, beside_s)?)
+        Some(frames_beside(&mut frames, live, &keys, (beside_s, share))?)
     } else {
         None
     };
@@ -231,6 +240,7 @@ pub fn profile(
                 serde_json::json!({ "cpu": cpu, "gpu": gpu })
             }),
             "beside": beside,
+            "gpu_devices": vesalius::gpu::Gpu::devices_opened(),
         });
         say!("{}", serde_json::to_string_pretty(&v).unwrap_or_default());
         return Ok(());
@@ -303,13 +313,18 @@ pub fn profile(
     );
     if let Some(b) = &beside {
         say!(
-            "beside the simulation ({}{}): {} frames in {:.1} s, {:.1} ms mean, {:.1} ms p99, \
+            "beside the simulation ({}{}{}): {} frames in {:.1} s, {:.1} ms mean, {:.1} ms p99, \
              {:.1} ms slowest; the simulation at {:.2} x real time, the state drawn {:.1} ms \
              behind (p99); fresh forces every {} ms (median; p99 {}; the step is {:.1} ms)",
             b.compute,
             b.adapter
                 .as_deref()
                 .map_or_else(String::new, |a| format!(" on {a}")),
+            if b.shared_device {
+                ", the frames' device"
+            } else {
+                ""
+            },
             b.frames,
             b.seconds,
             b.frame_ms,
