@@ -231,6 +231,7 @@ impl Gather {
             })
             .collect();
         let entries = entries?;
+        let _span = tracing::debug_span!("membrane_gpu_gathered", nodes = nodes.len()).entered();
         let bytes = 12 * self.listed.len() as u64;
         Some(compute::with_mapped(
             gpu,

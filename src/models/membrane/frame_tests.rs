@@ -157,3 +157,35 @@ fn a_device_lost_before_a_frame_reads_it_leaves_a_whole_frame_on_the_cpu() {
     assert!(drawn.iter().all(|p| p.is_finite()));
     assert!(drawn.iter().filter(|p| **p != Vec3::ZERO).count() > drawn.len() / 2);
 }
+
+#[test]
+fn a_device_lost_before_a_frame_reads_its_gathered_nodes_leaves_a_whole_frame_on_the_cpu() {
+    // As above, with the grid laid out on the device by an earlier frame, so that the
+    // announced step gathers the lagging tiles' drawn nodes: the lost device's read fails
+    // the same way, and the frame draws the state the membrane goes on from.
+    let (_gpu, mut m, _, mut grid) = two_on_one_device();
+    let mut out = ModelOutput::default();
+    for k in 0..10 {
+        if k == 4 || k == 9 {
+            m.read_whole_after_step();
+        }
+        session_step(&mut m, k, &mut out);
+        if k == 4 {
+            m.place_drawn(&mut grid);
+        }
+    }
+    let before = m.gpu_frame_copies();
+    assert!(m.gpu_tiles_behind().is_some_and(|n| n > 0), "none lags");
+    assert!(m.gpu_last_readback_bytes().is_some_and(|b| b > 0));
+    assert!(m.inject_device_loss());
+    let drawn = m.place_drawn(&mut grid);
+    assert!(
+        before.is_some() && m.gpu_adapter().is_none(),
+        "on the CPU from the loss on"
+    );
+    assert!(m.take_device_note().is_some_and(|n| !n.is_empty()));
+    let again = m.place_drawn(&mut grid.clone());
+    assert_eq!(first_difference(&drawn, &again), None);
+    assert!(drawn.iter().all(|p| p.is_finite()));
+    assert!(drawn.iter().filter(|p| **p != Vec3::ZERO).count() > drawn.len() / 2);
+}
