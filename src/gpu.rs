@@ -116,6 +116,12 @@ impl Gpu {
         make()
     }
 
+    /// Whether this machine has a real GPU: the first Vulkan adapter is not a software one
+    /// (lavapipe), as `auto` in [`Gpu::for_compute`] judges it. Opens no device.
+    pub fn real_gpu_present() -> bool {
+        Self::first_adapter().is_ok_and(|(_, a)| a.get_info().device_type != wgpu::DeviceType::Cpu)
+    }
+
     /// The first Vulkan adapter, a real GPU before a software one.
     fn first_adapter() -> Result<(wgpu::Instance, wgpu::Adapter), RenderError> {
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();

@@ -1,6 +1,6 @@
 //! The rectum through the command line on a coarse grid (60 x 48 nodes per layer; the full
-//! 960,000-node grid runs once, in `vesalius demo`): the demo trace cuts the plane, the
-//! report counts `spring_cut` events and carries the membrane's nodes and springs, 1 and 2
+//! 960,000-node grid steps in the bench's test, and for 30 ms below): the demo trace cuts the
+//! plane, the report counts `spring_cut` events and carries the membrane's nodes and springs, 1 and 2
 //! worker threads give the same bytes, and the recording replays byte for byte; with the
 //! membrane on the GPU a session cuts, and its replay on the CPU says the bytes may differ.
 
@@ -158,4 +158,65 @@ fn replay(recording: &Path, out: &Path, args: &[&str]) {
         .output()
         .expect("runs");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+/// A short trace: both instruments held still above the field for 30 ms.
+fn still_trace() -> String {
+    let mut t = String::from("procedure = \"rectum\"\n");
+    for hand in ["left", "right"] {
+        for t_s in ["0.0", "0.03"] {
+            t += &format!(
+                "\n[[{hand}]]\nt_s = {t_s}\nposition = [0.05, 0.04, 0.0]\ntarget = [0.05, -0.01, 0.0]\n"
+            );
+        }
+    }
+    t
+}
+
+#[test]
+fn auto_without_a_gpu_runs_the_cpu_preset_and_says_so_and_compute_cpu_runs_the_papers_grid() {
+    // The rectum's own scenario leaves `compute` to `auto`. On a machine without a real GPU
+    // (CI: lavapipe) a run takes the CPU preset's 90 x 60 grid and says why; with a real GPU
+    // it takes the paper's grid to the GPU. `--compute cpu` runs the paper's grid either way.
+    let d = tmp("rectum", "auto-preset");
+    std::fs::create_dir_all(&*d).expect("dir");
+    let trace = d.join("still.toml");
+    std::fs::write(&trace, still_trace()).expect("trace");
+    let run = |more: &[&str], out: &str| {
+        let o = bin()
+            .args(["run", "rectum", "--headless", "--trace"])
+            .arg(&trace)
+            .args(more)
+            .arg("--out")
+            .arg(d.join(out))
+            .output()
+            .expect("runs");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let r = report(&d.join(out));
+        let nodes = r["models"]
+            .as_array()
+            .and_then(|m| m.iter().find(|m| m["name"] == "membrane"))
+            .and_then(|m| m["nodes"].as_u64())
+            .unwrap_or(0);
+        (String::from_utf8_lossy(&o.stderr).into_owned(), nodes)
+    };
+    let said = "no GPU here, so `auto` runs its cpu preset";
+    let (err, nodes) = run(&[], "auto");
+    if vesalius::gpu::Gpu::real_gpu_present() {
+        assert!(!err.contains(said), "{err}");
+        assert_eq!(nodes, 4 * 600 * 400);
+    } else {
+        assert!(
+            err.contains(said) && err.contains("assets/presets/cpu/rectum.toml"),
+            "{err}"
+        );
+        assert_eq!(nodes, 4 * 90 * 60);
+    }
+    let (err, nodes) = run(&["--compute", "cpu"], "cpu");
+    assert!(!err.contains(said), "{err}");
+    assert_eq!(nodes, 4 * 600 * 400);
+    // A preset named is run as it is, without the note.
+    let (err, nodes) = run(&["--preset", "cpu"], "preset");
+    assert!(!err.contains(said), "{err}");
+    assert_eq!(nodes, 4 * 90 * 60);
 }

@@ -172,7 +172,7 @@ fn profile_steps_the_models_on_the_frames_device_when_asked() {
 
 /// `vesalius demo` with the CPU presets: every procedure's demo, and every preset's, plays to
 /// the task's end (the rectum's full 960,000-node grid steps in the bench's test run and in
-/// `vesalius demo` without a preset).
+/// `vesalius demo` on a machine with a GPU; without one, `auto` takes the presets there too).
 #[test]
 fn demo_plays_every_registered_procedure() {
     let dir = tmp("demo");

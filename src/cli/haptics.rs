@@ -114,8 +114,10 @@ pub fn run_with_devices(a: &RunArgs) -> Result<(), CliError> {
             "--screenshot needs a window: no DISPLAY (try xvfb-run), or drop --no-window".into(),
         ));
     }
+    let preset =
+        super::session::preset_for_auto(&a.procedure, a.scenario.as_deref(), a.preset, a.compute);
     let (file, text) =
-        super::session::scenario_text(&a.procedure, a.scenario.as_deref(), a.preset, None)?;
+        super::session::scenario_text(&a.procedure, a.scenario.as_deref(), preset, a.compute)?;
     if let Some(dir) = &a.out {
         vesalius::session::prepare(dir)?;
     }

@@ -51,6 +51,42 @@ pub(super) fn with_compute(
     Ok((format!("{file} with compute = {name}"), merged))
 }
 
+/// `--preset` as given. Where none is, a run of `procedure`'s own scenario (no `--scenario`)
+/// whose models choose their device by `auto` (no `--compute` but `auto`, and no other
+/// `compute` in the scenario) takes the procedure's CPU preset on a machine without a real
+/// GPU, and says so: at the paper's sizes such a procedure does not keep real time on the
+/// CPU (`--compute cpu` runs them there all the same). A procedure without a preset, or a
+/// machine with a real GPU, runs the scenario as it is.
+pub(super) fn preset_for_auto(
+    procedure: &str,
+    scenario: Option<&Path>,
+    preset: Option<super::PresetArg>,
+    compute: Option<super::ComputeArg>,
+) -> Option<super::PresetArg> {
+    if preset.is_some() || scenario.is_some() {
+        return preset;
+    }
+    if compute.is_some_and(|c| !matches!(c, super::ComputeArg::Auto)) {
+        return None;
+    }
+    let info = vesalius::registry::find(procedure)?;
+    info.options.cpu_preset?;
+    let own = info
+        .scenario
+        .parse::<toml::Table>()
+        .ok()
+        .and_then(|t| t.get("compute").and_then(|c| c.as_str().map(str::to_owned)));
+    if own.is_some_and(|c| c != "auto") || vesalius::gpu::Gpu::real_gpu_present() {
+        return None;
+    }
+    tell!(
+        "{procedure}: no GPU here, so `auto` runs its cpu preset \
+         (assets/presets/cpu/{procedure}.toml), which keeps real time on the CPU; \
+         --compute cpu runs the paper's sizes"
+    );
+    Some(super::PresetArg::Cpu)
+}
+
 /// `text` (the scenario `file`) with `preset`'s keys laid over it; unchanged, with a word on
 /// standard error, for a procedure without that preset.
 pub(super) fn with_preset(
@@ -189,7 +225,8 @@ pub fn run(a: RunArgs) -> Result<(), CliError> {
     let Some(trace) = &a.trace else {
         return Err(CliError::Usage("run --headless needs --trace FILE".into()));
     };
-    let (file, text) = scenario_text(&a.procedure, a.scenario.as_deref(), a.preset, a.compute)?;
+    let preset = preset_for_auto(&a.procedure, a.scenario.as_deref(), a.preset, a.compute);
+    let (file, text) = scenario_text(&a.procedure, a.scenario.as_deref(), preset, a.compute)?;
     let keys = load_trace(trace, &a.procedure, a.max_session)?;
     let tree = load_tree(a.assessment.as_deref(), &a.procedure)?;
     let frames = a.frames.unwrap_or(0);
@@ -266,7 +303,8 @@ pub(super) fn run_window(
     devices: Option<vesalius::ui::window::WindowDevices>,
 ) -> Result<(), CliError> {
     let procedure = a.procedure.as_str();
-    let (file, text) = scenario_text(procedure, a.scenario.as_deref(), a.preset, a.compute)?;
+    let preset = preset_for_auto(procedure, a.scenario.as_deref(), a.preset, a.compute);
+    let (file, text) = scenario_text(procedure, a.scenario.as_deref(), preset, a.compute)?;
     let trace = match &a.trace {
         Some(t) => {
             let keys = load_trace(t, procedure, a.max_session)?;
@@ -398,7 +436,8 @@ fn run_xr(a: &RunArgs) -> Result<(), CliError> {
     if let Some(dir) = &a.out {
         session::prepare(dir)?;
     }
-    let (file, text) = scenario_text(&a.procedure, a.scenario.as_deref(), a.preset, a.compute)?;
+    let preset = preset_for_auto(&a.procedure, a.scenario.as_deref(), a.preset, a.compute);
+    let (file, text) = scenario_text(&a.procedure, a.scenario.as_deref(), preset, a.compute)?;
     let run = vesalius::xr::run(&text, &file, opts, a.out.as_deref(), devices)?;
     say!(
         "XR runtime '{}' on {}: {} stereo frames at {}x{} per eye, {} session(s)",
@@ -667,7 +706,7 @@ pub fn demo(
             p.name,
             format!("builtin {} scenario", p.name),
             p.scenario.to_string(),
-            preset,
+            preset_for_auto(p.name, None, preset, compute),
         )?;
         let (file, text) = with_compute(file, text, compute)?;
         let outcome = session::run_with(&text, &file, Input::Keys(keys), &opts)?;
