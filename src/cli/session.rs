@@ -66,17 +66,20 @@ pub(super) fn preset_for_auto(
     if preset.is_some() || scenario.is_some() {
         return preset;
     }
-    if compute.is_some_and(|c| !matches!(c, super::ComputeArg::Auto)) {
-        return None;
-    }
+    use vesalius::scenario::Compute;
     let info = vesalius::registry::find(procedure)?;
     info.options.cpu_preset?;
-    let own = info
-        .scenario
-        .parse::<toml::Table>()
-        .ok()
-        .and_then(|t| t.get("compute").and_then(|c| c.as_str().map(str::to_owned)));
-    if own.is_some_and(|c| c != "auto") || vesalius::gpu::Gpu::real_gpu_present() {
+    // `--compute`, else the scenario's own key (`auto` where it has none).
+    let chosen = match compute {
+        Some(c) => Compute::from(c),
+        None => info
+            .scenario
+            .parse::<toml::Table>()
+            .ok()
+            .and_then(|t| t.get("compute")?.clone().try_into::<Compute>().ok())
+            .unwrap_or_default(),
+    };
+    if chosen != Compute::Auto || vesalius::gpu::Gpu::real_gpu_present() {
         return None;
     }
     tell!(

@@ -22,7 +22,7 @@
 use super::active::{Activity, TILE_COLS, TILE_ROWS, Watch};
 use super::gpu::MembraneGpu;
 use super::{LAYERS, Membrane, field};
-use crate::gpu::compute::{self, LastWrite, bind};
+use crate::gpu::compute::{self, bind};
 use crate::gpu::{Gpu, RenderError};
 use bytemuck::Zeroable;
 
@@ -42,7 +42,7 @@ mod switches;
 #[path = "device_watch.rs"]
 mod watch;
 
-use pack::{Run, as_floats, run_places, unpack};
+use pack::{Run, SyncParams, Written, as_floats, one_pass, run_places, unpack};
 
 const SYNC_SHADER: &str = include_str!("../../../shaders/membrane_sync.wgsl");
 /// Nodes of a tile in one layer (the kernels' workgroup).
@@ -242,36 +242,6 @@ struct OnDevice {
     written: Written,
 }
 
-/// What went last into the buffers the CPU writes every step (none of them is written by a
-/// kernel): the awake list, the synced list, the unpack's and the pack's parameters, the
-/// packed places.
-#[derive(Default)]
-struct Written {
-    awake: LastWrite,
-    sync: LastWrite,
-    sync_params: LastWrite,
-    pack_params: LastWrite,
-    places: LastWrite,
-}
-
-/// The shader's `Sync` (32 bytes).
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct SyncParams {
-    rows: u32,
-    cols: u32,
-    tiles_c: u32,
-    flag: u32,
-    /// The unpack's first tiles whose state goes up (the rest take their attachments
-    /// alone).
-    state_tiles: u32,
-    /// The unpack's first tiles whose springs go up (as many as the state's or fewer).
-    springs_tiles: u32,
-    /// Whether layer 0's attachments went up (1), or the device places the targets (0).
-    attach_sent: u32,
-    pad: u32,
-}
-
 /// The mappable buffer the step's results are read from: `sums` bytes of anchor sums, then
 /// up to `tiles` tiles' measures, then up to `tiles` tiles' packed state.
 fn readback_buffer(gpu: &Gpu, sums: u64, tiles: usize) -> wgpu::Buffer {
@@ -282,23 +252,6 @@ fn readback_buffer(gpu: &Gpu, sums: u64, tiles: usize) -> wgpu::Buffer {
         usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
         mapped_at_creation: false,
     })
-}
-
-/// One pass of `pipeline` bound to `bind` over `groups` workgroups (a sync kernel's: the
-/// first tiles of its list by every layer).
-fn one_pass(
-    encoder: &mut wgpu::CommandEncoder,
-    label: &str,
-    (pipeline, bind): (&wgpu::ComputePipeline, &wgpu::BindGroup),
-    groups: [u32; 3],
-) {
-    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-        label: Some(label),
-        timestamp_writes: None,
-    });
-    pass.set_pipeline(pipeline);
-    pass.set_bind_group(0, bind, &[]);
-    pass.dispatch_workgroups(groups[0], groups[1], groups[2]);
 }
 
 impl OnDevice {

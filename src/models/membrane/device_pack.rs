@@ -4,10 +4,9 @@
 
 use super::super::active::{Activity, TILE_COLS, TILE_ROWS};
 use super::super::{LAYERS, Membrane, field};
-use super::{
-    ATTACH_PER_TILE, OnDevice, SPRINGS_PER_TILE, STATE_PER_TILE, SyncParams, TILE, carry, one_pass,
-};
+use super::{ATTACH_PER_TILE, OnDevice, SPRINGS_PER_TILE, STATE_PER_TILE, TILE, carry};
 use crate::gpu::RenderError;
+use crate::gpu::compute::LastWrite;
 
 /// A tile to pack, and its records where they go up: its attachments, state and springs.
 type PackJob<'a> = (
@@ -334,4 +333,51 @@ impl OnDevice {
         }
         Ok(())
     }
+}
+
+/// What went last into the buffers the CPU writes every step (none of them is written by a
+/// kernel): the awake list, the synced list, the unpack's and the pack's parameters, the
+/// packed places.
+#[derive(Default)]
+pub(super) struct Written {
+    pub awake: LastWrite,
+    pub sync: LastWrite,
+    pub sync_params: LastWrite,
+    pub pack_params: LastWrite,
+    pub places: LastWrite,
+}
+
+/// The shader's `Sync` (32 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub(super) struct SyncParams {
+    pub rows: u32,
+    pub cols: u32,
+    pub tiles_c: u32,
+    pub flag: u32,
+    /// The unpack's first tiles whose state goes up (the rest take their attachments
+    /// alone).
+    pub state_tiles: u32,
+    /// The unpack's first tiles whose springs go up (as many as the state's or fewer).
+    pub springs_tiles: u32,
+    /// Whether layer 0's attachments went up (1), or the device places the targets (0).
+    pub attach_sent: u32,
+    pub pad: u32,
+}
+
+/// One pass of `pipeline` bound to `bind` over `groups` workgroups (a sync kernel's: the
+/// first tiles of its list by every layer).
+pub(super) fn one_pass(
+    encoder: &mut wgpu::CommandEncoder,
+    label: &str,
+    (pipeline, bind): (&wgpu::ComputePipeline, &wgpu::BindGroup),
+    groups: [u32; 3],
+) {
+    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some(label),
+        timestamp_writes: None,
+    });
+    pass.set_pipeline(pipeline);
+    pass.set_bind_group(0, bind, &[]);
+    pass.dispatch_workgroups(groups[0], groups[1], groups[2]);
 }
